@@ -1,0 +1,269 @@
+//! Baking a mesh into an [`Octree`]: root cube, size estimate, voxelization, attributes and
+//! contours, with timings and statistics for the summary.
+
+use crate::estimate::estimate;
+use crate::grid::RootCube;
+use crate::leaf_attributes::{self, ChannelSelection, ContourStats};
+use crate::mesh::{Mesh, MeshError};
+use crate::octree::{ChannelKind, Octree};
+use crate::octree_build::{self, LeafTriangles};
+use crate::strategy::Strategy;
+use crate::triangle_setup::setup_triangles;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Errors of baking.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum BakeError {
+    /// The mesh is invalid.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// The depth is 0 or beyond [`crate::MAX_DEPTH`].
+    #[error("depth {depth} is outside 1..={max}", max = crate::MAX_DEPTH)]
+    Depth {
+        /// The requested depth.
+        depth: u8,
+    },
+    /// The estimated memory exceeds the limit.
+    #[error(
+        "depth {depth} would make about {leaves:.3e} leaves and need about {gib:.1} GiB, more than the {limit_gib:.1} GiB allowed; \
+         lower --depth, or pass --force to try anyway"
+    )]
+    TooLarge {
+        /// The requested depth.
+        depth: u8,
+        /// Estimated leaves.
+        leaves: f64,
+        /// Estimated peak memory, GiB.
+        gib: f64,
+        /// The limit, GiB.
+        limit_gib: f64,
+    },
+    /// Contours need the normal channel.
+    #[error(
+        "the contour channel needs the normal channel (add `normal` to --channels, or drop `contour`)"
+    )]
+    ContourWithoutNormal,
+}
+
+/// What to bake.
+#[derive(Clone, Debug)]
+pub struct BakeOptions {
+    /// Levels below the root (`1..=`[`crate::MAX_DEPTH`]).
+    pub depth: u8,
+    /// Where the overlap tests run.
+    pub strategy: Strategy,
+    /// The attribute channels to compute.
+    pub channels: ChannelSelection,
+    /// Empty cells of margin around the mesh.
+    pub pad: u32,
+    /// Refuse when the estimated peak memory exceeds this many bytes.
+    pub max_memory: Option<u64>,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        Self {
+            depth: 8,
+            strategy: Strategy::Exact,
+            channels: ChannelSelection::ALL,
+            pad: 0,
+            max_memory: None,
+        }
+    }
+}
+
+/// The bake's phases, for progress reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Building the tree.
+    Voxelize,
+    /// Attributes and contours.
+    Attributes,
+}
+
+/// Statistics of one bake.
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct BakeStats {
+    /// Input triangles.
+    pub triangles: usize,
+    /// Input triangles with zero area (kept: they mark the cells they touch).
+    pub degenerate_triangles: usize,
+    /// Tree depth.
+    pub depth: u8,
+    /// Strategy name.
+    pub strategy: String,
+    /// Whether the strategy is exact.
+    pub exact: bool,
+    /// Root cube origin.
+    pub root_origin: [f64; 3],
+    /// Root cube side.
+    pub root_side: f64,
+    /// Leaf cell side, scene units.
+    pub cell_size: f64,
+    /// Nodes.
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Leaves estimated before the bake.
+    pub estimated_leaves: f64,
+    /// Triangle/cell overlap tests run.
+    pub overlap_tests: u64,
+    /// Triangle/leaf pairs kept.
+    pub leaf_triangle_pairs: usize,
+    /// Seconds spent voxelizing.
+    pub voxelize_s: f64,
+    /// Seconds spent on attributes.
+    pub attributes_s: f64,
+    /// Seconds spent on contours.
+    pub contours_s: f64,
+    /// Contour thickness in cells, when contours were made.
+    pub contour_thickness: Option<ContourStats>,
+    /// Bytes of nodes and per-leaf arrays in memory.
+    pub payload_bytes: usize,
+    /// Channels and how they are stored (`per-leaf`, `constant`).
+    pub channels: Vec<(String, String)>,
+}
+
+/// Checks the options against the mesh and returns the root cube.
+pub fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeError> {
+    if !(1..=crate::MAX_DEPTH).contains(&opts.depth) {
+        return Err(BakeError::Depth { depth: opts.depth });
+    }
+    if opts.channels.has(ChannelKind::Contour) && !opts.channels.has(ChannelKind::Normal) {
+        return Err(BakeError::ContourWithoutNormal);
+    }
+    mesh.validate()?;
+    let (lo, hi) = mesh.bounds().ok_or(MeshError::Empty)?;
+    let root = RootCube::around(lo, hi, opts.depth, opts.pad);
+    let est = estimate(mesh, &root, opts.depth);
+    if let Some(limit) = opts.max_memory {
+        if est.bytes > limit as f64 {
+            const GIB: f64 = (1u64 << 30) as f64;
+            return Err(BakeError::TooLarge {
+                depth: opts.depth,
+                leaves: est.leaves,
+                gib: est.bytes / GIB,
+                limit_gib: limit as f64 / GIB,
+            });
+        }
+    }
+    Ok((root, est.leaves))
+}
+
+/// Voxelizes only: the leaf cells (in leaf order) with their triangles, for tests and
+/// strategy comparisons.
+pub fn voxelize_mesh(
+    mesh: &Mesh,
+    depth: u8,
+    strategy: Strategy,
+) -> Result<(RootCube, LeafTriangles), BakeError> {
+    let opts = BakeOptions {
+        depth,
+        strategy,
+        ..BakeOptions::default()
+    };
+    let (root, _) = prepare(mesh, &opts)?;
+    let tris = setup_triangles(mesh, &root, depth);
+    let v = octree_build::voxelize(&tris, depth, strategy, &|_| {});
+    Ok((root, v.leaves))
+}
+
+/// Bakes a mesh. `progress(phase, fraction)` is called from worker threads.
+pub fn bake_mesh(
+    mesh: &Mesh,
+    opts: &BakeOptions,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<(Octree, BakeStats), BakeError> {
+    let (root, estimated_leaves) = prepare(mesh, opts)?;
+    let t0 = Instant::now();
+    let tris = setup_triangles(mesh, &root, opts.depth);
+    let vox = octree_build::voxelize(&tris, opts.depth, opts.strategy, &|f| {
+        progress(Phase::Voxelize, f)
+    });
+    let voxelize_s = t0.elapsed().as_secs_f64();
+    progress(Phase::Attributes, 0.0);
+    let (attributes, rep) = leaf_attributes::compute(mesh, &tris, &vox.leaves, opts.channels);
+    progress(Phase::Attributes, 1.0);
+    let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
+    let tree = Octree {
+        root,
+        depth: opts.depth,
+        nodes: vox.nodes,
+        leaf_count: vox.leaves.cells.len() as u32,
+        attributes,
+    };
+    let a = &tree.attributes;
+    let mut channels = Vec::new();
+    let mut describe = |k: ChannelKind, per_leaf: bool, constant: bool| {
+        if per_leaf || constant {
+            channels.push((
+                k.name().to_string(),
+                if per_leaf { "per-leaf" } else { "constant" }.to_string(),
+            ));
+        }
+    };
+    use crate::octree::Channel as C;
+    describe(
+        ChannelKind::Normal,
+        a.normal.is_per_leaf(),
+        matches!(a.normal, C::Constant(_)),
+    );
+    describe(
+        ChannelKind::Contour,
+        a.contour.is_per_leaf(),
+        matches!(a.contour, C::Constant(_)),
+    );
+    describe(
+        ChannelKind::Colour,
+        a.colour.is_per_leaf(),
+        matches!(a.colour, C::Constant(_)),
+    );
+    describe(
+        ChannelKind::Reflectivity,
+        a.reflectivity.is_per_leaf(),
+        matches!(a.reflectivity, C::Constant(_)),
+    );
+    describe(
+        ChannelKind::Refractivity,
+        a.refractivity.is_per_leaf(),
+        matches!(a.refractivity, C::Constant(_)),
+    );
+    describe(
+        ChannelKind::Ior,
+        a.ior.is_per_leaf(),
+        matches!(a.ior, C::Constant(_)),
+    );
+    let stats = BakeStats {
+        triangles: mesh.triangles.len(),
+        degenerate_triangles: degenerate,
+        depth: opts.depth,
+        strategy: opts.strategy.name().to_string(),
+        exact: opts.strategy.is_exact(),
+        root_origin: root.origin.to_array(),
+        root_side: root.side,
+        cell_size: root.cell_size(opts.depth),
+        nodes: tree.nodes.len(),
+        leaves: tree.leaf_count as usize,
+        estimated_leaves,
+        overlap_tests: vox.tests,
+        leaf_triangle_pairs: vox.leaves.tris.len(),
+        voxelize_s,
+        attributes_s: rep.attributes.as_secs_f64(),
+        contours_s: rep.contours.as_secs_f64(),
+        contour_thickness: rep.contour_stats,
+        payload_bytes: tree.payload_bytes(),
+        channels,
+    };
+    Ok((tree, stats))
+}
+
+/// Bytes of memory available to a new process (Linux `MemAvailable`), if known.
+pub fn available_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}

@@ -1,0 +1,292 @@
+//! Building an octree programmatically: from a list of cells with their attributes, or from
+//! a function over cells (the 2019 report builds its scene this way). Both go through the
+//! same packed layout as the voxelizer ([`crate::octree_layout`]).
+
+use crate::grid::RootCube;
+use crate::leaf_attributes::{encode_colour, unorm8};
+use crate::normal_encoding;
+use crate::octree::{Channel, LeafAttributes, Octree, ior_encode};
+use crate::octree_layout::{Chunk, LeafStore};
+use glam::{UVec3, Vec3};
+use thiserror::Error;
+
+/// Errors of the programmatic builder.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum BuilderError {
+    /// The depth is 0 or too large.
+    #[error("depth {0} is outside 1..={max}", max = crate::MAX_DEPTH)]
+    Depth(u8),
+    /// A cell lies outside the `2^depth` grid.
+    #[error("cell {cell} lies outside the {side}^3 grid")]
+    CellOutOfRange {
+        /// The cell.
+        cell: UVec3,
+        /// Cells per axis.
+        side: u64,
+    },
+    /// The root cube is not finite and positive.
+    #[error("root cube is not finite and positive")]
+    BadRoot,
+}
+
+/// The attributes of one cell given to the builder.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Voxel {
+    /// Linear RGBA colour.
+    pub colour: [f32; 4],
+    /// Reflectivity in `[0, 1]`.
+    pub reflectivity: f32,
+    /// Refractivity (transparency) in `[0, 1]`.
+    pub refractivity: f32,
+    /// Index of refraction.
+    pub ior: f32,
+    /// A surface normal; cells without one are rendered as cubes.
+    pub normal: Option<Vec3>,
+}
+
+impl Default for Voxel {
+    fn default() -> Self {
+        Self {
+            colour: [0.8, 0.8, 0.8, 1.0],
+            reflectivity: 0.0,
+            refractivity: 0.0,
+            ior: 1.5,
+            normal: None,
+        }
+    }
+}
+
+impl Voxel {
+    /// The 2019 report's "void" material: empty (callers simply leave such cells out).
+    pub const VOID: Option<Voxel> = None;
+
+    /// The 2019 report's "glass": fully refractive, IOR 1.5, a faint tint.
+    pub fn glass() -> Self {
+        Self {
+            colour: [0.9, 0.95, 1.0, 1.0],
+            reflectivity: 0.1,
+            refractivity: 0.9,
+            ior: 1.5,
+            normal: None,
+        }
+    }
+
+    /// The 2019 report's "semi-solid": half transparent.
+    pub fn semi_solid(colour: [f32; 4]) -> Self {
+        Self {
+            colour,
+            reflectivity: 0.0,
+            refractivity: 0.5,
+            ior: 1.1,
+            normal: None,
+        }
+    }
+
+    /// The 2019 report's "solid": opaque and diffuse.
+    pub fn solid(colour: [f32; 4]) -> Self {
+        Self {
+            colour,
+            ..Self::default()
+        }
+    }
+
+    /// Water: refractive and reflective, IOR 1.33.
+    pub fn water() -> Self {
+        Self {
+            colour: [0.6, 0.8, 0.9, 1.0],
+            reflectivity: 0.05,
+            refractivity: 0.95,
+            ior: 1.33,
+            normal: None,
+        }
+    }
+}
+
+#[derive(Default)]
+struct Voxels(Vec<Voxel>);
+
+impl LeafStore for Voxels {
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+    fn append(&mut self, other: Self) {
+        self.0.extend(other.0);
+    }
+}
+
+/// The Morton key of a cell: child indices from the root down, 3 bits a level.
+fn morton(c: UVec3, depth: u8) -> u128 {
+    let mut k = 0u128;
+    for level in (0..depth).rev() {
+        let i = ((c.x >> level) & 1) << 2 | ((c.y >> level) & 1) << 1 | ((c.z >> level) & 1);
+        k = k << 3 | u128::from(i);
+    }
+    k
+}
+
+fn check(root: &RootCube, depth: u8) -> Result<(), BuilderError> {
+    if !(1..=crate::MAX_DEPTH).contains(&depth) {
+        return Err(BuilderError::Depth(depth));
+    }
+    if !(root.side.is_finite() && root.side > 0.0 && root.origin.is_finite()) {
+        return Err(BuilderError::BadRoot);
+    }
+    Ok(())
+}
+
+/// An octree holding exactly the given cells. A cell listed twice keeps its last voxel.
+pub fn from_cells(
+    root: RootCube,
+    depth: u8,
+    cells: impl IntoIterator<Item = (UVec3, Voxel)>,
+) -> Result<Octree, BuilderError> {
+    check(&root, depth)?;
+    let side = 1u64 << depth;
+    let mut v: Vec<(u128, usize, Voxel)> = Vec::new();
+    for (n, (c, vox)) in cells.into_iter().enumerate() {
+        if u64::from(c.max_element()) >= side {
+            return Err(BuilderError::CellOutOfRange { cell: c, side });
+        }
+        v.push((morton(c, depth), n, vox));
+    }
+    // Sort by key, later entries last, then keep the last of each key.
+    v.sort_by_key(|&(k, n, _)| (k, n));
+    let mut dedup: Vec<(u128, Voxel)> = Vec::with_capacity(v.len());
+    for (k, _, vox) in v {
+        match dedup.last_mut() {
+            Some(last) if last.0 == k => last.1 = vox,
+            _ => dedup.push((k, vox)),
+        }
+    }
+    let mut chunk = Chunk::<Voxels>::new();
+    let rec = build_sorted(&dedup, depth, 0, &mut chunk);
+    Ok(finish(root, depth, chunk, rec))
+}
+
+fn build_sorted(
+    cells: &[(u128, Voxel)],
+    depth: u8,
+    level: u8,
+    chunk: &mut Chunk<Voxels>,
+) -> Option<crate::octree::Node> {
+    if cells.is_empty() {
+        return None;
+    }
+    let shift = 3 * u32::from(depth - level - 1);
+    let child = |k: u128| ((k >> shift) & 7) as u8;
+    let mut mask = 0u8;
+    if level + 1 == depth {
+        let base = chunk.leaves.len();
+        for &(k, vox) in cells {
+            mask |= 1 << child(k);
+            chunk.leaves.0.push(vox);
+        }
+        return Some(Chunk::<Voxels>::leaf_parent(mask, base));
+    }
+    let mut records = Vec::with_capacity(8);
+    let mut start = 0;
+    while start < cells.len() {
+        let i = child(cells[start].0);
+        let end = start + cells[start..].partition_point(|&(k, _)| child(k) == i);
+        if let Some(r) = build_sorted(&cells[start..end], depth, level + 1, chunk) {
+            mask |= 1 << i;
+            records.push(r);
+        }
+        start = end;
+    }
+    Some(chunk.push_children(mask, &records))
+}
+
+/// An octree of the cells where `f` returns a voxel. `may_contain(min_cell, size)` may prune
+/// whole nodes (cubes of `size` cells from `min_cell`) that hold no voxel; return `true` when
+/// unsure. Without pruning every one of the `8^depth` cells is visited.
+pub fn from_fn(
+    root: RootCube,
+    depth: u8,
+    may_contain: impl Fn(UVec3, u32) -> bool,
+    f: impl Fn(UVec3) -> Option<Voxel>,
+) -> Result<Octree, BuilderError> {
+    check(&root, depth)?;
+    let mut chunk = Chunk::<Voxels>::new();
+    let rec = build_fn(&may_contain, &f, depth, 0, UVec3::ZERO, &mut chunk);
+    Ok(finish(root, depth, chunk, rec))
+}
+
+fn build_fn(
+    may: &dyn Fn(UVec3, u32) -> bool,
+    f: &dyn Fn(UVec3) -> Option<Voxel>,
+    depth: u8,
+    level: u8,
+    min: UVec3,
+    chunk: &mut Chunk<Voxels>,
+) -> Option<crate::octree::Node> {
+    let size = 1u32 << (depth - level);
+    if !may(min, size) {
+        return None;
+    }
+    let half = size / 2;
+    let mut mask = 0u8;
+    if level + 1 == depth {
+        let base = chunk.leaves.len();
+        for i in 0..8u8 {
+            let c = min
+                + UVec3::new(
+                    u32::from(i >> 2 & 1),
+                    u32::from(i >> 1 & 1),
+                    u32::from(i & 1),
+                );
+            if let Some(v) = f(c) {
+                mask |= 1 << i;
+                chunk.leaves.0.push(v);
+            }
+        }
+        return (mask != 0).then(|| Chunk::<Voxels>::leaf_parent(mask, base));
+    }
+    let mut records = Vec::with_capacity(8);
+    for i in 0..8u8 {
+        let o = UVec3::new(
+            u32::from(i >> 2 & 1),
+            u32::from(i >> 1 & 1),
+            u32::from(i & 1),
+        ) * half;
+        if let Some(r) = build_fn(may, f, depth, level + 1, min + o, chunk) {
+            mask |= 1 << i;
+            records.push(r);
+        }
+    }
+    (mask != 0).then(|| chunk.push_children(mask, &records))
+}
+
+fn finish(
+    root: RootCube,
+    depth: u8,
+    chunk: Chunk<Voxels>,
+    rec: Option<crate::octree::Node>,
+) -> Octree {
+    let (nodes, Voxels(vox)) = chunk.finish(rec);
+    let mut attributes = LeafAttributes {
+        colour: Channel::PerLeaf(vox.iter().map(|v| encode_colour(v.colour)).collect()),
+        reflectivity: Channel::PerLeaf(vox.iter().map(|v| unorm8(v.reflectivity)).collect()),
+        refractivity: Channel::PerLeaf(vox.iter().map(|v| unorm8(v.refractivity)).collect()),
+        ior: Channel::PerLeaf(vox.iter().map(|v| ior_encode(v.ior)).collect()),
+        ..LeafAttributes::default()
+    };
+    if vox.iter().any(|v| v.normal.is_some()) {
+        attributes.normal = Channel::PerLeaf(
+            vox.iter()
+                .map(|v| normal_encoding::encode(v.normal.unwrap_or(Vec3::Z)))
+                .collect(),
+        );
+    }
+    if !vox.is_empty() {
+        attributes.compact();
+    }
+    Octree {
+        root,
+        depth,
+        nodes,
+        leaf_count: vox.len() as u32,
+        attributes,
+    }
+}

@@ -1,0 +1,63 @@
+//! Contours (thesis section 1.4.4): two parallel planes with the leaf's normal that enclose
+//! the surface inside the leaf. They are fitted to the triangles *clipped to the cell*, which
+//! is tighter than the thesis's whole-triangle vertices.
+//!
+//! ## Encoding
+//! For a unit normal `n`, the cell (side 1, centre `c`) spans `n . (p - c)` in `[-e, e]` with
+//! `e = |n|_1 / 2`. A contour is the pair of fractions `t = (d + e) / (2e)` of that span for
+//! the near and far plane, quantized to unorm16 (near in the low half), rounded outwards so the
+//! planes always enclose the clipped surface. It is fitted against the *decoded* normal, so
+//! the stored pair is conservative for exactly the normal a renderer reads.
+
+use glam::{DVec3, Vec3};
+
+/// Packs the offsets `[dmin, dmax]` (along unit normal `n`, from the cell centre, in cells).
+pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
+    let e = 0.5 * f64::from(n.x.abs() + n.y.abs() + n.z.abs());
+    if !(e > 0.0) || !(dmin <= dmax) {
+        return 0xFFFF_0000;
+    }
+    let t = |d: f64| ((d + e) / (2.0 * e)).clamp(0.0, 1.0) * 65535.0;
+    // One quantum of margin covers the f32 arithmetic of renderers.
+    let lo = (t(dmin).floor() - 1.0).clamp(0.0, 65535.0) as u32;
+    let hi = (t(dmax).ceil() + 1.0).clamp(0.0, 65535.0) as u32;
+    lo | (hi << 16)
+}
+
+/// Unpacks to the fractions `(near, far)` of the cell's extent along the normal.
+pub fn unpack(c: u32) -> (f32, f32) {
+    (
+        f32::from((c & 0xFFFF) as u16) / 65535.0,
+        f32::from((c >> 16) as u16) / 65535.0,
+    )
+}
+
+/// The contour's plane offsets from the cell centre along `n`, in cells.
+pub fn offsets(c: u32, n: Vec3) -> (f32, f32) {
+    let e = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
+    let (a, b) = unpack(c);
+    ((2.0 * a - 1.0) * e, (2.0 * b - 1.0) * e)
+}
+
+/// The thickness between the planes, in cells.
+pub fn thickness(c: u32, n: Vec3) -> f32 {
+    let (a, b) = offsets(c, n);
+    b - a
+}
+
+/// Fits a contour: the extreme offsets of `points` (cell-local, the cell is `[0, 1]^3`)
+/// along the decoded normal `n`. With no points the contour is the whole cell.
+pub fn fit(points: &[DVec3], n: Vec3) -> u32 {
+    if points.is_empty() {
+        return 0xFFFF_0000;
+    }
+    let nd = n.as_dvec3();
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for p in points {
+        let d = nd.dot(*p - DVec3::splat(0.5));
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    pack(lo, hi, n)
+}

@@ -1,0 +1,50 @@
+//! Estimating a bake's size before running it, so absurd depths are refused with a number
+//! instead of exhausting memory.
+//!
+//! A triangle of area `A` (in cells squared) with unit normal `n` and perimeter `P` (in cells)
+//! touches about `A * |n|_1` cells across its face plus up to `P` along its edges; the sum over
+//! triangles (capped by the grid's `8^depth` cells) over-estimates the leaves, because
+//! neighbours share cells. Peak memory is estimated per leaf (the leaf's cell, its triangle
+//! list, node share and attribute arrays) plus the per-triangle setup.
+
+use crate::grid::RootCube;
+use crate::mesh::Mesh;
+
+/// Peak bytes of the bake per leaf (cell, triangle list, nodes, channels, scratch).
+pub const BYTES_PER_LEAF: f64 = 64.0;
+/// Peak bytes per input triangle (grid-space setup and attribute inputs).
+pub const BYTES_PER_TRIANGLE: f64 = 240.0;
+
+/// The estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Leaves (an upper estimate).
+    pub leaves: f64,
+    /// Peak memory in bytes.
+    pub bytes: f64,
+}
+
+/// Estimates the leaves and peak memory of baking `mesh` at `depth` in `root`.
+pub fn estimate(mesh: &Mesh, root: &RootCube, depth: u8) -> Estimate {
+    let scale = (1u64 << depth) as f64 / root.side;
+    let mut leaves = 0.0;
+    for t in &mesh.triangles {
+        let [a, b, c] =
+            t.map(|i| mesh.positions.get(i as usize).copied().unwrap_or_default() * scale);
+        let n = (b - a).cross(c - a);
+        let area = 0.5 * n.length();
+        let l1 = if area > 0.0 {
+            (n.x.abs() + n.y.abs() + n.z.abs()) / n.length()
+        } else {
+            0.0
+        };
+        let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
+        leaves += area * l1 + perimeter + 1.0;
+    }
+    let grid = 8f64.powi(i32::from(depth));
+    let leaves = leaves.min(grid);
+    Estimate {
+        leaves,
+        bytes: leaves * BYTES_PER_LEAF + mesh.triangles.len() as f64 * BYTES_PER_TRIANGLE,
+    }
+}

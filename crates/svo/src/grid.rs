@@ -1,0 +1,64 @@
+//! The root cube and grid space.
+//!
+//! The root cube's origin is the scene's AABB minimum and its side the largest extent (the
+//! thesis's rule), optionally padded by whole cells. Voxelization runs in *grid space*, where
+//! the root is `[0, 2^depth]^3` and a leaf is the unit cube at integer cell `(x, y, z)`;
+//! the mapping is a translation and one uniform scale, done in `f64`.
+
+use glam::DVec3;
+
+/// The cube that the octree's root covers, in scene units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RootCube {
+    /// The minimum corner.
+    pub origin: DVec3,
+    /// The side length (positive, finite).
+    pub side: f64,
+}
+
+impl RootCube {
+    /// The thesis's root: origin at the bounds' minimum, side the largest extent. `pad`
+    /// leaves an empty margin of that many cells (at `depth`) on every side. A flat or
+    /// point-like mesh gets a side of 1 scene unit times its magnitude so the grid is valid.
+    pub fn around(lo: DVec3, hi: DVec3, depth: u8, pad: u32) -> Self {
+        let mut side = (hi - lo).max_element();
+        if side <= 0.0 || !side.is_normal() {
+            // A single point or a mesh with no extent: pick a positive side that keeps the
+            // coordinates exact.
+            side = lo.abs().max_element().max(1.0) * 1e-9;
+            if side == 0.0 {
+                side = 1.0;
+            }
+        }
+        let cells = (1u64 << depth) as f64;
+        let pad = f64::from(pad).min(cells / 2.0 - 1.0).max(0.0);
+        if pad > 0.0 {
+            // inner = cells - 2 pad cells hold the mesh: side' / cells * (cells - 2 pad) = side
+            let side_p = side * cells / (cells - 2.0 * pad);
+            let cell = side_p / cells;
+            Self {
+                origin: lo - DVec3::splat(pad * cell),
+                side: side_p,
+            }
+        } else {
+            Self { origin: lo, side }
+        }
+    }
+
+    /// The side of one leaf cell at `depth`, in scene units.
+    pub fn cell_size(&self, depth: u8) -> f64 {
+        self.side / (1u64 << depth) as f64
+    }
+
+    /// Scene point to grid space at `depth`.
+    pub fn to_grid(&self, p: DVec3, depth: u8) -> DVec3 {
+        // Divide by the side first: `(hi - lo) / side` is exactly 1 on the largest axis, so
+        // the mesh's far faces land exactly on the root's far faces (a power of two).
+        (p - self.origin) / self.side * (1u64 << depth) as f64
+    }
+
+    /// Grid point at `depth` to scene space.
+    pub fn to_scene(&self, g: DVec3, depth: u8) -> DVec3 {
+        self.origin + g * (self.side / (1u64 << depth) as f64)
+    }
+}

@@ -1,0 +1,96 @@
+//! Mesh import by file extension: `.obj` (with MTL), `.obj.gz`, `.ply`, `.gltf`, `.glb`.
+//! Each format sits behind its cargo feature; every importer ends with
+//! [`Mesh::validate`](crate::mesh::Mesh::validate).
+
+#[cfg(feature = "gltf")]
+pub mod import_gltf;
+#[cfg(feature = "obj")]
+pub mod import_obj;
+#[cfg(feature = "ply")]
+pub mod import_ply;
+
+use crate::mesh::{Mesh, MeshError};
+use std::path::Path;
+
+/// The mesh formats `svo` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MeshFormat {
+    /// Wavefront OBJ with MTL materials.
+    Obj,
+    /// Gzip-compressed OBJ.
+    ObjGz,
+    /// Stanford PLY (ASCII or binary).
+    Ply,
+    /// glTF 2.0, JSON or binary.
+    Gltf,
+}
+
+impl MeshFormat {
+    /// The format a file name's extension names, if any.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        if name.ends_with(".obj.gz") {
+            Some(Self::ObjGz)
+        } else if name.ends_with(".obj") {
+            Some(Self::Obj)
+        } else if name.ends_with(".ply") {
+            Some(Self::Ply)
+        } else if name.ends_with(".gltf") || name.ends_with(".glb") {
+            Some(Self::Gltf)
+        } else {
+            None
+        }
+    }
+}
+
+pub(crate) fn io_error(path: &Path, source: std::io::Error) -> MeshError {
+    MeshError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+pub(crate) fn parse_error(path: &Path, message: impl std::fmt::Display) -> MeshError {
+    MeshError::Parse {
+        path: path.display().to_string(),
+        message: message.to_string(),
+    }
+}
+
+/// Loads and validates a mesh, choosing the importer by extension.
+pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
+    let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
+        path: path.display().to_string(),
+        extension: path
+            .extension()
+            .map(|e| e.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+    })?;
+    // A clear error for a missing or unreadable file, whatever the importer would say.
+    let meta = std::fs::metadata(path).map_err(|e| io_error(path, e))?;
+    if meta.is_dir() {
+        return Err(io_error(path, std::io::Error::other("is a directory")));
+    }
+    let mesh = match format {
+        #[cfg(feature = "obj")]
+        MeshFormat::Obj => import_obj::load_obj(path, false)?,
+        #[cfg(feature = "obj")]
+        MeshFormat::ObjGz => import_obj::load_obj(path, true)?,
+        #[cfg(feature = "ply")]
+        MeshFormat::Ply => import_ply::load_ply(path)?,
+        #[cfg(feature = "gltf")]
+        MeshFormat::Gltf => import_gltf::load_gltf(path)?,
+        #[allow(unreachable_patterns)]
+        _ => {
+            return Err(MeshError::UnknownFormat {
+                path: path.display().to_string(),
+                extension: format!(
+                    "{format:?} (support not compiled in: enable the cargo feature)"
+                ),
+            });
+        }
+    };
+    mesh.validate()?;
+    Ok(mesh)
+}

@@ -1,0 +1,165 @@
+//! OBJ + MTL import through tobj (positions in `f64`), plain or gzipped.
+//!
+//! Material mapping: colour = `Kd` (times `map_Kd`); reflectivity = the largest `Ks`
+//! component for the mirror illumination models (`illum` 3, 4, 5, 6, 7), else 0;
+//! refractivity = `1 - d`, where `d` comes from `d` or `1 - Tr` (tobj leaves `Tr` among the
+//! unknown parameters); IOR = `Ni` (1.5 when absent).
+
+use super::{io_error, parse_error};
+use crate::mesh::{Material, Mesh, MeshError, Texture};
+use glam::{DVec3, Vec2};
+use std::collections::HashMap;
+use std::io::BufReader;
+use std::path::Path;
+
+/// Loads an OBJ file (gzip-compressed when `gz`).
+pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    let mtl_dir = dir.clone();
+    let loader = move |p: &Path| tobj::load_mtl(mtl_dir.join(p));
+    let (models, materials) = if gz {
+        let mut r = BufReader::new(flate2::read::GzDecoder::new(file));
+        tobj::load_obj_buf(&mut r, &opts, loader)
+    } else {
+        let mut r = BufReader::new(file);
+        tobj::load_obj_buf(&mut r, &opts, loader)
+    }
+    .map_err(|e| parse_error(path, e))?;
+    // A missing or broken MTL file is not fatal: the default material is used.
+    let materials = materials.unwrap_or_default();
+
+    let mut mesh = Mesh::default();
+    let mut textures: HashMap<String, Option<usize>> = HashMap::new();
+    for m in &materials {
+        let texture = m.diffuse_texture.as_ref().and_then(|name| {
+            *textures.entry(name.clone()).or_insert_with(|| {
+                load_texture(&dir.join(name)).map(|t| {
+                    mesh.textures.push(t);
+                    mesh.textures.len() - 1
+                })
+            })
+        });
+        mesh.materials.push(map_material(m, texture));
+    }
+    if mesh.materials.is_empty() {
+        mesh.materials.push(Material::default());
+    }
+    let n_mat = mesh.materials.len();
+    for model in models {
+        let tm = model.mesh;
+        if tm.positions.len() % 3 != 0 {
+            return Err(parse_error(path, "position count is not a multiple of 3"));
+        }
+        if tm.indices.len() % 3 != 0 {
+            return Err(parse_error(path, "face index count is not a multiple of 3"));
+        }
+        let vbase = mesh.positions.len() as u32;
+        let nv = (tm.positions.len() / 3) as u32;
+        mesh.positions.extend(
+            tm.positions
+                .chunks_exact(3)
+                .map(|p| DVec3::new(p[0], p[1], p[2])),
+        );
+        let first_tri = mesh.triangles.len();
+        for (k, t) in tm.indices.chunks_exact(3).enumerate() {
+            if let Some(&bad) = t.iter().find(|&&i| i >= nv) {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle: first_tri + k,
+                    index: u64::from(bad),
+                    vertex_count: nv as usize,
+                });
+            }
+            mesh.triangles
+                .push([t[0] + vbase, t[1] + vbase, t[2] + vbase]);
+        }
+        let mat = tm.material_id.filter(|&m| m < n_mat).unwrap_or(0) as u32;
+        mesh.triangle_materials
+            .extend(std::iter::repeat_n(mat, tm.indices.len() / 3));
+        let ntex = (tm.texcoords.len() / 2) as u32;
+        if ntex > 0 && tm.texcoord_indices.len() == tm.indices.len() {
+            let uvbase = mesh.uvs.len() as u32;
+            // OBJ's v runs upwards; textures are stored top row first.
+            mesh.uvs.extend(
+                tm.texcoords
+                    .chunks_exact(2)
+                    .map(|t| Vec2::new(t[0] as f32, 1.0 - t[1] as f32)),
+            );
+            for t in tm.texcoord_indices.chunks_exact(3) {
+                let ok = t.iter().all(|&i| i < ntex);
+                mesh.triangle_uvs.push(if ok {
+                    [t[0] + uvbase, t[1] + uvbase, t[2] + uvbase]
+                } else {
+                    [uvbase; 3]
+                });
+            }
+        } else {
+            pad_uvs(&mut mesh, tm.indices.len() / 3);
+        }
+    }
+    if mesh.textures.is_empty() {
+        mesh.uvs.clear();
+        mesh.triangle_uvs.clear();
+    }
+    Ok(mesh)
+}
+
+/// Gives `n` more triangles a UV of (0, 0) so the UV array stays parallel to the triangles.
+fn pad_uvs(mesh: &mut Mesh, n: usize) {
+    let zero = mesh.uvs.len() as u32;
+    mesh.uvs.push(Vec2::ZERO);
+    mesh.triangle_uvs.extend(std::iter::repeat_n([zero; 3], n));
+}
+
+fn map_material(m: &tobj::Material, texture: Option<usize>) -> Material {
+    let kd = m.diffuse.unwrap_or([0.8, 0.8, 0.8]);
+    let d = m
+        .dissolve
+        .or_else(|| {
+            m.unknown_param
+                .get("Tr")
+                .and_then(|s| s.trim().parse::<f64>().ok())
+                .map(|tr| 1.0 - tr)
+        })
+        .unwrap_or(1.0);
+    let mirror = matches!(m.illumination_model, Some(3..=7));
+    let ks = m.specular.unwrap_or([0.0; 3]);
+    let finite = |v: f64, dflt: f64| if v.is_finite() { v } else { dflt };
+    Material {
+        name: m.name.clone(),
+        colour: [
+            finite(kd[0], 0.8) as f32,
+            finite(kd[1], 0.8) as f32,
+            finite(kd[2], 0.8) as f32,
+            1.0,
+        ],
+        texture,
+        reflectivity: if mirror {
+            finite(ks[0].max(ks[1]).max(ks[2]), 0.0).clamp(0.0, 1.0) as f32
+        } else {
+            0.0
+        },
+        refractivity: (1.0 - finite(d, 1.0).clamp(0.0, 1.0)) as f32,
+        ior: m.optical_density.map_or(1.5, |n| finite(n, 1.5)) as f32,
+    }
+}
+
+/// Loads an image file as an RGBA8 texture; `None` (the material's plain colour is used)
+/// when the file is missing or unreadable.
+pub(crate) fn load_texture(path: &Path) -> Option<Texture> {
+    let img = image::open(path).ok()?.to_rgba8();
+    let (width, height) = img.dimensions();
+    let rgba = img.pixels().map(|p| p.0).collect();
+    Some(Texture {
+        width,
+        height,
+        rgba,
+    })
+}

@@ -1,0 +1,454 @@
+//! Per-leaf attributes and contours from the triangles that touch each leaf.
+//!
+//! Every triangle in a leaf is clipped to the cell ([`crate::clip`]); its clipped area is its
+//! weight. The leaf's normal is the area-weighted mean of the triangles' unit normals; colour
+//! (material colour times texture, sampled at the clipped polygon's centre, averaged in linear
+//! space), reflectivity, refractivity and IOR are area-weighted means too. Where all contacts
+//! have zero area (a triangle only touching the cell, or degenerate triangles) every triangle
+//! weighs the same. The contour is then fitted to the clipped polygons against the *encoded*
+//! normal ([`crate::contour`]).
+//!
+//! Leaves are processed in parallel in fixed-size blocks and concatenated in order, so the
+//! output does not depend on the thread count. Within a block the attribute and contour steps
+//! are timed separately, which is how the bake summary reports them.
+
+use crate::clip::{Polygon, clip_to_unit_cube};
+use crate::contour;
+use crate::mesh::{Mesh, linear_to_srgb};
+use crate::normal_encoding;
+use crate::octree::{Channel, ChannelKind, LeafAttributes, ior_encode};
+use crate::octree_build::LeafTriangles;
+use crate::triangle_setup::GridTriangle;
+use glam::{DVec3, Vec2, Vec3};
+use std::time::{Duration, Instant};
+
+/// Leaves per block of the parallel pass.
+const BLOCK: usize = 2048;
+
+/// Which channels to compute.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChannelSelection {
+    bits: u8,
+}
+
+impl ChannelSelection {
+    /// Every channel.
+    pub const ALL: Self = Self { bits: 0b11_1111 };
+    /// No channel: the tree alone.
+    pub const NONE: Self = Self { bits: 0 };
+
+    fn bit(k: ChannelKind) -> u8 {
+        1 << ChannelKind::ALL.iter().position(|&c| c == k).unwrap_or(0)
+    }
+
+    /// Whether `k` is selected.
+    pub fn has(self, k: ChannelKind) -> bool {
+        self.bits & Self::bit(k) != 0
+    }
+
+    /// With `k` added.
+    pub fn with(self, k: ChannelKind) -> Self {
+        Self {
+            bits: self.bits | Self::bit(k),
+        }
+    }
+
+    /// With `k` removed.
+    pub fn without(self, k: ChannelKind) -> Self {
+        Self {
+            bits: self.bits & !Self::bit(k),
+        }
+    }
+
+    /// Parses a comma-separated list of channel names (`all` and `none` too).
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let mut sel = Self::NONE;
+        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            match name {
+                "all" => sel = Self::ALL,
+                "none" => {}
+                _ => {
+                    let k = ChannelKind::parse(name).ok_or_else(|| {
+                        let names: Vec<_> = ChannelKind::ALL.iter().map(|k| k.name()).collect();
+                        format!(
+                            "unknown channel {name:?} (expected: {}, all, none)",
+                            names.join(", ")
+                        )
+                    })?;
+                    sel = sel.with(k);
+                }
+            }
+        }
+        Ok(sel)
+    }
+}
+
+/// Contour thickness statistics, in cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct ContourStats {
+    /// Mean thickness.
+    pub mean: f64,
+    /// Median.
+    pub p50: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+/// What the attribute pass returns besides the channels.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AttributeReport {
+    /// Time spent computing attributes (including clipping), apportioned to wall time.
+    pub attributes: Duration,
+    /// Time spent fitting contours, apportioned to wall time.
+    pub contours: Duration,
+    /// Contour thickness statistics, when contours were made.
+    pub contour_stats: Option<ContourStats>,
+}
+
+struct TriInfo {
+    normal: DVec3,
+    colour: [f32; 4],
+    reflectivity: f32,
+    refractivity: f32,
+    ior: f32,
+}
+
+#[derive(Default)]
+struct Block {
+    normal: Vec<u32>,
+    contour: Vec<u32>,
+    colour: Vec<u32>,
+    reflectivity: Vec<u8>,
+    refractivity: Vec<u8>,
+    ior: Vec<u16>,
+    thickness: Vec<f32>,
+    t_attr: Duration,
+    t_contour: Duration,
+}
+
+/// Computes the selected channels for the voxelizer's leaves.
+pub fn compute(
+    mesh: &Mesh,
+    tris: &[GridTriangle],
+    leaves: &LeafTriangles,
+    select: ChannelSelection,
+) -> (LeafAttributes, AttributeReport) {
+    let wall = Instant::now();
+    let n_leaves = leaves.cells.len();
+    let want_contour = select.has(ChannelKind::Contour);
+    let want_normal = select.has(ChannelKind::Normal) || want_contour;
+
+    // Which material channels vary over the triangles (the others are constants).
+    let mats: Vec<&crate::mesh::Material> = if mesh.materials.is_empty() {
+        vec![mesh.material_of(0)]
+    } else {
+        mesh.materials.iter().collect()
+    };
+    let textured = mats.iter().any(|m| m.texture.is_some()) && !mesh.triangle_uvs.is_empty();
+    let varies =
+        |f: &dyn Fn(&crate::mesh::Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
+    let colour_key = |m: &crate::mesh::Material| encode_colour(m.colour);
+    let per_leaf_colour = select.has(ChannelKind::Colour) && (textured || varies(&colour_key));
+    let per_leaf_refl =
+        select.has(ChannelKind::Reflectivity) && varies(&|m| u32::from(unorm8(m.reflectivity)));
+    let per_leaf_refr =
+        select.has(ChannelKind::Refractivity) && varies(&|m| u32::from(unorm8(m.refractivity)));
+    let per_leaf_ior = select.has(ChannelKind::Ior) && varies(&|m| u32::from(ior_encode(m.ior)));
+    let need_clip =
+        want_normal || per_leaf_colour || per_leaf_refl || per_leaf_refr || per_leaf_ior;
+
+    let info: Vec<TriInfo> = if need_clip {
+        (0..tris.len())
+            .map(|t| {
+                let m = mesh.material_of(t);
+                let n = tris[t].n;
+                let len = n.length();
+                TriInfo {
+                    normal: if len > 0.0 && len.is_finite() {
+                        n / len
+                    } else {
+                        DVec3::ZERO
+                    },
+                    colour: m.colour,
+                    reflectivity: m.reflectivity,
+                    refractivity: m.refractivity,
+                    ior: m.ior,
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+
+    let do_block = |b: usize| -> Block {
+        let start = b * BLOCK;
+        let end = (start + BLOCK).min(n_leaves);
+        let mut out = Block::default();
+        if !need_clip {
+            return out;
+        }
+        let t0 = Instant::now();
+        let mut polys: Vec<Polygon> = Vec::new();
+        let mut poly_ends: Vec<usize> = Vec::with_capacity(end - start);
+        let mut normals_f: Vec<Vec3> = Vec::with_capacity(end - start);
+        for leaf in start..end {
+            let cell = leaves.cells[leaf];
+            let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+            let list = leaves.triangles(leaf);
+            let first_poly = polys.len();
+            let mut wsum = 0.0;
+            for &ti in list {
+                let t = &tris[ti as usize];
+                let mut p = clip_to_unit_cube([t.v[0] - m, t.v[1] - m, t.v[2] - m]);
+                if p.len == 0 {
+                    // Touching only, and rounding lost the contact: keep the vertices pulled
+                    // onto the cell so the contour still covers the contact.
+                    p.len = 3;
+                    for k in 0..3 {
+                        p.v[k] = (t.v[k] - m).clamp(DVec3::ZERO, DVec3::ONE);
+                    }
+                }
+                wsum += p.area();
+                polys.push(p);
+            }
+            let leaf_polys = &polys[first_poly..];
+            let weight = |p: &Polygon| if wsum > 0.0 { p.area() } else { 1.0 };
+            if want_normal {
+                let mut s = DVec3::ZERO;
+                for (p, &ti) in leaf_polys.iter().zip(list) {
+                    s += info[ti as usize].normal * weight(p);
+                }
+                if !(s.length() > 1e-12 * wsum.max(1e-300)) {
+                    // Opposite sheets cancel: take the heaviest triangle's normal.
+                    s = list
+                        .iter()
+                        .zip(leaf_polys)
+                        .map(|(&ti, p)| (info[ti as usize].normal, p.area()))
+                        .filter(|(n, _)| *n != DVec3::ZERO)
+                        .max_by(|a, b| a.1.total_cmp(&b.1))
+                        .map_or(DVec3::Z, |(n, _)| n);
+                }
+                let enc = normal_encoding::encode(s.as_vec3());
+                out.normal.push(enc);
+                normals_f.push(normal_encoding::decode(enc));
+            }
+            if per_leaf_colour {
+                let mut c = [0.0f64; 4];
+                let mut ws = 0.0;
+                for (p, &ti) in leaf_polys.iter().zip(list) {
+                    let w = weight(p);
+                    let col = triangle_colour(
+                        mesh,
+                        ti as usize,
+                        &info[ti as usize],
+                        &tris[ti as usize],
+                        p,
+                        m,
+                    );
+                    for k in 0..4 {
+                        c[k] += w * f64::from(col[k]);
+                    }
+                    ws += w;
+                }
+                let ws = if ws > 0.0 { ws } else { 1.0 };
+                out.colour.push(encode_colour(c.map(|v| (v / ws) as f32)));
+            }
+            let avg = |f: &dyn Fn(&TriInfo) -> f32| -> f32 {
+                let mut a = 0.0f64;
+                let mut ws = 0.0;
+                for (p, &ti) in leaf_polys.iter().zip(list) {
+                    let w = weight(p);
+                    a += w * f64::from(f(&info[ti as usize]));
+                    ws += w;
+                }
+                if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
+            };
+            if per_leaf_refl {
+                out.reflectivity.push(unorm8(avg(&|i| i.reflectivity)));
+            }
+            if per_leaf_refr {
+                out.refractivity.push(unorm8(avg(&|i| i.refractivity)));
+            }
+            if per_leaf_ior {
+                out.ior.push(ior_encode(avg(&|i| i.ior)));
+            }
+            poly_ends.push(polys.len());
+        }
+        let t1 = Instant::now();
+        out.t_attr = t1 - t0;
+        if want_contour {
+            let mut pts: Vec<DVec3> = Vec::new();
+            let mut begin = 0;
+            for (k, &end_p) in poly_ends.iter().enumerate() {
+                pts.clear();
+                for p in &polys[begin..end_p] {
+                    pts.extend_from_slice(p.points());
+                }
+                begin = end_p;
+                let c = contour::fit(&pts, normals_f[k]);
+                out.thickness.push(contour::thickness(c, normals_f[k]));
+                out.contour.push(c);
+            }
+            out.t_contour = t1.elapsed();
+        }
+        out
+    };
+
+    let n_blocks = n_leaves.div_ceil(BLOCK);
+    #[cfg(feature = "parallel")]
+    let blocks: Vec<Block> = {
+        use rayon::prelude::*;
+        (0..n_blocks).into_par_iter().map(do_block).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let blocks: Vec<Block> = (0..n_blocks).map(do_block).collect();
+
+    let mut attrs = LeafAttributes::default();
+    let mut cat = Block::default();
+    for b in blocks {
+        cat.normal.extend(b.normal);
+        cat.contour.extend(b.contour);
+        cat.colour.extend(b.colour);
+        cat.reflectivity.extend(b.reflectivity);
+        cat.refractivity.extend(b.refractivity);
+        cat.ior.extend(b.ior);
+        cat.thickness.extend(b.thickness);
+        cat.t_attr += b.t_attr;
+        cat.t_contour += b.t_contour;
+    }
+    let m0 = mats[0];
+    if select.has(ChannelKind::Normal) {
+        attrs.normal = Channel::PerLeaf(cat.normal);
+    }
+    if want_contour {
+        attrs.contour = Channel::PerLeaf(cat.contour);
+    }
+    if select.has(ChannelKind::Colour) {
+        attrs.colour = if per_leaf_colour {
+            Channel::PerLeaf(cat.colour)
+        } else {
+            Channel::Constant(encode_colour(m0.colour))
+        };
+    }
+    if select.has(ChannelKind::Reflectivity) {
+        attrs.reflectivity = if per_leaf_refl {
+            Channel::PerLeaf(cat.reflectivity)
+        } else {
+            Channel::Constant(unorm8(m0.reflectivity))
+        };
+    }
+    if select.has(ChannelKind::Refractivity) {
+        attrs.refractivity = if per_leaf_refr {
+            Channel::PerLeaf(cat.refractivity)
+        } else {
+            Channel::Constant(unorm8(m0.refractivity))
+        };
+    }
+    if select.has(ChannelKind::Ior) {
+        attrs.ior = if per_leaf_ior {
+            Channel::PerLeaf(cat.ior)
+        } else {
+            Channel::Constant(ior_encode(m0.ior))
+        };
+    }
+    if n_leaves > 0 {
+        attrs.compact();
+    }
+
+    // Apportion the wall time of the pass by the measured thread time of each step.
+    let wall = wall.elapsed();
+    let busy = (cat.t_attr + cat.t_contour).as_secs_f64();
+    let share = if busy > 0.0 {
+        cat.t_contour.as_secs_f64() / busy
+    } else {
+        0.0
+    };
+    let contours = wall.mul_f64(share);
+    let contour_stats = want_contour.then(|| thickness_stats(&mut cat.thickness));
+    (
+        attrs,
+        AttributeReport {
+            attributes: wall - contours,
+            contours,
+            contour_stats,
+        },
+    )
+}
+
+fn thickness_stats(v: &mut [f32]) -> ContourStats {
+    if v.is_empty() {
+        return ContourStats::default();
+    }
+    v.sort_unstable_by(f32::total_cmp);
+    let q = |f: f64| f64::from(v[((v.len() - 1) as f64 * f).round() as usize]);
+    let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+    ContourStats {
+        mean,
+        p50: q(0.5),
+        p95: q(0.95),
+        max: q(1.0),
+    }
+}
+
+fn triangle_colour(
+    mesh: &Mesh,
+    ti: usize,
+    info: &TriInfo,
+    t: &GridTriangle,
+    p: &Polygon,
+    m: DVec3,
+) -> [f32; 4] {
+    let mat = mesh.material_of(ti);
+    let (Some(tex), Some(uvi)) = (
+        mat.texture.and_then(|i| mesh.textures.get(i)),
+        mesh.triangle_uvs.get(ti),
+    ) else {
+        return info.colour;
+    };
+    // Barycentric coordinates of the clipped polygon's centre.
+    let q = p.centre() + m;
+    let (a, b, c) = (t.v[0], t.v[1], t.v[2]);
+    let (v0, v1, v2) = (b - a, c - a, q - a);
+    let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));
+    let den = d00 * d11 - d01 * d01;
+    let (wb, wc) = if den.abs() > 0.0 {
+        (
+            ((d11 * d20 - d01 * d21) / den).clamp(0.0, 1.0),
+            ((d00 * d21 - d01 * d20) / den).clamp(0.0, 1.0),
+        )
+    } else {
+        (1.0 / 3.0, 1.0 / 3.0)
+    };
+    let wa = (1.0 - wb - wc).max(0.0);
+    let uv = |i: u32| mesh.uvs.get(i as usize).copied().unwrap_or(Vec2::ZERO);
+    let st = uv(uvi[0]) * wa as f32 + uv(uvi[1]) * wb as f32 + uv(uvi[2]) * wc as f32;
+    let s = tex.sample_linear(st);
+    [
+        info.colour[0] * s[0],
+        info.colour[1] * s[1],
+        info.colour[2] * s[2],
+        info.colour[3] * s[3],
+    ]
+}
+
+/// Linear RGBA to the stored RGBA8 sRGB word.
+pub fn encode_colour(c: [f32; 4]) -> u32 {
+    u32::from_le_bytes([
+        linear_to_srgb(c[0]),
+        linear_to_srgb(c[1]),
+        linear_to_srgb(c[2]),
+        unorm8(c[3]),
+    ])
+}
+
+/// `[0, 1]` to unorm8.
+pub fn unorm8(v: f32) -> u8 {
+    if v.is_finite() {
+        (v.clamp(0.0, 1.0) * 255.0).round() as u8
+    } else {
+        0
+    }
+}

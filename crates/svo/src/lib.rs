@@ -1,0 +1,67 @@
+//! # svo: exact sparse voxel octrees from triangle meshes
+//!
+//! The library behind `svo-bake` and `svo-view`:
+//!
+//! - [`mesh`]: the in-memory triangle mesh with materials and textures, and its validation;
+//!   importers for OBJ/MTL (and `.obj.gz`), PLY and glTF 2.0 live in [`import`] behind the
+//!   `obj`, `ply` and `gltf` features.
+//! - [`grid`]: the root cube and the mapping from scene space to grid space (`[0, 2^depth]^3`).
+//! - [`child_classify`] and [`overlap`]: the thesis's child AABB classification (Algorithm 1),
+//!   the triangle-plane/box test (Algorithm 2), the separating axis test on the edge axes
+//!   (Algorithm 3) and the vertex-inside shortcut, all with closed cells and a rigorous
+//!   floating-point tolerance so that no touched cell is ever missed.
+//! - [`octree_build`]: the parallel, depth-first, deterministic voxelizer with its
+//!   [`Strategy`] choices; [`octree_layout`] the packed node layout they share with the
+//!   programmatic [`builder`].
+//! - [`leaf_attributes`] and [`contour`]: clipped-area-weighted normals, colours and
+//!   materials per leaf, and the two planes that bound the surface inside each leaf.
+//! - [`octree`]: the [`Octree`] itself: nodes, leaf channels, iteration and cell queries.
+//! - [`format_write`] / [`format_read`]: the versioned `.svo` file (feature `io`), plus
+//!   [`export_binvox`] and [`export_vox`].
+//! - [`bake`]: the whole pipeline with options, timings and the summary report.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bake;
+pub mod builder;
+pub mod child_classify;
+pub mod clip;
+pub mod contour;
+pub mod estimate;
+pub mod grid;
+pub mod import;
+pub mod leaf_attributes;
+pub mod mesh;
+pub mod normal_encoding;
+pub mod octree;
+pub mod octree_build;
+pub mod octree_layout;
+pub mod octree_validate;
+pub mod overlap;
+pub mod strategy;
+pub mod triangle_setup;
+
+#[cfg(feature = "io")]
+pub mod atomic_write;
+#[cfg(feature = "io")]
+pub mod export_binvox;
+#[cfg(feature = "vox")]
+pub mod export_vox;
+#[cfg(feature = "io")]
+pub mod format_header;
+#[cfg(feature = "io")]
+pub mod format_read;
+#[cfg(feature = "io")]
+pub mod format_write;
+#[cfg(feature = "io")]
+pub mod pipeline;
+
+pub use bake::{BakeError, BakeOptions, BakeStats, bake_mesh};
+pub use grid::RootCube;
+pub use mesh::{Material, Mesh, MeshError, Texture};
+pub use octree::{Channel, ChannelKind, LeafAttributes, LeafValue, Node, Octree};
+pub use strategy::Strategy;
+
+/// The deepest tree the library builds: cells are addressed by `u32` coordinates and grid
+/// space must stay exact in `f64` far below a cell.
+pub const MAX_DEPTH: u8 = 30;

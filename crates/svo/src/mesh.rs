@@ -1,0 +1,380 @@
+//! The in-memory triangle mesh: positions in `f64`, triangles as index triples, optional
+//! texture coordinates, and one material per triangle.
+//!
+//! Every importer produces a [`Mesh`]; [`Mesh::validate`] is the single place that rejects
+//! bad input (non-finite coordinates, indices out of range, empty meshes) with a clear error.
+
+use glam::{DVec3, Vec2};
+use thiserror::Error;
+
+/// Errors of mesh import and validation.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MeshError {
+    /// The file could not be opened or read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The file's extension is not one of the supported mesh formats.
+    #[error(
+        "unsupported mesh format {extension:?} for {path} (expected .obj, .obj.gz, .ply, .gltf or .glb)"
+    )]
+    UnknownFormat {
+        /// The file.
+        path: String,
+        /// What its name ends with.
+        extension: String,
+    },
+    /// The file's syntax or structure is wrong.
+    #[error("cannot parse {path}: {message}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// What the parser said.
+        message: String,
+    },
+    /// The mesh has no triangles.
+    #[error("the mesh has no triangles")]
+    Empty,
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate ({x}, {y}, {z})")]
+    NonFinite {
+        /// The vertex index.
+        vertex: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+        /// Its z coordinate.
+        z: f64,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices"
+    )]
+    IndexOutOfRange {
+        /// The triangle.
+        triangle: usize,
+        /// The bad index.
+        index: u64,
+        /// How many vertices there are.
+        vertex_count: usize,
+    },
+    /// A triangle refers to a material, texture or UV that does not exist.
+    #[error("triangle {triangle}: {message}")]
+    BadReference {
+        /// The triangle.
+        triangle: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The mesh's extent is so large that grid coordinates overflow.
+    #[error("the mesh's extent {extent:e} is not a finite positive number")]
+    BadExtent {
+        /// The largest extent.
+        extent: f64,
+    },
+}
+
+/// An RGBA8 texture in sRGB, sampled with nearest filtering and repeat wrapping.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// `width * height` texels, row by row from the top, RGBA8 sRGB.
+    pub rgba: Vec<[u8; 4]>,
+}
+
+impl Texture {
+    /// The linear RGBA colour at texture coordinate `uv` (repeat wrap, nearest texel;
+    /// `v = 0` is the top row, as in glTF; OBJ importers flip `v` on load).
+    pub fn sample_linear(&self, uv: Vec2) -> [f32; 4] {
+        if self.width == 0 || self.height == 0 || self.rgba.is_empty() {
+            return [1.0; 4];
+        }
+        let wrap = |t: f32, n: u32| -> usize {
+            let t = if t.is_finite() { t - t.floor() } else { 0.0 };
+            ((t * n as f32) as usize).min(n as usize - 1)
+        };
+        let x = wrap(uv.x, self.width);
+        let y = wrap(uv.y, self.height);
+        let [r, g, b, a] = self.rgba[y * self.width as usize + x];
+        [
+            srgb_to_linear(r),
+            srgb_to_linear(g),
+            srgb_to_linear(b),
+            f32::from(a) / 255.0,
+        ]
+    }
+}
+
+/// sRGB-encoded byte to linear `[0, 1]`.
+pub fn srgb_to_linear(c: u8) -> f32 {
+    let c = f32::from(c) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Linear `[0, 1]` to an sRGB-encoded byte.
+pub fn linear_to_srgb(c: f32) -> u8 {
+    let c = if c.is_finite() {
+        c.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// A surface material, already mapped to what the octree stores (see `docs/algorithms.md`
+/// for the mapping from MTL and glTF).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// A name for messages.
+    pub name: String,
+    /// Linear RGBA base colour.
+    pub colour: [f32; 4],
+    /// Index into [`Mesh::textures`] of a colour texture multiplied with `colour`.
+    pub texture: Option<usize>,
+    /// Mirror reflectivity in `[0, 1]`.
+    pub reflectivity: f32,
+    /// Transparency (share of light refracted through) in `[0, 1]`.
+    pub refractivity: f32,
+    /// Index of refraction.
+    pub ior: f32,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: "default".into(),
+            colour: [0.8, 0.8, 0.8, 1.0],
+            texture: None,
+            reflectivity: 0.0,
+            refractivity: 0.0,
+            ior: 1.5,
+        }
+    }
+}
+
+/// A triangle mesh in scene units.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Vertex positions.
+    pub positions: Vec<DVec3>,
+    /// Triangles as indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+    /// Texture coordinates, referenced by `triangle_uvs`.
+    pub uvs: Vec<Vec2>,
+    /// Per triangle, indices into `uvs`; empty when the mesh has no texture coordinates.
+    pub triangle_uvs: Vec<[u32; 3]>,
+    /// Per triangle, an index into `materials`; empty means material 0 everywhere.
+    pub triangle_materials: Vec<u32>,
+    /// The materials; empty means one default material.
+    pub materials: Vec<Material>,
+    /// Textures referenced by materials.
+    pub textures: Vec<Texture>,
+}
+
+impl Mesh {
+    /// A mesh of plain triangles with the default material.
+    pub fn from_triangles(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Self {
+        Self {
+            positions,
+            triangles,
+            ..Self::default()
+        }
+    }
+
+    /// Appends another mesh, keeping its materials and textures.
+    pub fn append(&mut self, mut other: Mesh) {
+        let vbase = self.positions.len() as u32;
+        let uvbase = self.uvs.len() as u32;
+        let mbase = self
+            .materials
+            .len()
+            .max(usize::from(!self.triangles.is_empty())) as u32;
+        let tbase = self.textures.len();
+        if self.materials.is_empty() && !self.triangles.is_empty() {
+            self.materials.push(Material::default());
+        }
+        let had_uvs = !self.triangle_uvs.is_empty();
+        if !had_uvs && !other.triangle_uvs.is_empty() {
+            self.uvs.push(Vec2::ZERO);
+            self.triangle_uvs = vec![[uvbase; 3]; self.triangles.len()];
+        }
+        let uvbase = if !had_uvs && !other.triangle_uvs.is_empty() {
+            uvbase + 1
+        } else {
+            uvbase
+        };
+        if self.triangle_materials.is_empty() {
+            self.triangle_materials = vec![0; self.triangles.len()];
+        }
+        if other.materials.is_empty() {
+            other.materials.push(Material::default());
+        }
+        let n = other.triangles.len();
+        self.positions.extend(other.positions);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + vbase)));
+        if !other.triangle_uvs.is_empty() {
+            self.uvs.extend(other.uvs);
+            self.triangle_uvs
+                .extend(other.triangle_uvs.iter().map(|t| t.map(|i| i + uvbase)));
+        } else if !self.triangle_uvs.is_empty() {
+            let zero = self.uvs.len() as u32;
+            self.uvs.push(Vec2::ZERO);
+            self.triangle_uvs.extend(std::iter::repeat_n([zero; 3], n));
+        }
+        if other.triangle_materials.is_empty() {
+            self.triangle_materials
+                .extend(std::iter::repeat_n(mbase, n));
+        } else {
+            self.triangle_materials
+                .extend(other.triangle_materials.iter().map(|m| m + mbase));
+        }
+        self.materials
+            .extend(other.materials.into_iter().map(|mut m| {
+                m.texture = m.texture.map(|t| t + tbase);
+                m
+            }));
+        self.textures.extend(other.textures);
+    }
+
+    /// The material of triangle `t`.
+    pub fn material_of(&self, t: usize) -> &Material {
+        static DEFAULT: std::sync::OnceLock<Material> = std::sync::OnceLock::new();
+        let m = self.triangle_materials.get(t).copied().unwrap_or(0) as usize;
+        self.materials
+            .get(m)
+            .unwrap_or_else(|| DEFAULT.get_or_init(Material::default))
+    }
+
+    /// The axis-aligned bounds of the vertices that triangles use.
+    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for t in &self.triangles {
+            for &i in t {
+                let p = *self.positions.get(i as usize)?;
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        (!self.triangles.is_empty()).then_some((lo, hi))
+    }
+
+    /// Checks everything the voxelizer relies on: at least one triangle, every index in
+    /// range, every used coordinate finite, material/UV/texture references valid.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        if self.triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        let n = self.positions.len();
+        for (t, tri) in self.triangles.iter().enumerate() {
+            for &i in tri {
+                if i as usize >= n {
+                    return Err(MeshError::IndexOutOfRange {
+                        triangle: t,
+                        index: u64::from(i),
+                        vertex_count: n,
+                    });
+                }
+            }
+        }
+        let mut used = vec![false; n];
+        for tri in &self.triangles {
+            for &i in tri {
+                used[i as usize] = true;
+            }
+        }
+        for (v, p) in self.positions.iter().enumerate() {
+            if used[v] && !p.is_finite() {
+                return Err(MeshError::NonFinite {
+                    vertex: v,
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                });
+            }
+        }
+        if !self.triangle_materials.is_empty() {
+            if self.triangle_materials.len() != self.triangles.len() {
+                return Err(MeshError::BadReference {
+                    triangle: 0,
+                    message: format!(
+                        "{} material indices for {} triangles",
+                        self.triangle_materials.len(),
+                        self.triangles.len()
+                    ),
+                });
+            }
+            let nm = self.materials.len().max(1);
+            if let Some((t, m)) = self
+                .triangle_materials
+                .iter()
+                .enumerate()
+                .find(|(_, m)| **m as usize >= nm)
+            {
+                return Err(MeshError::BadReference {
+                    triangle: t,
+                    message: format!("material {m} does not exist ({nm} materials)"),
+                });
+            }
+        }
+        if !self.triangle_uvs.is_empty() {
+            if self.triangle_uvs.len() != self.triangles.len() {
+                return Err(MeshError::BadReference {
+                    triangle: 0,
+                    message: format!(
+                        "{} UV triples for {} triangles",
+                        self.triangle_uvs.len(),
+                        self.triangles.len()
+                    ),
+                });
+            }
+            let nu = self.uvs.len();
+            if let Some((t, _)) = self
+                .triangle_uvs
+                .iter()
+                .enumerate()
+                .find(|(_, uv)| uv.iter().any(|&i| i as usize >= nu))
+            {
+                return Err(MeshError::BadReference {
+                    triangle: t,
+                    message: "UV index out of range".into(),
+                });
+            }
+        }
+        for m in &self.materials {
+            if let Some(tex) = m.texture {
+                if tex >= self.textures.len() {
+                    return Err(MeshError::BadReference {
+                        triangle: 0,
+                        message: format!("material {:?} refers to missing texture {tex}", m.name),
+                    });
+                }
+            }
+        }
+        let (lo, hi) = self.bounds().ok_or(MeshError::Empty)?;
+        let extent = (hi - lo).max_element();
+        if !extent.is_finite() {
+            return Err(MeshError::BadExtent { extent });
+        }
+        Ok(())
+    }
+}

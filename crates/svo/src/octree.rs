@@ -1,0 +1,355 @@
+//! The [`Octree`]: packed nodes (see [`crate::octree_layout`]) and per-leaf attribute
+//! channels stored as separate arrays, each present only when the scene needs it.
+//!
+//! Leaves are addressed by their index in the leaf arrays; their integer cell coordinates
+//! are implicit in the tree and come back from [`Octree::leaves`] and [`Octree::leaf_at`].
+
+use crate::grid::RootCube;
+use crate::normal_encoding;
+use glam::{DVec3, UVec3, Vec3};
+
+/// One octree node: two `u32` words.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Node {
+    /// Bits 0-7: which of the 8 children exist (bit 2 = x, 1 = y, 0 = z). Higher bits: zero.
+    pub info: u32,
+    /// Where the existing children start: a node index, or `-(leaf_base + 1)` as `i32` when
+    /// the children are leaves.
+    pub first: u32,
+}
+
+impl Node {
+    /// Which children exist.
+    #[inline]
+    pub fn child_mask(self) -> u8 {
+        (self.info & 0xFF) as u8
+    }
+
+    /// Whether the children are leaves (the sign of `first`).
+    #[inline]
+    pub fn is_leaf_parent(self) -> bool {
+        (self.first as i32) < 0
+    }
+
+    /// The index of the first leaf child, when the children are leaves.
+    #[inline]
+    pub fn leaf_base(self) -> Option<u32> {
+        self.is_leaf_parent()
+            .then(|| (-((self.first as i32) as i64) - 1) as u32)
+    }
+
+    /// The packed slot of child `i` relative to `first`, if child `i` exists.
+    #[inline]
+    pub fn child_rank(self, i: u8) -> Option<u32> {
+        let m = self.child_mask();
+        (m >> i & 1 == 1).then(|| (m & ((1u16 << i) - 1) as u8).count_ones())
+    }
+}
+
+/// The attribute channels a leaf can carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[non_exhaustive]
+pub enum ChannelKind {
+    /// Octahedral unit normal, two snorm16 in one `u32` (x in the low half).
+    Normal,
+    /// Contour: two unorm16 plane offsets along the leaf normal (low half: near plane).
+    Contour,
+    /// Colour, RGBA8 sRGB (R in the low byte).
+    Colour,
+    /// Reflectivity, unorm8.
+    Reflectivity,
+    /// Refractivity (transparency), unorm8.
+    Refractivity,
+    /// Index of refraction, `1 + v / 16384` from a `u16`.
+    Ior,
+}
+
+impl ChannelKind {
+    /// All channels in file order.
+    pub const ALL: [ChannelKind; 6] = [
+        Self::Normal,
+        Self::Contour,
+        Self::Colour,
+        Self::Reflectivity,
+        Self::Refractivity,
+        Self::Ior,
+    ];
+
+    /// The command-line and file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Normal => "normal",
+            Self::Contour => "contour",
+            Self::Colour => "colour",
+            Self::Reflectivity => "reflectivity",
+            Self::Refractivity => "refractivity",
+            Self::Ior => "ior",
+        }
+    }
+
+    /// Bytes per leaf when stored per leaf.
+    pub fn element_size(self) -> usize {
+        match self {
+            Self::Normal | Self::Contour | Self::Colour => 4,
+            Self::Reflectivity | Self::Refractivity => 1,
+            Self::Ior => 2,
+        }
+    }
+
+    /// Parses a name (`color` is accepted for `colour`).
+    pub fn parse(s: &str) -> Option<Self> {
+        let s = if s == "color" { "colour" } else { s };
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+}
+
+/// One attribute channel over all leaves.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub enum Channel<T> {
+    /// Not stored; readers use the documented default.
+    #[default]
+    Absent,
+    /// The same value for every leaf (stored in the header only).
+    Constant(T),
+    /// One value per leaf.
+    PerLeaf(Vec<T>),
+}
+
+impl<T: Copy + PartialEq> Channel<T> {
+    /// The value for leaf `i`, if the channel is present.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<T> {
+        match self {
+            Self::Absent => None,
+            Self::Constant(v) => Some(*v),
+            Self::PerLeaf(v) => v.get(i).copied(),
+        }
+    }
+
+    /// Turns a per-leaf array whose values are all equal into a constant.
+    pub fn compact(&mut self) {
+        if let Self::PerLeaf(v) = self {
+            if let Some(&first) = v.first() {
+                if v.iter().all(|&x| x == first) {
+                    *self = Self::Constant(first);
+                }
+            }
+        }
+    }
+
+    /// Whether the channel stores one value per leaf.
+    pub fn is_per_leaf(&self) -> bool {
+        matches!(self, Self::PerLeaf(_))
+    }
+}
+
+/// The per-leaf attribute arrays (struct of arrays).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LeafAttributes {
+    /// Octahedral normals.
+    pub normal: Channel<u32>,
+    /// Contour planes.
+    pub contour: Channel<u32>,
+    /// RGBA8 sRGB colours.
+    pub colour: Channel<u32>,
+    /// Reflectivity, unorm8.
+    pub reflectivity: Channel<u8>,
+    /// Refractivity, unorm8.
+    pub refractivity: Channel<u8>,
+    /// Index of refraction, `1 + v / 16384`.
+    pub ior: Channel<u16>,
+}
+
+impl LeafAttributes {
+    /// Compacts every channel (see [`Channel::compact`]).
+    pub fn compact(&mut self) {
+        self.normal.compact();
+        self.contour.compact();
+        self.colour.compact();
+        self.reflectivity.compact();
+        self.refractivity.compact();
+        self.ior.compact();
+    }
+
+    /// The stored values of leaf `i`, decoded.
+    pub fn get(&self, i: usize) -> LeafValue {
+        LeafValue {
+            normal: self.normal.get(i).map(normal_encoding::decode),
+            contour: self.contour.get(i).map(crate::contour::unpack),
+            colour: self.colour.get(i).map(u32::to_le_bytes),
+            reflectivity: self.reflectivity.get(i).map(|v| f32::from(v) / 255.0),
+            refractivity: self.refractivity.get(i).map(|v| f32::from(v) / 255.0),
+            ior: self.ior.get(i).map(ior_decode),
+        }
+    }
+
+    /// How many bytes the per-leaf arrays take for `leaves` leaves.
+    pub fn per_leaf_bytes(&self) -> usize {
+        let mut b = 0;
+        b += usize::from(self.normal.is_per_leaf()) * 4;
+        b += usize::from(self.contour.is_per_leaf()) * 4;
+        b += usize::from(self.colour.is_per_leaf()) * 4;
+        b += usize::from(self.reflectivity.is_per_leaf());
+        b += usize::from(self.refractivity.is_per_leaf());
+        b += usize::from(self.ior.is_per_leaf()) * 2;
+        b
+    }
+}
+
+/// Encodes an index of refraction (clamped to `[1, 5)`).
+pub fn ior_encode(ior: f32) -> u16 {
+    let v = ((ior - 1.0) * 16384.0).round();
+    if v.is_finite() {
+        v.clamp(0.0, 65535.0) as u16
+    } else {
+        8192
+    }
+}
+
+/// Decodes an index of refraction.
+pub fn ior_decode(v: u16) -> f32 {
+    1.0 + f32::from(v) / 16384.0
+}
+
+/// The decoded attributes of one leaf (`None` where the channel is absent).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LeafValue {
+    /// Unit normal.
+    pub normal: Option<Vec3>,
+    /// Contour as `(near, far)` offsets along the normal from the cell centre, in cells.
+    pub contour: Option<(f32, f32)>,
+    /// RGBA8 sRGB.
+    pub colour: Option<[u8; 4]>,
+    /// Reflectivity.
+    pub reflectivity: Option<f32>,
+    /// Refractivity.
+    pub refractivity: Option<f32>,
+    /// Index of refraction.
+    pub ior: Option<f32>,
+}
+
+/// A leaf as the iterator yields it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LeafRef {
+    /// Index into the leaf arrays.
+    pub index: u32,
+    /// Integer cell coordinates at the tree's depth.
+    pub cell: UVec3,
+}
+
+/// A sparse voxel octree with its leaf attributes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Octree {
+    /// The cube the root covers, in scene units.
+    pub root: RootCube,
+    /// Levels below the root: leaves are cells of a `2^depth` grid. At least 1.
+    pub depth: u8,
+    /// Packed nodes, root first.
+    pub nodes: Vec<Node>,
+    /// How many leaves.
+    pub leaf_count: u32,
+    /// Leaf attribute channels.
+    pub attributes: LeafAttributes,
+}
+
+impl Octree {
+    /// Iterates the leaves depth-first in child-index order, which is the order of the leaf
+    /// arrays for trees that `svo` builds.
+    pub fn leaves(&self) -> LeafIter<'_> {
+        let mut stack = Vec::with_capacity(usize::from(self.depth) * 8);
+        if self.nodes.first().is_some_and(|n| n.child_mask() != 0) {
+            stack.push((0u32, 0u8, UVec3::ZERO));
+        }
+        LeafIter {
+            tree: self,
+            stack,
+            pending: Vec::new(),
+        }
+    }
+
+    /// The leaf at integer cell `cell`, if there is one.
+    pub fn leaf_at(&self, cell: UVec3) -> Option<u32> {
+        let side = 1u64 << self.depth;
+        if u64::from(cell.max_element()) >= side {
+            return None;
+        }
+        let mut node = *self.nodes.first()?;
+        for level in (0..self.depth).rev() {
+            let i = (((cell.x >> level) & 1) << 2
+                | ((cell.y >> level) & 1) << 1
+                | ((cell.z >> level) & 1)) as u8;
+            let rank = node.child_rank(i)?;
+            if let Some(base) = node.leaf_base() {
+                return (level == 0).then_some(base + rank);
+            }
+            node = *self.nodes.get((node.first + rank) as usize)?;
+        }
+        None
+    }
+
+    /// The scene-space bounds of a leaf cell.
+    pub fn cell_bounds(&self, cell: UVec3) -> (DVec3, DVec3) {
+        let lo = self.root.to_scene(cell.as_dvec3(), self.depth);
+        let hi = self.root.to_scene(cell.as_dvec3() + DVec3::ONE, self.depth);
+        (lo, hi)
+    }
+
+    /// Bytes of the node array plus the per-leaf arrays.
+    pub fn payload_bytes(&self) -> usize {
+        self.nodes.len() * 8 + self.leaf_count as usize * self.attributes.per_leaf_bytes()
+    }
+}
+
+/// Iterator over leaves; see [`Octree::leaves`].
+pub struct LeafIter<'a> {
+    tree: &'a Octree,
+    stack: Vec<(u32, u8, UVec3)>,
+    pending: Vec<LeafRef>,
+}
+
+impl Iterator for LeafIter<'_> {
+    type Item = LeafRef;
+    fn next(&mut self) -> Option<LeafRef> {
+        loop {
+            if let Some(l) = self.pending.pop() {
+                return Some(l);
+            }
+            let (idx, level, origin) = self.stack.pop()?;
+            let node = self.tree.nodes[idx as usize];
+            let shift = u32::from(self.tree.depth - level - 1);
+            let mask = node.child_mask();
+            if let Some(base) = node.leaf_base() {
+                let mut rank = mask.count_ones();
+                for i in (0..8u8).rev() {
+                    if mask >> i & 1 == 1 {
+                        rank -= 1;
+                        let o = UVec3::new(
+                            u32::from(i >> 2 & 1),
+                            u32::from(i >> 1 & 1),
+                            u32::from(i & 1),
+                        );
+                        self.pending.push(LeafRef {
+                            index: base + rank,
+                            cell: origin + (o << shift),
+                        });
+                    }
+                }
+            } else {
+                let mut rank = mask.count_ones();
+                for i in (0..8u8).rev() {
+                    if mask >> i & 1 == 1 {
+                        rank -= 1;
+                        let o = UVec3::new(
+                            u32::from(i >> 2 & 1),
+                            u32::from(i >> 1 & 1),
+                            u32::from(i & 1),
+                        );
+                        self.stack
+                            .push((node.first + rank, level + 1, origin + (o << shift)));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,322 @@
+//! The voxelizer: a top-down, depth-first octree build over per-node triangle lists.
+//!
+//! At every node the triangles are classified into children by their bounding boxes
+//! (thesis Algorithm 1, [`crate::child_classify`]) and then filtered by the tests that the
+//! [`Strategy`] puts at that level ([`crate::overlap`]). Leaves keep the list of triangles
+//! that touch them, which the attribute and contour passes use.
+//!
+//! The top levels build their children in parallel (rayon, feature `parallel`); subtrees are
+//! joined in child order, so the output is identical whatever the thread count. Below those
+//! levels a task recurses sequentially, reusing one scratch list per level, so memory stays
+//! proportional to the triangles on the current path plus the output.
+
+use crate::child_classify::{child_offset, classify_children};
+use crate::octree::Node;
+use crate::octree_layout::{Chunk, LeafStore};
+use crate::overlap::{edges_overlap, plane_overlaps, vertex_inside};
+use crate::strategy::Strategy;
+use crate::triangle_setup::GridTriangle;
+use glam::DVec3;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Levels (from the root) whose children may be built in parallel.
+const PARALLEL_LEVELS: u8 = 3;
+/// A node needs at least this many triangles for its children to be built in parallel.
+const PARALLEL_MIN_TRIANGLES: usize = 64;
+/// Progress is counted in units of the volume of a node at this level.
+const PROGRESS_LEVEL: u8 = 3;
+
+/// Leaves as the voxelizer makes them: integer cells and the triangles touching each.
+#[derive(Debug, Default, Clone)]
+pub struct LeafTriangles {
+    /// Integer cell coordinates per leaf.
+    pub cells: Vec<[u32; 3]>,
+    /// Per leaf, the end of its triangle list in `tris` (the start is the previous end).
+    pub ends: Vec<u64>,
+    /// Triangle indices, leaf after leaf.
+    pub tris: Vec<u32>,
+}
+
+impl LeafTriangles {
+    /// The triangles touching leaf `i`.
+    pub fn triangles(&self, i: usize) -> &[u32] {
+        let start = if i == 0 { 0 } else { self.ends[i - 1] as usize };
+        &self.tris[start..self.ends[i] as usize]
+    }
+}
+
+impl LeafStore for LeafTriangles {
+    fn len(&self) -> usize {
+        self.cells.len()
+    }
+    fn append(&mut self, other: Self) {
+        let off = self.tris.len() as u64;
+        self.cells.extend(other.cells);
+        self.ends.extend(other.ends.into_iter().map(|e| e + off));
+        self.tris.extend(other.tris);
+    }
+}
+
+/// The voxelizer's output: the node layout and the leaves with their triangles.
+#[derive(Debug, Default)]
+pub struct Voxelized {
+    /// Packed nodes, root first.
+    pub nodes: Vec<Node>,
+    /// Leaves in leaf-array order.
+    pub leaves: LeafTriangles,
+    /// Triangle/cell overlap tests run (all levels), for the reports.
+    pub tests: u64,
+}
+
+struct Ctx<'a> {
+    tris: &'a [GridTriangle],
+    depth: u8,
+    strategy: Strategy,
+    progress: &'a (dyn Fn(f64) + Sync),
+    done: AtomicU64,
+    total: u64,
+    progress_level: u8,
+}
+
+impl Ctx<'_> {
+    fn advance(&self, units: u64) {
+        let d = self.done.fetch_add(units, Ordering::Relaxed) + units;
+        (self.progress)(d as f64 / self.total as f64);
+    }
+
+    /// Progress units that a node at `level` stands for.
+    fn units(&self, level: u8) -> u64 {
+        if level > self.progress_level {
+            0
+        } else {
+            8u64.pow(u32::from(self.progress_level - level))
+        }
+    }
+
+    /// Whether triangle `t` survives into the child cell `[m, m + s]` at `level`.
+    #[inline]
+    fn keep(&self, t: &GridTriangle, m: DVec3, s: f64, level: u8, list_len: usize) -> bool {
+        let leaf = level == self.depth;
+        match self.strategy {
+            Strategy::AabbPlane => plane_overlaps(t, m, s),
+            Strategy::AabbPlaneSat => {
+                vertex_inside(t, m, s) || (plane_overlaps(t, m, s) && edges_overlap(t, m, s))
+            }
+            Strategy::SatLeaf => !leaf || vertex_inside(t, m, s) || edges_overlap(t, m, s),
+            Strategy::PlaneSatLeaf => {
+                if leaf {
+                    vertex_inside(t, m, s) || (plane_overlaps(t, m, s) && edges_overlap(t, m, s))
+                } else {
+                    plane_overlaps(t, m, s)
+                }
+            }
+            Strategy::Exact => {
+                vertex_inside(t, m, s)
+                    || (plane_overlaps(t, m, s)
+                        && ((!leaf && list_len < EXACT_EDGE_MIN_LIST) || edges_overlap(t, m, s)))
+            }
+        }
+    }
+}
+
+/// In the default strategy, interior nodes with at least this many triangles also run the
+/// edge axes, so that false positives are pruned before they multiply.
+const EXACT_EDGE_MIN_LIST: usize = usize::MAX;
+
+/// Splits `list` (triangles overlapping the node at `level` with min corner `m`, side `s`)
+/// into the 8 children's lists. Returns the number of tests run.
+fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Vec<u32>; 8]) -> u64 {
+    for l in out.iter_mut() {
+        l.clear();
+    }
+    let h = 0.5 * s;
+    let c = m + DVec3::splat(h);
+    let mut tests = 0u64;
+    for &ti in list {
+        let t = &ctx.tris[ti as usize];
+        let mut mask = classify_children(t.lo, t.hi, c);
+        while mask != 0 {
+            let i = mask.trailing_zeros() as u8;
+            mask &= mask - 1;
+            let o = child_offset(i);
+            let cm = m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
+            tests += 1;
+            if ctx.keep(t, cm, h, level + 1, list.len()) {
+                out[i as usize].push(ti);
+            }
+        }
+    }
+    tests
+}
+
+/// Builds the subtree of the node at `level` with integer min corner `cell` (in units of
+/// leaf cells) sequentially into `chunk`, returning its record, or `None` if it holds no leaf.
+fn build_seq(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+    chunk: &mut Chunk<LeafTriangles>,
+    scratch: &mut Vec<[Vec<u32>; 8]>,
+    tests: &mut u64,
+) -> Option<Node> {
+    let s = f64::from(1u32 << (ctx.depth - level));
+    let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+    let mut lists = std::mem::take(&mut scratch[usize::from(level)]);
+    *tests += split(ctx, level, m, s, list, &mut lists);
+    let half = 1u32 << (ctx.depth - level - 1);
+    let mut mask = 0u8;
+    let record;
+    if level + 1 == ctx.depth {
+        let base = chunk.leaves.len();
+        for (i, l) in lists.iter().enumerate() {
+            if l.is_empty() {
+                continue;
+            }
+            mask |= 1 << i;
+            let o = child_offset(i as u8);
+            chunk
+                .leaves
+                .cells
+                .push([cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]]);
+            chunk.leaves.tris.extend_from_slice(l);
+            chunk.leaves.ends.push(chunk.leaves.tris.len() as u64);
+        }
+        record = (mask != 0).then(|| Chunk::<LeafTriangles>::leaf_parent(mask, base));
+    } else {
+        let mut records = [Node::default(); 8];
+        let mut k = 0;
+        for (i, l) in lists.iter().enumerate() {
+            let cu = ctx.units(level + 1);
+            if l.is_empty() {
+                if cu > 0 {
+                    ctx.advance(cu);
+                }
+                continue;
+            }
+            let o = child_offset(i as u8);
+            let child = [
+                cell[0] + o[0] * half,
+                cell[1] + o[1] * half,
+                cell[2] + o[2] * half,
+            ];
+            if let Some(r) = build_seq(ctx, level + 1, child, l, chunk, scratch, tests) {
+                mask |= 1 << i;
+                records[k] = r;
+                k += 1;
+            }
+        }
+        record = (mask != 0).then(|| chunk.push_children(mask, &records[..k]));
+    }
+    scratch[usize::from(level)] = lists;
+    if level == ctx.progress_level {
+        ctx.advance(1);
+    }
+    record
+}
+
+/// Builds the subtree of a node, in parallel over children at the top levels.
+fn build_node(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+) -> (Chunk<LeafTriangles>, Option<Node>, u64) {
+    let parallel = cfg!(feature = "parallel")
+        && level < PARALLEL_LEVELS
+        && level + 2 < ctx.depth
+        && list.len() >= PARALLEL_MIN_TRIANGLES;
+    if !parallel {
+        let mut chunk = Chunk::new();
+        let mut scratch = vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)];
+        let mut tests = 0;
+        let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);
+        return (chunk, rec, tests);
+    }
+    let s = f64::from(1u32 << (ctx.depth - level));
+    let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+    let mut lists = <[Vec<u32>; 8]>::default();
+    let mut tests = split(ctx, level, m, s, list, &mut lists);
+    let half = 1u32 << (ctx.depth - level - 1);
+    for l in &lists {
+        if l.is_empty() && ctx.units(level + 1) > 0 {
+            ctx.advance(ctx.units(level + 1));
+        }
+    }
+    let work = |i: usize| {
+        let l = &lists[i];
+        if l.is_empty() {
+            return None;
+        }
+        let o = child_offset(i as u8);
+        let child = [
+            cell[0] + o[0] * half,
+            cell[1] + o[1] * half,
+            cell[2] + o[2] * half,
+        ];
+        Some(build_node(ctx, level + 1, child, l))
+    };
+    #[cfg(feature = "parallel")]
+    let results: Vec<_> = {
+        use rayon::prelude::*;
+        (0..8).into_par_iter().map(work).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let results: Vec<_> = (0..8).map(work).collect();
+    let mut chunk = Chunk::new();
+    let mut records = Vec::with_capacity(8);
+    let mut mask = 0u8;
+    for (i, r) in results.into_iter().enumerate() {
+        if let Some((c, Some(rec), t)) = r {
+            tests += t;
+            mask |= 1 << i;
+            records.push(chunk.append(c, rec));
+        } else if let Some((_, None, t)) = r {
+            tests += t;
+        }
+    }
+    let rec = (mask != 0).then(|| chunk.push_children(mask, &records));
+    if level == ctx.progress_level {
+        ctx.advance(1);
+    }
+    (chunk, rec, tests)
+}
+
+/// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
+/// whose root is `[0, 2^depth]^3`. `progress` receives the fraction of the root's volume done.
+pub fn voxelize(
+    tris: &[GridTriangle],
+    depth: u8,
+    strategy: Strategy,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Voxelized {
+    assert!(
+        (1..=crate::MAX_DEPTH).contains(&depth),
+        "depth {depth} out of range"
+    );
+    let progress_level = PROGRESS_LEVEL.min(depth - 1);
+    let ctx = Ctx {
+        tris,
+        depth,
+        strategy,
+        progress,
+        done: AtomicU64::new(0),
+        total: 8u64.pow(u32::from(progress_level)),
+        progress_level,
+    };
+    // Only triangles whose bounds touch the root take part (all do for a mesh's own root).
+    let side = f64::from(1u32 << depth);
+    let all: Vec<u32> = (0..tris.len() as u32)
+        .filter(|&i| {
+            let t = &tris[i as usize];
+            t.lo.cmple(DVec3::splat(side)).all() && t.hi.cmpge(DVec3::ZERO).all()
+        })
+        .collect();
+    let (chunk, root, tests) = build_node(&ctx, 0, [0, 0, 0], &all);
+    let (nodes, leaves) = chunk.finish(root);
+    Voxelized {
+        nodes,
+        leaves,
+        tests,
+    }
+}

@@ -1,0 +1,316 @@
+//! File to file: load a mesh (or an `.svo`), bake, and write `.svo`, `.binvox` or `.vox`
+//! atomically, timing each phase. This is everything `svo-bake` does; its `main` only parses
+//! arguments, draws the progress bar and prints the [`BakeReport`].
+
+use crate::bake::{BakeError, BakeOptions, BakeStats, Phase, bake_mesh};
+use crate::export_binvox::{ExportError, write_binvox};
+use crate::format_header::BuildInfo;
+use crate::format_read::read_file;
+use crate::format_write::{FormatError, write_file};
+use crate::import::{MeshFormat, load_mesh};
+use crate::mesh::MeshError;
+use crate::octree::Octree;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use thiserror::Error;
+
+/// Errors of the bake pipeline.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum PipelineError {
+    /// Loading the mesh failed.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// Baking failed.
+    #[error(transparent)]
+    Bake(#[from] BakeError),
+    /// Reading or writing `.svo` failed.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// Exporting failed.
+    #[error(transparent)]
+    Export(#[from] ExportError),
+    /// The output's extension is not a format we write.
+    #[error("unsupported output format for {0} (expected .svo, .binvox or .vox)")]
+    UnknownOutput(String),
+    /// The output's folder does not exist.
+    #[error("cannot write {path}: folder {dir} does not exist")]
+    NoOutputDir {
+        /// The output.
+        path: String,
+        /// Its folder.
+        dir: String,
+    },
+    /// The thread pool could not be made.
+    #[error("cannot start {threads} threads: {message}")]
+    Threads {
+        /// Requested threads.
+        threads: usize,
+        /// Why not.
+        message: String,
+    },
+}
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+#[non_exhaustive]
+pub enum OutputFormat {
+    /// The `.svo` octree file.
+    Svo,
+    /// Dense binvox.
+    Binvox,
+    /// MagicaVoxel.
+    Vox,
+}
+
+impl OutputFormat {
+    /// The format named by a path's extension.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        match path
+            .extension()?
+            .to_string_lossy()
+            .to_ascii_lowercase()
+            .as_str()
+        {
+            "svo" => Some(Self::Svo),
+            "binvox" => Some(Self::Binvox),
+            "vox" => Some(Self::Vox),
+            _ => None,
+        }
+    }
+}
+
+/// One bake, file to file.
+#[derive(Clone, Debug)]
+pub struct BakeJob {
+    /// The mesh (`.obj`, `.obj.gz`, `.ply`, `.gltf`, `.glb`) or `.svo` to convert.
+    pub input: PathBuf,
+    /// The output (`.svo`, `.binvox`, `.vox`).
+    pub output: PathBuf,
+    /// Bake settings (ignored for `.svo` input).
+    pub options: BakeOptions,
+    /// Worker threads (all cores when `None`).
+    pub threads: Option<usize>,
+}
+
+/// What a bake did, for the summary and `--json`.
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct BakeReport {
+    /// Input path.
+    pub input: String,
+    /// Output path.
+    pub output: String,
+    /// Output format.
+    pub format: OutputFormat,
+    /// Threads used.
+    pub threads: usize,
+    /// Seconds loading the input.
+    pub load_s: f64,
+    /// Seconds writing the output.
+    pub write_s: f64,
+    /// Seconds in total.
+    pub total_s: f64,
+    /// Output file size.
+    pub file_bytes: u64,
+    /// Leaves in the tree.
+    pub leaves: usize,
+    /// Nodes in the tree.
+    pub nodes: usize,
+    /// Tree depth.
+    pub depth: u8,
+    /// Bake statistics (absent when converting an `.svo`).
+    pub bake: Option<BakeStats>,
+}
+
+/// Runs a bake job; `progress(phase, fraction)` comes from worker threads.
+pub fn run(
+    job: &BakeJob,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<BakeReport, PipelineError> {
+    let format = OutputFormat::from_path(&job.output)
+        .ok_or_else(|| PipelineError::UnknownOutput(job.output.display().to_string()))?;
+    if let Some(dir) = job.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(PipelineError::NoOutputDir {
+                path: job.output.display().to_string(),
+                dir: dir.display().to_string(),
+            });
+        }
+    }
+    let is_svo = job
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svo"));
+    if !is_svo && MeshFormat::from_path(&job.input).is_none() {
+        return Err(MeshError::UnknownFormat {
+            path: job.input.display().to_string(),
+            extension: job
+                .input
+                .extension()
+                .map(|e| e.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        }
+        .into());
+    }
+    #[cfg(feature = "parallel")]
+    {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(n) = job.threads {
+            b = b.num_threads(n.max(1));
+        }
+        let pool = b.build().map_err(|e| PipelineError::Threads {
+            threads: job.threads.unwrap_or(0),
+            message: e.to_string(),
+        })?;
+        let threads = pool.current_num_threads();
+        pool.install(|| run_inner(job, format, is_svo, threads, progress))
+    }
+    #[cfg(not(feature = "parallel"))]
+    run_inner(job, format, is_svo, 1, progress)
+}
+
+fn run_inner(
+    job: &BakeJob,
+    format: OutputFormat,
+    is_svo: bool,
+    threads: usize,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<BakeReport, PipelineError> {
+    let t_all = Instant::now();
+    let t = Instant::now();
+    let (tree, build, stats, load_s): (Octree, BuildInfo, Option<BakeStats>, f64) = if is_svo {
+        let (tree, build) = read_file(&job.input)?;
+        (tree, build, None, t.elapsed().as_secs_f64())
+    } else {
+        let mesh = load_mesh(&job.input)?;
+        let load_s = t.elapsed().as_secs_f64();
+        let (tree, stats) = bake_mesh(&mesh, &job.options, progress)?;
+        let build = BuildInfo {
+            generator: format!("svo {}", env!("CARGO_PKG_VERSION")),
+            strategy: job.options.strategy.name().to_string(),
+            source_triangles: mesh.triangles.len() as u64,
+        };
+        (tree, build, Some(stats), load_s)
+    };
+    let t = Instant::now();
+    let file_bytes = match format {
+        OutputFormat::Svo => write_file(&tree, &build, &job.output)?,
+        OutputFormat::Binvox => write_binvox(&tree, &job.output)?,
+        #[cfg(feature = "vox")]
+        OutputFormat::Vox => crate::export_vox::write_vox(&tree, &job.output)?,
+        #[cfg(not(feature = "vox"))]
+        OutputFormat::Vox => {
+            return Err(PipelineError::UnknownOutput(
+                "vox support not compiled in".into(),
+            ));
+        }
+    };
+    Ok(BakeReport {
+        input: job.input.display().to_string(),
+        output: job.output.display().to_string(),
+        format,
+        threads,
+        load_s,
+        write_s: t.elapsed().as_secs_f64(),
+        total_s: t_all.elapsed().as_secs_f64(),
+        file_bytes,
+        leaves: tree.leaf_count as usize,
+        nodes: tree.nodes.len(),
+        depth: tree.depth,
+        bake: stats,
+    })
+}
+
+fn ms(s: f64) -> String {
+    if s < 10.0 {
+        format!("{:.1} ms", s * 1e3)
+    } else {
+        format!("{s:.2} s")
+    }
+}
+
+impl fmt::Display for BakeReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} -> {} ({:?}, depth {}, {} threads)",
+            self.input, self.output, self.format, self.depth, self.threads
+        )?;
+        let per_leaf = if self.leaves > 0 {
+            self.file_bytes as f64 / self.leaves as f64
+        } else {
+            0.0
+        };
+        if let Some(b) = &self.bake {
+            writeln!(
+                f,
+                "  triangles   {} ({} degenerate, kept)",
+                b.triangles, b.degenerate_triangles
+            )?;
+            writeln!(
+                f,
+                "  tree        {} nodes, {} leaves (estimated {:.0}), {} triangle/leaf pairs",
+                self.nodes, self.leaves, b.estimated_leaves, b.leaf_triangle_pairs
+            )?;
+            writeln!(
+                f,
+                "  accuracy    strategy {} ({}); cell {:.4e} units; cube error <= {:.4e} units (cell diagonal)",
+                b.strategy,
+                if b.exact {
+                    "exact: no false positives or negatives"
+                } else {
+                    "inexact: a superset of the touched cells"
+                },
+                b.cell_size,
+                b.cell_size * 3f64.sqrt()
+            )?;
+            if let Some(c) = &b.contour_thickness {
+                writeln!(
+                    f,
+                    "  contours    thickness mean {:.3} cells, p95 {:.3}, max {:.3} (cube: up to 1.732)",
+                    c.mean, c.p95, c.max
+                )?;
+            }
+            let ch: Vec<String> = b.channels.iter().map(|(k, s)| format!("{k}:{s}")).collect();
+            writeln!(
+                f,
+                "  channels    {}",
+                if ch.is_empty() {
+                    "none".to_string()
+                } else {
+                    ch.join(" ")
+                }
+            )?;
+            writeln!(
+                f,
+                "  time        load {}, voxelize {}, attributes {}, contours {}, write {}, total {}",
+                ms(self.load_s),
+                ms(b.voxelize_s),
+                ms(b.attributes_s),
+                ms(b.contours_s),
+                ms(self.write_s),
+                ms(self.total_s)
+            )?;
+        } else {
+            writeln!(
+                f,
+                "  tree        {} nodes, {} leaves (converted)",
+                self.nodes, self.leaves
+            )?;
+            writeln!(
+                f,
+                "  time        read {}, write {}",
+                ms(self.load_s),
+                ms(self.write_s)
+            )?;
+        }
+        write!(
+            f,
+            "  output      {} bytes, {:.2} bytes per leaf",
+            self.file_bytes, per_leaf
+        )
+    }
+}
