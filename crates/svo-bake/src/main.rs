@@ -111,14 +111,14 @@ fn real_main() -> anyhow::Result<()> {
     );
     let last = Mutex::new(None);
     let progress = |phase: Phase, f: f64| {
-        if let Ok(mut l) = last.lock() {
-            if *l != Some(phase) {
-                *l = Some(phase);
-                bar.set_message(match phase {
-                    Phase::Voxelize => "voxelize",
-                    Phase::Attributes => "attributes",
-                });
-            }
+        if let Ok(mut l) = last.lock()
+            && *l != Some(phase)
+        {
+            *l = Some(phase);
+            bar.set_message(match phase {
+                Phase::Voxelize => "voxelize",
+                Phase::Attributes => "attributes",
+            });
         }
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
     };

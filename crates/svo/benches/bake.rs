@@ -1,1 +1,42 @@
-fn main() {}
+//! The whole bake (voxelize, attributes, contours) per strategy and depth: on the committed
+//! torus fixture always, and on the Stanford bunny when `../shared/models` is present.
+#![allow(missing_docs)]
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::path::Path;
+use svo::{BakeOptions, Strategy, bake_mesh};
+
+fn bench(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut meshes = vec![("torus", root.join("fixtures/torus.obj"))];
+    let bunny = root.join("../shared/models/stanford/stanford-bunny.obj");
+    if bunny.exists() {
+        meshes.push(("bunny", bunny));
+    } else {
+        eprintln!(
+            "notice: bunny not found at {}; benching the torus only",
+            bunny.display()
+        );
+    }
+    let mut g = c.benchmark_group("bake");
+    g.sample_size(10);
+    for (name, path) in &meshes {
+        let mesh = svo::import::load_mesh(path).unwrap();
+        for depth in [6u8, 8] {
+            for strategy in [Strategy::Exact, Strategy::PlaneSatLeaf] {
+                let opts = BakeOptions {
+                    depth,
+                    strategy,
+                    ..Default::default()
+                };
+                g.bench_function(format!("{name}/d{depth}/{strategy}"), |b| {
+                    b.iter(|| bake_mesh(&mesh, &opts, &|_, _| {}).unwrap())
+                });
+            }
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

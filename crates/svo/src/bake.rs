@@ -139,16 +139,16 @@ pub fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeE
     let (lo, hi) = mesh.bounds().ok_or(MeshError::Empty)?;
     let root = RootCube::around(lo, hi, opts.depth, opts.pad);
     let est = estimate(mesh, &root, opts.depth);
-    if let Some(limit) = opts.max_memory {
-        if est.bytes > limit as f64 {
-            const GIB: f64 = (1u64 << 30) as f64;
-            return Err(BakeError::TooLarge {
-                depth: opts.depth,
-                leaves: est.leaves,
-                gib: est.bytes / GIB,
-                limit_gib: limit as f64 / GIB,
-            });
-        }
+    if let Some(limit) = opts.max_memory
+        && est.bytes > limit as f64
+    {
+        const GIB: f64 = (1u64 << 30) as f64;
+        return Err(BakeError::TooLarge {
+            depth: opts.depth,
+            leaves: est.leaves,
+            gib: est.bytes / GIB,
+            limit_gib: limit as f64 / GIB,
+        });
     }
     Ok((root, est.leaves))
 }

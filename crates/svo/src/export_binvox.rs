@@ -30,12 +30,12 @@ pub enum ExportError {
         need: u64,
     },
     /// Writing failed.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: String,
         /// The operating system's error.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 }
 
@@ -67,9 +67,9 @@ pub fn write_binvox(tree: &Octree, path: &Path) -> Result<u64, ExportError> {
         "#binvox 1\ndim {dim} {dim} {dim}\ntranslate {} {} {}\nscale {}\ndata\n",
         o.x, o.y, o.z, tree.root.side
     )
-    .map_err(|source| ExportError::Io {
+    .map_err(|cause| ExportError::Io {
         path: path.display().to_string(),
-        source,
+        cause,
     })?;
     let total = dim * dim * dim;
     let run = |value: u8, mut n: u64, out: &mut Vec<u8>| {
@@ -95,15 +95,18 @@ pub fn write_binvox(tree: &Octree, path: &Path) -> Result<u64, ExportError> {
         pos = end;
     }
     run(0, total - pos, &mut out);
-    write_atomic(path, |w| w.write_all(&out)).map_err(|source| ExportError::Io {
+    write_atomic(path, |w| w.write_all(&out)).map_err(|cause| ExportError::Io {
         path: path.display().to_string(),
-        source,
+        cause,
     })?;
     Ok(out.len() as u64)
 }
 
+/// A binvox grid as read back: `dim`, `translate`, `scale` and the occupied cells.
+pub type BinvoxGrid = (u64, [f64; 3], f64, Vec<[u32; 3]>);
+
 /// Reads a binvox file's header and occupied cells (for tests and round trips).
-pub fn read_binvox(bytes: &[u8]) -> Option<(u64, [f64; 3], f64, Vec<[u32; 3]>)> {
+pub fn read_binvox(bytes: &[u8]) -> Option<BinvoxGrid> {
     let data_at = bytes.windows(5).position(|w| w == b"data\n")? + 5;
     let head = std::str::from_utf8(&bytes[..data_at]).ok()?;
     let mut dim = 0u64;

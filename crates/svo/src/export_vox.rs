@@ -115,9 +115,9 @@ pub fn to_vox(tree: &Octree) -> Result<DotVoxData, ExportError> {
 pub fn write_vox(tree: &Octree, path: &Path) -> Result<u64, ExportError> {
     let data = to_vox(tree)?;
     let mut bytes = Vec::new();
-    let io = |source| ExportError::Io {
+    let io = |cause| ExportError::Io {
         path: path.display().to_string(),
-        source,
+        cause,
     };
     data.write_vox(&mut bytes).map_err(io)?;
     write_atomic(path, |w| w.write_all(&bytes)).map_err(io)?;

@@ -20,9 +20,9 @@ fn corrupt(msg: impl Into<String>) -> FormatError {
 
 /// Reads and validates a `.svo` file.
 pub fn read_file(path: &Path) -> Result<(Octree, BuildInfo), FormatError> {
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
+    let bytes = std::fs::read(path).map_err(|cause| FormatError::Io {
         path: path.display().to_string(),
-        source,
+        cause,
     })?;
     from_bytes(&bytes)
 }

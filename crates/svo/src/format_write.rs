@@ -14,12 +14,12 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum FormatError {
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: String,
         /// The operating system's error.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The file does not start with the `.svo` magic bytes.
     #[error("not an .svo file (bad magic bytes)")]
@@ -143,9 +143,9 @@ fn append_le(out: &mut Vec<u8>, bytes: &[u8]) {
 /// Writes an octree to `path` atomically.
 pub fn write_file(tree: &Octree, build: &BuildInfo, path: &Path) -> Result<u64, FormatError> {
     let bytes = to_bytes(tree, build);
-    write_atomic(path, |w| w.write_all(&bytes)).map_err(|source| FormatError::Io {
+    write_atomic(path, |w| w.write_all(&bytes)).map_err(|cause| FormatError::Io {
         path: path.display().to_string(),
-        source,
+        cause,
     })?;
     Ok(bytes.len() as u64)
 }

@@ -192,6 +192,7 @@ pub fn compute(
         }
         let t0 = Instant::now();
         let mut polys: Vec<Polygon> = Vec::new();
+        let mut areas: Vec<f64> = Vec::new();
         let mut poly_ends: Vec<usize> = Vec::with_capacity(end - start);
         let mut normals_f: Vec<Vec3> = Vec::with_capacity(end - start);
         for leaf in start..end {
@@ -211,22 +212,25 @@ pub fn compute(
                         p.v[k] = (t.v[k] - m).clamp(DVec3::ZERO, DVec3::ONE);
                     }
                 }
-                wsum += p.area();
+                let area = p.area();
+                wsum += area;
                 polys.push(p);
+                areas.push(area);
             }
             let leaf_polys = &polys[first_poly..];
-            let weight = |p: &Polygon| if wsum > 0.0 { p.area() } else { 1.0 };
+            let leaf_areas = &areas[first_poly..];
+            let weight = |k: usize| if wsum > 0.0 { leaf_areas[k] } else { 1.0 };
             if want_normal {
                 let mut s = DVec3::ZERO;
-                for (p, &ti) in leaf_polys.iter().zip(list) {
-                    s += info[ti as usize].normal * weight(p);
+                for (k, &ti) in list.iter().enumerate() {
+                    s += info[ti as usize].normal * weight(k);
                 }
                 if !(s.length() > 1e-12 * wsum.max(1e-300)) {
                     // Opposite sheets cancel: take the heaviest triangle's normal.
                     s = list
                         .iter()
-                        .zip(leaf_polys)
-                        .map(|(&ti, p)| (info[ti as usize].normal, p.area()))
+                        .zip(leaf_areas)
+                        .map(|(&ti, &a)| (info[ti as usize].normal, a))
                         .filter(|(n, _)| *n != DVec3::ZERO)
                         .max_by(|a, b| a.1.total_cmp(&b.1))
                         .map_or(DVec3::Z, |(n, _)| n);
@@ -238,8 +242,8 @@ pub fn compute(
             if per_leaf_colour {
                 let mut c = [0.0f64; 4];
                 let mut ws = 0.0;
-                for (p, &ti) in leaf_polys.iter().zip(list) {
-                    let w = weight(p);
+                for (k, (p, &ti)) in leaf_polys.iter().zip(list).enumerate() {
+                    let w = weight(k);
                     let col = triangle_colour(
                         mesh,
                         ti as usize,
@@ -259,8 +263,8 @@ pub fn compute(
             let avg = |f: &dyn Fn(&TriInfo) -> f32| -> f32 {
                 let mut a = 0.0f64;
                 let mut ws = 0.0;
-                for (p, &ti) in leaf_polys.iter().zip(list) {
-                    let w = weight(p);
+                for (k, &ti) in list.iter().enumerate() {
+                    let w = weight(k);
                     a += w * f64::from(f(&info[ti as usize]));
                     ws += w;
                 }

@@ -27,6 +27,8 @@ pub mod builder;
 pub mod child_classify;
 pub mod clip;
 pub mod contour;
+#[cfg(feature = "io")]
+pub mod describe;
 pub mod estimate;
 pub mod grid;
 pub mod import;

@@ -12,12 +12,12 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum MeshError {
     /// The file could not be opened or read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read {path}: {cause}")]
     Io {
         /// The file.
         path: String,
         /// The operating system's error.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// The file's extension is not one of the supported mesh formats.
     #[error(
@@ -361,13 +361,13 @@ impl Mesh {
             }
         }
         for m in &self.materials {
-            if let Some(tex) = m.texture {
-                if tex >= self.textures.len() {
-                    return Err(MeshError::BadReference {
-                        triangle: 0,
-                        message: format!("material {:?} refers to missing texture {tex}", m.name),
-                    });
-                }
+            if let Some(tex) = m.texture
+                && tex >= self.textures.len()
+            {
+                return Err(MeshError::BadReference {
+                    triangle: 0,
+                    message: format!("material {:?} refers to missing texture {tex}", m.name),
+                });
             }
         }
         let (lo, hi) = self.bounds().ok_or(MeshError::Empty)?;

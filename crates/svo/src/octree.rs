@@ -36,7 +36,7 @@ impl Node {
     #[inline]
     pub fn leaf_base(self) -> Option<u32> {
         self.is_leaf_parent()
-            .then(|| (-((self.first as i32) as i64) - 1) as u32)
+            .then(|| (-i64::from(self.first as i32) - 1) as u32)
     }
 
     /// The packed slot of child `i` relative to `first`, if child `i` exists.
@@ -129,12 +129,11 @@ impl<T: Copy + PartialEq> Channel<T> {
 
     /// Turns a per-leaf array whose values are all equal into a constant.
     pub fn compact(&mut self) {
-        if let Self::PerLeaf(v) = self {
-            if let Some(&first) = v.first() {
-                if v.iter().all(|&x| x == first) {
-                    *self = Self::Constant(first);
-                }
-            }
+        if let Self::PerLeaf(v) = self
+            && let Some(&first) = v.first()
+            && v.iter().all(|&x| x == first)
+        {
+            *self = Self::Constant(first);
         }
     }
 

@@ -42,12 +42,12 @@ pub fn validate(t: &Octree) -> Result<(), String> {
         ("refractivity", channel_len(&a.refractivity)),
         ("ior", channel_len(&a.ior)),
     ] {
-        if let Some(len) = len {
-            if len != leaves {
-                return Err(format!(
-                    "channel {name} has {len} values for {leaves} leaves"
-                ));
-            }
+        if let Some(len) = len
+            && len != leaves
+        {
+            return Err(format!(
+                "channel {name} has {len} values for {leaves} leaves"
+            ));
         }
     }
     let mut seen_node = vec![false; n];
@@ -107,11 +107,11 @@ pub fn validate(t: &Octree) -> Result<(), String> {
                     first + k
                 ));
             }
-            for j in first..first + k {
-                if seen_node[j] {
+            for (j, seen) in seen_node.iter_mut().enumerate().skip(first).take(k) {
+                if *seen {
                     return Err(format!("node {i}: node {j} referenced twice"));
                 }
-                seen_node[j] = true;
+                *seen = true;
                 stack.push((j, level + 1));
             }
         }

@@ -132,13 +132,13 @@ pub fn run(
 ) -> Result<BakeReport, PipelineError> {
     let format = OutputFormat::from_path(&job.output)
         .ok_or_else(|| PipelineError::UnknownOutput(job.output.display().to_string()))?;
-    if let Some(dir) = job.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(PipelineError::NoOutputDir {
-                path: job.output.display().to_string(),
-                dir: dir.display().to_string(),
-            });
-        }
+    if let Some(dir) = job.output.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        return Err(PipelineError::NoOutputDir {
+            path: job.output.display().to_string(),
+            dir: dir.display().to_string(),
+        });
     }
     let is_svo = job
         .input

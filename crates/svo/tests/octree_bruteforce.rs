@@ -169,7 +169,13 @@ fn axis_aligned_box_fitting_the_root_exactly() {
     // The faces of a box that is the root cube: every boundary cell, no interior cell
     // (cuda_voxelizer's known bug drops the far faces).
     let p: Vec<DVec3> = (0..8)
-        .map(|i| DVec3::new((i >> 2 & 1) as f64, (i >> 1 & 1) as f64, (i & 1) as f64))
+        .map(|i| {
+            DVec3::new(
+                f64::from(i >> 2 & 1),
+                f64::from(i >> 1 & 1),
+                f64::from(i & 1),
+            )
+        })
         .collect();
     let quads = [
         [0, 1, 3, 2],
@@ -192,7 +198,7 @@ fn axis_aligned_box_fitting_the_root_exactly() {
             leaves.cells.iter().all(boundary),
             "interior cell at depth {depth}"
         );
-        let expect = (n as u64).pow(3) - (n as u64).saturating_sub(2).pow(3);
+        let expect = u64::from(n).pow(3) - u64::from(n).saturating_sub(2).pow(3);
         assert_eq!(leaves.cells.len() as u64, expect, "depth {depth}");
     }
 }

@@ -19,7 +19,6 @@ pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;

@@ -1,0 +1,367 @@
+//! End-to-end tests of the `svo-bake` binary on the real meshes in `../shared/models` and on
+//! bad input: every failure exits non-zero with one clear line and leaves no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_svo-bake"))
+}
+
+/// The shared models folder; in CI its absence is a failure, elsewhere the test is skipped.
+fn models() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
+    if p.join("stanford/stanford-bunny.obj").exists() {
+        return Some(p);
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!(
+            "shared models not found at {} (CI must have ../shared beside the repo)",
+            p.display()
+        );
+    }
+    eprintln!(
+        "notice: skipping, shared models not found at {}",
+        p.display()
+    );
+    None
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run svo-bake")
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = run(args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "svo-bake {args:?} failed: {err}");
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs and expects a clean failure whose message contains `needle`.
+fn fails(args: &[&str], needle: &str) {
+    let o = run(args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "svo-bake {args:?} succeeded");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    assert!(err.starts_with("svo-bake: error: "), "unclear error: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "not one line: {err}");
+    assert!(
+        err.to_lowercase().contains(&needle.to_lowercase()),
+        "{args:?}: expected {needle:?} in {err}"
+    );
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn read_tree(p: &Path) -> svo::Octree {
+    svo::format_read::read_file(p).unwrap().0
+}
+
+#[test]
+fn bakes_bunny_obj_and_ply_and_prints_summary() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let out = d.path().join("bunny.svo");
+    let text = ok(&[
+        s(&m.join("stanford/stanford-bunny.obj")),
+        "--depth",
+        "6",
+        "-o",
+        s(&out),
+    ]);
+    for field in [
+        "triangles",
+        "69451",
+        "leaves",
+        "bytes per leaf",
+        "voxelize",
+        "attributes",
+        "contours",
+        "write",
+    ] {
+        assert!(text.contains(field), "summary lacks {field}: {text}");
+    }
+    let obj = read_tree(&out);
+    let out2 = d.path().join("bunny_ply.svo");
+    ok(&[
+        s(&m.join("stanford/bun_zipper.ply")),
+        "--depth",
+        "6",
+        "-o",
+        s(&out2),
+        "-q",
+    ]);
+    let ply = read_tree(&out2);
+    // The OBJ is the PLY rounded to 6 decimals: the same cells up to rare contacts.
+    let diff = (i64::from(obj.leaf_count) - i64::from(ply.leaf_count)).abs();
+    assert!(
+        diff * 200 < i64::from(obj.leaf_count),
+        "{} vs {}",
+        obj.leaf_count,
+        ply.leaf_count
+    );
+}
+
+#[test]
+fn gltf_variants_give_the_same_cells() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let mut trees = Vec::new();
+    for f in [
+        "gltf/Box.glb",
+        "gltf/Box_glTF/Box.gltf",
+        "gltf/Box-Embedded.gltf",
+    ] {
+        let out = d.path().join("box.svo");
+        ok(&[s(&m.join(f)), "--depth", "5", "-o", s(&out), "-q"]);
+        trees.push(read_tree(&out));
+    }
+    let cells = |t: &svo::Octree| t.leaves().map(|l| l.cell).collect::<Vec<_>>();
+    assert_eq!(cells(&trees[0]), cells(&trees[1]));
+    assert_eq!(cells(&trees[0]), cells(&trees[2]));
+    // A closed unit box that is its own root: exactly the boundary shell of the 32^3 grid.
+    assert_eq!(trees[0].leaf_count, 32 * 32 * 32 - 30 * 30 * 30);
+}
+
+#[test]
+fn textured_and_transmissive_gltf_get_per_leaf_channels() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let out = d.path().join("t.svo");
+    let j = ok(&[
+        s(&m.join("gltf/TransmissionTest.glb")),
+        "--depth",
+        "6",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+    let ch = v["bake"]["channels"].to_string();
+    assert!(
+        ch.contains("[\"colour\",\"per-leaf\"]") && ch.contains("[\"refractivity\",\"per-leaf\"]"),
+        "{ch}"
+    );
+    let out = d.path().join("h.svo");
+    ok(&[
+        s(&m.join("gltf/DamagedHelmet.glb")),
+        "--depth",
+        "6",
+        "-o",
+        s(&out),
+        "-q",
+    ]);
+    let t = read_tree(&out);
+    assert!(t.attributes.colour.is_per_leaf());
+}
+
+#[test]
+fn gzipped_dragon_bakes() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let out = d.path().join("dragon.svo");
+    let j = ok(&[
+        s(&m.join("stanford/dragon_vrip_res2.obj.gz")),
+        "--depth",
+        "7",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+    assert_eq!(v["bake"]["triangles"], 202_520);
+    assert_eq!(
+        u64::from(read_tree(&out).leaf_count),
+        v["leaves"].as_u64().unwrap()
+    );
+}
+
+#[test]
+fn exports_hold_exactly_the_octree_cells() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let svo_path = d.path().join("b.svo");
+    ok(&[
+        s(&m.join("stanford/stanford-bunny.obj")),
+        "--depth",
+        "6",
+        "-o",
+        s(&svo_path),
+        "-q",
+    ]);
+    let tree = read_tree(&svo_path);
+    let mut cells: Vec<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
+    cells.sort_unstable();
+    // Direct export and conversion from .svo give the same binvox.
+    let bv = d.path().join("b.binvox");
+    ok(&[
+        s(&m.join("stanford/stanford-bunny.obj")),
+        "--depth",
+        "6",
+        "-o",
+        s(&bv),
+        "-q",
+    ]);
+    let bv2 = d.path().join("c.binvox");
+    ok(&[s(&svo_path), "-o", s(&bv2), "-q"]);
+    let bytes = std::fs::read(&bv).unwrap();
+    assert_eq!(bytes, std::fs::read(&bv2).unwrap());
+    let (dim, tr, scale, mut got) = svo::export_binvox::read_binvox(&bytes).unwrap();
+    got.sort_unstable();
+    assert_eq!(dim, 64);
+    assert_eq!(tr, tree.root.origin.to_array());
+    assert_eq!(scale, tree.root.side);
+    assert_eq!(got, cells);
+    // MagicaVoxel: Z-up, (x, y, z) -> (x, dim - 1 - z, y).
+    let vx = d.path().join("b.vox");
+    ok(&[s(&svo_path), "-o", s(&vx), "-q"]);
+    let data = dot_vox::load(s(&vx)).unwrap();
+    let mut back: Vec<[u32; 3]> = data.models[0]
+        .voxels
+        .iter()
+        .map(|v| [u32::from(v.x), u32::from(v.z), 63 - u32::from(v.y)])
+        .collect();
+    back.sort_unstable();
+    assert_eq!(back, cells);
+}
+
+#[test]
+fn output_is_identical_for_1_and_2_threads_and_json_and_quiet_work() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let a = d.path().join("a.svo");
+    let b = d.path().join("b.svo");
+    let src = m.join("stanford/stanford-bunny.obj");
+    ok(&[s(&src), "--depth", "8", "-o", s(&a), "--threads", "1", "-q"]);
+    let quiet = ok(&[s(&src), "--depth", "8", "-o", s(&b), "--threads", "2", "-q"]);
+    assert!(quiet.is_empty());
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let j = ok(&[
+        s(&src),
+        "--depth",
+        "4",
+        "-o",
+        s(&a),
+        "--json",
+        "--strategy",
+        "aabb-plane",
+        "--channels",
+        "normal",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&j).unwrap();
+    assert_eq!(v["bake"]["strategy"], "aabb-plane");
+    assert_eq!(v["bake"]["exact"], false);
+    assert_eq!(v["bake"]["channels"].as_array().unwrap().len(), 1);
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn bad_input_gives_one_clear_line_and_no_output() {
+    let d = tmp();
+    let out = d.path().join("out.svo");
+    let o = s(&out);
+    fails(&[s(&d.path().join("nope.obj")), "-o", o], "nope.obj");
+    let txt = write(d.path(), "mesh.txt", "hello");
+    fails(&[s(&txt), "-o", o], "unsupported mesh format");
+    let nan = write(
+        d.path(),
+        "nan.obj",
+        "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n",
+    );
+    fails(&[s(&nan), "-o", o], "non-finite");
+    let inf = write(
+        d.path(),
+        "inf.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n",
+    );
+    fails(&[s(&inf), "-o", o], "non-finite");
+    let idx = write(d.path(), "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    fails(&[s(&idx), "-o", o], "");
+    let empty = write(d.path(), "empty.obj", "# nothing\n");
+    fails(&[s(&empty), "-o", o], "no triangles");
+    let ply = write(
+        d.path(),
+        "bad.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+    );
+    fails(&[s(&ply), "-o", o], "vertex 7");
+    let trunc = write(
+        d.path(),
+        "trunc.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n",
+    );
+    fails(&[s(&trunc), "-o", o], "cannot parse");
+    let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    fails(&[s(&tri), "--depth", "0", "-o", o], "depth 0");
+    fails(&[s(&tri), "--depth", "31", "-o", o], "depth 31");
+    fails(&[s(&tri), "--depth", "24", "-o", o], "--force");
+    fails(
+        &[s(&tri), "-o", s(&d.path().join("no/such/dir/x.svo"))],
+        "does not exist",
+    );
+    fails(
+        &[s(&tri), "-o", s(&d.path().join("x.stl"))],
+        "unsupported output",
+    );
+    fails(
+        &[
+            s(&tri),
+            "--depth",
+            "11",
+            "-o",
+            s(&d.path().join("x.binvox")),
+        ],
+        "binvox holds grids up to 1024",
+    );
+    fails(&[s(&tri), "--channels", "contour", "-o", o], "normal");
+    fails(
+        &[s(&tri), "--channels", "sparkle", "-o", o],
+        "unknown channel",
+    );
+    let bad_svo = write(
+        d.path(),
+        "bad.svo",
+        "\u{89}SVO\r\n\u{1a}\nxxxxxxxxxxxxxxxxxxxxxxxxxxxx",
+    );
+    fails(&[s(&bad_svo), "-o", s(&d.path().join("x.binvox"))], "");
+    assert!(!out.exists(), "an output was written");
+    // Nothing but our inputs in the folder: no partial or temporary files.
+    let names: Vec<String> = std::fs::read_dir(d.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names
+            .iter()
+            .all(|n| !n.contains(".tmp") && !n.starts_with("out") && !n.starts_with('x')),
+        "{names:?}"
+    );
+}
+
+#[test]
+fn failed_bake_keeps_the_previous_output() {
+    let d = tmp();
+    let out = d.path().join("keep.svo");
+    let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    ok(&[s(&tri), "--depth", "3", "-o", s(&out), "-q"]);
+    let before = std::fs::read(&out).unwrap();
+    let nan = write(
+        d.path(),
+        "nan.obj",
+        "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n",
+    );
+    fails(&[s(&nan), "-o", s(&out)], "non-finite");
+    assert_eq!(std::fs::read(&out).unwrap(), before);
+}

@@ -1,0 +1,253 @@
+//! The `.svo` format: round trips, determinism, and files that are truncated, corrupted,
+//! hostile or from a newer version, which must give a clear error and never a panic.
+
+mod common;
+use common::rng;
+use glam::{DVec3, UVec3};
+use rand::Rng;
+use svo::builder::{Voxel, from_cells};
+use svo::format_header::{BuildInfo, MAGIC};
+use svo::format_read::{FormatError, from_bytes};
+use svo::format_write::to_bytes;
+use svo::{BakeOptions, Mesh, Octree, RootCube, bake_mesh};
+
+fn small_tree() -> Octree {
+    // An icosahedron-ish closed mesh at depth 4.
+    let p = vec![
+        DVec3::new(0.0, 0.0, 1.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(0.0, -1.0, 0.0),
+        DVec3::new(0.0, 0.0, -1.0),
+    ];
+    let t = vec![
+        [0, 1, 2],
+        [0, 2, 3],
+        [0, 3, 4],
+        [0, 4, 1],
+        [5, 2, 1],
+        [5, 3, 2],
+        [5, 4, 3],
+        [5, 1, 4],
+    ];
+    let mut mesh = Mesh::from_triangles(p, t);
+    mesh.materials = vec![
+        svo::Material::default(),
+        svo::Material {
+            colour: [1.0, 0.0, 0.0, 1.0],
+            reflectivity: 0.5,
+            ..Default::default()
+        },
+    ];
+    mesh.triangle_materials = vec![0, 1, 0, 1, 0, 1, 0, 1];
+    bake_mesh(
+        &mesh,
+        &BakeOptions {
+            depth: 4,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap()
+    .0
+}
+
+fn info() -> BuildInfo {
+    BuildInfo {
+        generator: "test".into(),
+        strategy: "exact".into(),
+        source_triangles: 8,
+    }
+}
+
+fn rechecksum(b: &mut [u8]) {
+    let n = b.len() - 8;
+    let s = xxhash_rust::xxh3::xxh3_64(&b[..n]);
+    b[n..].copy_from_slice(&s.to_le_bytes());
+}
+
+#[test]
+fn round_trip_is_identical() {
+    let tree = small_tree();
+    assert!(tree.attributes.colour.is_per_leaf() && tree.attributes.reflectivity.is_per_leaf());
+    let bytes = to_bytes(&tree, &info());
+    let (back, build) = from_bytes(&bytes).unwrap();
+    assert_eq!(back, tree);
+    assert_eq!(build, info());
+    assert_eq!(to_bytes(&back, &build), bytes);
+    assert_eq!(&bytes[..8], &MAGIC);
+}
+
+#[test]
+fn round_trip_through_a_file_is_atomic_and_readable() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.svo");
+    let tree = small_tree();
+    svo::format_write::write_file(&tree, &info(), &path).unwrap();
+    let (back, _) = svo::format_read::read_file(&path).unwrap();
+    assert_eq!(back, tree);
+    // Only the output remains: no temporary file.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+    // A missing file is an I/O error that names the path.
+    let e = svo::format_read::read_file(&dir.path().join("missing.svo")).unwrap_err();
+    assert!(matches!(e, FormatError::Io { .. }) && e.to_string().contains("missing.svo"));
+}
+
+#[test]
+fn empty_and_programmatic_trees_round_trip() {
+    let root = RootCube {
+        origin: DVec3::new(-1.0, 2.0, 3.0),
+        side: 8.0,
+    };
+    let empty = from_cells(root, 3, std::iter::empty()).unwrap();
+    assert_eq!(empty.leaf_count, 0);
+    let (back, _) = from_bytes(&to_bytes(&empty, &info())).unwrap();
+    assert_eq!(back, empty);
+    let cells = (0..50u32).map(|i| (UVec3::new(i % 8, (i * 3) % 8, (i * 5) % 8), Voxel::glass()));
+    let t = from_cells(root, 3, cells).unwrap();
+    let (back, _) = from_bytes(&to_bytes(&t, &info())).unwrap();
+    assert_eq!(back, t);
+}
+
+#[test]
+fn truncation_at_every_byte_is_an_error() {
+    let bytes = to_bytes(&small_tree(), &info());
+    for n in 0..bytes.len() {
+        let e = from_bytes(&bytes[..n]).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                FormatError::Truncated(_)
+                    | FormatError::Checksum { .. }
+                    | FormatError::Corrupt(_)
+                    | FormatError::NotSvo
+            ),
+            "prefix {n}: {e}"
+        );
+    }
+}
+
+#[test]
+fn bit_flips_are_detected() {
+    let bytes = to_bytes(&small_tree(), &info());
+    let mut r = rng(3);
+    for _ in 0..3000 {
+        let mut b = bytes.clone();
+        let i = r.random_range(0..b.len());
+        b[i] ^= 1 << r.random_range(0..8);
+        assert!(from_bytes(&b).is_err(), "flip at byte {i} accepted");
+    }
+}
+
+#[test]
+fn hostile_contents_with_valid_checksum_never_panic() {
+    // Corrupt the payload and fix the checksum, so the structural validation must catch it.
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let header = svo::format_read::read_header(&bytes).unwrap();
+    let nodes_at = header.nodes.offset as usize;
+    let mut r = rng(4);
+    let mut rejected = 0;
+    for _ in 0..5000 {
+        let mut b = bytes.clone();
+        let region = if r.random_bool(0.5) {
+            nodes_at..nodes_at + header.nodes.len as usize
+        } else {
+            16..b.len() - 8
+        };
+        for _ in 0..r.random_range(1..4) {
+            let i = r.random_range(region.clone());
+            b[i] = r.random();
+        }
+        rechecksum(&mut b);
+        match from_bytes(&b) {
+            Ok((t, _)) => svo::octree_validate::validate(&t).unwrap(),
+            Err(_) => rejected += 1,
+        }
+    }
+    assert!(rejected > 2000, "only {rejected} rejected");
+}
+
+#[test]
+fn cycles_backward_pointers_and_overflows_are_rejected() {
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let h = svo::format_read::read_header(&bytes).unwrap();
+    let at = h.nodes.offset as usize;
+    let set_node = |b: &mut Vec<u8>, i: usize, info: u32, first: u32| {
+        b[at + 8 * i..at + 8 * i + 4].copy_from_slice(&info.to_le_bytes());
+        b[at + 8 * i + 4..at + 8 * i + 8].copy_from_slice(&first.to_le_bytes());
+    };
+    // Root pointing to itself (a cycle).
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info, 0);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("forward")));
+    // Child block past the end.
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info, u32::MAX - 2);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(_))));
+    // Reserved bits.
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info | 0x100, tree.nodes[0].first);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("reserved")));
+}
+
+#[test]
+fn newer_version_and_bad_magic_are_named() {
+    let mut b = to_bytes(&small_tree(), &info());
+    b[8..12].copy_from_slice(&2u32.to_le_bytes());
+    let e = from_bytes(&b).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            FormatError::NewerVersion {
+                found: 2,
+                supported: 1
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("newer"));
+    let mut b = to_bytes(&small_tree(), &info());
+    b[1] = b'X';
+    assert!(matches!(from_bytes(&b), Err(FormatError::NotSvo)));
+    assert!(matches!(
+        from_bytes(b"solid ascii stl file"),
+        Err(FormatError::NotSvo)
+    ));
+}
+
+#[test]
+fn header_lies_about_counts() {
+    // Re-encode the header with inconsistent counts: the reader must refuse, not allocate.
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let mut h = svo::format_read::read_header(&bytes).unwrap();
+    for lie in 0..3 {
+        let mut hh = h.clone();
+        match lie {
+            0 => hh.leaf_count = u64::MAX,
+            1 => hh.node_count = 1 << 60,
+            _ => hh.nodes.len += 8,
+        }
+        let enc = bincode::serde::encode_to_vec(&hh, svo::format_header::bincode_config()).unwrap();
+        let mut b = bytes.clone();
+        b.splice(16..16 + enc.len(), enc.iter().copied());
+        rechecksum(&mut b);
+        assert!(from_bytes(&b).is_err(), "lie {lie} accepted");
+    }
+    h.depth = 0;
+    let enc = bincode::serde::encode_to_vec(&h, svo::format_header::bincode_config()).unwrap();
+    let mut b = bytes.clone();
+    b.splice(16..16 + enc.len(), enc.iter().copied());
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("depth")));
+}
