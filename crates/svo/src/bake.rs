@@ -8,7 +8,7 @@ use crate::mesh::{Mesh, MeshError};
 use crate::octree::{ChannelKind, Octree};
 use crate::octree_build::{self, LeafTriangles};
 use crate::strategy::Strategy;
-use crate::triangle_setup::setup_triangles;
+use crate::triangle_setup::{setup_triangles_in_order, spatial_order};
 use std::time::Instant;
 use thiserror::Error;
 
@@ -166,8 +166,19 @@ pub fn voxelize_mesh(
         ..BakeOptions::default()
     };
     let (root, _) = prepare(mesh, &opts)?;
-    let tris = setup_triangles(mesh, &root, depth);
-    let v = octree_build::voxelize(&tris, depth, strategy, &|_| {});
+    let order = spatial_order(mesh, &root);
+    let tris = setup_triangles_in_order(mesh, &root, depth, &order);
+    let mut v = octree_build::voxelize(&tris, depth, strategy, &|_| {});
+    // Back to mesh triangle indices, ascending within each leaf.
+    let mut start = 0;
+    for &end in &v.leaves.ends {
+        let list = &mut v.leaves.tris[start..end as usize];
+        for t in list.iter_mut() {
+            *t = order[*t as usize];
+        }
+        list.sort_unstable();
+        start = end as usize;
+    }
     Ok((root, v.leaves))
 }
 
@@ -179,13 +190,15 @@ pub fn bake_mesh(
 ) -> Result<(Octree, BakeStats), BakeError> {
     let (root, estimated_leaves) = prepare(mesh, opts)?;
     let t0 = Instant::now();
-    let tris = setup_triangles(mesh, &root, opts.depth);
+    let order = spatial_order(mesh, &root);
+    let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
     let vox = octree_build::voxelize(&tris, opts.depth, opts.strategy, &|f| {
         progress(Phase::Voxelize, f)
     });
     let voxelize_s = t0.elapsed().as_secs_f64();
     progress(Phase::Attributes, 0.0);
-    let (attributes, rep) = leaf_attributes::compute(mesh, &tris, &vox.leaves, opts.channels);
+    let (attributes, rep) =
+        leaf_attributes::compute(mesh, &tris, &order, &vox.leaves, opts.channels);
     progress(Phase::Attributes, 1.0);
     let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
     let tree = Octree {

@@ -40,34 +40,34 @@ impl Polygon {
     }
 }
 
-/// Clips the convex polygon `a` against one face plane of the unit cube (`upper`: the
-/// plane `p[axis] = 1`, else `p[axis] = 0`), keeping the closed inside.
-fn clip_plane(a: &Polygon, axis: usize, upper: bool) -> Polygon {
+/// Clips the convex polygon `src` against one face plane of the unit cube (`upper`: the
+/// plane `p[axis] = 1`, else `p[axis] = 0`) into `dst`, keeping the closed inside; returns
+/// the number of vertices written.
+#[inline]
+fn clip_plane(src: &[DVec3], dst: &mut [DVec3; 9], axis: usize, upper: bool) -> usize {
     let dist = |p: DVec3| if upper { 1.0 - p[axis] } else { p[axis] };
-    let mut b = Polygon {
-        v: [DVec3::ZERO; 9],
-        len: 0,
-    };
-    let push = |b: &mut Polygon, p: DVec3| {
-        if b.len < 9 {
-            b.v[b.len] = p;
-            b.len += 1;
+    let mut n = 0;
+    let mut push = |p: DVec3| {
+        if n < 9 {
+            dst[n] = p;
+            n += 1;
         }
     };
-    for i in 0..a.len {
-        let p = a.v[i];
-        let q = a.v[if i + 1 == a.len { 0 } else { i + 1 }];
+    let len = src.len();
+    for i in 0..len {
+        let p = src[i];
+        let q = src[if i + 1 == len { 0 } else { i + 1 }];
         let (dp, dq) = (dist(p), dist(q));
         if dp >= 0.0 {
-            push(&mut b, p);
+            push(p);
             if dq < 0.0 && dp > 0.0 {
-                push(&mut b, p + (q - p) * (dp / (dp - dq)));
+                push(p + (q - p) * (dp / (dp - dq)));
             }
         } else if dq > 0.0 {
-            push(&mut b, p + (q - p) * (dp / (dp - dq)));
+            push(p + (q - p) * (dp / (dp - dq)));
         }
     }
-    b
+    n
 }
 
 /// Clips the triangle `v` (in cell-local coordinates) to the closed unit cube `[0, 1]^3`.
@@ -77,28 +77,40 @@ fn clip_plane(a: &Polygon, axis: usize, upper: bool) -> Polygon {
 pub fn clip_to_unit_cube(v: [DVec3; 3]) -> Polygon {
     let lo = v[0].min(v[1]).min(v[2]);
     let hi = v[0].max(v[1]).max(v[2]);
-    let mut a = Polygon {
+    let mut out = Polygon {
         v: [DVec3::ZERO; 9],
         len: 3,
     };
-    a.v[..3].copy_from_slice(&v);
+    out.v[..3].copy_from_slice(&v);
     if lo.cmpge(DVec3::ZERO).all() && hi.cmple(DVec3::ONE).all() {
-        return a;
+        return out;
     }
+    let mut tmp = [DVec3::ZERO; 9];
+    let (mut src, mut dst) = (&mut out.v, &mut tmp);
+    let mut n = 3;
+    let mut swapped = false;
     for axis in 0..3 {
-        if lo[axis] < 0.0 {
-            a = clip_plane(&a, axis, false);
-        }
-        if hi[axis] > 1.0 && a.len > 0 {
-            a = clip_plane(&a, axis, true);
-        }
-        if a.len == 0 {
-            return a;
+        for upper in [false, true] {
+            let crosses = if upper {
+                hi[axis] > 1.0
+            } else {
+                lo[axis] < 0.0
+            };
+            if crosses && n > 0 {
+                n = clip_plane(&src[..n], dst, axis, upper);
+                std::mem::swap(&mut src, &mut dst);
+                swapped = !swapped;
+            }
         }
     }
     // Pin the clipped coordinates onto the cube (the interpolation may round just outside).
-    for p in &mut a.v[..a.len] {
+    for p in &mut src[..n] {
         *p = p.clamp(DVec3::ZERO, DVec3::ONE);
     }
-    a
+    if swapped {
+        let pts = *src;
+        out.v = pts;
+    }
+    out.len = n;
+    out
 }

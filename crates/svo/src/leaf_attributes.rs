@@ -12,7 +12,7 @@
 //! output does not depend on the thread count. Within a block the attribute and contour steps
 //! are timed separately, which is how the bake summary reports them.
 
-use crate::clip::{Polygon, clip_to_unit_cube};
+use crate::clip::clip_to_unit_cube;
 use crate::contour;
 use crate::mesh::{Mesh, linear_to_srgb};
 use crate::normal_encoding;
@@ -24,6 +24,11 @@ use std::time::{Duration, Instant};
 
 /// Leaves per block of the parallel pass.
 const BLOCK: usize = 2048;
+
+/// A leaf touched by a single triangle at most this many cells across skips clipping: the
+/// triangle's own vertices bound the contour, which is then at most the normal's
+/// quantization error (under 1e-4) times this extent thicker than the clipped fit.
+const SINGLE_TRIANGLE_MAX_EXTENT: f64 = 8.0;
 
 /// Which channels to compute.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,10 +134,12 @@ struct Block {
     t_contour: Duration,
 }
 
-/// Computes the selected channels for the voxelizer's leaves.
+/// Computes the selected channels for the voxelizer's leaves. `tris` are the grid-space
+/// triangles the leaves' lists index, and `order[k]` the mesh triangle of `tris[k]`.
 pub fn compute(
     mesh: &Mesh,
     tris: &[GridTriangle],
+    order: &[u32],
     leaves: &LeafTriangles,
     select: ChannelSelection,
 ) -> (LeafAttributes, AttributeReport) {
@@ -163,7 +170,7 @@ pub fn compute(
     let info: Vec<TriInfo> = if need_clip {
         (0..tris.len())
             .map(|t| {
-                let m = mesh.material_of(t);
+                let m = mesh.material_of(order[t] as usize);
                 let n = tris[t].n;
                 let len = n.length();
                 TriInfo {
@@ -191,17 +198,33 @@ pub fn compute(
             return out;
         }
         let t0 = Instant::now();
-        let mut polys: Vec<Polygon> = Vec::new();
+        // Clipped polygons of the block: points flat, one area and point range per polygon.
+        let mut pts: Vec<DVec3> = Vec::new();
+        let mut poly_end: Vec<usize> = Vec::new();
         let mut areas: Vec<f64> = Vec::new();
-        let mut poly_ends: Vec<usize> = Vec::with_capacity(end - start);
+        let mut leaf_poly_end: Vec<usize> = Vec::with_capacity(end - start);
         let mut normals_f: Vec<Vec3> = Vec::with_capacity(end - start);
         for leaf in start..end {
             let cell = leaves.cells[leaf];
             let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
             let list = leaves.triangles(leaf);
-            let first_poly = polys.len();
+            let first_poly = areas.len();
             let mut wsum = 0.0;
-            for &ti in list {
+            let single = list.len() == 1 && !textured && {
+                let t = &tris[list[0] as usize];
+                (t.hi - t.lo).max_element() <= SINGLE_TRIANGLE_MAX_EXTENT
+            };
+            if single {
+                // One small triangle: its normal and material are the leaf's whatever the
+                // weight, and its vertices bound its clipped part, so no clipping is needed
+                // (the contour is conservative; see SINGLE_TRIANGLE_MAX_EXTENT).
+                let t = &tris[list[0] as usize];
+                pts.extend(t.v.iter().map(|&v| v - m));
+                poly_end.push(pts.len());
+                areas.push(1.0);
+                wsum = 1.0;
+            }
+            for &ti in list.iter().filter(|_| !single) {
                 let t = &tris[ti as usize];
                 let mut p = clip_to_unit_cube([t.v[0] - m, t.v[1] - m, t.v[2] - m]);
                 if p.len == 0 {
@@ -214,10 +237,10 @@ pub fn compute(
                 }
                 let area = p.area();
                 wsum += area;
-                polys.push(p);
+                pts.extend_from_slice(p.points());
+                poly_end.push(pts.len());
                 areas.push(area);
             }
-            let leaf_polys = &polys[first_poly..];
             let leaf_areas = &areas[first_poly..];
             let weight = |k: usize| if wsum > 0.0 { leaf_areas[k] } else { 1.0 };
             if want_normal {
@@ -242,18 +265,21 @@ pub fn compute(
             if per_leaf_colour {
                 let mut c = [0.0f64; 4];
                 let mut ws = 0.0;
-                for (k, (p, &ti)) in leaf_polys.iter().zip(list).enumerate() {
+                for (k, &ti) in list.iter().enumerate() {
                     let w = weight(k);
+                    let pi = first_poly + k;
+                    let p0 = if pi == 0 { 0 } else { poly_end[pi - 1] };
+                    let centre =
+                        pts[p0..poly_end[pi]].iter().sum::<DVec3>() / (poly_end[pi] - p0) as f64;
                     let col = triangle_colour(
                         mesh,
-                        ti as usize,
+                        order[ti as usize] as usize,
                         &info[ti as usize],
                         &tris[ti as usize],
-                        p,
-                        m,
+                        centre + m,
                     );
-                    for k in 0..4 {
-                        c[k] += w * f64::from(col[k]);
+                    for (acc, v) in c.iter_mut().zip(col) {
+                        *acc += w * f64::from(v);
                     }
                     ws += w;
                 }
@@ -279,20 +305,15 @@ pub fn compute(
             if per_leaf_ior {
                 out.ior.push(ior_encode(avg(&|i| i.ior)));
             }
-            poly_ends.push(polys.len());
+            leaf_poly_end.push(pts.len());
         }
         let t1 = Instant::now();
         out.t_attr = t1 - t0;
         if want_contour {
-            let mut pts: Vec<DVec3> = Vec::new();
             let mut begin = 0;
-            for (k, &end_p) in poly_ends.iter().enumerate() {
-                pts.clear();
-                for p in &polys[begin..end_p] {
-                    pts.extend_from_slice(p.points());
-                }
+            for (k, &end_p) in leaf_poly_end.iter().enumerate() {
+                let c = contour::fit(&pts[begin..end_p], normals_f[k]);
                 begin = end_p;
-                let c = contour::fit(&pts, normals_f[k]);
                 out.thickness.push(contour::thickness(c, normals_f[k]));
                 out.contour.push(c);
             }
@@ -386,25 +407,21 @@ fn thickness_stats(v: &mut [f32]) -> ContourStats {
     if v.is_empty() {
         return ContourStats::default();
     }
-    v.sort_unstable_by(f32::total_cmp);
-    let q = |f: f64| f64::from(v[((v.len() - 1) as f64 * f).round() as usize]);
     let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+    let max = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let mut q = |f: f64| {
+        let k = ((v.len() - 1) as f64 * f).round() as usize;
+        f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+    };
     ContourStats {
         mean,
         p50: q(0.5),
         p95: q(0.95),
-        max: q(1.0),
+        max: f64::from(max),
     }
 }
 
-fn triangle_colour(
-    mesh: &Mesh,
-    ti: usize,
-    info: &TriInfo,
-    t: &GridTriangle,
-    p: &Polygon,
-    m: DVec3,
-) -> [f32; 4] {
+fn triangle_colour(mesh: &Mesh, ti: usize, info: &TriInfo, t: &GridTriangle, q: DVec3) -> [f32; 4] {
     let mat = mesh.material_of(ti);
     let (Some(tex), Some(uvi)) = (
         mat.texture.and_then(|i| mesh.textures.get(i)),
@@ -412,8 +429,7 @@ fn triangle_colour(
     ) else {
         return info.colour;
     };
-    // Barycentric coordinates of the clipped polygon's centre.
-    let q = p.centre() + m;
+    // Barycentric coordinates of the clipped polygon's centre `q` (grid space).
     let (a, b, c) = (t.v[0], t.v[1], t.v[2]);
     let (v0, v1, v2) = (b - a, c - a, q - a);
     let (d00, d01, d11, d20, d21) = (v0.dot(v0), v0.dot(v1), v1.dot(v1), v2.dot(v0), v2.dot(v1));

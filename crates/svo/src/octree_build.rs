@@ -13,7 +13,7 @@
 use crate::child_classify::{child_offset, classify_children};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
-use crate::overlap::{edges_overlap, plane_overlaps, vertex_inside};
+use crate::overlap::edges_overlap;
 use crate::strategy::Strategy;
 use crate::triangle_setup::GridTriangle;
 use glam::DVec3;
@@ -93,35 +93,35 @@ impl Ctx<'_> {
         }
     }
 
-    /// Whether triangle `t` survives into the child cell `[m, m + s]` at `level`.
+    /// Whether triangle `t` survives into the child cell `[m, m + s]` at `level`, given
+    /// whether a vertex lies in it and whether its plane meets it (both computed for all
+    /// children at once by [`split`]).
     #[inline]
-    fn keep(&self, t: &GridTriangle, m: DVec3, s: f64, level: u8, list_len: usize) -> bool {
+    fn keep(
+        &self,
+        t: &GridTriangle,
+        m: DVec3,
+        s: f64,
+        level: u8,
+        vertex: bool,
+        plane: bool,
+    ) -> bool {
         let leaf = level == self.depth;
         match self.strategy {
-            Strategy::AabbPlane => plane_overlaps(t, m, s),
-            Strategy::AabbPlaneSat => {
-                vertex_inside(t, m, s) || (plane_overlaps(t, m, s) && edges_overlap(t, m, s))
-            }
-            Strategy::SatLeaf => !leaf || vertex_inside(t, m, s) || edges_overlap(t, m, s),
+            Strategy::AabbPlane => plane,
+            Strategy::AabbPlaneSat => vertex || (plane && edges_overlap(t, m, s)),
+            Strategy::SatLeaf => !leaf || vertex || edges_overlap(t, m, s),
             Strategy::PlaneSatLeaf => {
                 if leaf {
-                    vertex_inside(t, m, s) || (plane_overlaps(t, m, s) && edges_overlap(t, m, s))
+                    vertex || (plane && edges_overlap(t, m, s))
                 } else {
-                    plane_overlaps(t, m, s)
+                    plane
                 }
             }
-            Strategy::Exact => {
-                vertex_inside(t, m, s)
-                    || (plane_overlaps(t, m, s)
-                        && ((!leaf && list_len < EXACT_EDGE_MIN_LIST) || edges_overlap(t, m, s)))
-            }
+            Strategy::Exact => vertex || (plane && (!leaf || edges_overlap(t, m, s))),
         }
     }
 }
-
-/// In the default strategy, interior nodes with at least this many triangles also run the
-/// edge axes, so that false positives are pruned before they multiply.
-const EXACT_EDGE_MIN_LIST: usize = usize::MAX;
 
 /// Splits `list` (triangles overlapping the node at `level` with min corner `m`, side `s`)
 /// into the 8 children's lists. Returns the number of tests run.
@@ -131,17 +131,42 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
     }
     let h = 0.5 * s;
     let c = m + DVec3::splat(h);
+    let hi = m + DVec3::splat(s);
     let mut tests = 0u64;
     for &ti in list {
         let t = &ctx.tris[ti as usize];
         let mut mask = classify_children(t.lo, t.hi, c);
+        // Children holding a vertex (closed cells): each vertex inside the node is in the
+        // children its own point-box classification names.
+        let mut vmask = 0u8;
+        for v in &t.v {
+            if v.cmpge(m).all() && v.cmple(hi).all() {
+                vmask |= classify_children(*v, *v, c);
+            }
+        }
+        // Plane test for every child from one dot product: a child's min corner is
+        // `m + h o`, so its signed distance differs from the node's by `h (n . o)`. The
+        // tolerance bounds the rounding for all children (see `overlap::plane_overlaps`).
+        let n = t.n;
+        let d = m - t.v[0];
+        let base = n.dot(d);
+        let hn = n * h;
+        let pos = hn.x.max(0.0) + hn.y.max(0.0) + hn.z.max(0.0);
+        let neg = hn.x.min(0.0) + hn.y.min(0.0) + hn.z.min(0.0);
+        let tol = crate::overlap::TOLERANCE
+            * 3.0
+            * t.n_scale
+            * (d.x.abs() + d.y.abs() + d.z.abs() + 6.0 * h);
         while mask != 0 {
             let i = mask.trailing_zeros() as u8;
             mask &= mask - 1;
             let o = child_offset(i);
-            let cm = m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
+            let (ox, oy, oz) = (f64::from(o[0]), f64::from(o[1]), f64::from(o[2]));
+            let dist = base + hn.x * ox + hn.y * oy + hn.z * oz;
+            let plane = dist + neg <= tol && dist + pos >= -tol;
+            let cm = m + DVec3::new(ox, oy, oz) * h;
             tests += 1;
-            if ctx.keep(t, cm, h, level + 1, list.len()) {
+            if ctx.keep(t, cm, h, level + 1, vmask >> i & 1 == 1, plane) {
                 out[i as usize].push(ti);
             }
         }
@@ -215,13 +240,47 @@ fn build_seq(
     record
 }
 
+/// A subtree built by parallel tasks: a sequential chunk, or a node of the top levels
+/// whose children were built independently. Assembled once at the end ([`assemble`]), so
+/// the output is copied once, not once per parallel level.
+enum Part {
+    Seq(Chunk<LeafTriangles>, Option<Node>),
+    Par(Vec<(u8, Part)>),
+}
+
+impl Part {
+    /// Nodes, leaves and triangle references below (for reserving the output).
+    fn sizes(&self) -> (usize, usize, usize) {
+        match self {
+            Part::Seq(c, _) => (c.nodes.len() + 1, c.leaves.cells.len(), c.leaves.tris.len()),
+            Part::Par(children) => children.iter().fold((1, 0, 0), |a, (_, p)| {
+                let s = p.sizes();
+                (a.0 + s.0, a.1 + s.1, a.2 + s.2)
+            }),
+        }
+    }
+}
+
+/// Appends a part to `out` in post-order and returns its root record.
+fn assemble(part: Part, out: &mut Chunk<LeafTriangles>) -> Option<Node> {
+    match part {
+        Part::Seq(chunk, rec) => rec.map(|r| out.append(chunk, r)),
+        Part::Par(children) => {
+            let mut records = Vec::with_capacity(8);
+            let mut mask = 0u8;
+            for (i, p) in children {
+                if let Some(r) = assemble(p, out) {
+                    mask |= 1 << i;
+                    records.push(r);
+                }
+            }
+            (mask != 0).then(|| out.push_children(mask, &records))
+        }
+    }
+}
+
 /// Builds the subtree of a node, in parallel over children at the top levels.
-fn build_node(
-    ctx: &Ctx<'_>,
-    level: u8,
-    cell: [u32; 3],
-    list: &[u32],
-) -> (Chunk<LeafTriangles>, Option<Node>, u64) {
+fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, u64) {
     let parallel = cfg!(feature = "parallel")
         && level < PARALLEL_LEVELS
         && level + 2 < ctx.depth
@@ -231,7 +290,7 @@ fn build_node(
         let mut scratch = vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)];
         let mut tests = 0;
         let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);
-        return (chunk, rec, tests);
+        return (Part::Seq(chunk, rec), tests);
     }
     let s = f64::from(1u32 << (ctx.depth - level));
     let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
@@ -263,23 +322,17 @@ fn build_node(
     };
     #[cfg(not(feature = "parallel"))]
     let results: Vec<_> = (0..8).map(work).collect();
-    let mut chunk = Chunk::new();
-    let mut records = Vec::with_capacity(8);
-    let mut mask = 0u8;
+    let mut children = Vec::with_capacity(8);
     for (i, r) in results.into_iter().enumerate() {
-        if let Some((c, Some(rec), t)) = r {
+        if let Some((p, t)) = r {
             tests += t;
-            mask |= 1 << i;
-            records.push(chunk.append(c, rec));
-        } else if let Some((_, None, t)) = r {
-            tests += t;
+            children.push((i as u8, p));
         }
     }
-    let rec = (mask != 0).then(|| chunk.push_children(mask, &records));
     if level == ctx.progress_level {
         ctx.advance(1);
     }
-    (chunk, rec, tests)
+    (Part::Par(children), tests)
 }
 
 /// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
@@ -312,7 +365,20 @@ pub fn voxelize(
             t.lo.cmple(DVec3::splat(side)).all() && t.hi.cmpge(DVec3::ZERO).all()
         })
         .collect();
-    let (chunk, root, tests) = build_node(&ctx, 0, [0, 0, 0], &all);
+    let (part, tests) = build_node(&ctx, 0, [0, 0, 0], &all);
+    let (chunk, root) = match part {
+        Part::Seq(chunk, root) => (chunk, root),
+        par => {
+            let (n, l, t) = par.sizes();
+            let mut out = Chunk::<LeafTriangles>::new();
+            out.nodes.reserve_exact(n + 1);
+            out.leaves.cells.reserve_exact(l);
+            out.leaves.ends.reserve_exact(l);
+            out.leaves.tris.reserve_exact(t);
+            let root = assemble(par, &mut out);
+            (out, root)
+        }
+    };
     let (nodes, leaves) = chunk.finish(root);
     Voxelized {
         nodes,

@@ -18,7 +18,7 @@
 //! code: their normal is (nearly) zero, so the plane test never separates, and the edge axes
 //! plus box normals are then the complete test for a segment.
 
-use crate::triangle_setup::GridTriangle;
+use crate::triangle_setup::{GridTriangle, edge_axis};
 use glam::DVec3;
 
 /// Relative tolerance on the plane and edge-axis separations: 256 machine epsilons, well
@@ -59,50 +59,29 @@ pub fn plane_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
 }
 
 /// Thesis Algorithm 3: whether no axis `edge x box axis` separates the triangle from the
-/// closed cell `[m, m + s]`.
+/// closed cell `[m, m + s]`: per axis, the triangle's projection interval against the
+/// cell's centre plus or minus its radius.
+///
+/// Rounding: the projections are dot products of coordinates of magnitude at most `M`
+/// with the axis, so each computed value is within a few `eps * |axis|_1 * M` of the exact
+/// one; separations smaller than [`GridTriangle::edge_tol`] times `|axis|_1` are not trusted.
 #[inline]
 pub fn edges_overlap(t: &GridTriangle, m: DVec3, s: f64) -> bool {
     let h = 0.5 * s;
     let c = m + DVec3::splat(h);
-    let r = [t.v[0] - c, t.v[1] - c, t.v[2] - c];
-    let dmax = r[0].abs().max(r[1].abs()).max(r[2].abs()).max_element();
-    let scale = TOLERANCE * (2.0 * dmax + s);
+    let r = h + t.edge_tol;
     for j in 0..3 {
-        let e = t.e[j];
-        // The edge's first vertex and the vertex opposite the edge; the edge's second vertex
+        let e = t.edge(j);
+        // The edge's first vertex and the vertex opposite it; the edge's second vertex
         // projects onto the same value as its first.
-        let p = r[j];
-        let q = r[(j + 2) % 3];
-        // axis = e x X = (0, e.z, -e.y): project onto the YZ plane
-        {
-            let (a1, a2) = (e.z, -e.y);
-            let pa = a1 * p.y + a2 * p.z;
-            let pb = a1 * q.y + a2 * q.z;
-            let w = a1.abs() + a2.abs();
-            let rad = h * w + scale * w;
-            if pa.min(pb) > rad || pa.max(pb) < -rad {
-                return false;
-            }
-        }
-        // axis = e x Y = (-e.z, 0, e.x): the ZX plane
-        {
-            let (a0, a2) = (-e.z, e.x);
-            let pa = a0 * p.x + a2 * p.z;
-            let pb = a0 * q.x + a2 * q.z;
-            let w = a0.abs() + a2.abs();
-            let rad = h * w + scale * w;
-            if pa.min(pb) > rad || pa.max(pb) < -rad {
-                return false;
-            }
-        }
-        // axis = e x Z = (e.y, -e.x, 0): the XY plane
-        {
-            let (a0, a1) = (e.y, -e.x);
-            let pa = a0 * p.x + a1 * p.y;
-            let pb = a0 * q.x + a1 * q.y;
-            let w = a0.abs() + a1.abs();
-            let rad = h * w + scale * w;
-            if pa.min(pb) > rad || pa.max(pb) < -rad {
+        let (p, q) = (t.v[j], t.v[if j == 0 { 2 } else { j - 1 }]);
+        for k in 0..3 {
+            let (a1, a2, i1, i2) = edge_axis(e, k);
+            let pc = a1 * c[i1] + a2 * c[i2];
+            let pa = a1 * p[i1] + a2 * p[i2];
+            let pb = a1 * q[i1] + a2 * q[i2];
+            let rad = r * (a1.abs() + a2.abs());
+            if pa.min(pb) > pc + rad || pa.max(pb) < pc - rad {
                 return false;
             }
         }

@@ -5,7 +5,8 @@ use crate::grid::RootCube;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
-/// A triangle in grid space with everything the overlap tests precompute.
+/// A triangle in grid space with what the overlap tests precompute (160 bytes: the bake
+/// allocates one per input triangle, so it is kept small).
 #[derive(Clone, Copy, Debug)]
 pub struct GridTriangle {
     /// The three vertices.
@@ -14,41 +15,123 @@ pub struct GridTriangle {
     pub lo: DVec3,
     /// Bounds maximum.
     pub hi: DVec3,
-    /// Edges `v1 - v0`, `v2 - v1`, `v0 - v2`.
-    pub e: [DVec3; 3],
-    /// Unnormalized normal `e0 x (v2 - v0)`; zero (or garbage-small) for degenerate triangles.
+    /// Unnormalized normal `(v1 - v0) x (v2 - v0)`; zero (or rounding-small) for degenerate
+    /// triangles.
     pub n: DVec3,
-    /// `|e0|_1 * |e2|_1`: bounds the rounding error of `n` (see [`crate::overlap`]).
+    /// `|v1 - v0|_1 * |v2 - v0|_1`: bounds the rounding error of `n` (see [`crate::overlap`]).
     pub n_scale: f64,
+    /// `TOLERANCE * (4 M + 2)` with `M` the largest vertex coordinate magnitude (at least
+    /// 1): times an edge axis's L1 norm, it bounds the rounding error of an edge-axis test.
+    pub edge_tol: f64,
+}
+
+/// The 2D components of the axis `e x unit_k` (the component along `k` is zero) and the
+/// indices of the coordinates they multiply.
+#[inline]
+pub fn edge_axis(e: DVec3, k: usize) -> (f64, f64, usize, usize) {
+    match k {
+        0 => (e.z, -e.y, 1, 2),
+        1 => (-e.z, e.x, 0, 2),
+        _ => (e.y, -e.x, 0, 1),
+    }
 }
 
 impl GridTriangle {
     /// Sets up a triangle from grid-space vertices.
     pub fn new(v0: DVec3, v1: DVec3, v2: DVec3) -> Self {
-        let e = [v1 - v0, v2 - v1, v0 - v2];
-        let a = v2 - v0;
-        let n = e[0].cross(a);
+        let (e0, a) = (v1 - v0, v2 - v0);
         let l1 = |d: DVec3| d.x.abs() + d.y.abs() + d.z.abs();
+        let m = v0.abs().max(v1.abs()).max(v2.abs()).max_element().max(1.0);
         Self {
             v: [v0, v1, v2],
             lo: v0.min(v1).min(v2),
             hi: v0.max(v1).max(v2),
-            e,
-            n,
-            n_scale: l1(e[0]) * l1(a),
+            n: e0.cross(a),
+            n_scale: l1(e0) * l1(a),
+            edge_tol: crate::overlap::TOLERANCE * (4.0 * m + 2.0),
         }
+    }
+
+    /// Edge `j`: `v[j+1] - v[j]` (cyclic).
+    #[inline]
+    pub fn edge(&self, j: usize) -> DVec3 {
+        self.v[if j == 2 { 0 } else { j + 1 }] - self.v[j]
     }
 }
 
 /// Maps every triangle of `mesh` into grid space at `depth` for the given root.
 pub fn setup_triangles(mesh: &Mesh, root: &RootCube, depth: u8) -> Vec<GridTriangle> {
-    let g: Vec<DVec3> = mesh
-        .positions
-        .iter()
-        .map(|&p| root.to_grid(p, depth))
-        .collect();
-    mesh.triangles
-        .iter()
-        .map(|t| GridTriangle::new(g[t[0] as usize], g[t[1] as usize], g[t[2] as usize]))
-        .collect()
+    let order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+    setup_triangles_in_order(mesh, root, depth, &order)
+}
+
+/// Grid-space triangles for the mesh triangles `order[0], order[1], ...`, built in parallel
+/// (feature `parallel`).
+pub fn setup_triangles_in_order(
+    mesh: &Mesh,
+    root: &RootCube,
+    depth: u8,
+    order: &[u32],
+) -> Vec<GridTriangle> {
+    let make = |&i: &u32| {
+        let t = mesh.triangles[i as usize];
+        let g = |k: usize| root.to_grid(mesh.positions[t[k] as usize], depth);
+        GridTriangle::new(g(0), g(1), g(2))
+    };
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        order.par_iter().with_min_len(4096).map(make).collect()
+    }
+    #[cfg(not(feature = "parallel"))]
+    order.iter().map(make).collect()
+}
+
+/// Spreads the low 21 bits of `v` to every third bit.
+fn spread3(v: u64) -> u64 {
+    let mut x = v & 0x1F_FFFF;
+    x = (x | x << 32) & 0x1F_0000_0000_FFFF;
+    x = (x | x << 16) & 0x1F_0000_FF00_00FF;
+    x = (x | x << 8) & 0x100F_00F0_0F00_F00F;
+    x = (x | x << 4) & 0x10C3_0C30_C30C_30C3;
+    (x | x << 2) & 0x1249_2492_4924_9249
+}
+
+/// A permutation of the mesh's triangles by the Morton code of their grid-space centroids
+/// (ties by index), so that the triangles of a node sit near each other in memory.
+/// `order[k]` is the mesh index of the `k`-th triangle in spatial order.
+pub fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
+    let to21 = (1u64 << 21) as f64 / root.side;
+    let key = |(i, t): (usize, &[u32; 3])| {
+        let c = (mesh.positions[t[0] as usize]
+            + mesh.positions[t[1] as usize]
+            + mesh.positions[t[2] as usize])
+            / 3.0;
+        let g = (c - root.origin) * to21;
+        let q = |x: f64| {
+            if x.is_finite() {
+                x.clamp(0.0, 2_097_151.0) as u64
+            } else {
+                0
+            }
+        };
+        (
+            spread3(q(g.x)) << 2 | spread3(q(g.y)) << 1 | spread3(q(g.z)),
+            i as u32,
+        )
+    };
+    #[cfg(feature = "parallel")]
+    let keys: Vec<(u64, u32)> = {
+        use rayon::prelude::*;
+        let mut k: Vec<(u64, u32)> = mesh.triangles.par_iter().enumerate().map(key).collect();
+        k.par_sort_unstable();
+        k
+    };
+    #[cfg(not(feature = "parallel"))]
+    let keys: Vec<(u64, u32)> = {
+        let mut k: Vec<(u64, u32)> = mesh.triangles.iter().enumerate().map(key).collect();
+        k.sort_unstable();
+        k
+    };
+    keys.into_iter().map(|(_, i)| i).collect()
 }
