@@ -3,6 +3,8 @@
 //! positives and negatives against the exact set, and bytes per leaf. Prints Markdown.
 //!
 //! `cargo run --release -p svo-examples --example thesis_tables -- [mesh] [runs] [max_depth]`
+// Tables are indexed by strategy and depth together.
+#![allow(clippy::needless_range_loop)]
 
 use std::collections::HashSet;
 use std::time::Instant;
@@ -54,7 +56,7 @@ fn main() -> anyhow::Result<()> {
                 .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
         })
         .unwrap_or_else(|| "unknown CPU".into());
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     println!(
         "Mesh `{path}` ({} triangles); {cpu}, {threads} threads; median of {runs} runs per cell;",
         mesh.triangles.len()

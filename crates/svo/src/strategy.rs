@@ -17,9 +17,9 @@ pub enum Strategy {
     SatLeaf,
     /// Bounding boxes and plane at every level, edge axes at the leaves. Exact.
     PlaneSatLeaf,
-    /// The default: bounding boxes, the vertex-inside shortcut and the plane test at every
-    /// level, the edge axes at the leaves and wherever a triangle list is long enough for
-    /// early pruning to pay. Exact, and the fastest exact strategy measured.
+    /// The default: the fastest exact placement measured (`docs/benchmarks.md`). Today that
+    /// is the vertex-inside shortcut, the plane and the edge axes at every level, with the
+    /// plane and vertex tests computed once per node for all eight children.
     #[default]
     Exact,
 }
