@@ -42,7 +42,7 @@ struct Args {
     /// refractivity, ior, all, none. Channels constant over the scene go in the header.
     #[arg(long, default_value = "all")]
     channels: String,
-    /// Empty cells of margin around the mesh on every side.
+    /// At least this many empty cells on every side of the mesh (its bounds then sit mid-cell).
     #[arg(long, default_value_t = 0)]
     pad: u32,
     /// Worker threads (default: all cores).

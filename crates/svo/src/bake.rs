@@ -56,7 +56,7 @@ pub struct BakeOptions {
     pub strategy: Strategy,
     /// The attribute channels to compute.
     pub channels: ChannelSelection,
-    /// Empty cells of margin around the mesh.
+    /// At least this many empty cells around the mesh on every side.
     pub pad: u32,
     /// Refuse when the estimated peak memory exceeds this many bytes.
     pub max_memory: Option<u64>,

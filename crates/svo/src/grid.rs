@@ -31,13 +31,16 @@ impl RootCube {
             }
         }
         let cells = (1u64 << depth) as f64;
+        // `pad` empty cells on every side: with closed cells a mesh whose bounds lie on a
+        // cell face also marks the cell beyond it, so the bounds are put half a cell further
+        // in, in the middle of the cell next to the margin.
         let pad = f64::from(pad).min(cells / 2.0 - 1.0).max(0.0);
         if pad > 0.0 {
-            // inner = cells - 2 pad cells hold the mesh: side' / cells * (cells - 2 pad) = side
-            let side_p = side * cells / (cells - 2.0 * pad);
+            let margin = pad + 0.5;
+            let side_p = side * cells / (cells - 2.0 * margin);
             let cell = side_p / cells;
             Self {
-                origin: lo - DVec3::splat(pad * cell),
+                origin: lo - DVec3::splat(margin * cell),
                 side: side_p,
             }
         } else {

@@ -1,5 +1,5 @@
 //! Octahedral unit-normal encoding: two snorm16 values in one `u32` (x in the low half).
-//! The worst-case angular error is below 0.003 degrees.
+//! The worst-case angular error is 0.0037 degrees (measured over 200,000 directions in `tests/attributes.rs`).
 
 use glam::{Vec2, Vec3};
 
