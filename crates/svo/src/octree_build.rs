@@ -13,7 +13,7 @@
 use crate::child_classify::{child_offset, classify_children};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
-use crate::overlap::edges_overlap;
+use crate::overlap::{edges_overlap, vertex_inside};
 use crate::strategy::Strategy;
 use crate::triangle_setup::GridTriangle;
 use glam::DVec3;
@@ -66,6 +66,12 @@ pub struct Voxelized {
     pub leaves: LeafTriangles,
     /// Triangle/cell overlap tests run (all levels), for the reports.
     pub tests: u64,
+}
+
+/// Per-task reusable buffers: one set of child lists per level, and the scatter pairs.
+struct Scratch {
+    lists: Vec<[Vec<u32>; 8]>,
+    pairs: Vec<(u16, u32)>,
 }
 
 struct Ctx<'a> {
@@ -175,6 +181,166 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
     tests
 }
 
+/// Levels above the leaves below which the default strategy scatters triangles into cells
+/// instead of recursing (see [`scatter`]).
+const SCATTER_LEVELS: u8 = 3;
+
+/// The default strategy's bottom levels: for a node of at most `2^SCATTER_LEVELS` cells per
+/// axis, every triangle enumerates the cells its bounding box reaches inside the node and
+/// runs the exact test on each ([`crate::overlap::triangle_box_overlap`]); the
+/// `(cell, triangle)` pairs are sorted by the cells' Morton order and the subtree is emitted
+/// bottom-up. Same cells and lists as the recursion, with far less per-node overhead.
+fn scatter(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+    chunk: &mut Chunk<LeafTriangles>,
+    pairs: &mut Vec<(u16, u32)>,
+    tests: &mut u64,
+) -> Option<Node> {
+    let k = ctx.depth - level;
+    let n = 1i64 << k;
+    let base = [i64::from(cell[0]), i64::from(cell[1]), i64::from(cell[2])];
+    pairs.clear();
+    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    for &ti in list {
+        let t = &ctx.tris[ti as usize];
+        // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
+        let range = |a: usize| -> (i64, i64) {
+            let lo = (t.lo[a].ceil() as i64 - 1 - base[a]).max(0);
+            let hi = (t.hi[a].floor() as i64 - base[a]).min(n - 1);
+            (lo, hi)
+        };
+        let ((x0, x1), (y0, y1), (z0, z1)) = (range(0), range(1), range(2));
+        if x0 > x1 || y0 > y1 || z0 > z1 {
+            continue;
+        }
+        // Plane: signed distance of a cell's min corner is `base + n . (x, y, z)`; one
+        // tolerance covers every cell of the node (as in `overlap::plane_overlaps`).
+        let nn = t.n;
+        let d0 = node_min - t.v[0];
+        let pbase = nn.dot(d0);
+        let pos = nn.x.max(0.0) + nn.y.max(0.0) + nn.z.max(0.0);
+        let neg = nn.x.min(0.0) + nn.y.min(0.0) + nn.z.min(0.0);
+        let ptol = crate::overlap::TOLERANCE
+            * 3.0
+            * t.n_scale
+            * (d0.x.abs() + d0.y.abs() + d0.z.abs() + 3.0 * n as f64 + 3.0);
+        // Edge axes: the triangle's interval on each, and the cell's radius on it plus the
+        // rounding bound (as in `overlap::edges_overlap`).
+        let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
+        for j in 0..3 {
+            let e = t.edge(j);
+            let (p, q) = (t.v[j], t.v[if j == 0 { 2 } else { j - 1 }]);
+            for a in 0..3 {
+                let (a1, a2, i1, i2) = crate::triangle_setup::edge_axis(e, a);
+                let (pa, pb) = (a1 * p[i1] + a2 * p[i2], a1 * q[i1] + a2 * q[i2]);
+                let rad = (0.5 + t.edge_tol) * (a1.abs() + a2.abs());
+                axes[3 * j + a] = (a1, a2, i1, i2, pa.min(pb), pa.max(pb), rad);
+            }
+        }
+        for x in x0..=x1 {
+            for y in y0..=y1 {
+                for z in z0..=z1 {
+                    *tests += 1;
+                    let m = node_min + DVec3::new(x as f64, y as f64, z as f64);
+                    let hit = vertex_inside(t, m, 1.0) || {
+                        let dist = pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
+                        dist + neg <= ptol && dist + pos >= -ptol && {
+                            let c = m + DVec3::splat(0.5);
+                            axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
+                                let pc = a1 * c[i1] + a2 * c[i2];
+                                lo <= pc + rad && hi >= pc - rad
+                            })
+                        }
+                    };
+                    if hit {
+                        pairs.push((morton_local(x as u32, y as u32, z as u32, k), ti));
+                    }
+                }
+            }
+        }
+    }
+    // Triangles stay in list order within a cell: a stable sort by cell.
+    pairs.sort_by_key(|p| p.0);
+    if level <= ctx.progress_level {
+        ctx.advance(ctx.units(level));
+    }
+    emit_sorted(pairs, k, 0, cell, chunk)
+}
+
+/// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
+#[inline]
+fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
+    let mut m = 0u32;
+    for b in (0..u32::from(k)).rev() {
+        m = m << 3 | ((x >> b) & 1) << 2 | ((y >> b) & 1) << 1 | ((z >> b) & 1);
+    }
+    m as u16
+}
+
+/// Emits the subtree of sorted `(morton, triangle)` pairs of a node `k` levels above the
+/// leaves (`k - depth_below` at this call), with min corner `cell`.
+fn emit_sorted(
+    pairs: &[(u16, u32)],
+    k: u8,
+    done: u8,
+    cell: [u32; 3],
+    chunk: &mut Chunk<LeafTriangles>,
+) -> Option<Node> {
+    if pairs.is_empty() {
+        return None;
+    }
+    let below = k - done; // levels from this node to the leaves
+    let shift = 3 * u32::from(below - 1);
+    let child = |m: u16| ((u32::from(m) >> shift) & 7) as u8;
+    let half = 1u32 << (below - 1);
+    let mut mask = 0u8;
+    if below == 1 {
+        let base = chunk.leaves.len();
+        let mut start = 0;
+        while start < pairs.len() {
+            let m = pairs[start].0;
+            let end = start + pairs[start..].partition_point(|p| p.0 == m);
+            let i = child(m);
+            mask |= 1 << i;
+            let o = child_offset(i);
+            chunk
+                .leaves
+                .cells
+                .push([cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]]);
+            chunk
+                .leaves
+                .tris
+                .extend(pairs[start..end].iter().map(|p| p.1));
+            chunk.leaves.ends.push(chunk.leaves.tris.len() as u64);
+            start = end;
+        }
+        return Some(Chunk::<LeafTriangles>::leaf_parent(mask, base));
+    }
+    let mut records = [Node::default(); 8];
+    let mut count = 0;
+    let mut start = 0;
+    while start < pairs.len() {
+        let i = child(pairs[start].0);
+        let end = start + pairs[start..].partition_point(|p| child(p.0) == i);
+        let o = child_offset(i);
+        let c = [
+            cell[0] + o[0] * half,
+            cell[1] + o[1] * half,
+            cell[2] + o[2] * half,
+        ];
+        if let Some(r) = emit_sorted(&pairs[start..end], k, done + 1, c, chunk) {
+            mask |= 1 << i;
+            records[count] = r;
+            count += 1;
+        }
+        start = end;
+    }
+    (mask != 0).then(|| chunk.push_children(mask, &records[..count]))
+}
+
 /// Builds the subtree of the node at `level` with integer min corner `cell` (in units of
 /// leaf cells) sequentially into `chunk`, returning its record, or `None` if it holds no leaf.
 fn build_seq(
@@ -183,12 +349,16 @@ fn build_seq(
     cell: [u32; 3],
     list: &[u32],
     chunk: &mut Chunk<LeafTriangles>,
-    scratch: &mut Vec<[Vec<u32>; 8]>,
+    scratch: &mut Scratch,
     tests: &mut u64,
 ) -> Option<Node> {
+    if ctx.strategy == Strategy::Exact && ctx.depth - level <= SCATTER_LEVELS {
+        return scatter(ctx, level, cell, list, chunk, &mut scratch.pairs, tests);
+    }
+    let scratch_lists = &mut scratch.lists;
     let s = f64::from(1u32 << (ctx.depth - level));
     let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
-    let mut lists = std::mem::take(&mut scratch[usize::from(level)]);
+    let mut lists = std::mem::take(&mut scratch_lists[usize::from(level)]);
     *tests += split(ctx, level, m, s, list, &mut lists);
     let half = 1u32 << (ctx.depth - level - 1);
     let mut mask = 0u8;
@@ -234,7 +404,7 @@ fn build_seq(
         }
         record = (mask != 0).then(|| chunk.push_children(mask, &records[..k]));
     }
-    scratch[usize::from(level)] = lists;
+    scratch.lists[usize::from(level)] = lists;
     if level == ctx.progress_level {
         ctx.advance(1);
     }
@@ -288,7 +458,10 @@ fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, 
         && list.len() >= PARALLEL_MIN_TRIANGLES;
     if !parallel {
         let mut chunk = Chunk::new();
-        let mut scratch = vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)];
+        let mut scratch = Scratch {
+            lists: vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)],
+            pairs: Vec::new(),
+        };
         let mut tests = 0;
         let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);
         return (Part::Seq(chunk, rec), tests);
