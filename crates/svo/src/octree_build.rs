@@ -208,8 +208,10 @@ fn scatter(
         let t = &ctx.tris[ti as usize];
         // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
         let range = |a: usize| -> (i64, i64) {
-            let lo = (t.lo[a].ceil() as i64 - 1 - base[a]).max(0);
-            let hi = (t.hi[a].floor() as i64 - base[a]).min(n - 1);
+            let f = floor_i64(t.lo[a]);
+            let ceil_minus_1 = if f as f64 == t.lo[a] { f - 1 } else { f };
+            let lo = (ceil_minus_1 - base[a]).max(0);
+            let hi = (floor_i64(t.hi[a]) - base[a]).min(n - 1);
             (lo, hi)
         };
         let ((x0, x1), (y0, y1), (z0, z1)) = (range(0), range(1), range(2));
@@ -240,23 +242,63 @@ fn scatter(
                 axes[3 * j + a] = (a1, a2, i1, i2, pa.min(pb), pa.max(pb), rad);
             }
         }
-        for x in x0..=x1 {
-            for y in y0..=y1 {
-                for z in z0..=z1 {
+        let test = |x: i64, y: i64, z: i64| -> bool {
+            let m = node_min + DVec3::new(x as f64, y as f64, z as f64);
+            vertex_inside(t, m, 1.0) || {
+                let dist = pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
+                dist + neg <= ptol && dist + pos >= -ptol && {
+                    let c = m + DVec3::splat(0.5);
+                    axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
+                        let pc = a1 * c[i1] + a2 * c[i2];
+                        lo <= pc + rad && hi >= pc - rad
+                    })
+                }
+            }
+        };
+        let ranges = [(x0, x1), (y0, y1), (z0, z1)];
+        // Columns along the normal's dominant axis `w`: only the cells that the plane
+        // crosses in a column can touch the triangle, so the others are skipped. The range
+        // is widened by a margin far above its rounding error; near-degenerate triangles,
+        // whose plane is rounding noise, test their whole box.
+        let na = nn.abs();
+        let w = if na.x >= na.y && na.x >= na.z {
+            0
+        } else if na.y >= na.z {
+            1
+        } else {
+            2
+        };
+        let (u, v) = ((w + 1) % 3, (w + 2) % 3);
+        let prune = na[w] > 1e-6 * t.n_scale && na[w].is_finite();
+        // The plane's w-coordinate is `w_at(u, v) = wc - su u - sv v`; over a column
+        // `[u, u + 1] x [v, v + 1]` it spans that value plus the corner offsets below.
+        let (su, sv) = (nn[u] / nn[w], nn[v] / nn[w]);
+        let wc = nn.dot(t.v[0]) / nn[w];
+        let (off_lo, off_hi) = (
+            (-su).min(0.0) + (-sv).min(0.0),
+            (-su).max(0.0) + (-sv).max(0.0),
+        );
+        for cu in ranges[u].0..=ranges[u].1 {
+            for cv in ranges[v].0..=ranges[v].1 {
+                let (mut w0, mut w1) = ranges[w];
+                if prune {
+                    let at = wc - su * (base[u] + cu) as f64 - sv * (base[v] + cv) as f64;
+                    let (lo, hi) = (at + off_lo, at + off_hi);
+                    let margin = 1e-7 * (1.0 + lo.abs().max(hi.abs()));
+                    if lo.is_finite() && hi.is_finite() {
+                        // Cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
+                        w0 = w0.max(floor_i64(lo - margin) - base[w]);
+                        w1 = w1.min(floor_i64(hi + margin) - base[w]);
+                    }
+                }
+                for cw in w0..=w1 {
+                    let mut p = [0i64; 3];
+                    p[u] = cu;
+                    p[v] = cv;
+                    p[w] = cw;
                     *tests += 1;
-                    let m = node_min + DVec3::new(x as f64, y as f64, z as f64);
-                    let hit = vertex_inside(t, m, 1.0) || {
-                        let dist = pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
-                        dist + neg <= ptol && dist + pos >= -ptol && {
-                            let c = m + DVec3::splat(0.5);
-                            axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
-                                let pc = a1 * c[i1] + a2 * c[i2];
-                                lo <= pc + rad && hi >= pc - rad
-                            })
-                        }
-                    };
-                    if hit {
-                        pairs.push((morton_local(x as u32, y as u32, z as u32, k), ti));
+                    if test(p[0], p[1], p[2]) {
+                        pairs.push((morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k), ti));
                     }
                 }
             }
@@ -268,6 +310,14 @@ fn scatter(
         ctx.advance(ctx.units(level));
     }
     emit_sorted(pairs, k, 0, cell, chunk)
+}
+
+/// `floor` as an integer without a libm call (baseline x86-64 has no rounding
+/// instruction); `x` is a finite grid coordinate far below `2^62`.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
 }
 
 /// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
