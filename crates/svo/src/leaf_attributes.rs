@@ -26,9 +26,10 @@ use std::time::{Duration, Instant};
 const BLOCK: usize = 2048;
 
 /// A leaf touched by a single triangle at most this many cells across skips clipping: the
-/// triangle's own vertices bound the contour, which is then at most the normal's
-/// quantization error (under 1e-4) times this extent thicker than the clipped fit.
-const SINGLE_TRIANGLE_MAX_EXTENT: f64 = 8.0;
+/// triangle's own vertices bound the contour. Its planes then sit at most the normal's
+/// quantization error (under 6.5e-5 rad) times the triangle's extent, under 0.01 cells,
+/// beyond the clipped fit.
+const SINGLE_TRIANGLE_MAX_EXTENT: f64 = 64.0;
 
 /// Which channels to compute.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
