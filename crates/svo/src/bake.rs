@@ -270,6 +270,9 @@ pub fn bake_mesh(
         payload_bytes: tree.payload_bytes(),
         channels,
     };
+    // The build's temporaries (leaf triangle lists, grid-space triangles) run to hundreds of
+    // MB on deep trees; unmapping them takes tens of ms, which nobody needs to wait for.
+    drop_in_background((vox.leaves, tris, order));
     Ok((tree, stats))
 }
 
@@ -279,4 +282,13 @@ pub fn available_memory() -> Option<u64> {
     let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
+}
+
+/// Drops `value` on a short-lived thread: freeing hundreds of MB of pages costs tens of
+/// milliseconds that the caller need not wait for. If no thread can be started, the closure,
+/// and with it the value, is dropped here by `spawn`'s error path.
+pub fn drop_in_background<T: Send + 'static>(value: T) {
+    let _ = std::thread::Builder::new()
+        .name("svo-drop".into())
+        .spawn(move || drop(value));
 }

@@ -6,6 +6,7 @@ use crate::format_header::{
     bincode_config,
 };
 use crate::octree::{Channel, Octree};
+use std::io::Write;
 use std::path::Path;
 use thiserror::Error;
 
@@ -52,8 +53,28 @@ pub enum FormatError {
     Corrupt(String),
 }
 
-/// Serializes an octree into the bytes of a `.svo` file.
-pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
+/// A writer that hashes what passes through it and counts the bytes.
+struct Hashing<'a> {
+    inner: &'a mut dyn Write,
+    hash: xxhash_rust::xxh3::Xxh3,
+    len: u64,
+}
+
+impl Write for Hashing<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.update(&buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
+/// not copied into a buffer first) and returns the number of bytes written.
+pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
     let a = &tree.attributes;
     let mut arrays: Vec<(Option<u8>, &[u8])> = vec![(None, bytemuck::cast_slice(&tree.nodes))];
     let mut entries: Vec<ChannelEntry> = Vec::new();
@@ -95,10 +116,12 @@ pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
         channels: entries,
         build: build.clone(),
     };
+    let encode = |h: &Header| {
+        bincode::serde::encode_to_vec(h, bincode_config())
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+    };
     // Fixed-width integers: the header's size does not depend on the offsets in it.
-    let hlen = bincode::serde::encode_to_vec(&header, bincode_config())
-        .map(|v| v.len())
-        .unwrap_or(0);
+    let hlen = encode(&header)?.len();
     let pad8 = |x: usize| x.div_ceil(8) * 8;
     let mut offset = pad8(PREAMBLE_LEN + hlen);
     for (kind, bytes) in &arrays {
@@ -116,36 +139,54 @@ pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
         }
         offset = pad8(offset + bytes.len());
     }
-    let hbytes = bincode::serde::encode_to_vec(&header, bincode_config()).unwrap_or_default();
+    let hbytes = encode(&header)?;
     debug_assert_eq!(hbytes.len(), hlen);
-    let mut out = Vec::with_capacity(offset + 8);
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(hbytes.len() as u32).to_le_bytes());
-    out.extend_from_slice(&hbytes);
-    out.resize(pad8(out.len()), 0);
+    let mut out = Hashing {
+        inner: w,
+        hash: xxhash_rust::xxh3::Xxh3::new(),
+        len: 0,
+    };
+    out.write_all(&MAGIC)?;
+    out.write_all(&VERSION.to_le_bytes())?;
+    out.write_all(&(hbytes.len() as u32).to_le_bytes())?;
+    out.write_all(&hbytes)?;
+    let zeros = [0u8; 8];
+    let pad = |out: &mut Hashing<'_>| -> std::io::Result<()> {
+        let n = pad8(out.len as usize) - out.len as usize;
+        out.write_all(&zeros[..n])
+    };
+    pad(&mut out)?;
     for (_, bytes) in &arrays {
-        append_le(&mut out, bytes);
-        out.resize(pad8(out.len()), 0);
+        // Arrays are stored little-endian: on little-endian machines a plain copy.
+        #[cfg(target_endian = "big")]
+        compile_error!("svo's file writer assumes a little-endian target");
+        out.write_all(bytes)?;
+        pad(&mut out)?;
     }
-    let sum = xxhash_rust::xxh3::xxh3_64(&out);
-    out.extend_from_slice(&sum.to_le_bytes());
-    out
+    let sum = out.hash.digest();
+    let len = out.len;
+    out.inner.write_all(&sum.to_le_bytes())?;
+    Ok(len + 8)
 }
 
-/// Appends raw array bytes in little-endian order (a plain copy on little-endian machines).
-fn append_le(out: &mut Vec<u8>, bytes: &[u8]) {
-    out.extend_from_slice(bytes);
-    #[cfg(target_endian = "big")]
-    compile_error!("svo's file writer assumes a little-endian target");
+/// Serializes an octree into the bytes of a `.svo` file.
+pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
+    let mut v = Vec::new();
+    // Writing to a Vec cannot fail, and the header always encodes.
+    let _ = write_to(tree, build, &mut v);
+    v
 }
 
 /// Writes an octree to `path` atomically.
 pub fn write_file(tree: &Octree, build: &BuildInfo, path: &Path) -> Result<u64, FormatError> {
-    let bytes = to_bytes(tree, build);
-    write_atomic(path, |w| w.write_all(&bytes)).map_err(|cause| FormatError::Io {
+    let mut written = 0;
+    write_atomic(path, |w| {
+        written = write_to(tree, build, w)?;
+        Ok(())
+    })
+    .map_err(|cause| FormatError::Io {
         path: path.display().to_string(),
         cause,
     })?;
-    Ok(bytes.len() as u64)
+    Ok(written)
 }

@@ -469,35 +469,139 @@ enum Part {
     Par(Vec<(u8, Part)>),
 }
 
-impl Part {
-    /// Nodes, leaves and triangle references below (for reserving the output).
-    fn sizes(&self) -> (usize, usize, usize) {
-        match self {
-            Part::Seq(c, _) => (c.nodes.len() + 1, c.leaves.cells.len(), c.leaves.tris.len()),
-            Part::Par(children) => children.iter().fold((1, 0, 0), |a, (_, p)| {
-                let s = p.sizes();
-                (a.0 + s.0, a.1 + s.1, a.2 + s.2)
-            }),
-        }
-    }
+/// One piece of the final node and leaf arrays: a sequential chunk, or the children block
+/// of a node of the parallel levels, with where it goes.
+enum Job {
+    Chunk {
+        chunk: Chunk<LeafTriangles>,
+        node_off: usize,
+        leaf_off: usize,
+        tri_off: usize,
+    },
+    Block {
+        records: Vec<Node>,
+    },
 }
 
-/// Appends a part to `out` in post-order and returns its root record.
-fn assemble(part: Part, out: &mut Chunk<LeafTriangles>) -> Option<Node> {
+/// A job with its destination slices: nodes, cells, list ends, triangle references.
+type Task<'a> = (
+    Job,
+    &'a mut [Node],
+    &'a mut [[u32; 3]],
+    &'a mut [u64],
+    &'a mut [u32],
+);
+
+/// Plans the post-order placement of a part: pushes its jobs with their final offsets and
+/// returns its root record relocated there. `off` is (nodes, leaves, triangle references).
+fn plan(part: Part, jobs: &mut Vec<Job>, off: &mut (usize, usize, usize)) -> Option<Node> {
     match part {
-        Part::Seq(chunk, rec) => rec.map(|r| out.append(chunk, r)),
+        Part::Seq(chunk, rec) => {
+            let rec = rec?;
+            let (node_off, leaf_off, tri_off) = *off;
+            off.0 += chunk.nodes.len();
+            off.1 += chunk.leaves.cells.len();
+            off.2 += chunk.leaves.tris.len();
+            jobs.push(Job::Chunk {
+                chunk,
+                node_off,
+                leaf_off,
+                tri_off,
+            });
+            Some(Chunk::<LeafTriangles>::relocate(
+                rec,
+                node_off as u32,
+                leaf_off,
+            ))
+        }
         Part::Par(children) => {
             let mut records = Vec::with_capacity(8);
             let mut mask = 0u8;
             for (i, p) in children {
-                if let Some(r) = assemble(p, out) {
+                if let Some(r) = plan(p, jobs, off) {
                     mask |= 1 << i;
                     records.push(r);
                 }
             }
-            (mask != 0).then(|| out.push_children(mask, &records))
+            if mask == 0 {
+                return None;
+            }
+            // Children blocks hold their records in reverse until the final reversal.
+            let start = off.0;
+            off.0 += records.len();
+            records.reverse();
+            jobs.push(Job::Block { records });
+            Some(Node {
+                info: u32::from(mask),
+                first: start as u32,
+            })
         }
     }
+}
+
+/// Copies the parts into one chunk: offsets are planned first, then every piece is copied
+/// (and relocated) into its own slice of the final arrays in parallel.
+fn assemble(part: Part) -> (Chunk<LeafTriangles>, Option<Node>) {
+    let mut jobs = Vec::new();
+    let mut off = (0, 0, 0);
+    let root = plan(part, &mut jobs, &mut off);
+    let mut out = Chunk::<LeafTriangles>::new();
+    out.nodes = vec![Node::default(); off.0];
+    out.leaves.cells = vec![[0; 3]; off.1];
+    out.leaves.ends = vec![0; off.1];
+    out.leaves.tris = vec![0; off.2];
+    {
+        // Split the arrays into the jobs' disjoint slices, in order.
+        let (mut nodes, mut cells, mut ends, mut tris) = (
+            &mut out.nodes[..],
+            &mut out.leaves.cells[..],
+            &mut out.leaves.ends[..],
+            &mut out.leaves.tris[..],
+        );
+        let mut tasks = Vec::with_capacity(jobs.len());
+        for job in jobs {
+            let (n, l, t) = match &job {
+                Job::Chunk { chunk, .. } => (
+                    chunk.nodes.len(),
+                    chunk.leaves.cells.len(),
+                    chunk.leaves.tris.len(),
+                ),
+                Job::Block { records } => (records.len(), 0, 0),
+            };
+            let (dn, rn) = std::mem::take(&mut nodes).split_at_mut(n);
+            let (dc, rc) = std::mem::take(&mut cells).split_at_mut(l);
+            let (de, re) = std::mem::take(&mut ends).split_at_mut(l);
+            let (dt, rt) = std::mem::take(&mut tris).split_at_mut(t);
+            (nodes, cells, ends, tris) = (rn, rc, re, rt);
+            tasks.push((job, dn, dc, de, dt));
+        }
+        let copy = |(job, dn, dc, de, dt): Task<'_>| match job {
+            Job::Chunk {
+                chunk,
+                node_off,
+                leaf_off,
+                tri_off,
+            } => {
+                for (d, s) in dn.iter_mut().zip(&chunk.nodes) {
+                    *d = Chunk::<LeafTriangles>::relocate(*s, node_off as u32, leaf_off);
+                }
+                dc.copy_from_slice(&chunk.leaves.cells);
+                for (d, s) in de.iter_mut().zip(&chunk.leaves.ends) {
+                    *d = s + tri_off as u64;
+                }
+                dt.copy_from_slice(&chunk.leaves.tris);
+            }
+            Job::Block { records } => dn.copy_from_slice(&records),
+        };
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            tasks.into_par_iter().for_each(copy);
+        }
+        #[cfg(not(feature = "parallel"))]
+        tasks.into_iter().for_each(copy);
+    }
+    (out, root)
 }
 
 /// Builds the subtree of a node, in parallel over children at the top levels.
@@ -592,16 +696,7 @@ pub fn voxelize(
     let (part, tests) = build_node(&ctx, 0, [0, 0, 0], &all);
     let (chunk, root) = match part {
         Part::Seq(chunk, root) => (chunk, root),
-        par => {
-            let (n, l, t) = par.sizes();
-            let mut out = Chunk::<LeafTriangles>::new();
-            out.nodes.reserve_exact(n + 1);
-            out.leaves.cells.reserve_exact(l);
-            out.leaves.ends.reserve_exact(l);
-            out.leaves.tris.reserve_exact(t);
-            let root = assemble(par, &mut out);
-            (out, root)
-        }
+        par => assemble(par),
     };
     let (nodes, leaves) = chunk.finish(root);
     Voxelized {

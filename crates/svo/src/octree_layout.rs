@@ -65,27 +65,34 @@ impl<L: LeafStore> Chunk<L> {
         }
     }
 
+    /// Relocates a record of a chunk whose nodes move by `node_off` and leaves by `leaf_off`.
+    pub fn relocate(n: Node, node_off: u32, leaf_off: usize) -> Node {
+        if n.is_leaf_parent() {
+            let base = n.leaf_base().unwrap_or(0) as usize + leaf_off;
+            Self::leaf_parent(n.child_mask(), base)
+        } else if n.child_mask() != 0 {
+            Node {
+                info: n.info,
+                first: n.first + node_off,
+            }
+        } else {
+            n
+        }
+    }
+
     /// Appends another chunk (built independently, e.g. on another thread) and returns its
     /// root record relocated into this chunk.
     pub fn append(&mut self, other: Chunk<L>, record: Node) -> Node {
         let node_off = self.nodes.len() as u32;
-        let leaf_off = self.leaves.len() as i64;
-        let relocate = |n: Node| -> Node {
-            if n.is_leaf_parent() {
-                let base = i64::from(n.leaf_base().unwrap_or(0)) + leaf_off;
-                Self::leaf_parent(n.child_mask(), base as usize)
-            } else if n.child_mask() != 0 {
-                Node {
-                    info: n.info,
-                    first: n.first + node_off,
-                }
-            } else {
-                n
-            }
-        };
-        self.nodes.extend(other.nodes.into_iter().map(relocate));
+        let leaf_off = self.leaves.len();
+        self.nodes.extend(
+            other
+                .nodes
+                .into_iter()
+                .map(|n| Self::relocate(n, node_off, leaf_off)),
+        );
         self.leaves.append(other.leaves);
-        relocate(record)
+        Self::relocate(record, node_off, leaf_off)
     }
 
     /// Appends the root record, reverses the post-order into the final layout and returns

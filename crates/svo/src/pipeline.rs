@@ -208,6 +208,8 @@ fn run_inner(
             ));
         }
     };
+    let (leaves, nodes, depth) = (tree.leaf_count as usize, tree.nodes.len(), tree.depth);
+    crate::bake::drop_in_background(tree);
     Ok(BakeReport {
         input: job.input.display().to_string(),
         output: job.output.display().to_string(),
@@ -217,9 +219,9 @@ fn run_inner(
         write_s: t.elapsed().as_secs_f64(),
         total_s: t_all.elapsed().as_secs_f64(),
         file_bytes,
-        leaves: tree.leaf_count as usize,
-        nodes: tree.nodes.len(),
-        depth: tree.depth,
+        leaves,
+        nodes,
+        depth,
         bake: stats,
     })
 }
