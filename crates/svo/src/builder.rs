@@ -2,6 +2,7 @@
 //! a function over cells (the 2019 report builds its scene this way). Both go through the
 //! same packed layout as the voxelizer ([`crate::octree_layout`]).
 
+use crate::child_classify::child_offset;
 use crate::grid::RootCube;
 use crate::leaf_attributes::{encode_colour, unorm8};
 use crate::normal_encoding;
@@ -230,12 +231,7 @@ fn build_fn(
     if level + 1 == depth {
         let base = chunk.leaves.len();
         for i in 0..8u8 {
-            let c = min
-                + UVec3::new(
-                    u32::from(i >> 2 & 1),
-                    u32::from(i >> 1 & 1),
-                    u32::from(i & 1),
-                );
+            let c = min + UVec3::from_array(child_offset(i));
             if let Some(v) = f(c) {
                 mask |= 1 << i;
                 chunk.leaves.0.push(v);
@@ -245,11 +241,7 @@ fn build_fn(
     }
     let mut records = Vec::with_capacity(8);
     for i in 0..8u8 {
-        let o = UVec3::new(
-            u32::from(i >> 2 & 1),
-            u32::from(i >> 1 & 1),
-            u32::from(i & 1),
-        ) * half;
+        let o = UVec3::from_array(child_offset(i)) * half;
         if let Some(r) = build_fn(may, f, depth, level + 1, min + o, chunk) {
             mask |= 1 << i;
             records.push(r);

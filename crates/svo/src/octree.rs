@@ -318,35 +318,18 @@ impl Iterator for LeafIter<'_> {
             let node = self.tree.nodes[idx as usize];
             let shift = u32::from(self.tree.depth - level - 1);
             let mask = node.child_mask();
-            if let Some(base) = node.leaf_base() {
-                let mut rank = mask.count_ones();
-                for i in (0..8u8).rev() {
-                    if mask >> i & 1 == 1 {
-                        rank -= 1;
-                        let o = UVec3::new(
-                            u32::from(i >> 2 & 1),
-                            u32::from(i >> 1 & 1),
-                            u32::from(i & 1),
-                        );
-                        self.pending.push(LeafRef {
-                            index: base + rank,
-                            cell: origin + (o << shift),
-                        });
-                    }
-                }
-            } else {
-                let mut rank = mask.count_ones();
-                for i in (0..8u8).rev() {
-                    if mask >> i & 1 == 1 {
-                        rank -= 1;
-                        let o = UVec3::new(
-                            u32::from(i >> 2 & 1),
-                            u32::from(i >> 1 & 1),
-                            u32::from(i & 1),
-                        );
-                        self.stack
-                            .push((node.first + rank, level + 1, origin + (o << shift)));
-                    }
+            // Children in reverse order onto the stacks, so they pop in child order.
+            let mut rank = mask.count_ones();
+            for i in (0..8u8).rev().filter(|i| mask >> i & 1 == 1) {
+                rank -= 1;
+                let o = crate::child_classify::child_offset(i);
+                let cell = origin + (UVec3::from_array(o) << shift);
+                match node.leaf_base() {
+                    Some(base) => self.pending.push(LeafRef {
+                        index: base + rank,
+                        cell,
+                    }),
+                    None => self.stack.push((node.first + rank, level + 1, cell)),
                 }
             }
         }
