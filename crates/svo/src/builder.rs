@@ -111,9 +111,6 @@ impl LeafStore for Voxels {
     fn len(&self) -> usize {
         self.0.len()
     }
-    fn append(&mut self, other: Self) {
-        self.0.extend(other.0);
-    }
 }
 
 /// The Morton key of a cell: child indices from the root down, 3 bits a level.

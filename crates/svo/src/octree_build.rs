@@ -5,10 +5,12 @@
 //! [`Strategy`] puts at that level ([`crate::overlap`]). Leaves keep the list of triangles
 //! that touch them, which the attribute and contour passes use.
 //!
-//! The top levels build their children in parallel (rayon, feature `parallel`); subtrees are
-//! joined in child order, so the output is identical whatever the thread count. Below those
-//! levels a task recurses sequentially, reusing one scratch list per level, so memory stays
-//! proportional to the triangles on the current path plus the output.
+//! The top levels build their children in parallel (rayon, feature `parallel`); the subtrees'
+//! places in the final arrays are planned in child order and each is copied there in
+//! parallel, so the output is identical whatever the thread count. Below those levels a task
+//! recurses sequentially, reusing one scratch list per level, so memory stays proportional to
+//! the triangles on the current path plus the output. In the default strategy the last three
+//! levels are built by scattering triangles into cells instead of recursing (`docs/algorithms.md`).
 
 use crate::child_classify::{child_offset, classify_children};
 use crate::octree::Node;
@@ -48,12 +50,6 @@ impl LeafTriangles {
 impl LeafStore for LeafTriangles {
     fn len(&self) -> usize {
         self.cells.len()
-    }
-    fn append(&mut self, other: Self) {
-        let off = self.tris.len() as u64;
-        self.cells.extend(other.cells);
-        self.ends.extend(other.ends.into_iter().map(|e| e + off));
-        self.tris.extend(other.tris);
     }
 }
 

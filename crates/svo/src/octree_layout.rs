@@ -11,7 +11,7 @@
 //! appended *after* their subtrees (post-order, with each block's records in reverse child
 //! order); [`Chunk::finish`] reverses the array once, which puts the root first, every block
 //! in child order and every pointer forward. Independent subtrees (built in parallel) are
-//! joined with [`Chunk::append`], which relocates the appended chunk's pointers.
+//! copied into place with their pointers moved by [`Chunk::relocate`].
 
 use crate::octree::Node;
 
@@ -23,8 +23,6 @@ pub trait LeafStore: Default + Send {
     fn is_empty(&self) -> bool {
         self.len() == 0
     }
-    /// Appends `other`'s leaves after these.
-    fn append(&mut self, other: Self);
 }
 
 /// A part of an octree under construction: nodes in post-order and their leaves.
@@ -78,21 +76,6 @@ impl<L: LeafStore> Chunk<L> {
         } else {
             n
         }
-    }
-
-    /// Appends another chunk (built independently, e.g. on another thread) and returns its
-    /// root record relocated into this chunk.
-    pub fn append(&mut self, other: Chunk<L>, record: Node) -> Node {
-        let node_off = self.nodes.len() as u32;
-        let leaf_off = self.leaves.len();
-        self.nodes.extend(
-            other
-                .nodes
-                .into_iter()
-                .map(|n| Self::relocate(n, node_off, leaf_off)),
-        );
-        self.leaves.append(other.leaves);
-        Self::relocate(record, node_off, leaf_off)
     }
 
     /// Appends the root record, reverses the post-order into the final layout and returns
