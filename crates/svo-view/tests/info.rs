@@ -1,0 +1,65 @@
+//! `svo-view --info` on a file the library writes, and its errors on bad files.
+
+use std::process::Command;
+
+fn view(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_svo-view"))
+        .args(args)
+        .output()
+        .expect("run svo-view")
+}
+
+#[test]
+fn info_describes_a_file_and_errors_are_one_line() {
+    let d = tempfile::tempdir().unwrap();
+    let root = svo::RootCube {
+        origin: glam::DVec3::ZERO,
+        side: 2.0,
+    };
+    let cells = (0..20u32).map(|i| {
+        (
+            glam::UVec3::new(i % 4, i / 4 % 4, i / 16),
+            svo::builder::Voxel::glass(),
+        )
+    });
+    let tree = svo::builder::from_cells(root, 2, cells).unwrap();
+    let path = d.path().join("t.svo");
+    let build = svo::format_header::BuildInfo {
+        generator: "test".into(),
+        strategy: "builder".into(),
+        source_triangles: 0,
+    };
+    svo::format_write::write_file(&tree, &build, &path).unwrap();
+
+    let o = view(&[path.to_str().unwrap(), "--info"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "leaves         20",
+        "depth          2",
+        "refractivity  constant 0.902",
+        "ior           constant 1.5000",
+        "bytes per leaf",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in\n{out}");
+    }
+    // Without --info: a clear refusal, not a stub that pretends to render.
+    let o = view(&[path.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("use --info"));
+    // A truncated file and a missing file: one line each, non-zero exit.
+    let bytes = std::fs::read(&path).unwrap();
+    let bad = d.path().join("bad.svo");
+    std::fs::write(&bad, &bytes[..bytes.len() / 2]).unwrap();
+    for p in [bad, d.path().join("missing.svo")] {
+        let o = view(&[p.to_str().unwrap(), "--info"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success()
+                && err.starts_with("svo-view: error: ")
+                && err.trim_end().lines().count() == 1,
+            "{err}"
+        );
+        assert!(!err.contains("panicked"));
+    }
+}
