@@ -38,3 +38,14 @@ pub fn child_offset(i: u8) -> [u32; 3] {
         u32::from(i & 1),
     ]
 }
+
+/// The min corner of child `i` of the node at `cell` whose children are `size` cells wide.
+#[inline]
+pub fn child_cell(cell: [u32; 3], i: u8, size: u32) -> [u32; 3] {
+    let o = child_offset(i);
+    [
+        cell[0] + o[0] * size,
+        cell[1] + o[1] * size,
+        cell[2] + o[2] * size,
+    ]
+}

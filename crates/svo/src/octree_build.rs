@@ -12,7 +12,7 @@
 //! the triangles on the current path plus the output. In the default strategy the last three
 //! levels are built by scattering triangles into cells instead of recursing (`docs/algorithms.md`).
 
-use crate::child_classify::{child_offset, classify_children};
+use crate::child_classify::{child_cell, child_offset, classify_children};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
 use crate::overlap::{edges_overlap, vertex_inside};
@@ -351,11 +351,7 @@ fn emit_sorted(
             let end = start + pairs[start..].partition_point(|p| p.0 == m);
             let i = child(m);
             mask |= 1 << i;
-            let o = child_offset(i);
-            chunk
-                .leaves
-                .cells
-                .push([cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]]);
+            chunk.leaves.cells.push(child_cell(cell, i, 1));
             chunk
                 .leaves
                 .tris
@@ -371,12 +367,7 @@ fn emit_sorted(
     while start < pairs.len() {
         let i = child(pairs[start].0);
         let end = start + pairs[start..].partition_point(|p| child(p.0) == i);
-        let o = child_offset(i);
-        let c = [
-            cell[0] + o[0] * half,
-            cell[1] + o[1] * half,
-            cell[2] + o[2] * half,
-        ];
+        let c = child_cell(cell, i, half);
         if let Some(r) = emit_sorted(&pairs[start..end], k, done + 1, c, chunk) {
             mask |= 1 << i;
             records[count] = r;
@@ -416,11 +407,7 @@ fn build_seq(
                 continue;
             }
             mask |= 1 << i;
-            let o = child_offset(i as u8);
-            chunk
-                .leaves
-                .cells
-                .push([cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]]);
+            chunk.leaves.cells.push(child_cell(cell, i as u8, 1));
             chunk.leaves.tris.extend_from_slice(l);
             chunk.leaves.ends.push(chunk.leaves.tris.len() as u64);
         }
@@ -436,12 +423,7 @@ fn build_seq(
                 }
                 continue;
             }
-            let o = child_offset(i as u8);
-            let child = [
-                cell[0] + o[0] * half,
-                cell[1] + o[1] * half,
-                cell[2] + o[2] * half,
-            ];
+            let child = child_cell(cell, i as u8, half);
             if let Some(r) = build_seq(ctx, level + 1, child, l, chunk, scratch, tests) {
                 mask |= 1 << i;
                 records[k] = r;
@@ -631,12 +613,7 @@ fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, 
         if l.is_empty() {
             return None;
         }
-        let o = child_offset(i as u8);
-        let child = [
-            cell[0] + o[0] * half,
-            cell[1] + o[1] * half,
-            cell[2] + o[2] * half,
-        ];
+        let child = child_cell(cell, i as u8, half);
         Some(build_node(ctx, level + 1, child, l))
     };
     #[cfg(feature = "parallel")]

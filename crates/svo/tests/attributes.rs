@@ -2,7 +2,7 @@
 //! material mapping from MTL (including `Tr`), textures, binary PLY, padding and the builder.
 
 mod common;
-use common::rng;
+use common::{bake_at, rng};
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
 use svo::clip::clip_to_unit_cube;
@@ -67,15 +67,7 @@ fn contours_enclose_the_clipped_surface() {
     // (many triangles per leaf: the clipping path).
     for (seed, n, size, depth) in [(1u64, 300, 0.02, 6u8), (2, 60, 0.3, 5), (3, 200, 0.05, 7)] {
         let mesh = random_mesh(seed, n, size);
-        let (tree, _) = bake_mesh(
-            &mesh,
-            &BakeOptions {
-                depth,
-                ..Default::default()
-            },
-            &|_, _| {},
-        )
-        .unwrap();
+        let (tree, _) = bake_at(&mesh, depth);
         let (_, leaves) = svo::bake::voxelize_mesh(&mesh, depth, svo::Strategy::Exact).unwrap();
         let mut checked = 0;
         for leaf in tree.leaves() {
@@ -164,15 +156,7 @@ fn mtl_materials_map_as_documented() {
         [0.0, 0.0, 1.0]
     );
     // Baked: colour, reflectivity and refractivity vary, so they are per leaf.
-    let (tree, _) = bake_mesh(
-        &mesh,
-        &BakeOptions {
-            depth: 3,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    let (tree, _) = bake_at(&mesh, 3);
     let a = &tree.attributes;
     assert!(
         a.colour.is_per_leaf()
@@ -185,15 +169,7 @@ fn mtl_materials_map_as_documented() {
 #[test]
 fn single_material_channels_are_constants() {
     let mesh = random_mesh(5, 50, 0.1);
-    let (tree, stats) = bake_mesh(
-        &mesh,
-        &BakeOptions {
-            depth: 5,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    let (tree, stats) = bake_at(&mesh, 5);
     let a = &tree.attributes;
     assert!(a.normal.is_per_leaf() && a.contour.is_per_leaf());
     assert!(
@@ -255,15 +231,7 @@ fn binary_ply_reads_like_ascii() {
 #[test]
 fn padding_shifts_cells_and_grows_the_root() {
     let mesh = random_mesh(8, 40, 0.1);
-    let (plain, _) = bake_mesh(
-        &mesh,
-        &BakeOptions {
-            depth: 5,
-            ..Default::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
+    let (plain, _) = bake_at(&mesh, 5);
     let (padded, _) = bake_mesh(
         &mesh,
         &BakeOptions {

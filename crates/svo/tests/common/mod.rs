@@ -133,3 +133,16 @@ pub fn rand_triangle(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> [I3; 3] {
         }
     }
 }
+
+/// Bakes `mesh` at `depth` with the default options.
+pub fn bake_at(mesh: &svo::Mesh, depth: u8) -> (svo::Octree, svo::BakeStats) {
+    svo::bake_mesh(
+        mesh,
+        &svo::BakeOptions {
+            depth,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap()
+}
