@@ -30,14 +30,6 @@ impl Polygon {
         }
         0.5 * s.length()
     }
-
-    /// The mean of the vertices (a point inside the polygon).
-    pub fn centre(&self) -> DVec3 {
-        if self.len == 0 {
-            return DVec3::ZERO;
-        }
-        self.points().iter().sum::<DVec3>() / self.len as f64
-    }
 }
 
 /// Clips the convex polygon `src` against one face plane of the unit cube (`upper`: the

@@ -15,7 +15,7 @@
 use crate::child_classify::{child_cell, child_offset, classify_children};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
-use crate::overlap::{edges_overlap, vertex_inside};
+use crate::overlap::{edge_interval, edges_overlap, plane_tolerance, vertex_inside};
 use crate::strategy::Strategy;
 use crate::triangle_setup::GridTriangle;
 use glam::DVec3;
@@ -156,10 +156,8 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
         let hn = n * h;
         let pos = hn.x.max(0.0) + hn.y.max(0.0) + hn.z.max(0.0);
         let neg = hn.x.min(0.0) + hn.y.min(0.0) + hn.z.min(0.0);
-        let tol = crate::overlap::TOLERANCE
-            * 3.0
-            * t.n_scale
-            * (d.x.abs() + d.y.abs() + d.z.abs() + 6.0 * h);
+        // Child corners are within `3h` of the node's, and a child spans `3h` more.
+        let tol = plane_tolerance(t, d.x.abs() + d.y.abs() + d.z.abs() + 6.0 * h);
         while mask != 0 {
             let i = mask.trailing_zeros() as u8;
             mask &= mask - 1;
@@ -182,10 +180,12 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
 const SCATTER_LEVELS: u8 = 3;
 
 /// The default strategy's bottom levels: for a node of at most `2^SCATTER_LEVELS` cells per
-/// axis, every triangle enumerates the cells its bounding box reaches inside the node and
-/// runs the exact test on each ([`crate::overlap::triangle_box_overlap`]); the
-/// `(cell, triangle)` pairs are sorted by the cells' Morton order and the subtree is emitted
-/// bottom-up. Same cells and lists as the recursion, with far less per-node overhead.
+/// axis, every triangle enumerates the cells of its bounding box inside the node that its
+/// plane crosses (per column along the normal's dominant axis) and runs on each the complete
+/// test of [`crate::overlap::triangle_box_overlap`], with the plane distance and edge
+/// intervals prepared once per triangle; the `(cell, triangle)` pairs are sorted by the
+/// cells' Morton order and the subtree is emitted bottom-up. Same cells and lists as the
+/// recursion, with far less per-node overhead.
 fn scatter(
     ctx: &Ctx<'_>,
     level: u8,
@@ -221,22 +221,17 @@ fn scatter(
         let pbase = nn.dot(d0);
         let pos = nn.x.max(0.0) + nn.y.max(0.0) + nn.z.max(0.0);
         let neg = nn.x.min(0.0) + nn.y.min(0.0) + nn.z.min(0.0);
-        let ptol = crate::overlap::TOLERANCE
-            * 3.0
-            * t.n_scale
-            * (d0.x.abs() + d0.y.abs() + d0.z.abs() + 3.0 * n as f64 + 3.0);
+        // Cell corners are within `3n` of the node's, and a cell spans 3 more.
+        let ptol = plane_tolerance(
+            t,
+            d0.x.abs() + d0.y.abs() + d0.z.abs() + 3.0 * n as f64 + 3.0,
+        );
         // Edge axes: the triangle's interval on each, and the cell's radius on it plus the
         // rounding bound (as in `overlap::edges_overlap`).
         let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
-        for j in 0..3 {
-            let e = t.edge(j);
-            let (p, q) = (t.v[j], t.v[if j == 0 { 2 } else { j - 1 }]);
-            for a in 0..3 {
-                let (a1, a2, i1, i2) = crate::triangle_setup::edge_axis(e, a);
-                let (pa, pb) = (a1 * p[i1] + a2 * p[i2], a1 * q[i1] + a2 * q[i2]);
-                let rad = (0.5 + t.edge_tol) * (a1.abs() + a2.abs());
-                axes[3 * j + a] = (a1, a2, i1, i2, pa.min(pb), pa.max(pb), rad);
-            }
+        for (i, axis) in axes.iter_mut().enumerate() {
+            let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, i / 3, i % 3);
+            *axis = (a1, a2, i1, i2, lo, hi, (0.5 + t.edge_tol) * w);
         }
         let test = |x: i64, y: i64, z: i64| -> bool {
             let m = node_min + DVec3::new(x as f64, y as f64, z as f64);

@@ -45,6 +45,16 @@ pub fn vertex_inside(t: &GridTriangle, m: DVec3, s: f64) -> bool {
     t.v.iter().any(|v| v.cmpge(m).all() && v.cmple(hi).all())
 }
 
+/// The rounding bound of the plane test for cells whose corners are at most `reach` (L1)
+/// from the triangle's first vertex: `|n|_1 <= 3 n_scale`, and the normal and the
+/// distances each carry a few roundings of that size times `reach`. The voxelizer's
+/// batched plane tests (all children of a node, all cells of a scatter node) pass a
+/// `reach` that covers every cell they test.
+#[inline]
+pub fn plane_tolerance(t: &GridTriangle, reach: f64) -> f64 {
+    TOLERANCE * 3.0 * t.n_scale * reach
+}
+
 /// Thesis Algorithm 2: whether the triangle's plane meets the closed cell `[m, m + s]`
 /// (the cell's two corners along the normal are not strictly on one side).
 #[inline]
@@ -54,8 +64,24 @@ pub fn plane_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
     let base = n.dot(d);
     let pos = s * (n.x.max(0.0) + n.y.max(0.0) + n.z.max(0.0));
     let neg = s * (n.x.min(0.0) + n.y.min(0.0) + n.z.min(0.0));
-    let tol = TOLERANCE * 3.0 * t.n_scale * (l1(d) + 3.0 * s);
+    let tol = plane_tolerance(t, l1(d) + 3.0 * s);
     base + neg <= tol && base + pos >= -tol
+}
+
+/// The edge axis `e_j x unit_k` of triangle `t` as its two nonzero components `(a1, a2)`
+/// on coordinates `(i1, i2)`, the triangle's projection interval `[lo, hi]` on it, and the
+/// axis's L1 norm `a1.abs() + a2.abs()`. The edge's two vertices project alike, so the
+/// interval comes from its first vertex and the vertex opposite the edge.
+#[inline]
+pub fn edge_interval(
+    t: &GridTriangle,
+    j: usize,
+    k: usize,
+) -> (f64, f64, usize, usize, f64, f64, f64) {
+    let (a1, a2, i1, i2) = edge_axis(t.edge(j), k);
+    let (p, q) = (t.v[j], t.v[if j == 0 { 2 } else { j - 1 }]);
+    let (pa, pb) = (a1 * p[i1] + a2 * p[i2], a1 * q[i1] + a2 * q[i2]);
+    (a1, a2, i1, i2, pa.min(pb), pa.max(pb), a1.abs() + a2.abs())
 }
 
 /// Thesis Algorithm 3: whether no axis `edge x box axis` separates the triangle from the
@@ -71,17 +97,11 @@ pub fn edges_overlap(t: &GridTriangle, m: DVec3, s: f64) -> bool {
     let c = m + DVec3::splat(h);
     let r = h + t.edge_tol;
     for j in 0..3 {
-        let e = t.edge(j);
-        // The edge's first vertex and the vertex opposite it; the edge's second vertex
-        // projects onto the same value as its first.
-        let (p, q) = (t.v[j], t.v[if j == 0 { 2 } else { j - 1 }]);
         for k in 0..3 {
-            let (a1, a2, i1, i2) = edge_axis(e, k);
+            let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, j, k);
             let pc = a1 * c[i1] + a2 * c[i2];
-            let pa = a1 * p[i1] + a2 * p[i2];
-            let pb = a1 * q[i1] + a2 * q[i2];
-            let rad = r * (a1.abs() + a2.abs());
-            if pa.min(pb) > pc + rad || pa.max(pb) < pc - rad {
+            let rad = r * w;
+            if lo > pc + rad || hi < pc - rad {
                 return false;
             }
         }

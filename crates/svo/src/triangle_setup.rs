@@ -59,12 +59,6 @@ impl GridTriangle {
     }
 }
 
-/// Maps every triangle of `mesh` into grid space at `depth` for the given root.
-pub fn setup_triangles(mesh: &Mesh, root: &RootCube, depth: u8) -> Vec<GridTriangle> {
-    let order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-    setup_triangles_in_order(mesh, root, depth, &order)
-}
-
 /// Grid-space triangles for the mesh triangles `order[0], order[1], ...`, built in parallel
 /// (feature `parallel`).
 pub fn setup_triangles_in_order(
