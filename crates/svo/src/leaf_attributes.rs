@@ -14,7 +14,7 @@
 
 use crate::clip::clip_to_unit_cube;
 use crate::contour;
-use crate::mesh::{Mesh, linear_to_srgb};
+use crate::mesh::{Material, Mesh, linear_to_srgb};
 use crate::normal_encoding;
 use crate::octree::{Channel, ChannelKind, LeafAttributes, ior_encode};
 use crate::octree_build::LeafTriangles;
@@ -114,14 +114,6 @@ pub struct AttributeReport {
     pub contour_stats: Option<ContourStats>,
 }
 
-struct TriInfo {
-    normal: DVec3,
-    colour: [f32; 4],
-    reflectivity: f32,
-    refractivity: f32,
-    ior: f32,
-}
-
 #[derive(Default)]
 struct Block {
     normal: Vec<u32>,
@@ -150,15 +142,14 @@ pub fn compute(
     let want_normal = select.has(ChannelKind::Normal) || want_contour;
 
     // Which material channels vary over the triangles (the others are constants).
-    let mats: Vec<&crate::mesh::Material> = if mesh.materials.is_empty() {
+    let mats: Vec<&Material> = if mesh.materials.is_empty() {
         vec![mesh.material_of(0)]
     } else {
         mesh.materials.iter().collect()
     };
     let textured = mats.iter().any(|m| m.texture.is_some()) && !mesh.triangle_uvs.is_empty();
-    let varies =
-        |f: &dyn Fn(&crate::mesh::Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
-    let colour_key = |m: &crate::mesh::Material| encode_colour(m.colour);
+    let varies = |f: &dyn Fn(&Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
+    let colour_key = |m: &Material| encode_colour(m.colour);
     let per_leaf_colour = select.has(ChannelKind::Colour) && (textured || varies(&colour_key));
     let per_leaf_refl =
         select.has(ChannelKind::Reflectivity) && varies(&|m| u32::from(unorm8(m.reflectivity)));
@@ -168,28 +159,23 @@ pub fn compute(
     let need_clip =
         want_normal || per_leaf_colour || per_leaf_refl || per_leaf_refr || per_leaf_ior;
 
-    let info: Vec<TriInfo> = if need_clip {
-        (0..tris.len())
+    // Unit normals of the grid-space triangles (zero for degenerate ones); material values
+    // are read through `material`, the mesh triangle's material.
+    let normals: Vec<DVec3> = if need_clip {
+        tris.iter()
             .map(|t| {
-                let m = mesh.material_of(order[t] as usize);
-                let n = tris[t].n;
-                let len = n.length();
-                TriInfo {
-                    normal: if len > 0.0 && len.is_finite() {
-                        n / len
-                    } else {
-                        DVec3::ZERO
-                    },
-                    colour: m.colour,
-                    reflectivity: m.reflectivity,
-                    refractivity: m.refractivity,
-                    ior: m.ior,
+                let len = t.n.length();
+                if len > 0.0 && len.is_finite() {
+                    t.n / len
+                } else {
+                    DVec3::ZERO
                 }
             })
             .collect()
     } else {
         Vec::new()
     };
+    let material = |ti: u32| mesh.material_of(order[ti as usize] as usize);
 
     let do_block = |b: usize| -> Block {
         let start = b * BLOCK;
@@ -247,14 +233,14 @@ pub fn compute(
             if want_normal {
                 let mut s = DVec3::ZERO;
                 for (k, &ti) in list.iter().enumerate() {
-                    s += info[ti as usize].normal * weight(k);
+                    s += normals[ti as usize] * weight(k);
                 }
                 if !(s.length() > 1e-12 * wsum.max(1e-300)) {
                     // Opposite sheets cancel: take the heaviest triangle's normal.
                     s = list
                         .iter()
                         .zip(leaf_areas)
-                        .map(|(&ti, &a)| (info[ti as usize].normal, a))
+                        .map(|(&ti, &a)| (normals[ti as usize], a))
                         .filter(|(n, _)| *n != DVec3::ZERO)
                         .max_by(|a, b| a.1.total_cmp(&b.1))
                         .map_or(DVec3::Z, |(n, _)| n);
@@ -275,7 +261,6 @@ pub fn compute(
                     let col = triangle_colour(
                         mesh,
                         order[ti as usize] as usize,
-                        &info[ti as usize],
                         &tris[ti as usize],
                         centre + m,
                     );
@@ -287,12 +272,12 @@ pub fn compute(
                 let ws = if ws > 0.0 { ws } else { 1.0 };
                 out.colour.push(encode_colour(c.map(|v| (v / ws) as f32)));
             }
-            let avg = |f: &dyn Fn(&TriInfo) -> f32| -> f32 {
+            let avg = |f: &dyn Fn(&Material) -> f32| -> f32 {
                 let mut a = 0.0f64;
                 let mut ws = 0.0;
                 for (k, &ti) in list.iter().enumerate() {
                     let w = weight(k);
-                    a += w * f64::from(f(&info[ti as usize]));
+                    a += w * f64::from(f(material(ti)));
                     ws += w;
                 }
                 if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
@@ -422,13 +407,14 @@ fn thickness_stats(v: &mut [f32]) -> ContourStats {
     }
 }
 
-fn triangle_colour(mesh: &Mesh, ti: usize, info: &TriInfo, t: &GridTriangle, q: DVec3) -> [f32; 4] {
+/// The colour of mesh triangle `ti` at grid point `q` on it: material colour times texture.
+fn triangle_colour(mesh: &Mesh, ti: usize, t: &GridTriangle, q: DVec3) -> [f32; 4] {
     let mat = mesh.material_of(ti);
     let (Some(tex), Some(uvi)) = (
         mat.texture.and_then(|i| mesh.textures.get(i)),
         mesh.triangle_uvs.get(ti),
     ) else {
-        return info.colour;
+        return mat.colour;
     };
     // Barycentric coordinates of the clipped polygon's centre `q` (grid space).
     let (a, b, c) = (t.v[0], t.v[1], t.v[2]);
@@ -448,10 +434,10 @@ fn triangle_colour(mesh: &Mesh, ti: usize, info: &TriInfo, t: &GridTriangle, q: 
     let st = uv(uvi[0]) * wa as f32 + uv(uvi[1]) * wb as f32 + uv(uvi[2]) * wc as f32;
     let s = tex.sample_linear(st);
     [
-        info.colour[0] * s[0],
-        info.colour[1] * s[1],
-        info.colour[2] * s[2],
-        info.colour[3] * s[3],
+        mat.colour[0] * s[0],
+        mat.colour[1] * s[1],
+        mat.colour[2] * s[2],
+        mat.colour[3] * s[3],
     ]
 }
 
