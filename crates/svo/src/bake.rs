@@ -5,7 +5,7 @@ use crate::estimate::estimate;
 use crate::grid::RootCube;
 use crate::leaf_attributes::{self, ChannelSelection, ContourStats};
 use crate::mesh::{Mesh, MeshError};
-use crate::octree::{ChannelKind, Octree};
+use crate::octree::{ChannelKind, ChannelStorage, Octree};
 use crate::octree_build::{self, LeafTriangles};
 use crate::strategy::Strategy;
 use crate::triangle_setup::{setup_triangles_in_order, spatial_order};
@@ -209,46 +209,12 @@ pub fn bake_mesh(
         attributes,
     };
     let a = &tree.attributes;
-    let mut channels = Vec::new();
-    let mut describe = |k: ChannelKind, per_leaf: bool, constant: bool| {
-        if per_leaf || constant {
-            channels.push((
-                k.name().to_string(),
-                if per_leaf { "per-leaf" } else { "constant" }.to_string(),
-            ));
-        }
-    };
-    use crate::octree::Channel as C;
-    describe(
-        ChannelKind::Normal,
-        a.normal.is_per_leaf(),
-        matches!(a.normal, C::Constant(_)),
-    );
-    describe(
-        ChannelKind::Contour,
-        a.contour.is_per_leaf(),
-        matches!(a.contour, C::Constant(_)),
-    );
-    describe(
-        ChannelKind::Colour,
-        a.colour.is_per_leaf(),
-        matches!(a.colour, C::Constant(_)),
-    );
-    describe(
-        ChannelKind::Reflectivity,
-        a.reflectivity.is_per_leaf(),
-        matches!(a.reflectivity, C::Constant(_)),
-    );
-    describe(
-        ChannelKind::Refractivity,
-        a.refractivity.is_per_leaf(),
-        matches!(a.refractivity, C::Constant(_)),
-    );
-    describe(
-        ChannelKind::Ior,
-        a.ior.is_per_leaf(),
-        matches!(a.ior, C::Constant(_)),
-    );
+    let channels = a
+        .storage()
+        .into_iter()
+        .filter(|(_, s)| *s != ChannelStorage::Absent)
+        .map(|(k, s)| (k.name().to_string(), s.name().to_string()))
+        .collect();
     let stats = BakeStats {
         triangles: mesh.triangles.len(),
         degenerate_triangles: degenerate,

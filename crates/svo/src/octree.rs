@@ -141,6 +141,37 @@ impl<T: Copy + PartialEq> Channel<T> {
     pub fn is_per_leaf(&self) -> bool {
         matches!(self, Self::PerLeaf(_))
     }
+
+    /// How the channel is stored, without its values.
+    pub fn storage(&self) -> ChannelStorage {
+        match self {
+            Self::Absent => ChannelStorage::Absent,
+            Self::Constant(_) => ChannelStorage::Constant,
+            Self::PerLeaf(v) => ChannelStorage::PerLeaf(v.len()),
+        }
+    }
+}
+
+/// How a channel is stored: see [`Channel::storage`] and [`LeafAttributes::storage`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChannelStorage {
+    /// Not stored.
+    Absent,
+    /// One value in the header.
+    Constant,
+    /// An array of this many values.
+    PerLeaf(usize),
+}
+
+impl ChannelStorage {
+    /// `absent`, `constant` or `per-leaf`, as the bake summary prints it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Absent => "absent",
+            Self::Constant => "constant",
+            Self::PerLeaf(_) => "per-leaf",
+        }
+    }
 }
 
 /// The per-leaf attribute arrays (struct of arrays).
@@ -185,14 +216,23 @@ impl LeafAttributes {
 
     /// How many bytes the per-leaf arrays take for `leaves` leaves.
     pub fn per_leaf_bytes(&self) -> usize {
-        let mut b = 0;
-        b += usize::from(self.normal.is_per_leaf()) * 4;
-        b += usize::from(self.contour.is_per_leaf()) * 4;
-        b += usize::from(self.colour.is_per_leaf()) * 4;
-        b += usize::from(self.reflectivity.is_per_leaf());
-        b += usize::from(self.refractivity.is_per_leaf());
-        b += usize::from(self.ior.is_per_leaf()) * 2;
-        b
+        self.storage()
+            .iter()
+            .filter(|(_, s)| matches!(s, ChannelStorage::PerLeaf(_)))
+            .map(|(k, _)| k.element_size())
+            .sum()
+    }
+
+    /// Every channel with how it is stored, in file order.
+    pub fn storage(&self) -> [(ChannelKind, ChannelStorage); 6] {
+        [
+            (ChannelKind::Normal, self.normal.storage()),
+            (ChannelKind::Contour, self.contour.storage()),
+            (ChannelKind::Colour, self.colour.storage()),
+            (ChannelKind::Reflectivity, self.reflectivity.storage()),
+            (ChannelKind::Refractivity, self.refractivity.storage()),
+            (ChannelKind::Ior, self.ior.storage()),
+        ]
     }
 }
 

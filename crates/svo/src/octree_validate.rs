@@ -7,14 +7,7 @@
 //! exactly once (so there are no cycles, no sharing and no orphans); per-leaf channels have
 //! one value per leaf.
 
-use crate::octree::{Channel, Octree};
-
-fn channel_len<T>(c: &Channel<T>) -> Option<usize> {
-    match c {
-        Channel::PerLeaf(v) => Some(v.len()),
-        _ => None,
-    }
-}
+use crate::octree::{ChannelStorage, Octree};
 
 /// Validates the tree's structure; the error says what is wrong and where.
 pub fn validate(t: &Octree) -> Result<(), String> {
@@ -34,19 +27,13 @@ pub fn validate(t: &Octree) -> Result<(), String> {
     }
     let leaves = t.leaf_count as usize;
     let a = &t.attributes;
-    for (name, len) in [
-        ("normal", channel_len(&a.normal)),
-        ("contour", channel_len(&a.contour)),
-        ("colour", channel_len(&a.colour)),
-        ("reflectivity", channel_len(&a.reflectivity)),
-        ("refractivity", channel_len(&a.refractivity)),
-        ("ior", channel_len(&a.ior)),
-    ] {
-        if let Some(len) = len
+    for (kind, storage) in a.storage() {
+        if let ChannelStorage::PerLeaf(len) = storage
             && len != leaves
         {
             return Err(format!(
-                "channel {name} has {len} values for {leaves} leaves"
+                "channel {} has {len} values for {leaves} leaves",
+                kind.name()
             ));
         }
     }
