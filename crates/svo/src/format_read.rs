@@ -10,7 +10,7 @@ use crate::format_header::{
 };
 pub use crate::format_write::FormatError;
 use crate::grid::RootCube;
-use crate::octree::{Channel, LeafAttributes, Node, Octree};
+use crate::octree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use glam::DVec3;
 use std::path::Path;
 
@@ -125,7 +125,8 @@ pub fn from_bytes(bytes: &[u8]) -> Result<(Octree, BuildInfo), FormatError> {
         }
         last_kind = i16::from(e.kind);
         if let Storage::PerLeaf(r) = e.storage {
-            let size = [4u64, 4, 4, 1, 1, 2][usize::from(e.kind)];
+            // Codes are positions in `ChannelKind::ALL` (checked `<= 5` above).
+            let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
             refs.push((r, h.leaf_count * size));
         }
     }
