@@ -199,62 +199,6 @@ impl Mesh {
         }
     }
 
-    /// Appends another mesh, keeping its materials and textures.
-    pub fn append(&mut self, mut other: Mesh) {
-        let vbase = self.positions.len() as u32;
-        let uvbase = self.uvs.len() as u32;
-        let mbase = self
-            .materials
-            .len()
-            .max(usize::from(!self.triangles.is_empty())) as u32;
-        let tbase = self.textures.len();
-        if self.materials.is_empty() && !self.triangles.is_empty() {
-            self.materials.push(Material::default());
-        }
-        let had_uvs = !self.triangle_uvs.is_empty();
-        if !had_uvs && !other.triangle_uvs.is_empty() {
-            self.uvs.push(Vec2::ZERO);
-            self.triangle_uvs = vec![[uvbase; 3]; self.triangles.len()];
-        }
-        let uvbase = if !had_uvs && !other.triangle_uvs.is_empty() {
-            uvbase + 1
-        } else {
-            uvbase
-        };
-        if self.triangle_materials.is_empty() {
-            self.triangle_materials = vec![0; self.triangles.len()];
-        }
-        if other.materials.is_empty() {
-            other.materials.push(Material::default());
-        }
-        let n = other.triangles.len();
-        self.positions.extend(other.positions);
-        self.triangles
-            .extend(other.triangles.iter().map(|t| t.map(|i| i + vbase)));
-        if !other.triangle_uvs.is_empty() {
-            self.uvs.extend(other.uvs);
-            self.triangle_uvs
-                .extend(other.triangle_uvs.iter().map(|t| t.map(|i| i + uvbase)));
-        } else if !self.triangle_uvs.is_empty() {
-            let zero = self.uvs.len() as u32;
-            self.uvs.push(Vec2::ZERO);
-            self.triangle_uvs.extend(std::iter::repeat_n([zero; 3], n));
-        }
-        if other.triangle_materials.is_empty() {
-            self.triangle_materials
-                .extend(std::iter::repeat_n(mbase, n));
-        } else {
-            self.triangle_materials
-                .extend(other.triangle_materials.iter().map(|m| m + mbase));
-        }
-        self.materials
-            .extend(other.materials.into_iter().map(|mut m| {
-                m.texture = m.texture.map(|t| t + tbase);
-                m
-            }));
-        self.textures.extend(other.textures);
-    }
-
     /// The material of triangle `t`.
     pub fn material_of(&self, t: usize) -> &Material {
         static DEFAULT: std::sync::OnceLock<Material> = std::sync::OnceLock::new();
