@@ -1,0 +1,171 @@
+//! Rays in grid space, and their octant-mirrored form that the traversals use.
+//!
+//! The tracer works in the tree's *grid space* (the root is `[0, 2^depth]^3`, a leaf the unit
+//! cube at its integer cell; see [`crate::grid`]) in `f32`, as the GPU does. A scene ray
+//! `o + t d` becomes the grid ray `G(o) + t (d * 2^depth / side)`: the direction is scaled
+//! with the grid, so the ray parameter `t` is the same in both spaces and every hit distance
+//! is in scene units along the caller's direction. The conversion runs in `f64`, so a scene
+//! far from its origin keeps its precision.
+//!
+//! ## Mirroring (thesis 1.4.4)
+//! The traversals need a direction with no negative component. Each axis whose direction has
+//! its *sign bit* set (so `-0.0` counts as negative) is mirrored about the root's centre, and
+//! the axis's child bit (x = 4, y = 2, z = 1) goes into a mask that maps mirrored child
+//! indices back with `xor`. A component that is zero, or tiny, is raised to [`TINY`]: the
+//! ray is then perturbed by less than any cell at any supported depth, and every plane
+//! distance `(p - o) / d` stays finite, so no NaN ever reaches a comparison.
+
+use crate::grid::RootCube;
+use glam::{DVec3, UVec3, Vec3};
+
+/// The smallest direction component the traversals use (`2^-60`): large enough that
+/// `(p - o) / TINY` stays finite for every grid coordinate, small enough that the
+/// perturbation is far below a cell.
+pub const TINY: f32 = 8.673_617e-19;
+
+/// A ray in grid space: `origin + t * dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridRay {
+    /// The origin, in grid units.
+    pub origin: Vec3,
+    /// The direction (any length; `t` is measured in its units).
+    pub dir: Vec3,
+}
+
+impl GridRay {
+    /// The grid ray of the scene ray `origin + t * dir` for a tree over `root` at `depth`.
+    pub fn from_scene(root: &RootCube, depth: u8, origin: DVec3, dir: DVec3) -> Self {
+        let scale = (1u64 << depth) as f64 / root.side;
+        Self {
+            origin: root.to_grid(origin, depth).as_vec3(),
+            dir: (dir * scale).as_vec3(),
+        }
+    }
+
+    /// The point at parameter `t`.
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+
+    /// Whether the ray can be traced: finite origin, finite non-zero direction.
+    pub fn is_valid(&self) -> bool {
+        self.origin.is_finite() && self.dir.is_finite() && self.dir != Vec3::ZERO
+    }
+}
+
+/// A ray mirrored into the positive octant of a root of `n` cells per axis.
+///
+/// The origin itself is not mirrored (that would round it to the precision of the root's far
+/// side): the traversal works with mirrored *integer plane coordinates*, which are mapped back
+/// exactly (`n - p`) before the ray parameter `(p - o) / d` is computed in real space.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MirroredRay {
+    /// The real origin.
+    pub o: Vec3,
+    /// `1 / d` of the real direction with tiny components raised to [`TINY`] in magnitude:
+    /// finite and non-zero.
+    pub inv: Vec3,
+    /// Child bits of the mirrored axes (x = 4, y = 2, z = 1).
+    pub mask: u8,
+    /// Cells per axis.
+    pub n: u32,
+}
+
+impl MirroredRay {
+    /// Mirrors `ray` for a root of `n` cells per axis; `None` for an invalid ray.
+    pub fn new(ray: &GridRay, n: u32) -> Option<Self> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let mut d = ray.dir;
+        let mut mask = 0u8;
+        for axis in 0..3 {
+            if d[axis].is_sign_negative() {
+                mask |= 4 >> axis;
+                d[axis] = d[axis].min(-TINY);
+            } else {
+                d[axis] = d[axis].max(TINY);
+            }
+        }
+        Some(Self {
+            o: ray.origin,
+            inv: d.recip(),
+            mask,
+            n,
+        })
+    }
+
+    /// The ray parameters where it crosses the mirrored planes `x = p.x`, `y = p.y`,
+    /// `z = p.z` (integer grid coordinates). The same plane always gives the same value,
+    /// which is what keeps neighbouring cells gap-free.
+    #[inline]
+    pub fn t_planes(&self, p: UVec3) -> Vec3 {
+        let real = |axis: usize, v: u32| {
+            if self.mask & (4 >> axis) != 0 {
+                (self.n - v) as f32
+            } else {
+                v as f32
+            }
+        };
+        (Vec3::new(real(0, p.x), real(1, p.y), real(2, p.z)) - self.o) * self.inv
+    }
+
+    /// Maps a mirrored leaf cell back to the real cell.
+    #[inline]
+    pub fn unmirror_cell(&self, m: UVec3) -> UVec3 {
+        let flip = |axis: usize, v: u32| {
+            if self.mask & (4 >> axis) != 0 {
+                self.n - 1 - v
+            } else {
+                v
+            }
+        };
+        UVec3::new(flip(0, m.x), flip(1, m.y), flip(2, m.z))
+    }
+
+    /// The real-space unit normal of the face the ray enters through on `axis` (it faces
+    /// the ray).
+    #[inline]
+    pub fn entry_normal(&self, axis: usize) -> Vec3 {
+        let mut n = Vec3::ZERO;
+        n[axis] = if self.mask & (4 >> axis) != 0 {
+            1.0
+        } else {
+            -1.0
+        };
+        n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn negative_zero_is_mirrored_and_zero_is_raised() {
+        let r = GridRay {
+            origin: Vec3::new(1.0, 2.0, 3.0),
+            dir: Vec3::new(-0.0, 0.0, -1.0),
+        };
+        let m = MirroredRay::new(&r, 8).unwrap();
+        assert_eq!(m.mask, 0b101);
+        assert!(m.inv.is_finite());
+        // Mirrored planes: x = 8 - 7 = 1 and z = 8 - 5 = 3 are the origin's own planes, so
+        // t = 0 there, not NaN; the mirrored direction is positive on every axis.
+        assert_eq!(m.t_planes(UVec3::new(7, 2, 5)), Vec3::ZERO);
+        let ahead = m.t_planes(UVec3::new(8, 3, 6));
+        assert!(ahead.cmpgt(Vec3::ZERO).all(), "{ahead}");
+    }
+
+    #[test]
+    fn invalid_rays_are_refused() {
+        for (o, d) in [
+            (Vec3::ZERO, Vec3::ZERO),
+            (Vec3::NAN, Vec3::X),
+            (Vec3::ZERO, Vec3::new(f32::INFINITY, 0.0, 0.0)),
+        ] {
+            assert!(MirroredRay::new(&GridRay { origin: o, dir: d }, 4).is_none());
+        }
+    }
+}
