@@ -1,20 +1,101 @@
-//! `svo-view`: the viewer for `.svo` files. For now it validates a file and prints its
-//! header and statistics (`--info`); CPU and GPU rendering come with their own issues.
+//! `svo-view`: render `.svo` files, or print their header and statistics.
+//!
+//! ```text
+//! svo-view bunny.svo --cpu -o bunny.png
+//! svo-view bunny.svo --cpu --aov cost -o cost.png
+//! svo-view bunny.svo --cpu --bench 10 --bounces 0 --shadows none --size 1920x1080
+//! svo-view bunny.svo --info
+//! ```
+//! All the work is in the `svo` library ([`svo::render_job::run`]); this file parses
+//! arguments and prints the report. The GPU window comes with its own issue; until then the
+//! CPU tracer is the only renderer, with or without `--cpu`.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
 use clap::Parser;
 use std::path::PathBuf;
+use svo::aov::Aov;
+use svo::render_job::{
+    LightSpec, RenderJob, parse_dvec3, parse_fresnel, parse_hit, parse_shadows, parse_size, run,
+};
+use svo::whitted::TraceOptions;
 
-/// Inspect a sparse voxel octree (.svo) file.
+/// Render a sparse voxel octree (.svo) file with the CPU ray tracer, or inspect it.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
     /// The .svo file.
     file: PathBuf,
-    /// Print the header and statistics (the only mode so far).
+    /// Print the header and statistics instead of rendering.
     #[arg(long)]
     info: bool,
+    /// Render with the CPU tracer (the only renderer so far).
+    #[arg(long)]
+    cpu: bool,
+    /// Output image: .png, or .pfm / .exr for `--aov depth`. Default: the file's name with
+    /// .png (.pfm for depth); none with --bench unless given.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Camera position x,y,z (scene units). Default: frame the model.
+    #[arg(long, value_parser = parse_dvec3)]
+    eye: Option<glam::DVec3>,
+    /// Point the camera looks at, x,y,z. Default: the model's centre.
+    #[arg(long, value_parser = parse_dvec3)]
+    target: Option<glam::DVec3>,
+    /// Up direction x,y,z. Default: 0,1,0.
+    #[arg(long, value_parser = parse_dvec3)]
+    up: Option<glam::DVec3>,
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
+    /// --mesh or --reference).
+    #[arg(long, default_value = "contour", value_parser = parse_hit)]
+    hit: svo::leaf_hit::HitMode,
+    /// Reflection and refraction depth limit (each).
+    #[arg(long, default_value_t = 3)]
+    bounces: u8,
+    /// Point light x,y,z[:r,g,b[:intensity]] (repeatable). Default: one white light above
+    /// the camera; intensity defaults to the squared distance to the model's centre.
+    #[arg(long, value_parser = LightSpec::parse)]
+    light: Vec<LightSpec>,
+    /// Shadows: none, opaque, max (the 2019 report's max-refractivity rule) or product
+    /// (transmittance product).
+    #[arg(long, default_value = "product", value_parser = parse_shadows)]
+    shadows: svo::whitted::ShadowMode,
+    /// Fresnel formula: exact or schlick.
+    #[arg(long, default_value = "exact", value_parser = parse_fresnel)]
+    fresnel: svo::whitted::FresnelMode,
+    /// Write an AOV instead of the colour: depth (float .pfm/.exr, +inf on a miss), normal,
+    /// leaf, cost (traversal steps heat map).
+    #[arg(long, value_parser = |s: &str| Aov::parse(s).ok_or_else(|| format!("unknown AOV {s:?} (expected colour, depth, normal, leaf or cost)")))]
+    aov: Option<Aov>,
+    /// Offset of secondary and shadow rays from the surface, in cells.
+    #[arg(long, default_value_t = TraceOptions::default().bias_cells)]
+    bias: f32,
+    /// Render this many timed frames after a warm-up and print the median.
+    #[arg(long, num_args = 0..=1, default_missing_value = "10")]
+    bench: Option<u32>,
+    /// Render this triangle mesh (the reference) instead of the octree; with --compare,
+    /// render both and print RMSE, PSNR and the hit/miss disagreement (the reference and a
+    /// diff image are written beside the output as NAME.reference.png and NAME.diff.png).
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Render the octree and the --reference mesh and compare them.
+    #[arg(long, requires = "reference")]
+    compare: bool,
+    /// The mesh the tree was baked from, for --hit exact (default: the --reference mesh).
+    #[arg(long)]
+    mesh: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 fn main() {
@@ -26,17 +107,56 @@ fn main() {
 
 fn real_main() -> anyhow::Result<()> {
     let args = Args::parse();
-    let bytes = std::fs::read(&args.file)
-        .with_context(|| format!("cannot read {}", args.file.display()))?;
-    let (tree, build) = svo::format_read::from_bytes(&bytes)
-        .with_context(|| format!("loading {}", args.file.display()))?;
-    if !args.info {
-        anyhow::bail!("rendering is not available yet; use --info to inspect the file");
+    if args.info {
+        let bytes = std::fs::read(&args.file)
+            .with_context(|| format!("cannot read {}", args.file.display()))?;
+        let (tree, build) = svo::format_read::from_bytes(&bytes)
+            .with_context(|| format!("loading {}", args.file.display()))?;
+        println!(
+            "{}\n{}",
+            args.file.display(),
+            svo::describe::describe(&tree, &build, bytes.len() as u64)
+        );
+        return Ok(());
     }
-    println!(
-        "{}\n{}",
-        args.file.display(),
-        svo::describe::describe(&tree, &build, bytes.len() as u64)
-    );
+    let aov = args.aov.unwrap_or_default();
+    let output = args.output.clone().or_else(|| {
+        args.bench.is_none().then(|| {
+            let ext = if aov == Aov::Depth { "pfm" } else { "png" };
+            args.file.with_extension(ext)
+        })
+    });
+    let job = RenderJob {
+        input: args.file.clone(),
+        output,
+        width: args.size.0,
+        height: args.size.1,
+        eye: args.eye,
+        target: args.target,
+        up: args.up,
+        fov_deg: args.fov,
+        trace: TraceOptions {
+            mode: args.hit,
+            max_reflections: args.bounces,
+            max_refractions: args.bounces,
+            shadows: args.shadows,
+            fresnel: args.fresnel,
+            bias_cells: args.bias,
+            ..TraceOptions::default()
+        },
+        lights: args.light.clone(),
+        aov,
+        bench_frames: args.bench,
+        threads: args.threads,
+        reference: args.reference.clone(),
+        compare: args.compare,
+        mesh: args.mesh.clone(),
+    };
+    let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("{report}");
+    }
     Ok(())
 }

@@ -166,8 +166,20 @@ pub fn voxelize_mesh(
         ..BakeOptions::default()
     };
     let (root, _) = prepare(mesh, &opts)?;
-    let order = spatial_order(mesh, &root);
-    let tris = setup_triangles_in_order(mesh, &root, depth, &order);
+    Ok((root, voxelize_mesh_in(mesh, &root, depth, strategy)))
+}
+
+/// Voxelizes only, in a given root cube (the one of an existing tree, so that the leaves
+/// line up with its): the leaf cells in leaf order with their mesh triangles, ascending.
+/// The mesh must be valid ([`Mesh::validate`]) and `depth` in `1..=MAX_DEPTH`.
+pub fn voxelize_mesh_in(
+    mesh: &Mesh,
+    root: &RootCube,
+    depth: u8,
+    strategy: Strategy,
+) -> LeafTriangles {
+    let order = spatial_order(mesh, root);
+    let tris = setup_triangles_in_order(mesh, root, depth, &order);
     let mut v = octree_build::voxelize(&tris, depth, strategy, &|_| {});
     // Back to mesh triangle indices, ascending within each leaf.
     let mut start = 0;
@@ -179,7 +191,7 @@ pub fn voxelize_mesh(
         list.sort_unstable();
         start = end as usize;
     }
-    Ok((root, v.leaves))
+    v.leaves
 }
 
 /// Bakes a mesh. `progress(phase, fraction)` is called from worker threads.

@@ -124,6 +124,24 @@ impl MirroredRay {
         UVec3::new(flip(0, m.x), flip(1, m.y), flip(2, m.z))
     }
 
+    /// The real-space unit normal of the face through which the ray enters a cell whose
+    /// entry-plane parameters are `c0` (the latest of the three; ties prefer x, then y),
+    /// facing the ray; zero when the ray starts inside (`max(c0) < tmin`).
+    #[inline]
+    pub fn entry_normal_of(&self, c0: Vec3, tmin: f32) -> Vec3 {
+        if c0.max_element() < tmin {
+            return Vec3::ZERO;
+        }
+        let axis = if c0.x >= c0.y && c0.x >= c0.z {
+            0
+        } else if c0.y >= c0.z {
+            1
+        } else {
+            2
+        };
+        self.entry_normal(axis)
+    }
+
     /// The real-space unit normal of the face the ray enters through on `axis` (it faces
     /// the ray).
     #[inline]

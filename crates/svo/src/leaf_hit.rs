@@ -28,6 +28,9 @@ pub enum HitMode {
     /// The slab between the leaf's two contour planes, inside the cell.
     #[default]
     Contour,
+    /// The mesh triangles that overlap the leaf (the 2019 report's O6b). Needs the
+    /// triangles ([`crate::exact_surfaces`]); [`leaf_hit`] alone treats it as [`Self::Cube`].
+    Exact,
 }
 
 impl HitMode {
@@ -36,6 +39,7 @@ impl HitMode {
         match self {
             Self::Cube => "cube",
             Self::Contour => "contour",
+            Self::Exact => "exact",
         }
     }
 }
@@ -103,7 +107,7 @@ pub fn slab_hit(ray: &GridRay, e: &LeafEntry, n: Vec3, near: f32, far: f32) -> O
 #[inline]
 pub fn leaf_hit(tree: &Octree, ray: &GridRay, e: &LeafEntry, mode: HitMode) -> Option<Hit> {
     match mode {
-        HitMode::Cube => Some(cube_hit(e)),
+        HitMode::Cube | HitMode::Exact => Some(cube_hit(e)),
         HitMode::Contour => {
             let a = &tree.attributes;
             let (Some(nw), Some(cw)) = (

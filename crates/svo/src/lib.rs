@@ -22,22 +22,36 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "trace")]
+pub mod aov;
 pub mod bake;
 pub mod builder;
+#[cfg(feature = "trace")]
+pub mod camera;
 pub mod child_classify;
 pub mod clip;
 pub mod contour;
 #[cfg(feature = "io")]
 pub mod describe;
 pub mod estimate;
+#[cfg(feature = "trace")]
+pub mod exact_surfaces;
 pub mod grid;
 #[cfg(feature = "trace")]
+pub mod grid_dda;
+#[cfg(feature = "trace")]
 pub mod grid_ray;
+#[cfg(feature = "trace")]
+pub mod image_compare;
+#[cfg(feature = "image-io")]
+pub mod image_write;
 pub mod import;
 pub mod leaf_attributes;
 #[cfg(feature = "trace")]
 pub mod leaf_hit;
 pub mod mesh;
+#[cfg(feature = "reference")]
+pub mod mesh_reference;
 pub mod normal_encoding;
 pub mod octree;
 pub mod octree_build;
@@ -46,8 +60,20 @@ pub mod octree_layout;
 pub mod octree_traverse;
 pub mod octree_validate;
 pub mod overlap;
+#[cfg(feature = "trace")]
+pub mod render;
+#[cfg(all(feature = "image-io", feature = "reference"))]
+pub mod render_job;
+#[cfg(feature = "trace")]
+pub mod shading;
+#[cfg(feature = "trace")]
+pub mod sky;
 pub mod strategy;
+#[cfg(feature = "trace")]
+pub mod surfaces;
 pub mod triangle_setup;
+#[cfg(feature = "trace")]
+pub mod whitted;
 
 #[cfg(feature = "io")]
 pub mod atomic_write;

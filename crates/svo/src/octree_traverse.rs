@@ -175,18 +175,7 @@ pub fn traverse<T>(
         };
         let origin = child_origin(top, c);
         if let Some(base) = node.leaf_base() {
-            let entry_normal = if c0.max_element() >= tmin {
-                let axis = if c0.x >= c0.y && c0.x >= c0.z {
-                    0
-                } else if c0.y >= c0.z {
-                    1
-                } else {
-                    2
-                };
-                r.entry_normal(axis)
-            } else {
-                Vec3::ZERO
-            };
+            let entry_normal = r.entry_normal_of(c0, tmin);
             let entry = LeafEntry {
                 leaf: base + rank,
                 cell: r.unmirror_cell(origin),

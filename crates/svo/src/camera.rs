@@ -1,0 +1,208 @@
+//! A pinhole camera: eye, target, up and a vertical field of view, with pixel centres at
+//! half-integer positions; and the default camera that frames a set of bounds.
+
+use glam::DVec3;
+use thiserror::Error;
+
+/// The largest image side the renderers accept.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Errors of camera settings.
+#[derive(Debug, Error, PartialEq)]
+#[non_exhaustive]
+pub enum CameraError {
+    /// Width or height is zero or above [`MAX_IMAGE_SIDE`].
+    #[error("image size {0}x{1} is outside 1..={MAX_IMAGE_SIDE} per side")]
+    Size(u32, u32),
+    /// The field of view is not in `(0, 180)` degrees.
+    #[error("field of view {0} degrees is outside (0, 180)")]
+    Fov(f64),
+    /// Eye, target or up is not finite.
+    #[error("camera eye, target and up must be finite")]
+    NotFinite,
+    /// Eye and target coincide, or up is parallel to the view direction.
+    #[error("camera eye equals target, or up is parallel to the view direction")]
+    Degenerate,
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position (scene units).
+    pub eye: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: DVec3,
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+/// A camera's orthonormal basis and scale, ready to make rays.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRays {
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    tan_half: f64,
+    aspect: f64,
+    width: u32,
+    height: u32,
+}
+
+impl Camera {
+    /// A camera looking at the centre of the box `[lo, hi]` from the front-right, above
+    /// (towards `+z`, `+x` and `+y`, `+y` up), far enough that the box's bounding sphere
+    /// fits the vertical and horizontal field of view.
+    pub fn framing(lo: DVec3, hi: DVec3, width: u32, height: u32, fov_deg: f64) -> Self {
+        let centre = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-12);
+        let half_v = (fov_deg.to_radians() * 0.5).clamp(1e-3, 1.5);
+        let aspect = f64::from(width.max(1)) / f64::from(height.max(1));
+        let half_h = (half_v.tan() * aspect).atan();
+        let dist = radius / half_v.min(half_h).sin() * 1.02;
+        let dir = DVec3::new(0.35, 0.3, 1.0).normalize();
+        Self {
+            eye: centre + dir * dist,
+            target: centre,
+            up: DVec3::Y,
+            fov_deg,
+            width,
+            height,
+        }
+    }
+
+    /// Checks the settings and prepares the ray generator.
+    pub fn rays(&self) -> Result<CameraRays, CameraError> {
+        if self.width == 0
+            || self.height == 0
+            || self.width > MAX_IMAGE_SIDE
+            || self.height > MAX_IMAGE_SIDE
+        {
+            return Err(CameraError::Size(self.width, self.height));
+        }
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(CameraError::Fov(self.fov_deg));
+        }
+        if !(self.eye.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err(CameraError::NotFinite);
+        }
+        let forward = (self.target - self.eye).normalize_or_zero();
+        let right = forward.cross(self.up).normalize_or_zero();
+        if forward == DVec3::ZERO || right == DVec3::ZERO {
+            return Err(CameraError::Degenerate);
+        }
+        Ok(CameraRays {
+            eye: self.eye,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half: (self.fov_deg.to_radians() * 0.5).tan(),
+            aspect: f64::from(self.width) / f64::from(self.height),
+            width: self.width,
+            height: self.height,
+        })
+    }
+}
+
+impl CameraRays {
+    /// The eye.
+    pub fn eye(&self) -> DVec3 {
+        self.eye
+    }
+
+    /// The unit view direction.
+    pub fn forward(&self) -> DVec3 {
+        self.forward
+    }
+
+    /// The unit up vector of the image plane.
+    pub fn up(&self) -> DVec3 {
+        self.up
+    }
+
+    /// The unit right vector of the image plane.
+    pub fn right(&self) -> DVec3 {
+        self.right
+    }
+
+    /// The unit direction through the centre of pixel `(x, y)` (row 0 at the top).
+    #[inline]
+    pub fn dir(&self, x: u32, y: u32) -> DVec3 {
+        let sx = (2.0 * (f64::from(x) + 0.5) / f64::from(self.width) - 1.0)
+            * self.tan_half
+            * self.aspect;
+        let sy = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(self.height)) * self.tan_half;
+        (self.forward + self.right * sx + self.up * sy).normalize()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_pixel_looks_at_the_target_and_corners_are_symmetric() {
+        let c = Camera {
+            eye: DVec3::new(0.0, 0.0, 5.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            fov_deg: 90.0,
+            width: 3,
+            height: 3,
+        };
+        let r = c.rays().unwrap();
+        assert!((r.dir(1, 1) - DVec3::NEG_Z).length() < 1e-12);
+        let tl = r.dir(0, 0);
+        let br = r.dir(2, 2);
+        assert!(tl.x < 0.0 && tl.y > 0.0 && br.x > 0.0 && br.y < 0.0);
+        assert!((tl.x + br.x).abs() < 1e-12 && (tl.y + br.y).abs() < 1e-12);
+        // Pixel centres at half-integers: the top-left centre is 2/3 of the way to the edge.
+        let edge = (45f64.to_radians()).tan();
+        assert!((tl.x / -tl.z - (-2.0 / 3.0 * edge)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_settings_are_errors() {
+        let ok = Camera::framing(DVec3::ZERO, DVec3::ONE, 8, 8, 40.0);
+        assert!(ok.rays().is_ok());
+        for (c, e) in [
+            (Camera { width: 0, ..ok }, CameraError::Size(0, 8)),
+            (
+                Camera {
+                    fov_deg: 180.0,
+                    ..ok
+                },
+                CameraError::Fov(180.0),
+            ),
+            (
+                Camera {
+                    eye: DVec3::NAN,
+                    ..ok
+                },
+                CameraError::NotFinite,
+            ),
+            (
+                Camera {
+                    target: ok.eye,
+                    ..ok
+                },
+                CameraError::Degenerate,
+            ),
+            (
+                Camera {
+                    up: ok.target - ok.eye,
+                    ..ok
+                },
+                CameraError::Degenerate,
+            ),
+        ] {
+            assert_eq!(c.rays().unwrap_err(), e);
+        }
+    }
+}

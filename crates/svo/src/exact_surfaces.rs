@@ -1,0 +1,186 @@
+//! The exact leaf hit (the 2019 report's O6b): the octree is traversed as usual, and in each
+//! leaf the ray meets the mesh triangles that overlap it, so the hit has no geometric error
+//! while the traversal and the leaf materials stay the octree's.
+//!
+//! The per-leaf triangle lists come from voxelizing the mesh again in the tree's own root
+//! cube ([`crate::bake::voxelize_mesh_in`]); a mesh whose leaves do not line up with the
+//! tree's is refused. A hit counts when it lies in the leaf's closed cell (with a rounding
+//! margin of `1e-4` cells), so a triangle crossing several leaves is met in the first one
+//! the ray reaches it in.
+
+use crate::bake::voxelize_mesh_in;
+use crate::grid::RootCube;
+use crate::grid_ray::GridRay;
+use crate::mesh::Mesh;
+use crate::octree::Octree;
+use crate::octree_build::LeafTriangles;
+use crate::octree_traverse::traverse;
+use crate::strategy::Strategy;
+use crate::surfaces::{OctreeSurfaces, SurfaceHit, Surfaces, Traced, Walked};
+use glam::{UVec3, Vec3};
+
+/// Margin of the in-cell test, in cells.
+const CELL_MARGIN: f32 = 1e-4;
+
+/// An octree whose leaves are hit on their triangles.
+#[derive(Debug)]
+pub struct ExactSurfaces<'a> {
+    octree: OctreeSurfaces<'a>,
+    lists: LeafTriangles,
+    /// Grid-space vertices per triangle.
+    tris: Vec<[Vec3; 3]>,
+}
+
+impl<'a> ExactSurfaces<'a> {
+    /// Prepares `tree` with the triangles of `mesh` (the mesh it was baked from). Errors
+    /// with a message when the mesh is invalid or its leaves differ from the tree's.
+    pub fn new(tree: &'a Octree, mesh: &Mesh) -> Result<Self, String> {
+        mesh.validate().map_err(|e| e.to_string())?;
+        let lists = voxelize_mesh_in(mesh, &tree.root, tree.depth, Strategy::Exact);
+        let same = lists.cells.len() == tree.leaf_count as usize
+            && tree
+                .leaves()
+                .zip(&lists.cells)
+                .all(|(l, c)| l.cell == UVec3::from_array(*c));
+        if !same {
+            return Err(format!(
+                "the mesh gives {} leaves in the tree's grid, the tree has {}: it is not the mesh the tree was baked from",
+                lists.cells.len(),
+                tree.leaf_count
+            ));
+        }
+        let root: RootCube = tree.root;
+        let tris = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                t.map(|i| {
+                    root.to_grid(mesh.positions[i as usize], tree.depth)
+                        .as_vec3()
+                })
+            })
+            .collect();
+        Ok(Self {
+            octree: OctreeSurfaces::new(tree, crate::leaf_hit::HitMode::Cube),
+            lists,
+            tris,
+        })
+    }
+
+    /// The nearest triangle hit of `ray` inside leaf `leaf` (cell `cell`) in `[t0, t1]`.
+    fn leaf_triangles_hit(
+        &self,
+        ray: &GridRay,
+        leaf: u32,
+        cell: UVec3,
+        t0: f32,
+        t1: f32,
+    ) -> Option<(f32, Vec3)> {
+        let lo = cell.as_vec3() - CELL_MARGIN;
+        let hi = cell.as_vec3() + 1.0 + CELL_MARGIN;
+        let mut best: Option<(f32, Vec3)> = None;
+        for &ti in self.lists.triangles(leaf as usize) {
+            let [a, b, c] = self.tris[ti as usize];
+            if let Some(t) = moller_trumbore(ray, a, b, c)
+                && t >= t0
+                && t <= t1
+                && best.is_none_or(|(bt, _)| t < bt)
+            {
+                let p = ray.at(t);
+                if p.cmpge(lo).all() && p.cmple(hi).all() {
+                    best = Some((t, (b - a).cross(c - a).normalize_or_zero()));
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Ray/triangle intersection (Möller and Trumbore), two-sided, edges inclusive.
+#[inline]
+fn moller_trumbore(ray: &GridRay, a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = ray.dir.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = ray.dir.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some(e2.dot(q) * inv)
+}
+
+impl Surfaces for ExactSurfaces<'_> {
+    fn grid(&self) -> (RootCube, u8) {
+        self.octree.grid()
+    }
+
+    fn closest(
+        &self,
+        ray: &GridRay,
+        tmin: f32,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+    ) -> Traced {
+        let tree = self.octree.tree();
+        let r = traverse(tree, ray, tmin, tmax, max_steps, |e| {
+            if Some(e.leaf) == skip {
+                return None;
+            }
+            let (t, n) = self.leaf_triangles_hit(ray, e.leaf, e.cell, e.t_enter, e.t_exit)?;
+            Some(SurfaceHit {
+                t,
+                t_exit: e.t_exit,
+                id: e.leaf,
+                normal: n,
+                material: self.octree.material(e.leaf),
+            })
+        });
+        Traced {
+            hit: r.hit,
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+
+    fn walk(
+        &self,
+        ray: &GridRay,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
+    ) -> Walked {
+        let tree = self.octree.tree();
+        let r = traverse(tree, ray, 0.0, tmax, max_steps, |e| {
+            if Some(e.leaf) == skip {
+                return None;
+            }
+            let (t, n) = self.leaf_triangles_hit(ray, e.leaf, e.cell, e.t_enter, e.t_exit)?;
+            let h = SurfaceHit {
+                t,
+                t_exit: e.t_exit,
+                id: e.leaf,
+                normal: n,
+                material: self.octree.material(e.leaf),
+            };
+            visit(&h).then_some(())
+        });
+        Walked {
+            blocked: r.hit.is_some(),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+}

@@ -1,0 +1,674 @@
+//! File to image: load an `.svo`, set up the camera, lights and tracer, render (once, or
+//! repeatedly for a benchmark) and write the colour image or an AOV atomically. This is
+//! everything `svo-view --cpu` does; its `main` only parses arguments and prints the
+//! [`RenderReport`].
+
+use crate::aov::{self, Aov};
+use crate::camera::{Camera, CameraError};
+use crate::exact_surfaces::ExactSurfaces;
+use crate::format_read::read_file;
+use crate::format_write::FormatError;
+use crate::image_compare::{self, ImageDiff};
+use crate::image_write::{ImageWriteError, write_float, write_png};
+use crate::import::load_mesh;
+use crate::leaf_hit::HitMode;
+use crate::mesh::MeshError;
+use crate::mesh_reference::MeshSurfaces;
+use crate::octree::Octree;
+use crate::render::{Frame, RenderStats, render};
+use crate::shading::{Phong, PointLight};
+use crate::sky::Sky;
+use crate::surfaces::{OctreeSurfaces, Surfaces};
+use crate::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions, Tracer};
+use glam::{DVec3, UVec3, Vec3};
+use std::fmt;
+use std::path::PathBuf;
+use thiserror::Error;
+
+/// Errors of a render job.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum RenderJobError {
+    /// Reading the `.svo` failed.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// The camera settings are invalid.
+    #[error(transparent)]
+    Camera(#[from] CameraError),
+    /// Writing the image failed.
+    #[error(transparent)]
+    Image(#[from] ImageWriteError),
+    /// Loading a mesh failed.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// A setting is invalid.
+    #[error("{0}")]
+    Invalid(String),
+    /// The thread pool could not be made.
+    #[error("cannot start {threads} threads: {message}")]
+    Threads {
+        /// Requested threads.
+        threads: usize,
+        /// Why not.
+        message: String,
+    },
+}
+
+/// A point light as given on the command line: position, optional colour and intensity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSpec {
+    /// Position (scene units).
+    pub position: DVec3,
+    /// Linear RGB colour (default white).
+    pub colour: Option<Vec3>,
+    /// Intensity (default: the squared distance to the scene's centre, so the light gives
+    /// about 1 at the model).
+    pub intensity: Option<f32>,
+}
+
+impl LightSpec {
+    /// Parses `x,y,z[:r,g,b[:intensity]]`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let mut parts = s.split(':');
+        let position = parse_dvec3(parts.next().unwrap_or(""))
+            .map_err(|e| format!("light {s:?}: position: {e}"))?;
+        let colour = parts
+            .next()
+            .map(|c| parse_dvec3(c).map(DVec3::as_vec3))
+            .transpose()
+            .map_err(|e| format!("light {s:?}: colour: {e}"))?;
+        if colour.is_some_and(|c| c.min_element() < 0.0) {
+            return Err(format!("light {s:?}: colour must not be negative"));
+        }
+        let intensity = parts
+            .next()
+            .map(|i| match i.trim().parse::<f32>() {
+                Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+                _ => Err(format!(
+                    "light {s:?}: intensity {i:?} is not a non-negative number"
+                )),
+            })
+            .transpose()?;
+        if parts.next().is_some() {
+            return Err(format!("light {s:?}: expected x,y,z[:r,g,b[:intensity]]"));
+        }
+        Ok(Self {
+            position,
+            colour,
+            intensity,
+        })
+    }
+}
+
+/// Parses `x,y,z` into finite numbers.
+pub fn parse_dvec3(s: &str) -> Result<DVec3, String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    if v.len() != 3 {
+        return Err(format!("{s:?} is not x,y,z"));
+    }
+    let mut out = [0.0f64; 3];
+    for (o, t) in out.iter_mut().zip(&v) {
+        *o = t
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{t:?} in {s:?} is not a finite number"))?;
+    }
+    Ok(DVec3::from_array(out))
+}
+
+/// Parses `WIDTHxHEIGHT`.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {s:?} is not WIDTHxHEIGHT"))?;
+    let p = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("size {s:?} is not WIDTHxHEIGHT"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+/// What to render and how.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    /// The `.svo` file.
+    pub input: PathBuf,
+    /// The image to write (`.png`; `.pfm` or `.exr` for the depth AOV); `None` renders
+    /// without writing (benchmarks).
+    pub output: Option<PathBuf>,
+    /// Image size.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Camera eye; default: frame the model.
+    pub eye: Option<DVec3>,
+    /// Camera target; default: the model's centre.
+    pub target: Option<DVec3>,
+    /// Up; default `+y`.
+    pub up: Option<DVec3>,
+    /// Vertical field of view in degrees.
+    pub fov_deg: f64,
+    /// Tracer settings.
+    pub trace: TraceOptions,
+    /// Lights; default: one white light above and behind the camera's right shoulder.
+    pub lights: Vec<LightSpec>,
+    /// What to write.
+    pub aov: Aov,
+    /// Render this many timed frames (after one untimed warm-up) and report the median.
+    pub bench_frames: Option<u32>,
+    /// Worker threads (default all cores).
+    pub threads: Option<usize>,
+    /// A triangle mesh to render instead (the reference), or beside the octree with
+    /// `compare`.
+    pub reference: Option<PathBuf>,
+    /// Render both the octree and `reference` and measure the difference.
+    pub compare: bool,
+    /// The mesh the tree was baked from, for the exact hit mode (default: `reference`).
+    pub mesh: Option<PathBuf>,
+}
+
+impl Default for RenderJob {
+    fn default() -> Self {
+        Self {
+            input: PathBuf::new(),
+            output: None,
+            width: 1280,
+            height: 720,
+            eye: None,
+            target: None,
+            up: None,
+            fov_deg: 40.0,
+            trace: TraceOptions::default(),
+            lights: Vec::new(),
+            aov: Aov::Colour,
+            bench_frames: None,
+            threads: None,
+            reference: None,
+            compare: false,
+            mesh: None,
+        }
+    }
+}
+
+/// What a render job did.
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct RenderReport {
+    /// Image size.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tree depth.
+    pub depth: u8,
+    /// Leaves.
+    pub leaves: u32,
+    /// Hit mode name.
+    pub hit: &'static str,
+    /// Threads used.
+    pub threads: usize,
+    /// Frames timed.
+    pub frames: u32,
+    /// Median milliseconds per frame.
+    pub median_ms: f64,
+    /// Fastest frame, ms.
+    pub min_ms: f64,
+    /// All rays (primary, secondary, shadow) per second at the median, millions.
+    pub mrays_per_s: f64,
+    /// Primary rays per second at the median, millions.
+    pub primary_mrays_per_s: f64,
+    /// Counters of the last frame.
+    pub stats: RenderStats,
+    /// The scale of the cost heat map (steps at the hottest colour).
+    pub cost_scale: u32,
+    /// The file written.
+    pub output: Option<String>,
+    /// The comparison with the triangle reference, with `--compare`.
+    pub compare: Option<CompareReport>,
+}
+
+/// An SVO render measured against the triangle reference.
+#[derive(Clone, Debug)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct CompareReport {
+    /// Image error.
+    pub diff: ImageDiff,
+    /// Median ms per frame of the SVO render.
+    pub svo_ms: f64,
+    /// Median ms per frame of the reference render.
+    pub reference_ms: f64,
+    /// Where the reference image went.
+    pub reference_output: Option<String>,
+}
+
+impl fmt::Display for RenderReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.stats;
+        writeln!(
+            f,
+            "{}x{} depth {} ({} leaves), hit {}, {} threads",
+            self.width, self.height, self.depth, self.leaves, self.hit, self.threads
+        )?;
+        let all = s.primary_rays + s.secondary_rays + s.shadow_rays;
+        writeln!(
+            f,
+            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
+            s.primary_rays,
+            100.0 * s.primary_hits as f64 / s.primary_rays.max(1) as f64,
+            s.secondary_rays,
+            s.shadow_rays,
+            s.primary_steps as f64 / s.primary_rays.max(1) as f64,
+            s.max_primary_steps,
+            s.capped
+        )?;
+        if let Some(o) = &self.output {
+            writeln!(f, "wrote {o}")?;
+        }
+        if let Some(c) = &self.compare {
+            writeln!(
+                f,
+                "vs triangle reference: RMSE {:.2} (8-bit sRGB), PSNR {:.2} dB, max diff {}, hit/miss differs on {:.3}% of pixels; SVO {:.2} ms, triangles {:.2} ms per frame",
+                c.diff.rmse,
+                c.diff.psnr_db,
+                c.diff.max_abs,
+                100.0 * c.diff.hit_mismatch,
+                c.svo_ms,
+                c.reference_ms
+            )?;
+            if let Some(r) = &c.reference_output {
+                writeln!(f, "wrote {r} and the diff image beside it")?;
+            }
+        }
+        write!(
+            f,
+            "{} frame(s): median {:.2} ms/frame (min {:.2}), {} rays/frame, primary {:.1} Mrays/s, all {:.1} Mrays/s",
+            self.frames,
+            self.median_ms,
+            self.min_ms,
+            all,
+            self.primary_mrays_per_s,
+            self.mrays_per_s
+        )
+    }
+}
+
+/// The bounds of the occupied cells, in scene units.
+pub fn occupied_bounds(tree: &Octree) -> (DVec3, DVec3) {
+    let mut lo = UVec3::MAX;
+    let mut hi = UVec3::ZERO;
+    for l in tree.leaves() {
+        lo = lo.min(l.cell);
+        hi = hi.max(l.cell + UVec3::ONE);
+    }
+    if lo.x > hi.x {
+        return (
+            tree.root.origin,
+            tree.root.origin + DVec3::splat(tree.root.side),
+        );
+    }
+    let (a, _) = tree.cell_bounds(lo);
+    let (b, _) = tree.cell_bounds(hi);
+    (a, b)
+}
+
+/// Runs a render job.
+pub fn run(job: &RenderJob) -> Result<RenderReport, RenderJobError> {
+    #[cfg(feature = "parallel")]
+    {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(n) = job.threads {
+            b = b.num_threads(n.max(1));
+        }
+        let pool = b.build().map_err(|e| RenderJobError::Threads {
+            threads: job.threads.unwrap_or(0),
+            message: e.to_string(),
+        })?;
+        let threads = pool.current_num_threads();
+        pool.install(|| run_inner(job, threads))
+    }
+    #[cfg(not(feature = "parallel"))]
+    run_inner(job, 1)
+}
+
+fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
+    if job.trace.max_reflections > MAX_BOUNCES || job.trace.max_refractions > MAX_BOUNCES {
+        return Err(RenderJobError::Invalid(format!(
+            "at most {MAX_BOUNCES} bounces"
+        )));
+    }
+    if !(job.trace.bias_cells.is_finite() && job.trace.bias_cells >= 0.0) {
+        return Err(RenderJobError::Invalid(
+            "the bias must be a non-negative number".into(),
+        ));
+    }
+    if let Some(out) = &job.output {
+        check_output(out, job.aov)?;
+    }
+    let (tree, _build) = read_file(&job.input)?;
+    let (lo, hi) = occupied_bounds(&tree);
+    let framing = Camera::framing(lo, hi, job.width, job.height, job.fov_deg);
+    let mut camera = Camera {
+        eye: job.eye.unwrap_or(framing.eye),
+        target: job.target.unwrap_or(framing.target),
+        up: job.up.unwrap_or(DVec3::Y),
+        ..framing
+    };
+    if job.eye.is_some() && job.target.is_none() {
+        camera.target = (lo + hi) * 0.5;
+    }
+    let rays = camera.rays()?;
+    let centre = (lo + hi) * 0.5;
+    let dist = (camera.eye - camera.target).length();
+    let lights: Vec<PointLight> = if job.lights.is_empty() {
+        let pos = camera.eye + (rays.up() * 0.8 + rays.right() * 0.5) * dist;
+        vec![PointLight {
+            position: pos,
+            colour: Vec3::ONE,
+            intensity: (pos - centre).length_squared() as f32,
+        }]
+    } else {
+        job.lights
+            .iter()
+            .map(|l| PointLight {
+                position: l.position,
+                colour: l.colour.unwrap_or(Vec3::ONE),
+                intensity: l
+                    .intensity
+                    .unwrap_or((l.position - centre).length_squared() as f32),
+            })
+            .collect()
+    };
+    let sky = Sky {
+        up: camera.up.normalize().as_vec3(),
+        ..Sky::default()
+    };
+    let phong = Phong::default();
+    let exact_mesh = if job.trace.mode == HitMode::Exact {
+        let path = job
+            .mesh
+            .as_ref()
+            .or(job.reference.as_ref())
+            .ok_or_else(|| {
+                RenderJobError::Invalid(
+                "hit mode exact needs the mesh the tree was baked from: give --mesh or --reference"
+                    .into(),
+            )
+            })?;
+        Some(load_mesh(path)?)
+    } else {
+        None
+    };
+    let reference = job.reference.as_ref().map(|p| load_mesh(p)).transpose()?;
+    if job.compare && reference.is_none() {
+        return Err(RenderJobError::Invalid(
+            "--compare needs --reference MESH".into(),
+        ));
+    }
+    let frames = job.bench_frames;
+    // The octree image (unless only the reference is wanted).
+    let svo = if reference.is_none() || job.compare {
+        Some(match &exact_mesh {
+            Some(mesh) => {
+                let s = ExactSurfaces::new(&tree, mesh).map_err(RenderJobError::Invalid)?;
+                timed(
+                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &camera,
+                    frames,
+                )?
+            }
+            None => {
+                let s = OctreeSurfaces::new(&tree, job.trace.mode);
+                timed(
+                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &camera,
+                    frames,
+                )?
+            }
+        })
+    } else {
+        None
+    };
+    let refr = match reference {
+        Some(mesh) => {
+            let s = MeshSurfaces::new(mesh, tree.root, tree.depth);
+            Some(timed(
+                &Tracer::new(s, &lights, sky, phong, job.trace),
+                &camera,
+                frames,
+            )?)
+        }
+        None => None,
+    };
+    let mut compare = None;
+    let (frame, times) = match (svo, refr) {
+        (Some(s), Some(r)) => {
+            let diff = image_compare::compare(&s.0, &r.0)
+                .ok_or_else(|| RenderJobError::Invalid("the two renders differ in size".into()))?;
+            compare = Some(CompareReport {
+                diff,
+                svo_ms: median(&s.1) * 1e3,
+                reference_ms: median(&r.1) * 1e3,
+                reference_output: None,
+            });
+            if let Some(out) = &job.output {
+                let ref_out = sibling(out, "reference");
+                write_output(&r.0, job.aov, &ref_out, r.0.stats.max_primary_steps.max(1))?;
+                let diff_out = sibling(out, "diff");
+                write_png(
+                    &diff_out,
+                    s.0.width,
+                    s.0.height,
+                    &image_compare::diff_rgb8(&s.0, &r.0, 4.0),
+                )?;
+                if let Some(c) = compare.as_mut() {
+                    c.reference_output = Some(ref_out.display().to_string());
+                }
+            }
+            s
+        }
+        (Some(s), None) => s,
+        (None, Some(r)) => r,
+        (None, None) => unreachable!("one of the two renders always runs"),
+    };
+    let mut sorted = times.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let s = frame.stats;
+    let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
+    let cost_scale = s.max_primary_steps.max(1);
+    let output = match &job.output {
+        Some(out) => {
+            write_output(&frame, job.aov, out, cost_scale)?;
+            Some(out.display().to_string())
+        }
+        None => None,
+    };
+    Ok(RenderReport {
+        width: camera.width,
+        height: camera.height,
+        depth: tree.depth,
+        leaves: tree.leaf_count,
+        hit: if job.reference.is_some() && !job.compare {
+            "triangles"
+        } else {
+            job.trace.mode.name()
+        },
+        threads,
+        frames: times.len() as u32,
+        median_ms: median * 1e3,
+        min_ms: sorted[0] * 1e3,
+        mrays_per_s: all / median / 1e6,
+        primary_mrays_per_s: s.primary_rays as f64 / median / 1e6,
+        stats: s,
+        cost_scale,
+        output,
+        compare,
+    })
+}
+
+/// Renders once, or `frames` timed times after the first; returns the last frame and the
+/// times in seconds.
+fn timed<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    frames: Option<u32>,
+) -> Result<(Frame, Vec<f64>), RenderJobError> {
+    let mut frame = render(tracer, camera)?;
+    let mut times = Vec::new();
+    match frames {
+        Some(n) => {
+            for _ in 0..n.max(1) {
+                frame = render(tracer, camera)?;
+                times.push(frame.elapsed.as_secs_f64());
+            }
+        }
+        None => times.push(frame.elapsed.as_secs_f64()),
+    }
+    Ok((frame, times))
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+/// `dir/name.png` -> `dir/name.<tag>.png`.
+fn sibling(out: &std::path::Path, tag: &str) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = out
+        .extension()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}.{tag}.{ext}"))
+}
+
+fn check_output(out: &std::path::Path, a: Aov) -> Result<(), RenderJobError> {
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let ok = match a {
+        Aov::Depth => ext == "pfm" || ext == "exr",
+        _ => ext == "png",
+    };
+    if !ok {
+        return Err(RenderJobError::Invalid(format!(
+            "{}: {} images are written as {}",
+            out.display(),
+            if a == Aov::Depth {
+                "depth"
+            } else {
+                "colour and AOV"
+            },
+            if a == Aov::Depth {
+                ".pfm or .exr"
+            } else {
+                ".png"
+            }
+        )));
+    }
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        return Err(RenderJobError::Invalid(format!(
+            "cannot write {}: folder {} does not exist",
+            out.display(),
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
+fn write_output(
+    f: &Frame,
+    a: Aov,
+    out: &std::path::Path,
+    cost_scale: u32,
+) -> Result<(), ImageWriteError> {
+    let (w, h) = (f.width, f.height);
+    match a {
+        Aov::Depth => write_float(out, w, h, &f.depth),
+        Aov::Colour => write_png(out, w, h, &aov::colour_rgb8(f)),
+        Aov::Normal => write_png(out, w, h, &aov::normal_rgb8(f)),
+        Aov::Leaf => write_png(out, w, h, &aov::leaf_rgb8(f)),
+        Aov::Cost => write_png(out, w, h, &aov::cost_rgb8(f, cost_scale)),
+    }
+}
+
+/// Parses a hit mode name.
+pub fn parse_hit(s: &str) -> Result<HitMode, String> {
+    match s {
+        "cube" => Ok(HitMode::Cube),
+        "contour" => Ok(HitMode::Contour),
+        "exact" => Ok(HitMode::Exact),
+        _ => Err(format!(
+            "unknown hit mode {s:?} (expected cube, contour or exact)"
+        )),
+    }
+}
+
+/// Parses a shadow mode name.
+pub fn parse_shadows(s: &str) -> Result<ShadowMode, String> {
+    match s {
+        "none" => Ok(ShadowMode::None),
+        "opaque" => Ok(ShadowMode::Opaque),
+        "max" => Ok(ShadowMode::MaxRefractivity),
+        "product" => Ok(ShadowMode::Transmittance),
+        _ => Err(format!(
+            "unknown shadow mode {s:?} (expected none, opaque, max or product)"
+        )),
+    }
+}
+
+/// Parses a Fresnel formula name.
+pub fn parse_fresnel(s: &str) -> Result<FresnelMode, String> {
+    match s {
+        "exact" => Ok(FresnelMode::Exact),
+        "schlick" => Ok(FresnelMode::Schlick),
+        _ => Err(format!(
+            "unknown Fresnel formula {s:?} (expected exact or schlick)"
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_specs() {
+        let l = LightSpec::parse("1,2,3").unwrap();
+        assert_eq!(l.position, DVec3::new(1.0, 2.0, 3.0));
+        assert!(l.colour.is_none() && l.intensity.is_none());
+        let l = LightSpec::parse("1,2,3:1,0.5,0:40").unwrap();
+        assert_eq!(l.colour, Some(Vec3::new(1.0, 0.5, 0.0)));
+        assert_eq!(l.intensity, Some(40.0));
+        for bad in [
+            "",
+            "1,2",
+            "1,2,x",
+            "1,2,3:1,1",
+            "1,2,3:1,1,1:-1",
+            "1,2,3:1,1,1:1:1",
+            "nan,1,1",
+            "1,2,3:-1,0,0",
+        ] {
+            assert!(LightSpec::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("1920x1080"), Ok((1920, 1080)));
+        assert!(
+            parse_size("1920").is_err()
+                && parse_size("ax2").is_err()
+                && parse_size("-1x2").is_err()
+        );
+    }
+}

@@ -1,0 +1,202 @@
+//! What the Whitted tracer traces: anything that can give the closest surface along a grid
+//! ray and walk the surfaces along a shadow ray. The octree ([`OctreeSurfaces`]) is one; the
+//! triangle reference ([`crate::mesh_reference`]) is the other, so both render through the
+//! same camera, lights and shading and their images can be compared pixel for pixel.
+
+use crate::grid::RootCube;
+use crate::grid_ray::GridRay;
+use crate::leaf_hit::{HitMode, leaf_hit};
+use crate::mesh::srgb_to_linear;
+use crate::octree::{Octree, ior_decode};
+use crate::octree_traverse::traverse;
+use glam::Vec3;
+
+/// The material at a hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    /// Linear albedo.
+    pub albedo: Vec3,
+    /// Reflectivity.
+    pub reflectivity: f32,
+    /// Refractivity.
+    pub refractivity: f32,
+    /// Index of refraction.
+    pub ior: f32,
+}
+
+/// A ray's hit on a surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Ray parameter (scene units along a unit scene direction).
+    pub t: f32,
+    /// Where the ray leaves the primitive's cell (octree) or `t` (triangles).
+    pub t_exit: f32,
+    /// Leaf or triangle index.
+    pub id: u32,
+    /// The unit shading normal, oriented as the surface is (outwards for closed meshes), or
+    /// zero if unknown.
+    pub normal: Vec3,
+    /// The material.
+    pub material: SurfaceMaterial,
+}
+
+/// The outcome of a closest-hit query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traced {
+    /// The closest hit.
+    pub hit: Option<SurfaceHit>,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
+/// The outcome of a shadow walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Walked {
+    /// Whether the visitor stopped the walk (the light is blocked).
+    pub blocked: bool,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
+/// Surfaces a [`crate::whitted::Tracer`] can trace, in the grid space of a root cube.
+pub trait Surfaces: Sync {
+    /// The root cube and depth whose grid space the rays are in.
+    fn grid(&self) -> (RootCube, u8);
+
+    /// The closest hit in `[tmin, tmax]`, ignoring primitive `skip`.
+    fn closest(
+        &self,
+        ray: &GridRay,
+        tmin: f32,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+    ) -> Traced;
+
+    /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
+    /// returns `true`.
+    fn walk(
+        &self,
+        ray: &GridRay,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
+    ) -> Walked;
+}
+
+/// An octree traced with one of the leaf hit modes.
+#[derive(Clone, Debug)]
+pub struct OctreeSurfaces<'a> {
+    tree: &'a Octree,
+    mode: HitMode,
+    srgb: [f32; 256],
+}
+
+impl<'a> OctreeSurfaces<'a> {
+    /// `tree` hit in `mode`.
+    pub fn new(tree: &'a Octree, mode: HitMode) -> Self {
+        Self {
+            tree,
+            mode,
+            srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
+        }
+    }
+
+    /// The tree.
+    pub fn tree(&self) -> &'a Octree {
+        self.tree
+    }
+
+    /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
+    /// reflective, opaque, IOR 1.5).
+    #[inline]
+    pub fn material(&self, i: u32) -> SurfaceMaterial {
+        let a = &self.tree.attributes;
+        let i = i as usize;
+        let albedo = a.colour.get(i).map_or(Vec3::splat(0.8), |c| {
+            let b = c.to_le_bytes();
+            Vec3::new(
+                self.srgb[usize::from(b[0])],
+                self.srgb[usize::from(b[1])],
+                self.srgb[usize::from(b[2])],
+            )
+        });
+        SurfaceMaterial {
+            albedo,
+            reflectivity: a.reflectivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
+            refractivity: a.refractivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
+            ior: a.ior.get(i).map_or(1.5, ior_decode),
+        }
+    }
+
+    #[inline]
+    fn surface_hit(&self, h: &crate::leaf_hit::Hit) -> SurfaceHit {
+        let normal = self
+            .tree
+            .attributes
+            .normal
+            .get(h.leaf as usize)
+            .map_or(h.normal, crate::normal_encoding::decode);
+        SurfaceHit {
+            t: h.t,
+            t_exit: h.t_exit,
+            id: h.leaf,
+            normal,
+            material: self.material(h.leaf),
+        }
+    }
+}
+
+impl Surfaces for OctreeSurfaces<'_> {
+    fn grid(&self) -> (RootCube, u8) {
+        (self.tree.root, self.tree.depth)
+    }
+
+    fn closest(
+        &self,
+        ray: &GridRay,
+        tmin: f32,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+    ) -> Traced {
+        let r = traverse(self.tree, ray, tmin, tmax, max_steps, |e| {
+            if Some(e.leaf) == skip {
+                return None;
+            }
+            leaf_hit(self.tree, ray, e, self.mode)
+        });
+        Traced {
+            hit: r.hit.map(|h| self.surface_hit(&h)),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+
+    fn walk(
+        &self,
+        ray: &GridRay,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
+    ) -> Walked {
+        let r = traverse(self.tree, ray, 0.0, tmax, max_steps, |e| {
+            if Some(e.leaf) == skip {
+                return None;
+            }
+            let h = leaf_hit(self.tree, ray, e, self.mode)?;
+            visit(&self.surface_hit(&h)).then_some(())
+        });
+        Walked {
+            blocked: r.hit.is_some(),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+}

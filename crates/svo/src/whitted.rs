@@ -1,0 +1,400 @@
+//! Whitted ray tracing over the octree with an explicit ray stack (no recursion: the shape
+//! the WGSL port needs, as in the 2019 report's iteration array).
+//!
+//! Each ray on the stack carries its *weight* (the product of the reflection and
+//! transmission factors that led to it), so a hit adds `weight * local` to the pixel at
+//! once and pushes its reflected and refracted rays with their weights: the same sum as the
+//! report's backward pass over its iteration tree, without storing the tree.
+//!
+//! ## Material model (per leaf: colour, reflectivity `kr`, refractivity `kt`, IOR)
+//! - Local (Phong) light weighs `1 - kr - kt`: ambient plus, for each point light that a
+//!   shadow ray reaches, diffuse and specular with inverse-square falloff.
+//! - Where `kt > 0` the boundary is a dielectric: Fresnel's reflectance `F` (exact or
+//!   Schlick) moves `kt * F` to the reflection, which weighs `kr + kt F`, and the refraction
+//!   (Snell) weighs `kt (1 - F)`, tinted by the leaf colour. Total internal reflection sends
+//!   it all to the reflection.
+//! - The medium: a ray arriving against the leaf normal enters (`1 -> IOR`), one arriving
+//!   along it leaves (`IOR -> 1`). Media do not nest.
+//! - Separate limits for reflection and refraction depths.
+//!
+//! ## Shadows
+//! [`ShadowMode`]: none, opaque (any leaf blocks), the 2019 report's compromise (the light
+//! passes with the *largest* refractivity met, and not at all if an opaque leaf is met), or a
+//! transmittance product (each surface crossing multiplies by its refractivity; leaves
+//! closer than half a cell to the previous one belong to the same crossing).
+//!
+//! ## Self-intersection
+//! A secondary or shadow ray ignores the leaf it starts from and starts `bias` cells off
+//! the surface (along the facing normal, or against it for refraction): the offset scales
+//! with the cell size, as DESIGN.md asks.
+
+use crate::grid::RootCube;
+use crate::grid_ray::GridRay;
+use crate::leaf_hit::HitMode;
+use crate::octree_traverse::MAX_STEPS;
+use crate::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
+use crate::sky::Sky;
+use crate::surfaces::{SurfaceHit, Surfaces};
+use glam::Vec3;
+
+/// The most reflection (and, separately, refraction) bounces a ray may take.
+pub const MAX_BOUNCES: u8 = 16;
+
+/// How shadow rays treat semi-transparent leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum ShadowMode {
+    /// No shadow rays.
+    None,
+    /// Every leaf blocks the light.
+    Opaque,
+    /// The 2019 report's rule: the largest refractivity met along the ray.
+    MaxRefractivity,
+    /// The product of the refractivities of the surfaces crossed.
+    #[default]
+    Transmittance,
+}
+
+impl ShadowMode {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Opaque => "opaque",
+            Self::MaxRefractivity => "max",
+            Self::Transmittance => "product",
+        }
+    }
+}
+
+/// Which Fresnel formula dielectric leaves use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum FresnelMode {
+    /// The exact unpolarized dielectric reflectance.
+    #[default]
+    Exact,
+    /// Schlick's approximation.
+    Schlick,
+}
+
+/// Settings of the tracer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// How leaves are hit (octree scenes).
+    pub mode: HitMode,
+    /// Reflection depth limit (at most [`MAX_BOUNCES`]).
+    pub max_reflections: u8,
+    /// Refraction depth limit (at most [`MAX_BOUNCES`]).
+    pub max_refractions: u8,
+    /// Shadow rays.
+    pub shadows: ShadowMode,
+    /// Fresnel formula.
+    pub fresnel: FresnelMode,
+    /// Offset of secondary and shadow ray origins from the surface, in cells.
+    pub bias_cells: f32,
+    /// Traversal step cap per ray.
+    pub max_steps: u32,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        Self {
+            mode: HitMode::Contour,
+            max_reflections: 3,
+            max_refractions: 3,
+            shadows: ShadowMode::Transmittance,
+            fresnel: FresnelMode::Exact,
+            bias_cells: 0.75,
+            max_steps: MAX_STEPS,
+        }
+    }
+}
+
+/// A scene ready to trace: its surfaces (the octree, or the triangle reference), lights in
+/// grid space, sky and options.
+#[derive(Clone, Debug)]
+pub struct Tracer<S> {
+    surfaces: S,
+    /// The grid the rays live in.
+    root: RootCube,
+    depth: u8,
+    /// Grid units per scene unit.
+    scale: f32,
+    lights: Vec<(Vec3, PointLight)>,
+    sky: Sky,
+    phong: Phong,
+    opts: TraceOptions,
+}
+
+/// Counters of one traced sample (all rays it spawned).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleStats {
+    /// Primary, reflection and refraction rays cast.
+    pub rays: u32,
+    /// Shadow rays cast.
+    pub shadow_rays: u32,
+    /// Traversal steps of all of them.
+    pub steps: u32,
+    /// Rays stopped by the step cap.
+    pub capped: u32,
+}
+
+/// What tracing one primary ray gives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Linear RGB radiance.
+    pub colour: Vec3,
+    /// The primary hit.
+    pub hit: Option<SurfaceHit>,
+    /// The primary hit's shading normal.
+    pub normal: Vec3,
+    /// Traversal steps of the primary ray alone.
+    pub primary_steps: u32,
+    /// Counters over all rays.
+    pub stats: SampleStats,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Task {
+    origin: Vec3,
+    dir: Vec3,
+    weight: Vec3,
+    refl: u8,
+    refr: u8,
+    skip: Option<u32>,
+}
+
+const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
+
+impl<S: Surfaces> Tracer<S> {
+    /// Prepares `surfaces` with `lights` (scene space) for tracing.
+    pub fn new(
+        surfaces: S,
+        lights: &[PointLight],
+        sky: Sky,
+        phong: Phong,
+        opts: TraceOptions,
+    ) -> Self {
+        let (root, depth) = surfaces.grid();
+        let scale = ((1u64 << depth) as f64 / root.side) as f32;
+        let lights = lights
+            .iter()
+            .map(|l| (root.to_grid(l.position, depth).as_vec3(), *l))
+            .collect();
+        let mut opts = opts;
+        opts.max_reflections = opts.max_reflections.min(MAX_BOUNCES);
+        opts.max_refractions = opts.max_refractions.min(MAX_BOUNCES);
+        Self {
+            surfaces,
+            root,
+            depth,
+            scale,
+            lights,
+            sky,
+            phong,
+            opts,
+        }
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &TraceOptions {
+        &self.opts
+    }
+
+    /// Grid units per scene unit.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// The surfaces traced.
+    pub fn surfaces(&self) -> &S {
+        &self.surfaces
+    }
+
+    /// The grid point of scene point `p`.
+    pub fn to_grid(&self, p: glam::DVec3) -> Vec3 {
+        self.root.to_grid(p, self.depth).as_vec3()
+    }
+
+    /// Traces the ray from grid point `origin` in unit grid direction `dir`.
+    pub fn trace(&self, origin: Vec3, dir: Vec3) -> Sample {
+        let mut sample = Sample {
+            colour: Vec3::ZERO,
+            hit: None,
+            normal: Vec3::ZERO,
+            primary_steps: 0,
+            stats: SampleStats::default(),
+        };
+        let mut stack = [Task {
+            origin,
+            dir,
+            weight: Vec3::ONE,
+            refl: 0,
+            refr: 0,
+            skip: None,
+        }; STACK];
+        let mut len = 1usize;
+        let mut first = true;
+        let bias = self.opts.bias_cells;
+        while len > 0 {
+            len -= 1;
+            let task = stack[len];
+            let ray = GridRay {
+                origin: task.origin,
+                dir: task.dir * self.scale,
+            };
+            let r = self
+                .surfaces
+                .closest(&ray, 0.0, f32::INFINITY, task.skip, self.opts.max_steps);
+            sample.stats.rays += 1;
+            sample.stats.steps += r.steps;
+            sample.stats.capped += u32::from(r.capped);
+            if first {
+                sample.primary_steps = r.steps;
+                sample.hit = r.hit;
+            }
+            let Some(h) = r.hit else {
+                sample.colour += task.weight * self.sky.colour(task.dir);
+                first = false;
+                continue;
+            };
+            let m = h.material;
+            let p = ray.at(h.t);
+            let n_s = if h.normal == Vec3::ZERO {
+                -task.dir
+            } else {
+                h.normal
+            };
+            if first {
+                sample.normal = n_s;
+                first = false;
+            }
+            let entering = n_s.dot(task.dir) < 0.0;
+            let n_f = if entering { n_s } else { -n_s };
+            let v = -task.dir;
+
+            // Local light.
+            let kr = m.reflectivity;
+            let kt = m.refractivity;
+            let local_w = (1.0 - kr - kt).max(0.0);
+            if local_w > 0.0 {
+                let mut local = m.albedo * self.phong.ambient;
+                let from = p + n_f * bias;
+                for (lp, light) in &self.lights {
+                    let to = *lp - from;
+                    let dist_grid = to.length();
+                    if !(dist_grid > 0.0) {
+                        continue;
+                    }
+                    let l = to / dist_grid;
+                    if n_f.dot(l) <= 0.0 {
+                        continue;
+                    }
+                    let vis = self.shadow(from, l, dist_grid / self.scale, h.id, &mut sample.stats);
+                    if vis > 0.0 {
+                        local += light.falloff(dist_grid / self.scale)
+                            * vis
+                            * self.phong.direct(m.albedo, n_f, l, v);
+                    }
+                }
+                sample.colour += task.weight * local_w * local;
+            }
+
+            // Reflection and refraction.
+            let (n1, n2) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+            let cos_i = n_f.dot(v);
+            let (mut fr, mut ft) = (kr, 0.0);
+            let mut t_dir = None;
+            if kt > 0.0 {
+                let f = match self.opts.fresnel {
+                    FresnelMode::Exact => fresnel_exact(cos_i, n1, n2),
+                    FresnelMode::Schlick => fresnel_schlick(cos_i, n1, n2),
+                };
+                t_dir = refract(task.dir, n_f, n1, n2);
+                if t_dir.is_some() {
+                    fr += kt * f;
+                    ft = kt * (1.0 - f);
+                } else {
+                    fr += kt;
+                }
+            }
+            if fr > 0.0 && task.refl < self.opts.max_reflections && len < STACK {
+                stack[len] = Task {
+                    origin: p + n_f * bias,
+                    dir: reflect(task.dir, n_f).normalize(),
+                    weight: task.weight * fr,
+                    refl: task.refl + 1,
+                    refr: task.refr,
+                    skip: Some(h.id),
+                };
+                len += 1;
+            }
+            if let Some(td) = t_dir
+                && ft > 0.0
+                && task.refr < self.opts.max_refractions
+                && len < STACK
+            {
+                stack[len] = Task {
+                    origin: p - n_f * bias,
+                    dir: td,
+                    weight: task.weight * ft * m.albedo,
+                    refl: task.refl,
+                    refr: task.refr + 1,
+                    skip: Some(h.id),
+                };
+                len += 1;
+            }
+        }
+        sample
+    }
+
+    /// The fraction of a light at scene distance `dist` in unit grid direction `l` that
+    /// reaches grid point `from`.
+    fn shadow(&self, from: Vec3, l: Vec3, dist: f32, skip: u32, stats: &mut SampleStats) -> f32 {
+        if self.opts.shadows == ShadowMode::None {
+            return 1.0;
+        }
+        stats.shadow_rays += 1;
+        let ray = GridRay {
+            origin: from,
+            dir: l * self.scale,
+        };
+        let tmax = dist * (1.0 - 1e-5);
+        let half_cell = 0.5 / self.scale;
+        let mode = self.opts.shadows;
+        let mut any = false;
+        let mut max_kt = 0.0f32;
+        let mut trans = 1.0f32;
+        let mut last_exit = f32::NEG_INFINITY;
+        let r = self
+            .surfaces
+            .walk(&ray, tmax, Some(skip), self.opts.max_steps, &mut |h| {
+                if mode == ShadowMode::Opaque {
+                    return true;
+                }
+                let kt = h.material.refractivity;
+                if kt <= 0.0 {
+                    trans = 0.0;
+                    return true;
+                }
+                any = true;
+                max_kt = max_kt.max(kt);
+                if h.t > last_exit + half_cell {
+                    trans *= kt;
+                }
+                last_exit = h.t_exit;
+                false
+            });
+        stats.steps += r.steps;
+        stats.capped += u32::from(r.capped);
+        if r.blocked {
+            return 0.0;
+        }
+        match mode {
+            ShadowMode::MaxRefractivity if any => max_kt,
+            ShadowMode::Transmittance => trans,
+            _ => 1.0,
+        }
+    }
+}

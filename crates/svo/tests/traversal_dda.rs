@@ -1,0 +1,141 @@
+//! The dense-grid DDA against the octree traversal: both must hand the same leaf entries, in
+//! the same order, with the same parameters, to a callback that declines every leaf, and
+//! so agree on every cube and contour hit, on seeded random trees and rays (including
+//! axis-parallel rays with signed zeros and rays through lattice corners).
+#![cfg(feature = "trace")]
+
+mod common;
+
+use glam::{DVec3, UVec3, Vec3};
+use rand::Rng;
+use svo::builder::{Voxel, from_cells};
+use svo::grid_dda::{DenseGrid, MAX_DDA_DEPTH, traverse_dda};
+use svo::grid_ray::GridRay;
+use svo::leaf_hit::{HitMode, leaf_hit};
+use svo::octree::{Channel, Octree};
+use svo::octree_traverse::{LeafEntry, MAX_STEPS, traverse};
+use svo::{RootCube, contour, normal_encoding};
+
+fn random_tree(rng: &mut impl Rng, depth: u8, density: f64) -> Octree {
+    let side = 1u32 << depth;
+    let mut cells = Vec::new();
+    for x in 0..side {
+        for y in 0..side {
+            for z in 0..side {
+                if rng.random_bool(density) {
+                    cells.push((UVec3::new(x, y, z), Voxel::default()));
+                }
+            }
+        }
+    }
+    cells.push((UVec3::ZERO, Voxel::default()));
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let mut tree = from_cells(root, depth, cells).unwrap();
+    let n = tree.leaf_count as usize;
+    let (mut normals, mut contours) = (Vec::new(), Vec::new());
+    for _ in 0..n {
+        let w = normal_encoding::encode(Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ));
+        let nd = normal_encoding::decode(w);
+        let e = f64::from(0.5 * (nd.x.abs() + nd.y.abs() + nd.z.abs()));
+        let a = rng.random_range(-e..e);
+        normals.push(w);
+        contours.push(contour::pack(a, (a + 0.3 * e).min(e), nd));
+    }
+    tree.attributes.normal = Channel::PerLeaf(normals);
+    tree.attributes.contour = Channel::PerLeaf(contours);
+    tree
+}
+
+fn component(rng: &mut impl Rng) -> f32 {
+    match rng.random_range(0..6) {
+        0 => 0.0,
+        1 => -0.0,
+        2 => rng.random_range(-2..=2) as f32,
+        _ => rng.random_range(-1.0..1.0),
+    }
+}
+
+fn random_ray(rng: &mut impl Rng, n: f32) -> GridRay {
+    let lattice = rng.random_bool(0.3);
+    let coord = |rng: &mut dyn rand::RngCore| {
+        if lattice {
+            rng.random_range(-2..=(n as i32 + 2)) as f32
+        } else {
+            rng.random_range(-0.5 * n..1.5 * n)
+        }
+    };
+    let origin = Vec3::new(coord(rng), coord(rng), coord(rng));
+    let mut dir = Vec3::new(component(rng), component(rng), component(rng));
+    if dir == Vec3::ZERO {
+        dir.x = -1.0;
+    }
+    GridRay { origin, dir }
+}
+
+#[test]
+fn dda_and_octree_visit_the_same_leaves() {
+    let mut rng = common::rng(0xDDA);
+    let mut compared = 0usize;
+    let mut hits = 0usize;
+    for depth in 1..=6u8 {
+        for &density in &[0.03, 0.3, 0.9] {
+            let tree = random_tree(&mut rng, depth, density);
+            let grid = DenseGrid::new(&tree).unwrap();
+            let n = (1u32 << depth) as f32;
+            for _ in 0..800 {
+                let ray = random_ray(&mut rng, n);
+                let tmin = if rng.random_bool(0.2) {
+                    rng.random_range(0.0..n)
+                } else {
+                    0.0
+                };
+                let mut a: Vec<LeafEntry> = Vec::new();
+                let mut b: Vec<LeafEntry> = Vec::new();
+                let ta = traverse(&tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                    a.push(*e);
+                    None::<()>
+                });
+                let tb = traverse_dda(&grid, &tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                    b.push(*e);
+                    None::<()>
+                });
+                assert!(!ta.capped && !tb.capped);
+                assert_eq!(a, b, "depth {depth} density {density} {ray:?} tmin {tmin}");
+                compared += a.len();
+                for mode in [HitMode::Cube, HitMode::Contour] {
+                    let ho = traverse(&tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                        leaf_hit(&tree, &ray, e, mode)
+                    });
+                    let hd =
+                        traverse_dda(&grid, &tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                            leaf_hit(&tree, &ray, e, mode)
+                        });
+                    assert_eq!(ho.hit, hd.hit, "{mode:?} {ray:?}");
+                    hits += usize::from(ho.hit.is_some());
+                }
+            }
+        }
+    }
+    assert!(
+        compared > 20_000 && hits > 4_000,
+        "compared {compared} entries, {hits} hits"
+    );
+}
+
+#[test]
+fn too_deep_for_a_dense_grid_is_an_error() {
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let tree = from_cells(root, MAX_DDA_DEPTH + 1, [(UVec3::ZERO, Voxel::default())]).unwrap();
+    let e = DenseGrid::new(&tree).unwrap_err();
+    assert!(e.to_string().contains("depth 11"), "{e}");
+}
