@@ -93,7 +93,14 @@ impl Camera {
             return Err(CameraError::NotFinite);
         }
         let forward = (self.target - self.eye).normalize_or_zero();
-        let right = forward.cross(self.up).normalize_or_zero();
+        let up = self.up.normalize_or_zero();
+        let cross = forward.cross(up);
+        // Parallel within rounding counts as parallel.
+        let right = if cross.length() > 1e-9 {
+            cross.normalize()
+        } else {
+            DVec3::ZERO
+        };
         if forward == DVec3::ZERO || right == DVec3::ZERO {
             return Err(CameraError::Degenerate);
         }
