@@ -70,6 +70,10 @@ pub(crate) struct MirroredRay {
     pub mask: u8,
     /// Cells per axis.
     pub n: u32,
+    /// Per axis, `-1` for mirrored axes and `1` for the others, and `n` or `0`: the real
+    /// plane of mirrored plane `p` is `off + sign * p`, exactly (integers below `2^24`).
+    sign: Vec3,
+    off: Vec3,
 }
 
 impl MirroredRay {
@@ -88,11 +92,14 @@ impl MirroredRay {
                 d[axis] = d[axis].max(TINY);
             }
         }
+        let m = glam::BVec3::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
         Some(Self {
             o: ray.origin,
             inv: d.recip(),
             mask,
             n,
+            sign: Vec3::select(m, Vec3::NEG_ONE, Vec3::ONE),
+            off: Vec3::select(m, Vec3::splat(n as f32), Vec3::ZERO),
         })
     }
 
@@ -101,14 +108,8 @@ impl MirroredRay {
     /// which is what keeps neighbouring cells gap-free.
     #[inline]
     pub fn t_planes(&self, p: UVec3) -> Vec3 {
-        let real = |axis: usize, v: u32| {
-            if self.mask & (4 >> axis) != 0 {
-                (self.n - v) as f32
-            } else {
-                v as f32
-            }
-        };
-        (Vec3::new(real(0, p.x), real(1, p.y), real(2, p.z)) - self.o) * self.inv
+        let real = self.off + self.sign * p.as_vec3();
+        (real - self.o) * self.inv
     }
 
     /// Maps a mirrored leaf cell back to the real cell.

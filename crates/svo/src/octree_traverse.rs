@@ -59,6 +59,17 @@ pub struct Traversal<T> {
 
 const DONE: u8 = 8;
 
+/// An all-zero frame: the stack is initialized with it, which compiles to one `memset`.
+const EMPTY: Frame = Frame {
+    node: Node { info: 0, first: 0 },
+    origin: UVec3::ZERO,
+    half: 0,
+    t0: Vec3::ZERO,
+    tm: Vec3::ZERO,
+    t1: Vec3::ZERO,
+    next: 0,
+};
+
 #[derive(Clone, Copy, Debug)]
 struct Frame {
     node: Node,
@@ -109,6 +120,23 @@ pub fn traverse<T>(
     tmin: f32,
     tmax: f32,
     max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Traversal<T> {
+    // The stack holds one frame per level above the leaves; a stack sized for the tree
+    // keeps its initialization (a `memset` per ray) small.
+    if tree.depth <= 12 {
+        traverse_with::<12, T>(tree, ray, tmin, tmax, max_steps, on_leaf)
+    } else {
+        traverse_with::<32, T>(tree, ray, tmin, tmax, max_steps, on_leaf)
+    }
+}
+
+fn traverse_with<const STACK: usize, T>(
+    tree: &Octree,
+    ray: &GridRay,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
     mut on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Traversal<T> {
     let mut out = Traversal {
@@ -135,8 +163,8 @@ pub fn traverse<T>(
     }
     let half = n / 2;
     let tm = r.t_planes(UVec3::splat(half));
-    const STACK: usize = 32;
-    let mut stack = [Frame {
+    let mut stack = [EMPTY; STACK];
+    stack[0] = Frame {
         node: root,
         origin: UVec3::ZERO,
         half,
@@ -144,7 +172,7 @@ pub fn traverse<T>(
         tm,
         t1,
         next: first_child(tm, enter),
-    }; STACK];
+    };
     let mut len = 1usize;
     while len > 0 {
         let top = &mut stack[len - 1];

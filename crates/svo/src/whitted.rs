@@ -162,10 +162,24 @@ struct Task {
     weight: Vec3,
     refl: u8,
     refr: u8,
-    skip: Option<u32>,
+    /// The leaf or triangle the ray starts on, [`NO_SKIP`] for none.
+    skip: u32,
 }
 
+const NO_SKIP: u32 = u32::MAX;
+
+/// An all-zero task: the stack is initialized with it (one `memset`).
+const EMPTY: Task = Task {
+    origin: Vec3::ZERO,
+    dir: Vec3::ZERO,
+    weight: Vec3::ZERO,
+    refl: 0,
+    refr: 0,
+    skip: 0,
+};
+
 const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
+const SMALL_STACK: usize = 8;
 
 impl<S: Surfaces> Tracer<S> {
     /// Prepares `surfaces` with `lights` (scene space) for tracing.
@@ -219,6 +233,18 @@ impl<S: Surfaces> Tracer<S> {
 
     /// Traces the ray from grid point `origin` in unit grid direction `dir`.
     pub fn trace(&self, origin: Vec3, dir: Vec3) -> Sample {
+        // A depth-first ray stack holds at most one pending ray per bounce plus two; a
+        // stack sized for the limits keeps its initialization small.
+        if usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions) + 2
+            <= SMALL_STACK
+        {
+            self.trace_with::<SMALL_STACK>(origin, dir)
+        } else {
+            self.trace_with::<STACK>(origin, dir)
+        }
+    }
+
+    fn trace_with<const STACK: usize>(&self, origin: Vec3, dir: Vec3) -> Sample {
         let mut sample = Sample {
             colour: Vec3::ZERO,
             hit: None,
@@ -226,14 +252,15 @@ impl<S: Surfaces> Tracer<S> {
             primary_steps: 0,
             stats: SampleStats::default(),
         };
-        let mut stack = [Task {
+        let mut stack = [EMPTY; STACK];
+        stack[0] = Task {
             origin,
             dir,
             weight: Vec3::ONE,
             refl: 0,
             refr: 0,
-            skip: None,
-        }; STACK];
+            skip: NO_SKIP,
+        };
         let mut len = 1usize;
         let mut first = true;
         let bias = self.opts.bias_cells;
@@ -246,7 +273,13 @@ impl<S: Surfaces> Tracer<S> {
             };
             let r = self
                 .surfaces
-                .closest(&ray, 0.0, f32::INFINITY, task.skip, self.opts.max_steps);
+                .closest(
+                &ray,
+                0.0,
+                f32::INFINITY,
+                (task.skip != NO_SKIP).then_some(task.skip),
+                self.opts.max_steps,
+            );
             sample.stats.rays += 1;
             sample.stats.steps += r.steps;
             sample.stats.capped += u32::from(r.capped);
@@ -326,7 +359,7 @@ impl<S: Surfaces> Tracer<S> {
                     weight: task.weight * fr,
                     refl: task.refl + 1,
                     refr: task.refr,
-                    skip: Some(h.id),
+                    skip: h.id,
                 };
                 len += 1;
             }
@@ -341,7 +374,7 @@ impl<S: Surfaces> Tracer<S> {
                     weight: task.weight * ft * m.albedo,
                     refl: task.refl,
                     refr: task.refr + 1,
-                    skip: Some(h.id),
+                    skip: h.id,
                 };
                 len += 1;
             }
