@@ -271,9 +271,7 @@ impl<S: Surfaces> Tracer<S> {
                 origin: task.origin,
                 dir: task.dir * self.scale,
             };
-            let r = self
-                .surfaces
-                .closest(
+            let r = self.surfaces.closest(
                 &ray,
                 0.0,
                 f32::INFINITY,
@@ -315,7 +313,9 @@ impl<S: Surfaces> Tracer<S> {
                 let mut local = m.albedo * self.phong.ambient;
                 let from = p + n_f * bias;
                 for (lp, light) in &self.lights {
-                    let to = *lp - from;
+                    // Direction and falloff from the hit point; the shadow ray starts off
+                    // the surface and stops at the light.
+                    let to = *lp - p;
                     let dist_grid = to.length();
                     if !(dist_grid > 0.0) {
                         continue;
@@ -324,7 +324,14 @@ impl<S: Surfaces> Tracer<S> {
                     if n_f.dot(l) <= 0.0 {
                         continue;
                     }
-                    let vis = self.shadow(from, l, dist_grid / self.scale, h.id, &mut sample.stats);
+                    let shadow_dist = (*lp - from).length() / self.scale;
+                    let vis = self.shadow(
+                        from,
+                        (*lp - from).normalize_or_zero(),
+                        shadow_dist,
+                        h.id,
+                        &mut sample.stats,
+                    );
                     if vis > 0.0 {
                         local += light.falloff(dist_grid / self.scale)
                             * vis

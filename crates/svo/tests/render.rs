@@ -1,0 +1,369 @@
+//! The Whitted tracer on scenes with known answers: a lit wall (ambient, diffuse, specular
+//! and inverse-square falloff), shadows through glass panes in each shadow mode, a mirror, a
+//! glass slab at normal incidence (Fresnel), images independent of the thread count, and the
+//! exact hit mode against the triangle reference.
+#![cfg(all(feature = "trace", feature = "reference"))]
+
+mod common;
+
+use glam::{DVec3, UVec3, Vec3};
+use rand::Rng;
+use svo::RootCube;
+use svo::builder::{Voxel, from_cells};
+use svo::camera::Camera;
+use svo::exact_surfaces::ExactSurfaces;
+use svo::leaf_hit::HitMode;
+use svo::mesh_reference::MeshSurfaces;
+use svo::octree::Octree;
+use svo::render::render;
+use svo::shading::{Phong, PointLight};
+use svo::sky::Sky;
+use svo::surfaces::{OctreeSurfaces, Surfaces};
+use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+
+/// A 16^3 grid over `[0, 16]^3` scene units, so scene and grid coordinates coincide.
+fn grid16(cells: impl IntoIterator<Item = (UVec3, Voxel)>) -> Octree {
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 16.0,
+    };
+    from_cells(root, 4, cells).unwrap()
+}
+
+fn grey(c: f32) -> Voxel {
+    Voxel {
+        colour: [c, c, c, 1.0],
+        reflectivity: 0.0,
+        refractivity: 0.0,
+        ior: 1.5,
+        normal: None,
+    }
+}
+
+/// Black sky, so only the scene contributes.
+fn black_sky() -> Sky {
+    Sky {
+        zenith: Vec3::ZERO,
+        horizon: Vec3::ZERO,
+        ground: Vec3::ZERO,
+        up: Vec3::Y,
+    }
+}
+
+fn opts(shadows: ShadowMode) -> TraceOptions {
+    TraceOptions {
+        mode: HitMode::Cube,
+        shadows,
+        ..TraceOptions::default()
+    }
+}
+
+/// The colour of one ray from `from` towards `to` (scene = grid units here).
+fn shade<S: Surfaces>(t: &Tracer<S>, from: Vec3, to: Vec3) -> Vec3 {
+    t.trace(from, (to - from).normalize()).colour
+}
+
+#[test]
+fn lit_wall_matches_phong_with_inverse_square_falloff() {
+    // A wall: the layer z = 0 (cells z in [0, 1]), albedo 0.5 (sRGB byte 188 -> linear).
+    let wall = grid16((0..16).flat_map(|x| (0..16).map(move |y| (UVec3::new(x, y, 0), grey(0.5)))));
+    let albedo = svo::mesh::srgb_to_linear(svo::mesh::linear_to_srgb(0.5));
+    let phong = Phong::default();
+    let light = PointLight {
+        position: DVec3::new(8.5, 8.5, 5.0),
+        colour: Vec3::new(1.0, 0.5, 0.25),
+        intensity: 9.0,
+    };
+    let t = Tracer::new(
+        OctreeSurfaces::new(&wall, HitMode::Cube),
+        &[light],
+        black_sky(),
+        phong,
+        opts(ShadowMode::Opaque),
+    );
+    // Viewed head-on from (8.5, 8.5, 9): the hit is (8.5, 8.5, 1), the light 4 units away
+    // straight above the surface: N.L = 1, R.V = 1.
+    let c = shade(&t, Vec3::new(8.5, 8.5, 9.0), Vec3::new(8.5, 8.5, 1.0));
+    let falloff = 9.0 / 16.0;
+    let want = Vec3::splat(albedo * phong.ambient)
+        + light.colour * falloff * (albedo * phong.diffuse + phong.specular);
+    assert!((c - want).length() < 1e-5, "{c} vs {want}");
+
+    // At 60 degrees from the normal the diffuse term halves and the distance grows.
+    let p = Vec3::new(8.5, 8.5, 1.0);
+    let lp = p + Vec3::new(0.0, (60f32).to_radians().sin(), (60f32).to_radians().cos()) * 3.0;
+    let light2 = PointLight {
+        position: lp.as_dvec3(),
+        colour: Vec3::ONE,
+        intensity: 9.0,
+    };
+    let t2 = Tracer::new(
+        OctreeSurfaces::new(&wall, HitMode::Cube),
+        &[light2],
+        black_sky(),
+        Phong {
+            specular: 0.0,
+            ..phong
+        },
+        opts(ShadowMode::Opaque),
+    );
+    let c2 = shade(&t2, Vec3::new(8.5, 8.5, 9.0), p);
+    let want2 = albedo * phong.ambient + 1.0 * albedo * phong.diffuse * 0.5;
+    assert!((c2 - Vec3::splat(want2)).length() < 1e-4, "{c2} vs {want2}");
+}
+
+#[test]
+fn shadows_through_two_glass_panes_in_each_mode() {
+    // Floor y = 0 everywhere; two panes at y = 5 and y = 10 over x in 0..8, each letting
+    // half the light through.
+    let pane = Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.0,
+        refractivity: 0.5,
+        ior: 1.0,
+        normal: None,
+    };
+    let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
+    for x in 0..16 {
+        for z in 0..16 {
+            cells.push((UVec3::new(x, 0, z), grey(0.5)));
+            if x < 8 {
+                cells.push((UVec3::new(x, 5, z), pane));
+                cells.push((UVec3::new(x, 10, z), pane));
+            }
+        }
+    }
+    let scene = grid16(cells);
+    let light = PointLight {
+        position: DVec3::new(4.5, 15.5, 8.5),
+        colour: Vec3::ONE,
+        intensity: 200.0,
+    };
+    // Seen from the open side, under the panes, grazing the floor at (4.5, 1, 8.5).
+    let eye = Vec3::new(15.5, 3.0, 8.5);
+    let at = Vec3::new(4.5, 1.0, 8.5);
+    let radiance = |mode| {
+        let t = Tracer::new(
+            OctreeSurfaces::new(&scene, HitMode::Cube),
+            &[light],
+            black_sky(),
+            Phong::default(),
+            opts(mode),
+        );
+        shade(&t, eye, at)
+    };
+    let albedo = svo::mesh::srgb_to_linear(svo::mesh::linear_to_srgb(0.5));
+    let ambient = Vec3::splat(albedo * Phong::default().ambient);
+    let lit = radiance(ShadowMode::None) - ambient;
+    assert!(lit.x > 0.05, "the floor must be lit: {lit}");
+    for (mode, vis) in [
+        (ShadowMode::Opaque, 0.0),
+        (ShadowMode::MaxRefractivity, 0.5),
+        (ShadowMode::Transmittance, 0.25),
+    ] {
+        let got = radiance(mode) - ambient;
+        assert!(
+            (got - lit * vis).length() < 2e-3,
+            "{mode:?}: {got} vs {}",
+            lit * vis
+        );
+    }
+}
+
+#[test]
+fn mirror_reflects_the_lit_wall() {
+    // A mirror floor (y = 0) and a lit grey wall (x = 15); black sky.
+    let mirror = Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 1.0,
+        refractivity: 0.0,
+        ior: 1.5,
+        normal: None,
+    };
+    let mut cells = Vec::new();
+    for a in 0..16 {
+        for b in 0..16 {
+            cells.push((UVec3::new(a, 0, b), mirror));
+            cells.push((UVec3::new(15, a, b), grey(0.5)));
+        }
+    }
+    let scene = grid16(cells);
+    let light = PointLight {
+        position: DVec3::new(10.0, 8.0, 8.0),
+        colour: Vec3::ONE,
+        intensity: 25.0,
+    };
+    let t = Tracer::new(
+        OctreeSurfaces::new(&scene, HitMode::Cube),
+        &[light],
+        black_sky(),
+        Phong::default(),
+        opts(ShadowMode::Opaque),
+    );
+    // Looking down at 45 degrees onto the mirror at (8.3, 1, 8.5): the reflected ray starts
+    // `bias` cells above the surface and goes up to the wall, so it is the same ray as a
+    // direct view from that point.
+    let bias = TraceOptions::default().bias_cells;
+    let via_mirror = shade(&t, Vec3::new(1.3, 8.0, 8.5), Vec3::new(8.3, 1.0, 8.5));
+    let from = Vec3::new(8.3, 1.0 + bias, 8.5);
+    let direct = shade(&t, from, from + Vec3::new(1.0, 1.0, 0.0));
+    assert!(direct.x > 0.01);
+    assert!(
+        (via_mirror - direct).length() < 1e-4,
+        "{via_mirror} vs {direct}"
+    );
+}
+
+#[test]
+fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
+    // A glass slab two cells thick whose leaves carry outward normals: looking straight up
+    // through it at a white sky, each of the two boundaries transmits 1 - 0.04 (Fresnel at
+    // normal incidence, IOR 1.5), entering then leaving the medium.
+    let glass = |n: Vec3| Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.0,
+        refractivity: 1.0,
+        ior: 1.5,
+        normal: Some(n),
+    };
+    let scene = grid16((0..16).flat_map(|x| {
+        (0..16).flat_map(move |z| {
+            [
+                (UVec3::new(x, 4, z), glass(Vec3::NEG_Y)),
+                (UVec3::new(x, 5, z), glass(Vec3::Y)),
+            ]
+        })
+    }));
+    let sky = Sky {
+        zenith: Vec3::ONE,
+        horizon: Vec3::ONE,
+        ground: Vec3::ZERO,
+        up: Vec3::Y,
+    };
+    let t = Tracer::new(
+        OctreeSurfaces::new(&scene, HitMode::Cube),
+        &[],
+        sky,
+        Phong::default(),
+        TraceOptions {
+            max_reflections: 0,
+            max_refractions: 4,
+            ..opts(ShadowMode::None)
+        },
+    );
+    let up = shade(&t, Vec3::new(8.5, 1.0, 8.5), Vec3::new(8.5, 15.0, 8.5));
+    let r0 = 0.04f32;
+    assert!(
+        (up - Vec3::splat((1.0 - r0) * (1.0 - r0))).length() < 1e-4,
+        "{up}"
+    );
+    // With one refraction allowed, the second boundary is never crossed: black.
+    let t1 = Tracer::new(
+        OctreeSurfaces::new(&scene, HitMode::Cube),
+        &[],
+        sky,
+        Phong::default(),
+        TraceOptions {
+            max_reflections: 0,
+            max_refractions: 1,
+            ..opts(ShadowMode::None)
+        },
+    );
+    assert_eq!(
+        shade(&t1, Vec3::new(8.5, 1.0, 8.5), Vec3::new(8.5, 15.0, 8.5)),
+        Vec3::ZERO
+    );
+}
+
+fn torus_mesh() -> svo::Mesh {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
+    svo::import::load_mesh(std::path::Path::new(path)).unwrap()
+}
+
+fn torus_tree(depth: u8) -> Octree {
+    let mesh = torus_mesh();
+    let opts = svo::BakeOptions {
+        depth,
+        ..svo::BakeOptions::default()
+    };
+    svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0
+}
+
+#[test]
+fn exact_hits_equal_the_triangle_reference() {
+    // Every triangle that touches a leaf is in its list, so the exact mode must find the
+    // same first hit as the BVH over all triangles, on every ray.
+    let mesh = torus_mesh();
+    let tree = torus_tree(5);
+    let exact = ExactSurfaces::new(&tree, &mesh).unwrap();
+    let tris = MeshSurfaces::new(mesh, tree.root, tree.depth);
+    let mut rng = common::rng(0xE8AC7);
+    let n = 32.0f32;
+    let mut hits = 0;
+    for _ in 0..20_000 {
+        let o = Vec3::new(
+            rng.random_range(-8.0..n + 8.0),
+            rng.random_range(-8.0..n + 8.0),
+            rng.random_range(-8.0..n + 8.0),
+        );
+        let target = Vec3::new(
+            rng.random_range(0.0..n),
+            rng.random_range(0.0..n),
+            rng.random_range(0.0..n),
+        );
+        let ray = svo::grid_ray::GridRay {
+            origin: o,
+            dir: (target - o).normalize(),
+        };
+        let a = exact.closest(&ray, 0.0, f32::INFINITY, None, 1 << 16);
+        let b = tris.closest(&ray, 0.0, f32::INFINITY, None, 1 << 16);
+        match (a.hit, b.hit) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                hits += 1;
+                assert!(
+                    (x.t - y.t).abs() < 1e-3,
+                    "{ray:?}: exact {} vs reference {}",
+                    x.t,
+                    y.t
+                );
+            }
+            (x, y) => panic!("{ray:?}: exact {x:?} vs reference {y:?}"),
+        }
+    }
+    assert!(hits > 3000, "{hits}");
+}
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    let tree = torus_tree(6);
+    let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+    let cam = Camera::framing(lo, hi, 96, 64, 40.0);
+    let light = PointLight {
+        position: cam.eye + DVec3::new(0.0, 10.0, 0.0),
+        colour: Vec3::ONE,
+        intensity: 100.0,
+    };
+    let frame = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let t = Tracer::new(
+                OctreeSurfaces::new(&tree, HitMode::Contour),
+                &[light],
+                Sky::default(),
+                Phong::default(),
+                TraceOptions::default(),
+            );
+            let mut f = render(&t, &cam).unwrap();
+            f.elapsed = std::time::Duration::ZERO;
+            f
+        })
+    };
+    let one = frame(1);
+    assert!(one.stats.primary_hits > 500);
+    assert_eq!(one, frame(2));
+    assert_eq!(one, frame(3));
+}
