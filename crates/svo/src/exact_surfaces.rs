@@ -16,7 +16,7 @@ use crate::octree::Octree;
 use crate::octree_build::LeafTriangles;
 use crate::octree_traverse::traverse;
 use crate::strategy::Strategy;
-use crate::surfaces::{OctreeSurfaces, SurfaceHit, Surfaces, Traced, Walked};
+use crate::surfaces::{OctreeSurfaces, Query, SurfaceHit, Surfaces, Traced, Walked};
 use glam::{UVec3, Vec3};
 
 /// Margin of the in-cell test, in cells.
@@ -125,17 +125,10 @@ impl Surfaces for ExactSurfaces<'_> {
         self.octree.grid()
     }
 
-    fn closest(
-        &self,
-        ray: &GridRay,
-        tmin: f32,
-        tmax: f32,
-        skip: Option<u32>,
-        max_steps: u32,
-    ) -> Traced {
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
         let tree = self.octree.tree();
-        let r = traverse(tree, ray, tmin, tmax, max_steps, |e| {
-            if Some(e.leaf) == skip {
+        let r = traverse(tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
+            if Some(e.leaf) == q.skip {
                 return None;
             }
             let (t, n) = self.leaf_triangles_hit(ray, e.leaf, e.cell, e.t_enter, e.t_exit)?;
@@ -145,6 +138,7 @@ impl Surfaces for ExactSurfaces<'_> {
                 id: e.leaf,
                 normal: n,
                 material: self.octree.material(e.leaf),
+                medium: None,
             })
         });
         Traced {
@@ -174,6 +168,7 @@ impl Surfaces for ExactSurfaces<'_> {
                 id: e.leaf,
                 normal: n,
                 material: self.octree.material(e.leaf),
+                medium: None,
             };
             visit(&h).then_some(())
         });

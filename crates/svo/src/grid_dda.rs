@@ -161,6 +161,7 @@ pub fn traverse_dda<T>(
                 t_enter,
                 t_exit,
                 entry_normal: r.entry_normal_of(c0, tmin),
+                exit_normal: r.exit_normal_of(c1),
             };
             if let Some(h) = on_leaf(&e) {
                 out.hit = Some(h);

@@ -143,6 +143,21 @@ impl MirroredRay {
         self.entry_normal(axis)
     }
 
+    /// The real-space outward unit normal of the face through which the ray leaves a cell
+    /// whose exit-plane parameters are `c1` (the earliest of the three; ties prefer x, then
+    /// y): it points along the ray.
+    #[inline]
+    pub fn exit_normal_of(&self, c1: Vec3) -> Vec3 {
+        let axis = if c1.x <= c1.y && c1.x <= c1.z {
+            0
+        } else if c1.y <= c1.z {
+            1
+        } else {
+            2
+        };
+        -self.entry_normal(axis)
+    }
+
     /// The real-space unit normal of the face the ray enters through on `axis` (it faces
     /// the ray).
     #[inline]

@@ -9,7 +9,7 @@
 use crate::grid::RootCube;
 use crate::grid_ray::GridRay;
 use crate::mesh::Mesh;
-use crate::surfaces::{SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked};
+use crate::surfaces::{Query, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked};
 use glam::{Vec3, Vec3A};
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
@@ -115,6 +115,7 @@ impl MeshSurfaces {
             id,
             normal: self.normals[id as usize],
             material,
+            medium: None,
         }
     }
 }
@@ -124,15 +125,14 @@ impl Surfaces for MeshSurfaces {
         (self.root, self.depth)
     }
 
-    fn closest(
-        &self,
-        ray: &GridRay,
-        tmin: f32,
-        tmax: f32,
-        skip: Option<u32>,
-        _max_steps: u32,
-    ) -> Traced {
-        let r = Ray::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), tmin, tmax);
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
+        let skip = q.skip;
+        let r = Ray::new(
+            Vec3A::from(ray.origin),
+            Vec3A::from(ray.dir),
+            q.tmin,
+            q.tmax,
+        );
         let mut hit = RayHit::none();
         let found = self.bvh.ray_traverse(r, &mut hit, |r, i| {
             let id = self.bvh.primitive_indices[i];

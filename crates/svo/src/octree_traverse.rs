@@ -43,6 +43,8 @@ pub struct LeafEntry {
     /// The unit normal of the face the ray enters through, facing the ray; zero when the ray
     /// starts inside the cell.
     pub entry_normal: Vec3,
+    /// The outward unit normal of the face the ray leaves through.
+    pub exit_normal: Vec3,
 }
 
 /// The outcome of a traversal.
@@ -210,6 +212,7 @@ fn traverse_with<const STACK: usize, T>(
                 t_enter,
                 t_exit,
                 entry_normal,
+                exit_normal: r.exit_normal_of(c1),
             };
             if let Some(h) = on_leaf(&entry) {
                 out.hit = Some(h);

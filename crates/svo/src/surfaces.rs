@@ -24,6 +24,40 @@ pub struct SurfaceMaterial {
     pub ior: f32,
 }
 
+/// A volumetric medium: the raw refractivity, IOR and colour of transparent leaves that
+/// carry no normal (solid blocks from the programmatic builder, as in the 2019 report's
+/// scene). A ray inside one passes through its cells and stops where it leaves them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Medium(pub u64);
+
+/// What a closest-hit query asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Query {
+    /// The parameter range.
+    pub tmin: f32,
+    /// The parameter range.
+    pub tmax: f32,
+    /// A primitive to ignore (the one a secondary ray starts on).
+    pub skip: Option<u32>,
+    /// The volumetric medium the ray travels in, if any.
+    pub medium: Option<Medium>,
+    /// The traversal step cap.
+    pub max_steps: u32,
+}
+
+impl Query {
+    /// The whole ray, nothing skipped, in the open.
+    pub fn all(max_steps: u32) -> Self {
+        Self {
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+            skip: None,
+            medium: None,
+            max_steps,
+        }
+    }
+}
+
 /// A ray's hit on a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceHit {
@@ -38,6 +72,9 @@ pub struct SurfaceHit {
     pub normal: Vec3,
     /// The material.
     pub material: SurfaceMaterial,
+    /// The volumetric medium the primitive belongs to (a refracted ray entering it travels
+    /// inside it), if any.
+    pub medium: Option<Medium>,
 }
 
 /// The outcome of a closest-hit query.
@@ -67,15 +104,8 @@ pub trait Surfaces: Sync {
     /// The root cube and depth whose grid space the rays are in.
     fn grid(&self) -> (RootCube, u8);
 
-    /// The closest hit in `[tmin, tmax]`, ignoring primitive `skip`.
-    fn closest(
-        &self,
-        ray: &GridRay,
-        tmin: f32,
-        tmax: f32,
-        skip: Option<u32>,
-        max_steps: u32,
-    ) -> Traced;
+    /// The closest hit (a boundary of the query's medium, when it has one).
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
     /// returns `true`.
@@ -148,7 +178,26 @@ impl<'a> OctreeSurfaces<'a> {
             id: h.leaf,
             normal,
             material: self.material(h.leaf),
+            medium: self.medium_of(h.leaf),
         }
+    }
+
+    /// The volumetric medium of leaf `i`: transparent and without a stored normal.
+    #[inline]
+    pub fn medium_of(&self, i: u32) -> Option<Medium> {
+        let a = &self.tree.attributes;
+        let i = i as usize;
+        if a.normal.get(i).is_some() {
+            return None;
+        }
+        let kt = a.refractivity.get(i).unwrap_or(0);
+        (kt > 0).then(|| {
+            Medium(
+                u64::from(kt)
+                    | u64::from(a.ior.get(i).unwrap_or(0)) << 8
+                    | u64::from(a.colour.get(i).unwrap_or(0)) << 24,
+            )
+        })
     }
 }
 
@@ -157,22 +206,42 @@ impl Surfaces for OctreeSurfaces<'_> {
         (self.tree.root, self.tree.depth)
     }
 
-    fn closest(
-        &self,
-        ray: &GridRay,
-        tmin: f32,
-        tmax: f32,
-        skip: Option<u32>,
-        max_steps: u32,
-    ) -> Traced {
-        let r = traverse(self.tree, ray, tmin, tmax, max_steps, |e| {
-            if Some(e.leaf) == skip {
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
+        // Inside a medium, the run of its cells along the ray ends at `run`: the exit
+        // parameter and outward normal of the last cell, and its leaf.
+        let mut run: Option<(f32, Vec3, u32)> = None;
+        let exit_hit = |(t, n, leaf): (f32, Vec3, u32)| SurfaceHit {
+            t,
+            t_exit: t,
+            id: leaf,
+            normal: n,
+            material: self.material(leaf),
+            medium: q.medium,
+        };
+        let r = traverse(self.tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
+            if let Some(m) = q.medium {
+                if let Some(x) = run
+                    && e.t_enter > x.0
+                {
+                    // A gap after the medium's cells: the ray left it there.
+                    return Some(exit_hit(x));
+                }
+                if self.medium_of(e.leaf) == Some(m) {
+                    run = Some((e.t_exit, e.exit_normal, e.leaf));
+                    return None;
+                }
+            }
+            if Some(e.leaf) == q.skip {
                 return None;
             }
-            leaf_hit(self.tree, ray, e, self.mode)
+            leaf_hit(self.tree, ray, e, self.mode).map(|h| self.surface_hit(&h))
         });
+        let hit = match (r.hit, run) {
+            (None, Some(x)) if !r.capped => Some(exit_hit(x)),
+            (h, _) => h,
+        };
         Traced {
-            hit: r.hit.map(|h| self.surface_hit(&h)),
+            hit,
             steps: r.steps,
             capped: r.capped,
         }

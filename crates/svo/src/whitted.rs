@@ -14,7 +14,12 @@
 //!   (Snell) weighs `kt (1 - F)`, tinted by the leaf colour. Total internal reflection sends
 //!   it all to the reflection.
 //! - The medium: a ray arriving against the leaf normal enters (`1 -> IOR`), one arriving
-//!   along it leaves (`IOR -> 1`). Media do not nest.
+//!   along it leaves (`IOR -> 1`). Media do not nest. Transparent leaves without a normal
+//!   (solid blocks from the builder) form volumetric media ([`crate::surfaces::Medium`]): a
+//!   ray refracted into one passes through its cells and meets the boundary where it leaves
+//!   them, as the 2019 report's "hit where the material changes" rule.
+//! - An opaque surface whose shading normal faces away from the viewer (a voxel normal at a
+//!   silhouette) is shaded with the normal turned until it just faces the viewer.
 //! - Separate limits for reflection and refraction depths.
 //!
 //! ## Shadows
@@ -34,7 +39,7 @@ use crate::leaf_hit::HitMode;
 use crate::octree_traverse::MAX_STEPS;
 use crate::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::sky::Sky;
-use crate::surfaces::{SurfaceHit, Surfaces};
+use crate::surfaces::{Medium, Query, SurfaceHit, Surfaces};
 use glam::Vec3;
 
 /// The most reflection (and, separately, refraction) bounces a ray may take.
@@ -164,7 +169,11 @@ struct Task {
     refr: u8,
     /// The leaf or triangle the ray starts on, [`NO_SKIP`] for none.
     skip: u32,
+    /// The volumetric medium the ray travels in, [`NO_MEDIUM`] for none.
+    medium: u64,
 }
+
+const NO_MEDIUM: u64 = u64::MAX;
 
 const NO_SKIP: u32 = u32::MAX;
 
@@ -176,6 +185,7 @@ const EMPTY: Task = Task {
     refl: 0,
     refr: 0,
     skip: 0,
+    medium: 0,
 };
 
 const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
@@ -260,6 +270,7 @@ impl<S: Surfaces> Tracer<S> {
             refl: 0,
             refr: 0,
             skip: NO_SKIP,
+            medium: NO_MEDIUM,
         };
         let mut len = 1usize;
         let mut first = true;
@@ -273,10 +284,13 @@ impl<S: Surfaces> Tracer<S> {
             };
             let r = self.surfaces.closest(
                 &ray,
-                0.0,
-                f32::INFINITY,
-                (task.skip != NO_SKIP).then_some(task.skip),
-                self.opts.max_steps,
+                &Query {
+                    tmin: 0.0,
+                    tmax: f32::INFINITY,
+                    skip: (task.skip != NO_SKIP).then_some(task.skip),
+                    medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
+                    max_steps: self.opts.max_steps,
+                },
             );
             sample.stats.rays += 1;
             sample.stats.steps += r.steps;
@@ -302,7 +316,16 @@ impl<S: Surfaces> Tracer<S> {
                 first = false;
             }
             let entering = n_s.dot(task.dir) < 0.0;
-            let n_f = if entering { n_s } else { -n_s };
+            let n_f = if entering {
+                n_s
+            } else if m.refractivity > 0.0 {
+                -n_s
+            } else {
+                // An opaque surface seen from behind its shading normal (a voxel normal at a
+                // silhouette): turn the normal until it just faces the viewer, rather than
+                // shading the far side.
+                (n_s - task.dir * (n_s.dot(task.dir) + 1e-3)).normalize_or(-task.dir)
+            };
             let v = -task.dir;
 
             // Local light.
@@ -367,6 +390,8 @@ impl<S: Surfaces> Tracer<S> {
                     refl: task.refl + 1,
                     refr: task.refr,
                     skip: h.id,
+                    // A reflection stays on its side of the boundary.
+                    medium: task.medium,
                 };
                 len += 1;
             }
@@ -382,6 +407,12 @@ impl<S: Surfaces> Tracer<S> {
                     refl: task.refl,
                     refr: task.refr + 1,
                     skip: h.id,
+                    // Entering a volumetric medium puts the ray inside it; leaving one
+                    // puts it outside.
+                    medium: match h.medium {
+                        Some(m) if entering => m.0,
+                        _ => NO_MEDIUM,
+                    },
                 };
                 len += 1;
             }
