@@ -1,0 +1,246 @@
+//! `svo-view` rendering end to end: colour and AOV images, the depth file read back, the
+//! comparison with the triangle reference, the benchmark line, and one-line errors with no
+//! output left behind for bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn view(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_svo-view"))
+        .args(args)
+        .output()
+        .expect("run svo-view")
+}
+
+fn torus_obj() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj")
+}
+
+/// Bakes the torus fixture at depth 5 into `dir`.
+fn torus_svo(dir: &Path) -> PathBuf {
+    let mesh = svo::import::load_mesh(&torus_obj()).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 5,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+    let build = svo::format_header::BuildInfo {
+        generator: "test".into(),
+        strategy: "exact".into(),
+        source_triangles: mesh.triangles.len() as u64,
+    };
+    let path = dir.join("torus.svo");
+    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    path
+}
+
+fn ok(o: &std::process::Output) -> String {
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn renders_colour_and_aovs() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let png = d.path().join("t.png");
+    let out = ok(&view(&[
+        s,
+        "--cpu",
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "64x48",
+    ]));
+    assert!(
+        out.contains("64x48 depth 5") && out.contains("Mrays/s"),
+        "{out}"
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (64, 48));
+    // The torus is in the middle: the centre column has pixels unlike the sky corners.
+    let corner = *img.get_pixel(0, 0);
+    assert!((0..48).any(|y| *img.get_pixel(32, y) != corner));
+
+    for aov in ["normal", "leaf", "cost"] {
+        let p = d.path().join(format!("{aov}.png"));
+        ok(&view(&[
+            s,
+            "--aov",
+            aov,
+            "-o",
+            p.to_str().unwrap(),
+            "--size",
+            "32x24",
+        ]));
+        assert_eq!(image::open(&p).unwrap().width(), 32);
+    }
+
+    // Depth as PFM: +inf where the ray misses, finite positive distances on the torus.
+    let pfm = d.path().join("depth.pfm");
+    ok(&view(&[
+        s,
+        "--aov",
+        "depth",
+        "-o",
+        pfm.to_str().unwrap(),
+        "--size",
+        "40x30",
+    ]));
+    let (w, h, v) = svo::image_write::read_pfm(&std::fs::read(&pfm).unwrap()).unwrap();
+    assert_eq!((w, h, v.len()), (40, 30, 1200));
+    assert!(v[0].is_infinite() && v[0] > 0.0);
+    let hits: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    assert!(hits.len() > 50 && hits.iter().all(|&x| x > 0.0));
+    // EXR by extension.
+    let exr = d.path().join("depth.exr");
+    ok(&view(&[
+        s,
+        "--aov",
+        "depth",
+        "-o",
+        exr.to_str().unwrap(),
+        "--size",
+        "40x30",
+    ]));
+    assert!(std::fs::metadata(&exr).unwrap().len() > 100);
+}
+
+#[test]
+fn compare_with_the_triangle_reference_and_bench() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let obj = torus_obj();
+    let o = obj.to_str().unwrap();
+    let png = d.path().join("c.png");
+    let mut psnr = Vec::new();
+    for hit in ["cube", "contour", "exact"] {
+        let out = ok(&view(&[
+            s,
+            "--hit",
+            hit,
+            "--reference",
+            o,
+            "--compare",
+            "-o",
+            png.to_str().unwrap(),
+            "--size",
+            "64x48",
+        ]));
+        let line = out
+            .lines()
+            .find(|l| l.contains("PSNR"))
+            .unwrap_or_else(|| panic!("{out}"));
+        let v: f64 = line
+            .split("PSNR ")
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        psnr.push(v);
+    }
+    // Contours beat cubes, exact triangles beat contours.
+    assert!(psnr[0] < psnr[1] && psnr[1] < psnr[2], "{psnr:?}");
+    assert!(d.path().join("c.reference.png").exists() && d.path().join("c.diff.png").exists());
+
+    let out = ok(&view(&[
+        s,
+        "--bench",
+        "2",
+        "--size",
+        "32x24",
+        "--bounces",
+        "0",
+        "--shadows",
+        "none",
+    ]));
+    let last = out.trim_end().lines().last().unwrap();
+    assert!(
+        last.starts_with("2 frame(s): median") && last.ends_with("Mrays/s"),
+        "{last}"
+    );
+    // --bench writes nothing unless asked.
+    assert!(!svo.with_extension("png").exists());
+
+    // JSON report.
+    let out = ok(&view(&[
+        s,
+        "--json",
+        "--size",
+        "16x16",
+        "-o",
+        png.to_str().unwrap(),
+    ]));
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["width"], 16);
+    assert!(j["stats"]["primary_rays"].as_u64() == Some(256));
+}
+
+#[test]
+fn bad_input_gives_one_line_and_no_output() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let out = d.path().join("out.png");
+    let o = out.to_str().unwrap();
+    let obj = torus_obj();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["missing.svo", "-o", o], "missing.svo"),
+        (vec![s, "-o", o, "--size", "0x10"], "size"),
+        (vec![s, "-o", o, "--size", "20000x10"], "size"),
+        (vec![s, "-o", o, "--size", "wide"], "WIDTHxHEIGHT"),
+        (vec![s, "-o", o, "--fov", "0"], "field of view"),
+        (vec![s, "-o", o, "--eye", "1,2"], "x,y,z"),
+        (
+            vec![s, "-o", o, "--eye", "0,0,0", "--target", "0,0,0"],
+            "eye equals target",
+        ),
+        (vec![s, "-o", o, "--light", "1,2,3:1,1"], "light"),
+        (vec![s, "-o", o, "--aov", "albedo"], "unknown AOV"),
+        (vec![s, "--aov", "depth", "-o", o], ".pfm or .exr"),
+        (vec![s, "-o", o, "--hit", "exact"], "--mesh or --reference"),
+        (vec![s, "-o", o, "--hit", "sphere"], "unknown hit mode"),
+        (vec![s, "-o", o, "--bounces", "99"], "bounces"),
+        (vec![s, "-o", o, "--reference", "nope.obj"], "nope.obj"),
+        (vec![s, "-o", "/nonexistent-dir/x.png"], "does not exist"),
+        (vec![obj.to_str().unwrap(), "-o", o], "not an .svo file"),
+    ];
+    for (args, want) in cases {
+        let r = view(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{args:?} succeeded");
+        assert!(err.contains(want), "{args:?}: {err:?} lacks {want:?}");
+        assert!(!out.exists(), "{args:?} left {o}");
+    }
+    // A mesh that is not the tree's source: exact mode refuses it.
+    let other = d.path().join("tri.obj");
+    std::fs::write(&other, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let r = view(&[
+        s,
+        "-o",
+        o,
+        "--hit",
+        "exact",
+        "--mesh",
+        other.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not the mesh the tree was baked from"));
+    assert!(!out.exists());
+    // Errors are one line (clap's usage errors aside).
+    let r = view(&["missing.svo", "-o", o]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.starts_with("svo-view: error: ") && err.trim_end().lines().count() == 1,
+        "{err}"
+    );
+}
