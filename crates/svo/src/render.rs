@@ -1,5 +1,5 @@
 //! Rendering an image: one primary ray per pixel through a [`Tracer`], in parallel over
-//! tiles (rayon, with the `parallel` feature). Every pixel depends only on its own rays, so
+//! rows (rayon, with the `parallel` feature). Every pixel depends only on its own rays, so
 //! the image is the same whatever the thread count.
 //!
 //! Besides the colour, a render keeps the per-pixel outputs (AOVs) of the primary ray: the
@@ -11,9 +11,6 @@ use crate::surfaces::Surfaces;
 use crate::whitted::{SampleStats, Tracer};
 use glam::Vec3;
 use std::time::{Duration, Instant};
-
-/// Tile side in pixels.
-const TILE: u32 = 16;
 
 /// The leaf AOV value of a pixel whose primary ray misses.
 pub const NO_LEAF: u32 = u32::MAX;
@@ -87,98 +84,97 @@ pub struct Frame {
     pub elapsed: Duration,
 }
 
-struct Tile {
-    colour: Vec<Vec3>,
-    depth: Vec<f32>,
-    normal: Vec<Vec3>,
-    leaf: Vec<u32>,
-    cost: Vec<u32>,
-    stats: RenderStats,
-}
-
-/// Renders `camera`'s view through `tracer`.
+/// Renders `camera`'s view through `tracer` into a new frame.
 pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame, CameraError> {
-    let rays = camera.rays()?;
-    let start = Instant::now();
-    let (w, h) = (camera.width, camera.height);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(TILE);
-    let eye = tracer.to_grid(camera.eye);
-    let do_tile = |ti: u32| -> Tile {
-        let (tx, ty) = (ti % tiles_x, ti / tiles_x);
-        let x0 = tx * TILE;
-        let y0 = ty * TILE;
-        let x1 = (x0 + TILE).min(w);
-        let y1 = (y0 + TILE).min(h);
-        let n = ((x1 - x0) * (y1 - y0)) as usize;
-        let mut t = Tile {
-            colour: Vec::with_capacity(n),
-            depth: Vec::with_capacity(n),
-            normal: Vec::with_capacity(n),
-            leaf: Vec::with_capacity(n),
-            cost: Vec::with_capacity(n),
-            stats: RenderStats::default(),
-        };
-        for y in y0..y1 {
-            for x in x0..x1 {
-                // The grid direction of a unit scene direction is the same unit vector (the
-                // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-                let d = rays.dir(x, y).as_vec3();
-                let s = tracer.trace(eye, d);
-                t.colour.push(s.colour);
-                t.depth.push(s.hit.map_or(f32::INFINITY, |h| h.t));
-                t.normal.push(s.normal);
-                t.leaf.push(s.hit.map_or(NO_LEAF, |h| h.id));
-                t.cost.push(s.primary_steps);
-                t.stats.add(&s.stats, s.primary_steps, s.hit.is_some());
-            }
-        }
-        t
-    };
-    let count = tiles_x * tiles_y;
-    #[cfg(feature = "parallel")]
-    let tiles: Vec<Tile> = {
-        use rayon::prelude::*;
-        (0..count).into_par_iter().map(do_tile).collect()
-    };
-    #[cfg(not(feature = "parallel"))]
-    let tiles: Vec<Tile> = (0..count).map(do_tile).collect();
-
-    let px = (w as usize) * (h as usize);
     let mut f = Frame {
-        width: w,
-        height: h,
-        colour: vec![Vec3::ZERO; px],
-        depth: vec![f32::INFINITY; px],
-        normal: vec![Vec3::ZERO; px],
-        leaf: vec![NO_LEAF; px],
-        cost: vec![0; px],
+        width: 0,
+        height: 0,
+        colour: Vec::new(),
+        depth: Vec::new(),
+        normal: Vec::new(),
+        leaf: Vec::new(),
+        cost: Vec::new(),
         stats: RenderStats::default(),
         elapsed: Duration::ZERO,
     };
-    for (ti, t) in tiles.iter().enumerate() {
-        let ti = ti as u32;
-        let (x0, y0) = ((ti % tiles_x) * TILE, (ti / tiles_x) * TILE);
-        let tw = ((x0 + TILE).min(w) - x0) as usize;
-        for (k, ((((c, d), n), l), s)) in t
-            .colour
-            .iter()
-            .zip(&t.depth)
-            .zip(&t.normal)
-            .zip(&t.leaf)
-            .zip(&t.cost)
-            .enumerate()
-        {
-            let (x, y) = (x0 as usize + k % tw, y0 as usize + k / tw);
-            let i = y * w as usize + x;
-            f.colour[i] = *c;
-            f.depth[i] = *d;
-            f.normal[i] = *n;
-            f.leaf[i] = *l;
-            f.cost[i] = *s;
-        }
-        f.stats.merge(&t.stats);
-    }
-    f.elapsed = start.elapsed();
+    render_into(tracer, camera, &mut f)?;
     Ok(f)
+}
+
+/// Renders into `f`, reusing its buffers (a benchmark loop then allocates nothing per
+/// frame). Rows are rendered in parallel, each written in place.
+pub fn render_into<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    f: &mut Frame,
+) -> Result<(), CameraError> {
+    let rays = camera.rays()?;
+    let start = Instant::now();
+    let (w, h) = (camera.width, camera.height);
+    let px = (w as usize) * (h as usize);
+    f.width = w;
+    f.height = h;
+    f.colour.resize(px, Vec3::ZERO);
+    f.depth.resize(px, f32::INFINITY);
+    f.normal.resize(px, Vec3::ZERO);
+    f.leaf.resize(px, NO_LEAF);
+    f.cost.resize(px, 0);
+    let eye = tracer.to_grid(camera.eye);
+    let row = |y: u32,
+               colour: &mut [Vec3],
+               depth: &mut [f32],
+               normal: &mut [Vec3],
+               leaf: &mut [u32],
+               cost: &mut [u32]|
+     -> RenderStats {
+        let mut stats = RenderStats::default();
+        for x in 0..w {
+            // The grid direction of a unit scene direction is the same unit vector (the
+            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
+            let s = tracer.trace(eye, rays.dir_f32(x, y));
+            let i = x as usize;
+            colour[i] = s.colour;
+            depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+            normal[i] = s.normal;
+            leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+            cost[i] = s.primary_steps;
+            stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+        }
+        stats
+    };
+    let wu = w as usize;
+    #[cfg(feature = "parallel")]
+    let stats = {
+        use rayon::prelude::*;
+        f.colour
+            .par_chunks_mut(wu)
+            .zip(f.depth.par_chunks_mut(wu))
+            .zip(f.normal.par_chunks_mut(wu))
+            .zip(f.leaf.par_chunks_mut(wu))
+            .zip(f.cost.par_chunks_mut(wu))
+            .enumerate()
+            .map(|(y, ((((c, d), n), l), k))| row(y as u32, c, d, n, l, k))
+            .reduce(RenderStats::default, |mut a, b| {
+                a.merge(&b);
+                a
+            })
+    };
+    #[cfg(not(feature = "parallel"))]
+    let stats = {
+        let mut st = RenderStats::default();
+        for ((((y, c), d), n), (l, k)) in f
+            .colour
+            .chunks_mut(wu)
+            .enumerate()
+            .zip(f.depth.chunks_mut(wu))
+            .zip(f.normal.chunks_mut(wu))
+            .zip(f.leaf.chunks_mut(wu).zip(f.cost.chunks_mut(wu)))
+        {
+            st.merge(&row(y as u32, c, d, n, l, k));
+        }
+        st
+    };
+    f.stats = stats;
+    f.elapsed = start.elapsed();
+    Ok(())
 }

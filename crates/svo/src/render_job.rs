@@ -15,7 +15,7 @@ use crate::leaf_hit::HitMode;
 use crate::mesh::MeshError;
 use crate::mesh_reference::MeshSurfaces;
 use crate::octree::Octree;
-use crate::render::{Frame, RenderStats, render};
+use crate::render::{Frame, RenderStats, render, render_into};
 use crate::shading::{Phong, PointLight};
 use crate::sky::Sky;
 use crate::surfaces::{OctreeSurfaces, Surfaces};
@@ -226,6 +226,22 @@ pub struct RenderReport {
     pub output: Option<String>,
     /// The comparison with the triangle reference, with `--compare`.
     pub compare: Option<CompareReport>,
+    /// The camera used (scene units), so another renderer can reproduce the view.
+    pub camera: CameraReport,
+}
+
+/// The camera of a render.
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct CameraReport {
+    /// Eye.
+    pub eye: [f64; 3],
+    /// Target.
+    pub target: [f64; 3],
+    /// Up.
+    pub up: [f64; 3],
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
 }
 
 /// An SVO render measured against the triangle reference.
@@ -249,6 +265,16 @@ impl fmt::Display for RenderReport {
             f,
             "{}x{} depth {} ({} leaves), hit {}, {} threads",
             self.width, self.height, self.depth, self.leaves, self.hit, self.threads
+        )?;
+        let c = &self.camera;
+        let v = |a: [f64; 3]| format!("{:.6},{:.6},{:.6}", a[0], a[1], a[2]);
+        writeln!(
+            f,
+            "camera: --eye {} --target {} --up {} --fov {}",
+            v(c.eye),
+            v(c.target),
+            v(c.up),
+            c.fov_deg
         )?;
         let all = s.primary_rays + s.secondary_rays + s.shadow_rays;
         writeln!(
@@ -504,6 +530,12 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         cost_scale,
         output,
         compare,
+        camera: CameraReport {
+            eye: camera.eye.to_array(),
+            target: camera.target.to_array(),
+            up: camera.up.to_array(),
+            fov_deg: camera.fov_deg,
+        },
     })
 }
 
@@ -519,7 +551,7 @@ fn timed<S: Surfaces>(
     match frames {
         Some(n) => {
             for _ in 0..n.max(1) {
-                frame = render(tracer, camera)?;
+                render_into(tracer, camera, &mut frame)?;
                 times.push(frame.elapsed.as_secs_f64());
             }
         }
