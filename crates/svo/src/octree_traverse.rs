@@ -165,8 +165,8 @@ fn traverse_with<const STACK: usize, T>(
     }
     let half = n / 2;
     let tm = r.t_planes(UVec3::splat(half));
-    let mut stack = [EMPTY; STACK];
-    stack[0] = Frame {
+    // The current node lives in locals (registers); the stack holds its ancestors.
+    let mut cur = Frame {
         node: root,
         origin: UVec3::ZERO,
         half,
@@ -175,20 +175,31 @@ fn traverse_with<const STACK: usize, T>(
         t1,
         next: first_child(tm, enter),
     };
-    let mut len = 1usize;
-    while len > 0 {
-        let top = &mut stack[len - 1];
-        if top.next == DONE {
+    let mut stack = [EMPTY; STACK];
+    let mut len = 0usize;
+    let mask = r.mask;
+    loop {
+        if cur.next == DONE {
+            if len == 0 {
+                break;
+            }
             len -= 1;
+            cur = stack[len];
             continue;
         }
-        let c = top.next;
-        let (c0, c1) = child_interval(top, c);
-        top.next = next_child(c, c1);
+        let c = cur.next;
+        let (c0, c1) = child_interval(&cur, c);
+        cur.next = next_child(c, c1);
         out.steps += 1;
         if out.steps > max_steps {
             out.capped = true;
             return out;
+        }
+        // Most children of a sparse tree are absent: test that before anything else.
+        let real = c ^ mask;
+        let child_mask = cur.node.child_mask();
+        if child_mask >> real & 1 == 0 {
+            continue;
         }
         let t_enter = c0.max_element().max(tmin);
         if t_enter > tmax {
@@ -199,19 +210,15 @@ fn traverse_with<const STACK: usize, T>(
         if t_exit < t_enter {
             continue;
         }
-        let node = top.node;
-        let Some(rank) = node.child_rank(c ^ r.mask) else {
-            continue;
-        };
-        let origin = child_origin(top, c);
-        if let Some(base) = node.leaf_base() {
-            let entry_normal = r.entry_normal_of(c0, tmin);
+        let rank = (child_mask & ((1u16 << real) - 1) as u8).count_ones();
+        let origin = child_origin(&cur, c);
+        if let Some(base) = cur.node.leaf_base() {
             let entry = LeafEntry {
                 leaf: base + rank,
                 cell: r.unmirror_cell(origin),
                 t_enter,
                 t_exit,
-                entry_normal,
+                entry_normal: r.entry_normal_of(c0, tmin),
                 exit_normal: r.exit_normal_of(c1),
             };
             if let Some(h) = on_leaf(&entry) {
@@ -220,15 +227,17 @@ fn traverse_with<const STACK: usize, T>(
             }
         } else {
             // A malformed tree deeper than its depth cannot overflow the stack.
-            if len == STACK || top.half < 2 {
+            if len == STACK || cur.half < 2 {
                 continue;
             }
-            let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
+            let Some(&child) = tree.nodes.get((cur.node.first + rank) as usize) else {
                 continue;
             };
-            let half = top.half / 2;
+            let half = cur.half / 2;
             let tm = r.t_planes(origin + UVec3::splat(half));
-            stack[len] = Frame {
+            stack[len] = cur;
+            len += 1;
+            cur = Frame {
                 node: child,
                 origin,
                 half,
@@ -237,7 +246,6 @@ fn traverse_with<const STACK: usize, T>(
                 t1: c1,
                 next: first_child(tm, t_enter),
             };
-            len += 1;
         }
     }
     out

@@ -1,0 +1,84 @@
+//! Ray casting throughput, one thread, primary rays of a framing camera (480x270): the octree
+//! with cube and contour hits, and the dense-grid DDA, on the committed torus always and on
+//! the Stanford bunny when `../shared/models` is present. Throughput is reported in rays.
+#![allow(missing_docs)]
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use std::path::Path;
+use svo::camera::Camera;
+use svo::grid_dda::{DenseGrid, traverse_dda};
+use svo::grid_ray::GridRay;
+use svo::leaf_hit::{HitMode, leaf_hit};
+use svo::octree_traverse::{MAX_STEPS, traverse};
+use svo::{BakeOptions, bake_mesh};
+
+fn bench(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut meshes = vec![("torus", root.join("fixtures/torus.obj"))];
+    let bunny = root.join("../shared/models/stanford/stanford-bunny.obj");
+    if bunny.exists() {
+        meshes.push(("bunny", bunny));
+    } else {
+        eprintln!("notice: bunny not found at {}; benching the torus only", bunny.display());
+    }
+    let mut g = c.benchmark_group("cast");
+    g.sample_size(10);
+    for (name, path) in &meshes {
+        let mesh = svo::import::load_mesh(path).unwrap();
+        for depth in [8u8, 10] {
+            let opts = BakeOptions {
+                depth,
+                ..Default::default()
+            };
+            let tree = bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0;
+            let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+            let cam = Camera::framing(lo, hi, 480, 270, 40.0);
+            let r = cam.rays().unwrap();
+            let eye = tree.root.to_grid(cam.eye, depth).as_vec3();
+            let scale = ((1u64 << depth) as f64 / tree.root.side) as f32;
+            let rays: Vec<GridRay> = (0..270)
+                .flat_map(|y| (0..480).map(move |x| (x, y)))
+                .map(|(x, y)| GridRay {
+                    origin: eye,
+                    dir: r.dir_f32(x, y) * scale,
+                })
+                .collect();
+            g.throughput(Throughput::Elements(rays.len() as u64));
+            for mode in [HitMode::Cube, HitMode::Contour] {
+                g.bench_function(format!("{name}/d{depth}/octree-{}", mode.name()), |b| {
+                    b.iter(|| {
+                        rays.iter()
+                            .filter(|ray| {
+                                traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                                    leaf_hit(&tree, ray, e, mode)
+                                })
+                                .hit
+                                .is_some()
+                            })
+                            .count()
+                    })
+                });
+            }
+            if depth <= 8 {
+                let grid = DenseGrid::new(&tree).unwrap();
+                g.bench_function(format!("{name}/d{depth}/dda-cube"), |b| {
+                    b.iter(|| {
+                        rays.iter()
+                            .filter(|ray| {
+                                traverse_dda(&grid, &tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                                    leaf_hit(&tree, ray, e, HitMode::Cube)
+                                })
+                                .hit
+                                .is_some()
+                            })
+                            .count()
+                    })
+                });
+            }
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
