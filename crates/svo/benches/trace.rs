@@ -59,6 +59,40 @@ fn bench(c: &mut Criterion) {
                     })
                 });
             }
+            if std::env::var_os("SVO_BENCH_SPLIT").is_some() {
+                // Diagnostics: rays that miss the root (setup cost only), and the hit rays
+                // alone.
+                let away: Vec<GridRay> = rays.iter().map(|r| GridRay { origin: r.origin, dir: -r.dir }).collect();
+                let hits: Vec<GridRay> = rays
+                    .iter()
+                    .copied()
+                    .filter(|ray| {
+                        traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                            leaf_hit(&tree, ray, e, HitMode::Cube)
+                        })
+                        .hit
+                        .is_some()
+                    })
+                    .collect();
+                let misses: Vec<GridRay> = rays.iter().copied().filter(|r| !hits.contains(r)).collect();
+                for (label, set) in [("away", &away), ("hits", &hits), ("misses", &misses)] {
+                    g.throughput(Throughput::Elements(set.len() as u64));
+                    g.bench_function(format!("{name}/d{depth}/split-{label}"), |b| {
+                        b.iter(|| {
+                            set.iter()
+                                .filter(|ray| {
+                                    traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                                        leaf_hit(&tree, ray, e, HitMode::Cube)
+                                    })
+                                    .hit
+                                    .is_some()
+                                })
+                                .count()
+                        })
+                    });
+                }
+                g.throughput(Throughput::Elements(rays.len() as u64));
+            }
             if depth <= 8 {
                 let grid = DenseGrid::new(&tree).unwrap();
                 g.bench_function(format!("{name}/d{depth}/dda-cube"), |b| {

@@ -16,7 +16,7 @@
 //! distance `(p - o) / d` stays finite, so no NaN ever reaches a comparison.
 
 use crate::grid::RootCube;
-use glam::{DVec3, UVec3, Vec3};
+use glam::{BVec3A, DVec3, UVec3, Vec3, Vec3A};
 
 /// The smallest direction component the traversals use (`2^-60`): large enough that
 /// `(p - o) / TINY` stays finite for every grid coordinate, small enough that the
@@ -62,18 +62,18 @@ impl GridRay {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct MirroredRay {
     /// The real origin.
-    pub o: Vec3,
+    pub o: Vec3A,
     /// `1 / d` of the real direction with tiny components raised to [`TINY`] in magnitude:
     /// finite and non-zero.
-    pub inv: Vec3,
+    pub inv: Vec3A,
     /// Child bits of the mirrored axes (x = 4, y = 2, z = 1).
     pub mask: u8,
     /// Cells per axis.
     pub n: u32,
     /// Per axis, `-1` for mirrored axes and `1` for the others, and `n` or `0`: the real
     /// plane of mirrored plane `p` is `off + sign * p`, exactly (integers below `2^24`).
-    sign: Vec3,
-    off: Vec3,
+    sign: Vec3A,
+    off: Vec3A,
 }
 
 impl MirroredRay {
@@ -92,14 +92,14 @@ impl MirroredRay {
                 d[axis] = d[axis].max(TINY);
             }
         }
-        let m = glam::BVec3::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
+        let m = BVec3A::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
         Some(Self {
-            o: ray.origin,
-            inv: d.recip(),
+            o: ray.origin.into(),
+            inv: Vec3A::from(d).recip(),
             mask,
             n,
-            sign: Vec3::select(m, Vec3::NEG_ONE, Vec3::ONE),
-            off: Vec3::select(m, Vec3::splat(n as f32), Vec3::ZERO),
+            sign: Vec3A::select(m, Vec3A::NEG_ONE, Vec3A::ONE),
+            off: Vec3A::select(m, Vec3A::splat(n as f32), Vec3A::ZERO),
         })
     }
 
@@ -107,8 +107,8 @@ impl MirroredRay {
     /// `z = p.z` (integer grid coordinates). The same plane always gives the same value,
     /// which is what keeps neighbouring cells gap-free.
     #[inline]
-    pub fn t_planes(&self, p: UVec3) -> Vec3 {
-        let real = self.off + self.sign * p.as_vec3();
+    pub fn t_planes(&self, p: UVec3) -> Vec3A {
+        let real = self.off + self.sign * Vec3A::new(p.x as f32, p.y as f32, p.z as f32);
         (real - self.o) * self.inv
     }
 
@@ -129,7 +129,7 @@ impl MirroredRay {
     /// entry-plane parameters are `c0` (the latest of the three; ties prefer x, then y),
     /// facing the ray; zero when the ray starts inside (`max(c0) < tmin`).
     #[inline]
-    pub fn entry_normal_of(&self, c0: Vec3, tmin: f32) -> Vec3 {
+    pub fn entry_normal_of(&self, c0: Vec3A, tmin: f32) -> Vec3 {
         if c0.max_element() < tmin {
             return Vec3::ZERO;
         }
@@ -147,7 +147,7 @@ impl MirroredRay {
     /// whose exit-plane parameters are `c1` (the earliest of the three; ties prefer x, then
     /// y): it points along the ray.
     #[inline]
-    pub fn exit_normal_of(&self, c1: Vec3) -> Vec3 {
+    pub fn exit_normal_of(&self, c1: Vec3A) -> Vec3 {
         let axis = if c1.x <= c1.y && c1.x <= c1.z {
             0
         } else if c1.y <= c1.z {
@@ -187,9 +187,9 @@ mod tests {
         assert!(m.inv.is_finite());
         // Mirrored planes: x = 8 - 7 = 1 and z = 8 - 5 = 3 are the origin's own planes, so
         // t = 0 there, not NaN; the mirrored direction is positive on every axis.
-        assert_eq!(m.t_planes(UVec3::new(7, 2, 5)), Vec3::ZERO);
+        assert_eq!(m.t_planes(UVec3::new(7, 2, 5)), Vec3A::ZERO);
         let ahead = m.t_planes(UVec3::new(8, 3, 6));
-        assert!(ahead.cmpgt(Vec3::ZERO).all(), "{ahead}");
+        assert!(ahead.cmpgt(Vec3A::ZERO).all(), "{ahead}");
     }
 
     #[test]

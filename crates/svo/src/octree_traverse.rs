@@ -22,7 +22,7 @@
 
 use crate::grid_ray::{GridRay, MirroredRay};
 use crate::octree::{Node, Octree};
-use glam::{UVec3, Vec3};
+use glam::{UVec3, Vec3, Vec3A};
 
 /// The default cap on traversal steps (children examined) per ray. A ray through a depth-10
 /// tree examines at most about `3 * 1024 * 8` children, so only a pathological callback
@@ -66,9 +66,9 @@ const EMPTY: Frame = Frame {
     node: Node { info: 0, first: 0 },
     origin: UVec3::ZERO,
     half: 0,
-    t0: Vec3::ZERO,
-    tm: Vec3::ZERO,
-    t1: Vec3::ZERO,
+    t0: Vec3A::ZERO,
+    tm: Vec3A::ZERO,
+    t1: Vec3A::ZERO,
     next: 0,
 };
 
@@ -79,28 +79,50 @@ struct Frame {
     origin: UVec3,
     /// Half the node's side, in leaf cells.
     half: u32,
-    t0: Vec3,
-    tm: Vec3,
-    t1: Vec3,
+    t0: Vec3A,
+    tm: Vec3A,
+    t1: Vec3A,
     next: u8,
 }
 
-#[inline]
-fn first_child(tm: Vec3, t: f32) -> u8 {
-    (u8::from(tm.x <= t) << 2) | (u8::from(tm.y <= t) << 1) | u8::from(tm.z <= t)
-}
+/// SIMD comparison masks have x in bit 0; child indices have x in bit 2.
+const REVERSE3: [u8; 8] = [0, 4, 2, 6, 1, 5, 3, 7];
+
+/// Per child index, which axes are its high half.
+const HIGH: [glam::BVec3A; 8] = [
+    glam::BVec3A::new(false, false, false),
+    glam::BVec3A::new(false, false, true),
+    glam::BVec3A::new(false, true, false),
+    glam::BVec3A::new(false, true, true),
+    glam::BVec3A::new(true, false, false),
+    glam::BVec3A::new(true, false, true),
+    glam::BVec3A::new(true, true, false),
+    glam::BVec3A::new(true, true, true),
+];
 
 #[inline]
-fn next_child(c: u8, exit: Vec3) -> u8 {
-    let m = exit.min_element();
-    let tied = (u8::from(exit.x == m) << 2) | (u8::from(exit.y == m) << 1) | u8::from(exit.z == m);
+fn first_child(tm: Vec3A, t: f32) -> u8 {
+    REVERSE3[tm.cmple(Vec3A::splat(t)).bitmask() as usize]
+}
+
+/// The child after `c`, whose exit parameters are `exit`: the axes at the smallest exit are
+/// crossed together; if one of them is already the high half the ray leaves the node.
+/// Scalar compares, independent of each other, keep the dependency chain from one child to
+/// the next short.
+#[inline]
+fn next_child(c: u8, exit: Vec3A) -> u8 {
+    let (x, y, z) = (exit.x, exit.y, exit.z);
+    let tx = x <= y && x <= z;
+    let ty = y <= x && y <= z;
+    let tz = z <= x && z <= y;
+    let tied = (u8::from(tx) << 2) | (u8::from(ty) << 1) | u8::from(tz);
     if c & tied != 0 { DONE } else { c | tied }
 }
 
 #[inline]
-fn child_interval(f: &Frame, c: u8) -> (Vec3, Vec3) {
-    let hi = glam::BVec3::new(c & 4 != 0, c & 2 != 0, c & 1 != 0);
-    (Vec3::select(hi, f.tm, f.t0), Vec3::select(hi, f.t1, f.tm))
+fn child_interval(f: &Frame, c: u8) -> (Vec3A, Vec3A) {
+    let hi = HIGH[usize::from(c & 7)];
+    (Vec3A::select(hi, f.tm, f.t0), Vec3A::select(hi, f.t1, f.tm))
 }
 
 #[inline]
