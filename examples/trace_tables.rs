@@ -131,9 +131,14 @@ fn plot_error_vs_time(rows: &[Row], reference_ms: &[(u8, f64)], path: &Path) -> 
     let (lo, hi) = rows
         .iter()
         .map(psnr)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
     let mut c = ChartBuilder::on(&root)
-        .caption("Image error against time per frame (bunny, triangle reference)", ("sans-serif", 20))
+        .caption(
+            "Image error against time per frame (bunny, triangle reference)",
+            ("sans-serif", 20),
+        )
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(56)
@@ -176,9 +181,15 @@ fn plot_octree_vs_dda(rows: &[(u8, f64, f64)], path: &Path) -> anyhow::Result<()
     let root = BitMapBackend::new(path, (900, 480)).into_drawing_area();
     root.fill(&WHITE)?;
     let max_ms = rows.iter().map(|r| r.1.max(r.2)).fold(1.0, f64::max) * 1.15;
-    let (d0, d1) = (rows.first().map_or(4, |r| r.0), rows.last().map_or(10, |r| r.0));
+    let (d0, d1) = (
+        rows.first().map_or(4, |r| r.0),
+        rows.last().map_or(10, |r| r.0),
+    );
     let mut c = ChartBuilder::on(&root)
-        .caption("Primary rays, cube hits: octree against dense-grid DDA", ("sans-serif", 20))
+        .caption(
+            "Primary rays, cube hits: octree against dense-grid DDA",
+            ("sans-serif", 20),
+        )
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(56)
@@ -257,7 +268,11 @@ fn main() -> anyhow::Result<()> {
             Tracer::new(s, &[light], Sky::default(), Phong::default(), o)
         }
         let (reference, rms) = timed(
-            &tracer_for(MeshSurfaces::new(mesh.clone(), tree.root, depth), light, topts),
+            &tracer_for(
+                MeshSurfaces::new(mesh.clone(), tree.root, depth),
+                light,
+                topts,
+            ),
             &cam,
             runs,
         );
@@ -286,7 +301,11 @@ fn main() -> anyhow::Result<()> {
             });
         };
         for mode in [HitMode::Cube, HitMode::Contour] {
-            let (f, s) = timed(&tracer_for(OctreeSurfaces::new(&tree, mode), light, topts), &cam, runs);
+            let (f, s) = timed(
+                &tracer_for(OctreeSurfaces::new(&tree, mode), light, topts),
+                &cam,
+                runs,
+            );
             emit(mode.name(), &f, s);
         }
         let exact = ExactSurfaces::new(&tree, &mesh).map_err(anyhow::Error::msg)?;
@@ -322,7 +341,9 @@ fn main() -> anyhow::Result<()> {
             dda_rows.push((depth, ta * 1e3, tb * 1e3, differ, grid.bytes()));
         }
     }
-    println!("\n| depth | octree ms/frame | DDA ms/frame | DDA / octree | pixels that differ | DDA grid bytes |");
+    println!(
+        "\n| depth | octree ms/frame | DDA ms/frame | DDA / octree | pixels that differ | DDA grid bytes |"
+    );
     println!("|---|---|---|---|---|---|");
     for &(d, a, b, differ, bytes) in &dda_rows {
         println!(

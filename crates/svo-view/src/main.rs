@@ -90,6 +90,10 @@ struct Args {
     /// The mesh the tree was baked from, for --hit exact (default: the --reference mesh).
     #[arg(long)]
     mesh: Option<PathBuf>,
+    /// A cube-map sky: a folder with px, nx, py, ny, pz, nz (.png or .jpg, square, OpenGL
+    /// orientation). Default: a procedural gradient.
+    #[arg(long)]
+    sky: Option<PathBuf>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -151,6 +155,7 @@ fn real_main() -> anyhow::Result<()> {
         reference: args.reference.clone(),
         compare: args.compare,
         mesh: args.mesh.clone(),
+        sky_cube_map: args.sky.clone(),
     };
     let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
     if args.json {

@@ -97,6 +97,45 @@ fn renders_colour_and_aovs() {
     assert!(v[0].is_infinite() && v[0] > 0.0);
     let hits: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
     assert!(hits.len() > 50 && hits.iter().all(|&x| x > 0.0));
+    // A cube-map sky of six one-colour faces: the image's corners show the sky, so they take
+    // a face's colour.
+    let sky = d.path().join("sky");
+    std::fs::create_dir(&sky).unwrap();
+    for (i, f) in ["px", "nx", "py", "ny", "pz", "nz"].iter().enumerate() {
+        let c = [40 * i as u8 + 20, 200, 30];
+        image::RgbImage::from_pixel(4, 4, image::Rgb(c))
+            .save(sky.join(format!("{f}.png")))
+            .unwrap();
+    }
+    let png_sky = d.path().join("sky.png");
+    ok(&view(&[
+        s,
+        "--sky",
+        sky.to_str().unwrap(),
+        "-o",
+        png_sky.to_str().unwrap(),
+        "--size",
+        "32x24",
+        "--bounces",
+        "0",
+    ]));
+    let img = image::open(&png_sky).unwrap().to_rgb8();
+    assert_eq!(
+        img.get_pixel(0, 0)[1],
+        200,
+        "the corner shows a cube-map face"
+    );
+    // A face missing: a clear error.
+    std::fs::remove_file(sky.join("nz.png")).unwrap();
+    let r = view(&[
+        s,
+        "--sky",
+        sky.to_str().unwrap(),
+        "-o",
+        png_sky.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success() && String::from_utf8_lossy(&r.stderr).contains("nz.png"));
+
     // EXR by extension.
     let exr = d.path().join("depth.exr");
     ok(&view(&[

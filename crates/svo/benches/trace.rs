@@ -19,7 +19,10 @@ fn bench(c: &mut Criterion) {
     if bunny.exists() {
         meshes.push(("bunny", bunny));
     } else {
-        eprintln!("notice: bunny not found at {}; benching the torus only", bunny.display());
+        eprintln!(
+            "notice: bunny not found at {}; benching the torus only",
+            bunny.display()
+        );
     }
     let mut g = c.benchmark_group("cast");
     g.sample_size(10);
@@ -62,7 +65,13 @@ fn bench(c: &mut Criterion) {
             if std::env::var_os("SVO_BENCH_SPLIT").is_some() {
                 // Diagnostics: rays that miss the root (setup cost only), and the hit rays
                 // alone.
-                let away: Vec<GridRay> = rays.iter().map(|r| GridRay { origin: r.origin, dir: -r.dir }).collect();
+                let away: Vec<GridRay> = rays
+                    .iter()
+                    .map(|r| GridRay {
+                        origin: r.origin,
+                        dir: -r.dir,
+                    })
+                    .collect();
                 let hits: Vec<GridRay> = rays
                     .iter()
                     .copied()
@@ -74,7 +83,8 @@ fn bench(c: &mut Criterion) {
                         .is_some()
                     })
                     .collect();
-                let misses: Vec<GridRay> = rays.iter().copied().filter(|r| !hits.contains(r)).collect();
+                let misses: Vec<GridRay> =
+                    rays.iter().copied().filter(|r| !hits.contains(r)).collect();
                 for (label, set) in [("away", &away), ("hits", &hits), ("misses", &misses)] {
                     g.throughput(Throughput::Elements(set.len() as u64));
                     g.bench_function(format!("{name}/d{depth}/split-{label}"), |b| {
@@ -99,9 +109,15 @@ fn bench(c: &mut Criterion) {
                     b.iter(|| {
                         rays.iter()
                             .filter(|ray| {
-                                traverse_dda(&grid, &tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                                    leaf_hit(&tree, ray, e, HitMode::Cube)
-                                })
+                                traverse_dda(
+                                    &grid,
+                                    &tree,
+                                    ray,
+                                    0.0,
+                                    f32::INFINITY,
+                                    MAX_STEPS,
+                                    |e| leaf_hit(&tree, ray, e, HitMode::Cube),
+                                )
                                 .hit
                                 .is_some()
                             })

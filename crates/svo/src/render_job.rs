@@ -13,11 +13,12 @@ use crate::image_write::{ImageWriteError, write_float, write_png};
 use crate::import::load_mesh;
 use crate::leaf_hit::HitMode;
 use crate::mesh::MeshError;
+use crate::mesh::Texture;
 use crate::mesh_reference::MeshSurfaces;
 use crate::octree::Octree;
 use crate::render::{Frame, RenderStats, render, render_into};
 use crate::shading::{Phong, PointLight};
-use crate::sky::Sky;
+use crate::sky::{CubeMap, Sky};
 use crate::surfaces::{OctreeSurfaces, Surfaces};
 use crate::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions, Tracer};
 use glam::{DVec3, UVec3, Vec3};
@@ -167,6 +168,8 @@ pub struct RenderJob {
     pub compare: bool,
     /// The mesh the tree was baked from, for the exact hit mode (default: `reference`).
     pub mesh: Option<PathBuf>,
+    /// A folder with a cube-map sky: `px, nx, py, ny, pz, nz` as `.png` or `.jpg`.
+    pub sky_cube_map: Option<PathBuf>,
 }
 
 impl Default for RenderJob {
@@ -188,6 +191,7 @@ impl Default for RenderJob {
             reference: None,
             compare: false,
             mesh: None,
+            sky_cube_map: None,
         }
     }
 }
@@ -405,8 +409,15 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             })
             .collect()
     };
+    let cube_map = job
+        .sky_cube_map
+        .as_deref()
+        .map(load_cube_map)
+        .transpose()?
+        .map(std::sync::Arc::new);
     let sky = Sky {
         up: camera.up.normalize().as_vec3(),
+        cube_map,
         ..Sky::default()
     };
     let phong = Phong::default();
@@ -438,7 +449,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             Some(mesh) => {
                 let s = ExactSurfaces::new(&tree, mesh).map_err(RenderJobError::Invalid)?;
                 timed(
-                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                     &camera,
                     frames,
                 )?
@@ -446,7 +457,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             None => {
                 let s = OctreeSurfaces::new(&tree, job.trace.mode);
                 timed(
-                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                     &camera,
                     frames,
                 )?
@@ -459,7 +470,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         Some(mesh) => {
             let s = MeshSurfaces::new(mesh, tree.root, tree.depth);
             Some(timed(
-                &Tracer::new(s, &lights, sky, phong, job.trace),
+                &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                 &camera,
                 frames,
             )?)
@@ -577,6 +588,45 @@ fn sibling(out: &std::path::Path, tag: &str) -> PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     out.with_file_name(format!("{stem}.{tag}.{ext}"))
+}
+
+/// Loads the six faces `px, nx, py, ny, pz, nz` (`.png`, `.jpg` or `.jpeg`) of a cube map
+/// from folder `dir`; they must be square and of one size.
+pub fn load_cube_map(dir: &std::path::Path) -> Result<CubeMap, RenderJobError> {
+    let mut faces = Vec::with_capacity(6);
+    let mut side = None;
+    for name in ["px", "nx", "py", "ny", "pz", "nz"] {
+        let path = ["png", "jpg", "jpeg"]
+            .iter()
+            .map(|e| dir.join(format!("{name}.{e}")))
+            .find(|p| p.is_file())
+            .ok_or_else(|| {
+                RenderJobError::Invalid(format!(
+                    "cube map {}: no {name}.png or {name}.jpg (faces px, nx, py, ny, pz, nz)",
+                    dir.display()
+                ))
+            })?;
+        let img = image::open(&path)
+            .map_err(|e| RenderJobError::Invalid(format!("cube map face {}: {e}", path.display())))?
+            .to_rgba8();
+        let (w, h) = img.dimensions();
+        if w != h || side.is_some_and(|s| s != w) || w == 0 {
+            return Err(RenderJobError::Invalid(format!(
+                "cube map face {} is {w}x{h}; faces must be square and all the same size",
+                path.display()
+            )));
+        }
+        side = Some(w);
+        faces.push(Texture {
+            width: w,
+            height: h,
+            rgba: img.pixels().map(|p| p.0).collect(),
+        });
+    }
+    let faces: [Texture; 6] = faces
+        .try_into()
+        .map_err(|_| RenderJobError::Invalid("cube map needs six faces".into()))?;
+    Ok(CubeMap { faces })
 }
 
 fn check_output(out: &std::path::Path, a: Aov) -> Result<(), RenderJobError> {

@@ -47,6 +47,7 @@ fn black_sky() -> Sky {
         horizon: Vec3::ZERO,
         ground: Vec3::ZERO,
         up: Vec3::Y,
+        cube_map: None,
     }
 }
 
@@ -239,11 +240,12 @@ fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
         horizon: Vec3::ONE,
         ground: Vec3::ZERO,
         up: Vec3::Y,
+        cube_map: None,
     };
     let t = Tracer::new(
         OctreeSurfaces::new(&scene, HitMode::Cube),
         &[],
-        sky,
+        sky.clone(),
         Phong::default(),
         TraceOptions {
             max_reflections: 0,
@@ -387,6 +389,7 @@ fn solid_glass_block_without_normals_is_one_medium() {
         horizon: Vec3::ONE,
         ground: Vec3::ZERO,
         up: Vec3::Y,
+        cube_map: None,
     };
     let t = Tracer::new(
         OctreeSurfaces::new(&scene, HitMode::Cube),
