@@ -58,7 +58,7 @@ struct Args {
     /// Reflection and refraction depth limit (each).
     #[arg(long, default_value_t = 3)]
     bounces: u8,
-    /// Point light x,y,z[:r,g,b[:intensity]] (repeatable). Default: one white light above
+    /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: one white light above
     /// the camera; intensity defaults to the squared distance to the model's centre.
     #[arg(long, value_parser = LightSpec::parse)]
     light: Vec<LightSpec>,

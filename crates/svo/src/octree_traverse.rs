@@ -70,6 +70,7 @@ const EMPTY: Frame = Frame {
     tm: Vec3A::ZERO,
     t1: Vec3A::ZERO,
     next: 0,
+    enter: 0.0,
 };
 
 #[derive(Clone, Copy, Debug)]
@@ -83,6 +84,11 @@ struct Frame {
     tm: Vec3A,
     t1: Vec3A,
     next: u8,
+    /// Where the ray enters child `next` (at least `tmin`). Tracked incrementally: the first
+    /// child starts where the node does, and each next child where the previous one ends
+    /// (its low planes on the crossed axes are the previous child's exit planes), which is
+    /// exactly `max(max(c0), tmin)` without recomputing it.
+    enter: f32,
 }
 
 /// SIMD comparison masks have x in bit 0; child indices have x in bit 2.
@@ -105,24 +111,22 @@ fn first_child(tm: Vec3A, t: f32) -> u8 {
     REVERSE3[tm.cmple(Vec3A::splat(t)).bitmask() as usize]
 }
 
-/// The child after `c`, whose exit parameters are `exit`: the axes at the smallest exit are
-/// crossed together; if one of them is already the high half the ray leaves the node.
-/// Scalar compares, independent of each other, keep the dependency chain from one child to
-/// the next short.
+/// The child after `c`, whose exit parameters are `exit` with smallest `m`: the axes at `m`
+/// are crossed together; if one of them is already the high half the ray leaves the node.
 #[inline]
-fn next_child(c: u8, exit: Vec3A) -> u8 {
-    let (x, y, z) = (exit.x, exit.y, exit.z);
-    let tx = x <= y && x <= z;
-    let ty = y <= x && y <= z;
-    let tz = z <= x && z <= y;
-    let tied = (u8::from(tx) << 2) | (u8::from(ty) << 1) | u8::from(tz);
+fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
+    let tied = (u8::from(exit.x == m) << 2) | (u8::from(exit.y == m) << 1) | u8::from(exit.z == m);
     if c & tied != 0 { DONE } else { c | tied }
 }
 
 #[inline]
-fn child_interval(f: &Frame, c: u8) -> (Vec3A, Vec3A) {
-    let hi = HIGH[usize::from(c & 7)];
-    (Vec3A::select(hi, f.tm, f.t0), Vec3A::select(hi, f.t1, f.tm))
+fn child_exit(f: &Frame, c: u8) -> Vec3A {
+    Vec3A::select(HIGH[usize::from(c & 7)], f.t1, f.tm)
+}
+
+#[inline]
+fn child_entry(f: &Frame, c: u8) -> Vec3A {
+    Vec3A::select(HIGH[usize::from(c & 7)], f.tm, f.t0)
 }
 
 #[inline]
@@ -196,6 +200,7 @@ fn traverse_with<const STACK: usize, T>(
         tm,
         t1,
         next: first_child(tm, enter),
+        enter,
     };
     let mut stack = [EMPTY; STACK];
     let mut len = 0usize;
@@ -210,8 +215,13 @@ fn traverse_with<const STACK: usize, T>(
             continue;
         }
         let c = cur.next;
-        let (c0, c1) = child_interval(&cur, c);
-        cur.next = next_child(c, c1);
+        let t_enter = cur.enter;
+        let c1 = child_exit(&cur, c);
+        let (x, y, z) = (c1.x, c1.y, c1.z);
+        let m = if x < y { x } else { y };
+        let m = if m < z { m } else { z };
+        cur.next = next_child(c, c1, m);
+        cur.enter = if m > tmin { m } else { tmin };
         out.steps += 1;
         if out.steps > max_steps {
             out.capped = true;
@@ -223,12 +233,11 @@ fn traverse_with<const STACK: usize, T>(
         if child_mask >> real & 1 == 0 {
             continue;
         }
-        let t_enter = c0.max_element().max(tmin);
         if t_enter > tmax {
             // Front to back: everything after this child is further still.
             return out;
         }
-        let t_exit = c1.min_element().min(tmax);
+        let t_exit = if m < tmax { m } else { tmax };
         if t_exit < t_enter {
             continue;
         }
@@ -240,7 +249,7 @@ fn traverse_with<const STACK: usize, T>(
                 cell: r.unmirror_cell(origin),
                 t_enter,
                 t_exit,
-                entry_normal: r.entry_normal_of(c0, tmin),
+                entry_normal: r.entry_normal_of(child_entry(&cur, c), tmin),
                 exit_normal: r.exit_normal_of(c1),
             };
             if let Some(h) = on_leaf(&entry) {
@@ -257,6 +266,7 @@ fn traverse_with<const STACK: usize, T>(
             };
             let half = cur.half / 2;
             let tm = r.t_planes(origin + UVec3::splat(half));
+            let c0 = child_entry(&cur, c);
             stack[len] = cur;
             len += 1;
             cur = Frame {
@@ -267,6 +277,7 @@ fn traverse_with<const STACK: usize, T>(
                 tm,
                 t1: c1,
                 next: first_child(tm, t_enter),
+                enter: t_enter,
             };
         }
     }
