@@ -58,6 +58,12 @@ struct Args {
     /// Reflection and refraction depth limit (each).
     #[arg(long, default_value_t = 3)]
     bounces: u8,
+    /// Reflection depth limit (overrides --bounces).
+    #[arg(long)]
+    reflections: Option<u8>,
+    /// Refraction depth limit (overrides --bounces).
+    #[arg(long)]
+    refractions: Option<u8>,
     /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: one white light above
     /// the camera; intensity defaults to the squared distance to the model's centre.
     #[arg(long, value_parser = LightSpec::parse)]
@@ -141,8 +147,8 @@ fn real_main() -> anyhow::Result<()> {
         fov_deg: args.fov,
         trace: TraceOptions {
             mode: args.hit,
-            max_reflections: args.bounces,
-            max_refractions: args.bounces,
+            max_reflections: args.reflections.unwrap_or(args.bounces),
+            max_refractions: args.refractions.unwrap_or(args.bounces),
             shadows: args.shadows,
             fresnel: args.fresnel,
             bias_cells: args.bias,
