@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use svo::camera::{Camera, CameraRays};
-use svo::exact_surfaces::ExactSurfaces;
+use svo::exact_surfaces::exact_surfaces;
 use svo::grid_dda::{DenseGrid, MAX_DDA_DEPTH, traverse_dda};
 use svo::grid_ray::GridRay;
 use svo::leaf_hit::{HitMode, leaf_hit};
@@ -312,7 +312,7 @@ fn main() -> anyhow::Result<()> {
             );
             emit(mode.name(), &f, s);
         }
-        let exact = ExactSurfaces::new(&tree, &mesh).map_err(anyhow::Error::msg)?;
+        let exact = exact_surfaces(&tree, &mesh).map_err(anyhow::Error::msg)?;
         let (f, s) = timed(&tracer_for(exact, light, topts), &cam, runs);
         emit("exact", &f, s);
         println!(

@@ -14,27 +14,29 @@ use crate::grid_ray::GridRay;
 use crate::mesh::Mesh;
 use crate::octree::Octree;
 use crate::octree_build::LeafTriangles;
-use crate::octree_traverse::traverse;
+use crate::octree_traverse::LeafEntry;
 use crate::strategy::Strategy;
-use crate::surfaces::{OctreeSurfaces, Query, SurfaceHit, Surfaces, Traced, Walked};
+use crate::surfaces::{LeafShape, OctreeSurfaces};
 use glam::{UVec3, Vec3};
 
 /// Margin of the in-cell test, in cells.
 const CELL_MARGIN: f32 = 1e-4;
 
-/// An octree whose leaves are hit on their triangles.
+/// The triangles of each leaf: the [`LeafShape`] of the exact mode.
 #[derive(Debug)]
-pub struct ExactSurfaces<'a> {
-    octree: OctreeSurfaces<'a>,
+pub struct ExactLeaves {
     lists: LeafTriangles,
     /// Grid-space vertices per triangle.
     tris: Vec<[Vec3; 3]>,
 }
 
-impl<'a> ExactSurfaces<'a> {
-    /// Prepares `tree` with the triangles of `mesh` (the mesh it was baked from). Errors
+/// An octree whose leaves are hit on their triangles.
+pub type ExactSurfaces<'a> = OctreeSurfaces<'a, ExactLeaves>;
+
+impl ExactLeaves {
+    /// The triangles of `mesh` (the mesh `tree` was baked from) per leaf of `tree`. Errors
     /// with a message when the mesh is invalid or its leaves differ from the tree's.
-    pub fn new(tree: &'a Octree, mesh: &Mesh) -> Result<Self, String> {
+    pub fn new(tree: &Octree, mesh: &Mesh) -> Result<Self, String> {
         mesh.validate().map_err(|e| e.to_string())?;
         let lists = voxelize_mesh_in(mesh, &tree.root, tree.depth, Strategy::Exact);
         let same = lists.cells.len() == tree.leaf_count as usize
@@ -60,30 +62,29 @@ impl<'a> ExactSurfaces<'a> {
                 })
             })
             .collect();
-        Ok(Self {
-            octree: OctreeSurfaces::new(tree, crate::leaf_hit::HitMode::Cube),
-            lists,
-            tris,
-        })
+        Ok(Self { lists, tris })
     }
+}
 
-    /// The nearest triangle hit of `ray` inside leaf `leaf` (cell `cell`) in `[t0, t1]`.
-    fn leaf_triangles_hit(
-        &self,
-        ray: &GridRay,
-        leaf: u32,
-        cell: UVec3,
-        t0: f32,
-        t1: f32,
-    ) -> Option<(f32, Vec3)> {
-        let lo = cell.as_vec3() - CELL_MARGIN;
-        let hi = cell.as_vec3() + 1.0 + CELL_MARGIN;
+/// The exact-mode surfaces of `tree` with the triangles of `mesh`, its source.
+pub fn exact_surfaces<'a>(tree: &'a Octree, mesh: &Mesh) -> Result<ExactSurfaces<'a>, String> {
+    Ok(OctreeSurfaces::with_shape(
+        tree,
+        ExactLeaves::new(tree, mesh)?,
+    ))
+}
+
+impl LeafShape for ExactLeaves {
+    /// The nearest triangle hit inside the leaf's closed cell (within `CELL_MARGIN`).
+    fn hit(&self, _tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)> {
+        let lo = e.cell.as_vec3() - CELL_MARGIN;
+        let hi = e.cell.as_vec3() + 1.0 + CELL_MARGIN;
         let mut best: Option<(f32, Vec3)> = None;
-        for &ti in self.lists.triangles(leaf as usize) {
+        for &ti in self.lists.triangles(e.leaf as usize) {
             let [a, b, c] = self.tris[ti as usize];
             if let Some(t) = moller_trumbore(ray, a, b, c)
-                && t >= t0
-                && t <= t1
+                && t >= e.t_enter
+                && t <= e.t_exit
                 && best.is_none_or(|(bt, _)| t < bt)
             {
                 let p = ray.at(t);
@@ -118,64 +119,4 @@ fn moller_trumbore(ray: &GridRay, a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
         return None;
     }
     Some(e2.dot(q) * inv)
-}
-
-impl Surfaces for ExactSurfaces<'_> {
-    fn grid(&self) -> (RootCube, u8) {
-        self.octree.grid()
-    }
-
-    fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
-        let tree = self.octree.tree();
-        let r = traverse(tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
-            if Some(e.leaf) == q.skip {
-                return None;
-            }
-            let (t, n) = self.leaf_triangles_hit(ray, e.leaf, e.cell, e.t_enter, e.t_exit)?;
-            Some(SurfaceHit {
-                t,
-                t_exit: e.t_exit,
-                id: e.leaf,
-                normal: n,
-                material: self.octree.material(e.leaf),
-                medium: None,
-            })
-        });
-        Traced {
-            hit: r.hit,
-            steps: r.steps,
-            capped: r.capped,
-        }
-    }
-
-    fn walk(
-        &self,
-        ray: &GridRay,
-        tmax: f32,
-        skip: Option<u32>,
-        max_steps: u32,
-        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
-    ) -> Walked {
-        let tree = self.octree.tree();
-        let r = traverse(tree, ray, 0.0, tmax, max_steps, |e| {
-            if Some(e.leaf) == skip {
-                return None;
-            }
-            let (t, n) = self.leaf_triangles_hit(ray, e.leaf, e.cell, e.t_enter, e.t_exit)?;
-            let h = SurfaceHit {
-                t,
-                t_exit: e.t_exit,
-                id: e.leaf,
-                normal: n,
-                material: self.octree.material(e.leaf),
-                medium: None,
-            };
-            visit(&h).then_some(())
-        });
-        Walked {
-            blocked: r.hit.is_some(),
-            steps: r.steps,
-            capped: r.capped,
-        }
-    }
 }

@@ -103,18 +103,12 @@ pub fn traverse_dda<T>(
     let Some(r) = MirroredRay::new(ray, n) else {
         return out;
     };
-    if !(tmin <= tmax) {
-        return out;
-    }
     // Mirrored space, as in the octree: every coordinate below is a mirrored cell or plane,
     // and the walk goes towards +x, +y, +z.
     let t_of = |p: UVec3| r.t_planes(p);
-    let t0 = t_of(UVec3::ZERO);
-    let t1 = t_of(UVec3::splat(n));
-    let enter = t0.max_element().max(tmin);
-    if !(enter <= t1.min_element().min(tmax)) {
+    let Some((_, _, enter)) = r.root_entry(tmin, tmax) else {
         return out;
-    }
+    };
     // The start cell: on each axis the last plane crossed at or before `enter` (ties go to
     // the far side, as the octree's first-child rule does).
     let mut cell = IVec3::ZERO;

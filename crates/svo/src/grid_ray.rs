@@ -112,6 +112,16 @@ impl MirroredRay {
         (real - self.o) * self.inv
     }
 
+    /// Where the ray meets the root within `[tmin, tmax]`: the parameters of the root's low
+    /// and high planes and the entry parameter, or `None` when it misses.
+    #[inline]
+    pub fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
+        let t0 = self.t_planes(UVec3::ZERO);
+        let t1 = self.t_planes(UVec3::splat(self.n));
+        let enter = t0.max_element().max(tmin);
+        (enter <= t1.min_element().min(tmax)).then_some((t0, t1, enter))
+    }
+
     /// Maps a mirrored leaf cell back to the real cell.
     #[inline]
     pub fn unmirror_cell(&self, m: UVec3) -> UVec3 {

@@ -183,12 +183,9 @@ fn traverse_with<const STACK: usize, T>(
     let Some(r) = MirroredRay::new(ray, n) else {
         return out;
     };
-    let t0 = r.t_planes(UVec3::ZERO);
-    let t1 = r.t_planes(UVec3::splat(n));
-    let enter = t0.max_element().max(tmin);
-    if !(enter <= t1.min_element().min(tmax)) {
+    let Some((t0, t1, enter)) = r.root_entry(tmin, tmax) else {
         return out;
-    }
+    };
     let half = n / 2;
     let tm = r.t_planes(UVec3::splat(half));
     // The current node lives in locals (registers); the stack holds its ancestors.

@@ -5,7 +5,7 @@
 
 use crate::aov::{self, Aov};
 use crate::camera::{Camera, CameraError};
-use crate::exact_surfaces::ExactSurfaces;
+use crate::exact_surfaces::exact_surfaces;
 use crate::format_read::read_file;
 use crate::format_write::FormatError;
 use crate::image_compare::{self, ImageDiff};
@@ -447,7 +447,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
     let svo = if reference.is_none() || job.compare {
         Some(match &exact_mesh {
             Some(mesh) => {
-                let s = ExactSurfaces::new(&tree, mesh).map_err(RenderJobError::Invalid)?;
+                let s = exact_surfaces(&tree, mesh).map_err(RenderJobError::Invalid)?;
                 timed(
                     &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                     &camera,

@@ -8,7 +8,7 @@ use crate::grid_ray::GridRay;
 use crate::leaf_hit::{HitMode, leaf_hit};
 use crate::mesh::srgb_to_linear;
 use crate::octree::{Octree, ior_decode};
-use crate::octree_traverse::traverse;
+use crate::octree_traverse::{LeafEntry, traverse};
 use glam::Vec3;
 
 /// The material at a hit.
@@ -119,20 +119,48 @@ pub trait Surfaces: Sync {
     ) -> Walked;
 }
 
-/// An octree traced with one of the leaf hit modes.
+/// How an octree's leaves are intersected: the leaf hit modes of [`crate::leaf_hit`], or
+/// the leaves' triangles ([`crate::exact_surfaces::ExactLeaves`]).
+pub trait LeafShape: Sync {
+    /// The hit of `ray` inside leaf entry `e`: its parameter and unit shading normal (for a
+    /// mode without its own, the leaf's stored normal, else the geometric one).
+    fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)>;
+}
+
+impl LeafShape for HitMode {
+    #[inline]
+    fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)> {
+        let h = leaf_hit(tree, ray, e, *self)?;
+        let n = tree
+            .attributes
+            .normal
+            .get(e.leaf as usize)
+            .map_or(h.normal, crate::normal_encoding::decode);
+        Some((h.t, n))
+    }
+}
+
+/// An octree traced with a leaf shape: one of the hit modes by default.
 #[derive(Clone, Debug)]
-pub struct OctreeSurfaces<'a> {
+pub struct OctreeSurfaces<'a, L = HitMode> {
     tree: &'a Octree,
-    mode: HitMode,
+    shape: L,
     srgb: [f32; 256],
 }
 
 impl<'a> OctreeSurfaces<'a> {
     /// `tree` hit in `mode`.
     pub fn new(tree: &'a Octree, mode: HitMode) -> Self {
+        Self::with_shape(tree, mode)
+    }
+}
+
+impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
+    /// `tree` hit as `shape` says.
+    pub fn with_shape(tree: &'a Octree, shape: L) -> Self {
         Self {
             tree,
-            mode,
+            shape,
             srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
         }
     }
@@ -164,22 +192,18 @@ impl<'a> OctreeSurfaces<'a> {
         }
     }
 
+    /// The surface hit of leaf entry `e`, if the shape is hit.
     #[inline]
-    fn surface_hit(&self, h: &crate::leaf_hit::Hit) -> SurfaceHit {
-        let normal = self
-            .tree
-            .attributes
-            .normal
-            .get(h.leaf as usize)
-            .map_or(h.normal, crate::normal_encoding::decode);
-        SurfaceHit {
-            t: h.t,
-            t_exit: h.t_exit,
-            id: h.leaf,
+    fn surface_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
+        let (t, normal) = self.shape.hit(self.tree, ray, e)?;
+        Some(SurfaceHit {
+            t,
+            t_exit: e.t_exit,
+            id: e.leaf,
             normal,
-            material: self.material(h.leaf),
-            medium: self.medium_of(h.leaf),
-        }
+            material: self.material(e.leaf),
+            medium: self.medium_of(e.leaf),
+        })
     }
 
     /// The volumetric medium of leaf `i`: transparent and without a stored normal.
@@ -201,7 +225,7 @@ impl<'a> OctreeSurfaces<'a> {
     }
 }
 
-impl Surfaces for OctreeSurfaces<'_> {
+impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     fn grid(&self) -> (RootCube, u8) {
         (self.tree.root, self.tree.depth)
     }
@@ -234,7 +258,7 @@ impl Surfaces for OctreeSurfaces<'_> {
             if Some(e.leaf) == q.skip {
                 return None;
             }
-            leaf_hit(self.tree, ray, e, self.mode).map(|h| self.surface_hit(&h))
+            self.surface_hit(ray, e)
         });
         let hit = match (r.hit, run) {
             (None, Some(x)) if !r.capped => Some(exit_hit(x)),
@@ -259,8 +283,8 @@ impl Surfaces for OctreeSurfaces<'_> {
             if Some(e.leaf) == skip {
                 return None;
             }
-            let h = leaf_hit(self.tree, ray, e, self.mode)?;
-            visit(&self.surface_hit(&h)).then_some(())
+            let h = self.surface_hit(ray, e)?;
+            visit(&h).then_some(())
         });
         Walked {
             blocked: r.hit.is_some(),

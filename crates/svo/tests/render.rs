@@ -11,7 +11,7 @@ use rand::Rng;
 use svo::RootCube;
 use svo::builder::{Voxel, from_cells};
 use svo::camera::Camera;
-use svo::exact_surfaces::ExactSurfaces;
+use svo::exact_surfaces::exact_surfaces;
 use svo::leaf_hit::HitMode;
 use svo::mesh_reference::MeshSurfaces;
 use svo::octree::Octree;
@@ -297,7 +297,7 @@ fn exact_hits_equal_the_triangle_reference() {
     // same first hit as the BVH over all triangles, on every ray.
     let mesh = torus_mesh();
     let tree = torus_tree(5);
-    let exact = ExactSurfaces::new(&tree, &mesh).unwrap();
+    let exact = exact_surfaces(&tree, &mesh).unwrap();
     let tris = MeshSurfaces::new(mesh, tree.root, tree.depth);
     let mut rng = common::rng(0xE8AC7);
     let n = 32.0f32;
