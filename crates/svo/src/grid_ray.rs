@@ -113,9 +113,13 @@ impl MirroredRay {
     }
 
     /// Where the ray meets the root within `[tmin, tmax]`: the parameters of the root's low
-    /// and high planes and the entry parameter, or `None` when it misses.
+    /// and high planes and the entry parameter, or `None` when it misses (or the range is
+    /// empty or NaN).
     #[inline]
     pub fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
+        if !(tmin <= tmax) {
+            return None;
+        }
         let t0 = self.t_planes(UVec3::ZERO);
         let t1 = self.t_planes(UVec3::splat(self.n));
         let enter = t0.max_element().max(tmin);
