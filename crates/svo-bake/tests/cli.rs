@@ -291,6 +291,9 @@ fn bad_input_gives_one_clear_line_and_no_output() {
     fails(&[s(&idx), "-o", o], "");
     let empty = write(d.path(), "empty.obj", "# nothing\n");
     fails(&[s(&empty), "-o", o], "no triangles");
+    let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    fails(&[s(&tri), "-o", o, "--threads", "0"], "threads");
+    fails(&[s(&tri), "-o", o, "--threads", "100000"], "threads");
     let ply = write(
         d.path(),
         "bad.ply",

@@ -7,12 +7,18 @@ use thiserror::Error;
 /// The largest image side the renderers accept.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
+/// The most pixels an image may have (a frame keeps 36 bytes a pixel: 2.4 GB here).
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+
 /// Errors of camera settings.
 #[derive(Debug, Error, PartialEq)]
 #[non_exhaustive]
 pub enum CameraError {
-    /// Width or height is zero or above [`MAX_IMAGE_SIDE`].
-    #[error("image size {0}x{1} is outside 1..={MAX_IMAGE_SIDE} per side")]
+    /// Width or height is zero or above [`MAX_IMAGE_SIDE`], or the image has more than
+    /// [`MAX_IMAGE_PIXELS`] pixels.
+    #[error(
+        "image size {0}x{1} is outside 1..={MAX_IMAGE_SIDE} per side or above {MAX_IMAGE_PIXELS} pixels"
+    )]
     Size(u32, u32),
     /// The field of view is not in `(0, 180)` degrees.
     #[error("field of view {0} degrees is outside (0, 180)")]
@@ -89,6 +95,7 @@ impl Camera {
             || self.height == 0
             || self.width > MAX_IMAGE_SIDE
             || self.height > MAX_IMAGE_SIDE
+            || u64::from(self.width) * u64::from(self.height) > MAX_IMAGE_PIXELS
         {
             return Err(CameraError::Size(self.width, self.height));
         }
@@ -204,6 +211,14 @@ mod tests {
         assert!(ok.rays().is_ok());
         for (c, e) in [
             (Camera { width: 0, ..ok }, CameraError::Size(0, 8)),
+            (
+                Camera {
+                    width: 16384,
+                    height: 16384,
+                    ..ok
+                },
+                CameraError::Size(16384, 16384),
+            ),
             (
                 Camera {
                     fov_deg: 180.0,

@@ -52,6 +52,9 @@ pub enum PipelineError {
     },
 }
 
+/// The most worker threads a bake starts.
+pub const MAX_THREADS: usize = 1024;
+
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "io", derive(serde::Serialize))]
@@ -154,6 +157,12 @@ pub fn run(
                 .unwrap_or_default(),
         }
         .into());
+    }
+    if job.threads.is_some_and(|n| n == 0 || n > MAX_THREADS) {
+        return Err(PipelineError::Threads {
+            threads: job.threads.unwrap_or(0),
+            message: format!("expected 1..={MAX_THREADS}"),
+        });
     }
     #[cfg(feature = "parallel")]
     {

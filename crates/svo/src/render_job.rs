@@ -55,6 +55,12 @@ pub enum RenderJobError {
     },
 }
 
+/// The most frames a benchmark renders.
+pub const MAX_BENCH_FRAMES: u32 = 10_000;
+
+/// The most worker threads a job starts.
+pub const MAX_THREADS: usize = 1024;
+
 /// A point light as given on the command line: position, optional colour and intensity.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightSpec {
@@ -344,6 +350,12 @@ pub fn occupied_bounds(tree: &Octree) -> (DVec3, DVec3) {
 
 /// Runs a render job.
 pub fn run(job: &RenderJob) -> Result<RenderReport, RenderJobError> {
+    if job.threads.is_some_and(|n| n == 0 || n > MAX_THREADS) {
+        return Err(RenderJobError::Threads {
+            threads: job.threads.unwrap_or(0),
+            message: format!("expected 1..={MAX_THREADS}"),
+        });
+    }
     #[cfg(feature = "parallel")]
     {
         let mut b = rayon::ThreadPoolBuilder::new();
@@ -365,6 +377,14 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
     if job.trace.max_reflections > MAX_BOUNCES || job.trace.max_refractions > MAX_BOUNCES {
         return Err(RenderJobError::Invalid(format!(
             "at most {MAX_BOUNCES} bounces"
+        )));
+    }
+    if job
+        .bench_frames
+        .is_some_and(|n| n == 0 || n > MAX_BENCH_FRAMES)
+    {
+        return Err(RenderJobError::Invalid(format!(
+            "--bench takes 1..={MAX_BENCH_FRAMES} frames"
         )));
     }
     if !(job.trace.bias_cells.is_finite() && job.trace.bias_cells >= 0.0) {
