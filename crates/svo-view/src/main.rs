@@ -79,6 +79,10 @@ struct Args {
     /// leaf, cost (traversal steps heat map).
     #[arg(long, value_parser = |s: &str| Aov::parse(s).ok_or_else(|| format!("unknown AOV {s:?} (expected colour, depth, normal, leaf or cost)")))]
     aov: Option<Aov>,
+    /// Trace every primary ray from the eye (no prepass that starts rays at a lower bound of
+    /// their hit and skips pixels nothing can be seen in; the image is the same).
+    #[arg(long)]
+    no_prepass: bool,
     /// Offset of secondary and shadow rays from the surface, in cells.
     #[arg(long, default_value_t = TraceOptions::default().bias_cells)]
     bias: f32,
@@ -152,6 +156,7 @@ fn real_main() -> anyhow::Result<()> {
             shadows: args.shadows,
             fresnel: args.fresnel,
             bias_cells: args.bias,
+            prepass: !args.no_prepass,
             ..TraceOptions::default()
         },
         lights: args.light.clone(),

@@ -157,6 +157,23 @@ impl CameraRays {
         self.right
     }
 
+    /// The continuous pixel coordinates `(x, y)` of scene point `p` (pixel centres at
+    /// integers, as [`Self::dir`] numbers them), or `None` when `p` is not in front of the
+    /// eye by a safe margin.
+    pub fn project(&self, p: DVec3) -> Option<(f64, f64)> {
+        let v = p - self.eye;
+        let z = v.dot(self.forward);
+        if !(z > 1e-9 * v.length()) || !(z > 0.0) {
+            return None;
+        }
+        let sx = v.dot(self.right) / (z * self.tan_half * self.aspect);
+        let sy = v.dot(self.up) / (z * self.tan_half);
+        Some((
+            (sx + 1.0) * 0.5 * f64::from(self.width) - 0.5,
+            (1.0 - sy) * 0.5 * f64::from(self.height) - 0.5,
+        ))
+    }
+
     /// [`Self::dir`] in `f32` (what the renderers use: a direction needs no more, and
     /// `f64` square roots and divisions per pixel cost a sixth of a primary ray).
     #[inline]
@@ -202,7 +219,11 @@ mod tests {
         assert!((tl.x / -tl.z - (-2.0 / 3.0 * edge)).abs() < 1e-12);
         for (x, y) in [(0, 0), (1, 1), (2, 0)] {
             assert!((r.dir_f32(x, y).as_dvec3() - r.dir(x, y)).length() < 1e-6);
+            // Projecting a point along a pixel's ray lands on that pixel's centre.
+            let (px, py) = r.project(r.eye() + r.dir(x, y) * 3.0).unwrap();
+            assert!((px - f64::from(x)).abs() < 1e-9 && (py - f64::from(y)).abs() < 1e-9);
         }
+        assert!(r.project(r.eye() - r.forward()).is_none());
     }
 
     #[test]

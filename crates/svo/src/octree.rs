@@ -307,6 +307,42 @@ impl Octree {
         }
     }
 
+    /// The occupied nodes at `level` (0 = the root; at most the depth, where they are the
+    /// leaves), as `(minimum cell, side in cells)` at leaf resolution.
+    pub fn occupied_nodes(&self, level: u8) -> Vec<(UVec3, u32)> {
+        let level = level.min(self.depth);
+        let side = |l: u8| 1u32 << (self.depth - l);
+        let mut out = Vec::new();
+        let Some(root) = self.nodes.first() else {
+            return out;
+        };
+        if root.child_mask() == 0 {
+            return out;
+        }
+        if level == 0 {
+            out.push((UVec3::ZERO, side(0)));
+            return out;
+        }
+        let mut stack = vec![(0u32, 0u8, UVec3::ZERO)];
+        while let Some((idx, l, origin)) = stack.pop() {
+            let Some(&node) = self.nodes.get(idx as usize) else {
+                continue;
+            };
+            let child_side = side(l + 1);
+            let mask = node.child_mask();
+            for (rank, i) in (0u32..).zip((0..8u8).filter(|i| mask >> i & 1 == 1)) {
+                let o =
+                    origin + UVec3::from_array(crate::child_classify::child_offset(i)) * child_side;
+                if l + 1 == level {
+                    out.push((o, child_side));
+                } else if !node.is_leaf_parent() {
+                    stack.push((node.first + rank, l + 1, o));
+                }
+            }
+        }
+        out
+    }
+
     /// The leaf at integer cell `cell`, if there is one.
     pub fn leaf_at(&self, cell: UVec3) -> Option<u32> {
         let side = 1u64 << self.depth;

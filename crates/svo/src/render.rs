@@ -84,6 +84,76 @@ pub struct Frame {
     pub elapsed: Duration,
 }
 
+/// The primary-ray prepass: per pixel, a lower bound of the first hit's parameter
+/// (`+inf` where nothing can be hit). Each coarse box around the surfaces is projected; its
+/// pixel rectangle (grown by a pixel) gets the box's distance from the eye, a lower bound of
+/// where any ray through it meets it, so a ray's first hit, which lies in some box whose
+/// rectangle holds the ray's pixel, is never before its bound. `None` (no prepass) when the
+/// eye is in a box or a box reaches behind it, or when the rectangles would cost more than
+/// they save.
+fn primary_starts<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    rays: &crate::camera::CameraRays,
+) -> Option<Vec<f32>> {
+    let boxes = tracer.surfaces().coarse_boxes()?;
+    let (w, h) = (i64::from(camera.width), i64::from(camera.height));
+    let eye = camera.eye;
+    let mut rects = Vec::with_capacity(boxes.len());
+    let mut area = 0i64;
+    for (lo_g, hi_g) in boxes {
+        let lo = tracer.to_scene(lo_g);
+        let hi = tracer.to_scene(hi_g);
+        let gap = (lo - eye).max(eye - hi).max(glam::DVec3::ZERO);
+        let dist = gap.length();
+        if !(dist > 0.0) {
+            return None;
+        }
+        let (mut x0, mut y0, mut x1, mut y1) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for i in 0..8 {
+            let c = glam::DVec3::new(
+                if i & 4 != 0 { hi.x } else { lo.x },
+                if i & 2 != 0 { hi.y } else { lo.y },
+                if i & 1 != 0 { hi.z } else { lo.z },
+            );
+            let (px, py) = rays.project(c)?;
+            x0 = x0.min(px);
+            y0 = y0.min(py);
+            x1 = x1.max(px);
+            y1 = y1.max(py);
+        }
+        let rx0 = ((x0.floor() as i64) - 1).max(0);
+        let ry0 = ((y0.floor() as i64) - 1).max(0);
+        let rx1 = ((x1.ceil() as i64) + 1).min(w - 1);
+        let ry1 = ((y1.ceil() as i64) + 1).min(h - 1);
+        if rx0 > rx1 || ry0 > ry1 {
+            continue;
+        }
+        area += (rx1 - rx0 + 1) * (ry1 - ry0 + 1);
+        // A margin for the f32 ray parameters of the traversal.
+        rects.push((rx0, ry0, rx1, ry1, (dist * (1.0 - 1e-4)) as f32));
+    }
+    // Filling a pixel costs about a hundredth of tracing one: 32 layers still pay.
+    if area > 32 * w * h {
+        return None;
+    }
+    let mut starts = vec![f32::INFINITY; (w * h) as usize];
+    for (rx0, ry0, rx1, ry1, t) in rects {
+        for y in ry0..=ry1 {
+            let row = &mut starts[(y * w) as usize..][..w as usize];
+            for v in &mut row[rx0 as usize..=rx1 as usize] {
+                *v = v.min(t);
+            }
+        }
+    }
+    Some(starts)
+}
+
 /// Renders `camera`'s view through `tracer` into a new frame.
 pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame, CameraError> {
     let mut f = Frame {
@@ -120,6 +190,12 @@ pub fn render_into<S: Surfaces>(
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
     let eye = tracer.to_grid(camera.eye);
+    let starts = if tracer.options().prepass {
+        primary_starts(tracer, camera, &rays)
+    } else {
+        None
+    };
+    let starts = starts.as_deref();
     let row = |y: u32,
                colour: &mut [Vec3],
                depth: &mut [f32],
@@ -131,7 +207,8 @@ pub fn render_into<S: Surfaces>(
         for x in 0..w {
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-            let s = tracer.trace(eye, rays.dir_f32(x, y));
+            let tmin = starts.map_or(0.0, |m| m[y as usize * w as usize + x as usize]);
+            let s = tracer.trace_from(eye, rays.dir_f32(x, y), tmin);
             let i = x as usize;
             colour[i] = s.colour;
             depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);

@@ -9,7 +9,7 @@ use crate::leaf_hit::{HitMode, leaf_hit};
 use crate::mesh::srgb_to_linear;
 use crate::octree::{Octree, ior_decode};
 use crate::octree_traverse::{LeafEntry, traverse};
-use glam::Vec3;
+use glam::{UVec3, Vec3};
 
 /// The material at a hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,6 +106,12 @@ pub trait Surfaces: Sync {
 
     /// The closest hit (a boundary of the query's medium, when it has one).
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
+
+    /// Boxes (grid space, `(min, max)`) that together contain every surface, for the
+    /// primary-ray prepass of [`crate::render`]; `None` when there are none to offer.
+    fn coarse_boxes(&self) -> Option<Vec<(Vec3, Vec3)>> {
+        None
+    }
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
     /// returns `true`.
@@ -228,6 +234,18 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
 impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     fn grid(&self) -> (RootCube, u8) {
         (self.tree.root, self.tree.depth)
+    }
+
+    fn coarse_boxes(&self) -> Option<Vec<(Vec3, Vec3)>> {
+        // Level 4 (at most 4,096 boxes) is fine enough to leave most empty pixels out and
+        // coarse enough to be cheap to project.
+        let nodes = self.tree.occupied_nodes(4);
+        Some(
+            nodes
+                .into_iter()
+                .map(|(c, s)| (c.as_vec3(), (c + UVec3::splat(s)).as_vec3()))
+                .collect(),
+        )
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {

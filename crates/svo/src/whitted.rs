@@ -100,6 +100,10 @@ pub struct TraceOptions {
     pub bias_cells: f32,
     /// Traversal step cap per ray.
     pub max_steps: u32,
+    /// Let renders start primary rays at a lower bound of their first hit, found by
+    /// projecting coarse boxes around the surfaces (and skip pixels no box covers). The
+    /// image is the same either way; only the traversal steps differ.
+    pub prepass: bool,
 }
 
 impl Default for TraceOptions {
@@ -112,6 +116,7 @@ impl Default for TraceOptions {
             fresnel: FresnelMode::Exact,
             bias_cells: 0.75,
             max_steps: MAX_STEPS,
+            prepass: true,
         }
     }
 }
@@ -236,6 +241,11 @@ impl<S: Surfaces> Tracer<S> {
         &self.surfaces
     }
 
+    /// The scene point of grid point `g`.
+    pub fn to_scene(&self, g: Vec3) -> glam::DVec3 {
+        self.root.to_scene(g.as_dvec3(), self.depth)
+    }
+
     /// The grid point of scene point `p`.
     pub fn to_grid(&self, p: glam::DVec3) -> Vec3 {
         self.root.to_grid(p, self.depth).as_vec3()
@@ -243,18 +253,24 @@ impl<S: Surfaces> Tracer<S> {
 
     /// Traces the ray from grid point `origin` in unit grid direction `dir`.
     pub fn trace(&self, origin: Vec3, dir: Vec3) -> Sample {
+        self.trace_from(origin, dir, 0.0)
+    }
+
+    /// [`Self::trace`] with the primary ray starting at parameter `tmin` (a lower bound of
+    /// its first hit, from the render's prepass; secondary rays are not affected).
+    pub fn trace_from(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
         // A depth-first ray stack holds at most one pending ray per bounce plus two; a
         // stack sized for the limits keeps its initialization small.
         if usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions) + 2
             <= SMALL_STACK
         {
-            self.trace_with::<SMALL_STACK>(origin, dir)
+            self.trace_with::<SMALL_STACK>(origin, dir, tmin)
         } else {
-            self.trace_with::<STACK>(origin, dir)
+            self.trace_with::<STACK>(origin, dir, tmin)
         }
     }
 
-    fn trace_with<const STACK: usize>(&self, origin: Vec3, dir: Vec3) -> Sample {
+    fn trace_with<const STACK: usize>(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
         let mut sample = Sample {
             colour: Vec3::ZERO,
             hit: None,
@@ -285,7 +301,7 @@ impl<S: Surfaces> Tracer<S> {
             let r = self.surfaces.closest(
                 &ray,
                 &Query {
-                    tmin: 0.0,
+                    tmin: if first { tmin } else { 0.0 },
                     tmax: f32::INFINITY,
                     skip: (task.skip != NO_SKIP).then_some(task.skip),
                     medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),

@@ -409,3 +409,72 @@ fn solid_glass_block_without_normals_is_one_medium() {
     let tilted = shade(&t, Vec3::new(4.5, 1.0, 8.5), Vec3::new(6.5, 4.0, 8.5));
     assert!(tilted.x > 0.85 && tilted.x < 0.93, "{tilted}");
 }
+
+#[test]
+fn primary_prepass_changes_nothing_but_the_steps() {
+    let tree = torus_tree(7);
+    let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+    let base = Camera::framing(lo, hi, 120, 90, 40.0);
+    let c = (lo + hi) * 0.5;
+    let cams = [
+        base,
+        // Close up (boxes cover much of the screen), from below, and from inside the tube
+        // (no prepass: the eye is in a box).
+        Camera {
+            eye: c + (base.eye - c) * 0.35,
+            ..base
+        },
+        Camera {
+            eye: c + DVec3::new(0.2, -1.0, 0.4) * (hi - lo).length(),
+            ..base
+        },
+        Camera {
+            eye: c + DVec3::new((hi.x - lo.x) * 0.375, 0.0, 0.0),
+            target: c + DVec3::new((hi.x - lo.x) * 0.375, 0.0, 1.0),
+            ..base
+        },
+    ];
+    for mode in [HitMode::Cube, HitMode::Contour] {
+        for (k, cam) in cams.iter().enumerate() {
+            let frame = |prepass: bool| {
+                let t = Tracer::new(
+                    OctreeSurfaces::new(&tree, mode),
+                    &[PointLight {
+                        position: cam.eye + DVec3::Y,
+                        colour: Vec3::ONE,
+                        intensity: 1.0,
+                    }],
+                    Sky::default(),
+                    Phong::default(),
+                    TraceOptions {
+                        mode,
+                        prepass,
+                        ..TraceOptions::default()
+                    },
+                );
+                render(&t, cam).unwrap()
+            };
+            let (a, b) = (frame(true), frame(false));
+            assert!(b.stats.primary_hits > 0);
+            assert_eq!(a.colour, b.colour, "{mode:?} {cam:?}");
+            assert_eq!(a.depth, b.depth);
+            assert_eq!(a.normal, b.normal);
+            assert_eq!(a.leaf, b.leaf);
+            assert!(a.stats.primary_steps <= b.stats.primary_steps);
+            if k < 3 {
+                // The prepass ran (the eye is outside every box) and saved steps.
+                assert!(
+                    a.stats.primary_steps < b.stats.primary_steps,
+                    "{k}: {} vs {}",
+                    a.stats.primary_steps,
+                    b.stats.primary_steps
+                );
+            } else {
+                assert_eq!(
+                    a.stats.primary_steps, b.stats.primary_steps,
+                    "eye inside a box"
+                );
+            }
+        }
+    }
+}
