@@ -71,6 +71,7 @@ pub mod sky;
 pub mod strategy;
 #[cfg(feature = "trace")]
 pub mod surfaces;
+pub mod thread_pool;
 pub mod triangle_setup;
 #[cfg(feature = "trace")]
 pub mod whitted;

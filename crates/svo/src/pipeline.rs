@@ -10,6 +10,7 @@ use crate::format_write::{FormatError, write_file};
 use crate::import::{MeshFormat, load_mesh};
 use crate::mesh::MeshError;
 use crate::octree::Octree;
+use crate::thread_pool::{ThreadsError, with_threads};
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -43,17 +44,9 @@ pub enum PipelineError {
         dir: String,
     },
     /// The thread pool could not be made.
-    #[error("cannot start {threads} threads: {message}")]
-    Threads {
-        /// Requested threads.
-        threads: usize,
-        /// Why not.
-        message: String,
-    },
+    #[error(transparent)]
+    Threads(#[from] ThreadsError),
 }
-
-/// The most worker threads a bake starts.
-pub const MAX_THREADS: usize = 1024;
 
 /// Output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,27 +151,9 @@ pub fn run(
         }
         .into());
     }
-    if job.threads.is_some_and(|n| n == 0 || n > MAX_THREADS) {
-        return Err(PipelineError::Threads {
-            threads: job.threads.unwrap_or(0),
-            message: format!("expected 1..={MAX_THREADS}"),
-        });
-    }
-    #[cfg(feature = "parallel")]
-    {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(n) = job.threads {
-            b = b.num_threads(n.max(1));
-        }
-        let pool = b.build().map_err(|e| PipelineError::Threads {
-            threads: job.threads.unwrap_or(0),
-            message: e.to_string(),
-        })?;
-        let threads = pool.current_num_threads();
-        pool.install(|| run_inner(job, format, is_svo, threads, progress))
-    }
-    #[cfg(not(feature = "parallel"))]
-    run_inner(job, format, is_svo, 1, progress)
+    with_threads(job.threads, |threads| {
+        run_inner(job, format, is_svo, threads, progress)
+    })?
 }
 
 fn run_inner(

@@ -20,6 +20,7 @@ use crate::render::{Frame, RenderStats, render, render_into};
 use crate::shading::{Phong, PointLight};
 use crate::sky::{CubeMap, Sky};
 use crate::surfaces::{OctreeSurfaces, Surfaces};
+use crate::thread_pool::{ThreadsError, with_threads};
 use crate::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions, Tracer};
 use glam::{DVec3, UVec3, Vec3};
 use std::fmt;
@@ -46,20 +47,12 @@ pub enum RenderJobError {
     #[error("{0}")]
     Invalid(String),
     /// The thread pool could not be made.
-    #[error("cannot start {threads} threads: {message}")]
-    Threads {
-        /// Requested threads.
-        threads: usize,
-        /// Why not.
-        message: String,
-    },
+    #[error(transparent)]
+    Threads(#[from] ThreadsError),
 }
 
 /// The most frames a benchmark renders.
 pub const MAX_BENCH_FRAMES: u32 = 10_000;
-
-/// The most worker threads a job starts.
-pub const MAX_THREADS: usize = 1024;
 
 /// A point light as given on the command line: position, optional colour and intensity.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -350,27 +343,7 @@ pub fn occupied_bounds(tree: &Octree) -> (DVec3, DVec3) {
 
 /// Runs a render job.
 pub fn run(job: &RenderJob) -> Result<RenderReport, RenderJobError> {
-    if job.threads.is_some_and(|n| n == 0 || n > MAX_THREADS) {
-        return Err(RenderJobError::Threads {
-            threads: job.threads.unwrap_or(0),
-            message: format!("expected 1..={MAX_THREADS}"),
-        });
-    }
-    #[cfg(feature = "parallel")]
-    {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(n) = job.threads {
-            b = b.num_threads(n.max(1));
-        }
-        let pool = b.build().map_err(|e| RenderJobError::Threads {
-            threads: job.threads.unwrap_or(0),
-            message: e.to_string(),
-        })?;
-        let threads = pool.current_num_threads();
-        pool.install(|| run_inner(job, threads))
-    }
-    #[cfg(not(feature = "parallel"))]
-    run_inner(job, 1)
+    with_threads(job.threads, |threads| run_inner(job, threads))?
 }
 
 fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
