@@ -18,7 +18,7 @@ use svo::grid_ray::GridRay;
 use svo::leaf_hit::{HitMode, leaf_hit};
 use svo::mesh_reference::MeshSurfaces;
 use svo::octree_traverse::{MAX_STEPS, traverse};
-use svo::render::{Frame, render, render_into};
+use svo::render::{Frame, render_timed};
 use svo::shading::{Phong, PointLight};
 use svo::sky::Sky;
 use svo::surfaces::{OctreeSurfaces, Surfaces};
@@ -31,13 +31,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Renders `runs` times after a warm-up; the last frame and the median seconds.
-fn timed<S: Surfaces>(t: &Tracer<S>, cam: &Camera, runs: usize) -> (Frame, f64) {
-    let mut f = render(t, cam).expect("camera");
-    let mut times = Vec::new();
-    for _ in 0..runs {
-        render_into(t, cam, &mut f).expect("camera");
-        times.push(f.elapsed.as_secs_f64());
-    }
+fn timed<S: Surfaces>(t: &Tracer<S>, cam: &Camera, runs: u32) -> (Frame, f64) {
+    let (f, times) = render_timed(t, cam, Some(runs)).expect("camera");
     (f, median(times))
 }
 
@@ -68,7 +63,7 @@ fn primary_only(
     h: u32,
     eye: Vec3,
     scale: f32,
-    runs: usize,
+    runs: u32,
     cast: &(dyn Fn(&GridRay) -> Option<f32> + Sync),
 ) -> (Vec<Option<f32>>, f64) {
     use rayon::prelude::*;
@@ -233,7 +228,7 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or_else(|| "../shared/models/stanford/stanford-bunny.obj".into());
     let (w, h) = svo::render_job::parse_size(&args.next().unwrap_or_else(|| "960x540".into()))
         .map_err(anyhow::Error::msg)?;
-    let runs: usize = args.next().map_or(Ok(3), |s| s.parse())?;
+    let runs: u32 = args.next().map_or(Ok(3), |s| s.parse())?;
     let d0: u8 = args.next().map_or(Ok(4), |s| s.parse())?;
     let d1: u8 = args.next().map_or(Ok(10), |s| s.parse())?;
     let out = PathBuf::from(args.next().unwrap_or_else(|| "docs/bench".into()));

@@ -171,6 +171,27 @@ pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame,
     Ok(f)
 }
 
+/// Renders once, or, with `frames`, once untimed and then that many timed frames into the
+/// same buffers (at least one): the last frame and the time of each counted frame, seconds.
+pub fn render_timed<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    frames: Option<u32>,
+) -> Result<(Frame, Vec<f64>), CameraError> {
+    let mut frame = render(tracer, camera)?;
+    let mut times = Vec::new();
+    match frames {
+        Some(n) => {
+            for _ in 0..n.max(1) {
+                render_into(tracer, camera, &mut frame)?;
+                times.push(frame.elapsed.as_secs_f64());
+            }
+        }
+        None => times.push(frame.elapsed.as_secs_f64()),
+    }
+    Ok((frame, times))
+}
+
 /// Renders into `f`, reusing its buffers (a benchmark loop then allocates nothing per
 /// frame). Rows are rendered in parallel, each written in place.
 pub fn render_into<S: Surfaces>(

@@ -16,10 +16,10 @@ use crate::mesh::MeshError;
 use crate::mesh::Texture;
 use crate::mesh_reference::MeshSurfaces;
 use crate::octree::Octree;
-use crate::render::{Frame, RenderStats, render, render_into};
+use crate::render::{Frame, RenderStats, render_timed};
 use crate::shading::{Phong, PointLight};
 use crate::sky::{CubeMap, Sky};
-use crate::surfaces::{OctreeSurfaces, Surfaces};
+use crate::surfaces::OctreeSurfaces;
 use crate::thread_pool::{ThreadsError, with_threads};
 use crate::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions, Tracer};
 use glam::{DVec3, UVec3, Vec3};
@@ -441,7 +441,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         Some(match &exact_mesh {
             Some(mesh) => {
                 let s = exact_surfaces(&tree, mesh).map_err(RenderJobError::Invalid)?;
-                timed(
+                render_timed(
                     &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                     &camera,
                     frames,
@@ -449,7 +449,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             }
             None => {
                 let s = OctreeSurfaces::new(&tree, job.trace.mode);
-                timed(
+                render_timed(
                     &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                     &camera,
                     frames,
@@ -462,7 +462,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
     let refr = match reference {
         Some(mesh) => {
             let s = MeshSurfaces::new(mesh, tree.root, tree.depth);
-            Some(timed(
+            Some(render_timed(
                 &Tracer::new(s, &lights, sky.clone(), phong, job.trace),
                 &camera,
                 frames,
@@ -501,9 +501,8 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         (None, Some(r)) => r,
         (None, None) => unreachable!("one of the two renders always runs"),
     };
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[sorted.len() / 2];
+    let median = median(&times);
+    let min = times.iter().copied().fold(f64::INFINITY, f64::min);
     let s = frame.stats;
     let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
     let cost_scale = s.max_primary_steps.max(1);
@@ -527,7 +526,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         threads,
         frames: times.len() as u32,
         median_ms: median * 1e3,
-        min_ms: sorted[0] * 1e3,
+        min_ms: min * 1e3,
         mrays_per_s: all / median / 1e6,
         primary_mrays_per_s: s.primary_rays as f64 / median / 1e6,
         stats: s,
@@ -541,27 +540,6 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             fov_deg: camera.fov_deg,
         },
     })
-}
-
-/// Renders once, or `frames` timed times after the first; returns the last frame and the
-/// times in seconds.
-fn timed<S: Surfaces>(
-    tracer: &Tracer<S>,
-    camera: &Camera,
-    frames: Option<u32>,
-) -> Result<(Frame, Vec<f64>), RenderJobError> {
-    let mut frame = render(tracer, camera)?;
-    let mut times = Vec::new();
-    match frames {
-        Some(n) => {
-            for _ in 0..n.max(1) {
-                render_into(tracer, camera, &mut frame)?;
-                times.push(frame.elapsed.as_secs_f64());
-            }
-        }
-        None => times.push(frame.elapsed.as_secs_f64()),
-    }
-    Ok((frame, times))
 }
 
 fn median(v: &[f64]) -> f64 {
