@@ -176,7 +176,7 @@ fn traverse_with<const STACK: usize, T>(
     let Some(root) = tree.nodes.first().copied() else {
         return out;
     };
-    if root.child_mask() == 0 || depth == 0 || depth > 31 || !(tmin <= tmax) {
+    if root.child_mask() == 0 || depth == 0 || depth > 31 {
         return out;
     }
     let n = 1u32 << depth;

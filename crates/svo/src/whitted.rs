@@ -363,14 +363,7 @@ impl<S: Surfaces> Tracer<S> {
                     if n_f.dot(l) <= 0.0 {
                         continue;
                     }
-                    let shadow_dist = (*lp - from).length() / self.scale;
-                    let vis = self.shadow(
-                        from,
-                        (*lp - from).normalize_or_zero(),
-                        shadow_dist,
-                        h.id,
-                        &mut sample.stats,
-                    );
+                    let vis = self.shadow(from, *lp, h.id, &mut sample.stats);
                     if vis > 0.0 {
                         local += light.falloff(dist_grid / self.scale)
                             * vis
@@ -436,13 +429,16 @@ impl<S: Surfaces> Tracer<S> {
         sample
     }
 
-    /// The fraction of a light at scene distance `dist` in unit grid direction `l` that
-    /// reaches grid point `from`.
-    fn shadow(&self, from: Vec3, l: Vec3, dist: f32, skip: u32, stats: &mut SampleStats) -> f32 {
+    /// The fraction of the light at grid point `light` that reaches grid point `from` (the
+    /// shadow ray's vector is only made when shadows are on).
+    fn shadow(&self, from: Vec3, light: Vec3, skip: u32, stats: &mut SampleStats) -> f32 {
         if self.opts.shadows == ShadowMode::None {
             return 1.0;
         }
         stats.shadow_rays += 1;
+        let to = light - from;
+        let l = to.normalize_or_zero();
+        let dist = to.length() / self.scale;
         let ray = GridRay {
             origin: from,
             dir: l * self.scale,
