@@ -15,9 +15,9 @@ use svo::camera::{Camera, CameraRays};
 use svo::exact_surfaces::exact_surfaces;
 use svo::grid_dda::{DenseGrid, MAX_DDA_DEPTH, traverse_dda};
 use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, leaf_hit};
+use svo::leaf_hit::{HitMode, cast, leaf_hit};
 use svo::mesh_reference::MeshSurfaces;
-use svo::octree_traverse::{MAX_STEPS, traverse};
+use svo::octree_traverse::MAX_STEPS;
 use svo::render::{Frame, render_timed};
 use svo::shading::{Phong, PointLight};
 use svo::sky::Sky;
@@ -321,11 +321,9 @@ fn main() -> anyhow::Result<()> {
             let eye = tree.root.to_grid(cam.eye, depth).as_vec3();
             let scale = cells_per_unit as f32;
             let oct = |r: &GridRay| {
-                traverse(&tree, r, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                    leaf_hit(&tree, r, e, HitMode::Cube)
-                })
-                .hit
-                .map(|h| h.t)
+                cast(&tree, r, 0.0, f32::INFINITY, HitMode::Cube, None, MAX_STEPS)
+                    .hit
+                    .map(|h| h.t)
             };
             let dda = |r: &GridRay| {
                 traverse_dda(&grid, &tree, r, 0.0, f32::INFINITY, MAX_STEPS, |e| {

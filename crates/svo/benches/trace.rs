@@ -8,8 +8,8 @@ use std::path::Path;
 use svo::camera::Camera;
 use svo::grid_dda::{DenseGrid, traverse_dda};
 use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, leaf_hit};
-use svo::octree_traverse::{MAX_STEPS, traverse};
+use svo::leaf_hit::{HitMode, cast, leaf_hit};
+use svo::octree_traverse::MAX_STEPS;
 use svo::{BakeOptions, bake_mesh};
 
 fn bench(c: &mut Criterion) {
@@ -52,11 +52,9 @@ fn bench(c: &mut Criterion) {
                     b.iter(|| {
                         rays.iter()
                             .filter(|ray| {
-                                traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                                    leaf_hit(&tree, ray, e, mode)
-                                })
-                                .hit
-                                .is_some()
+                                cast(&tree, ray, 0.0, f32::INFINITY, mode, None, MAX_STEPS)
+                                    .hit
+                                    .is_some()
                             })
                             .count()
                     })
@@ -76,9 +74,15 @@ fn bench(c: &mut Criterion) {
                     .iter()
                     .copied()
                     .filter(|ray| {
-                        traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                            leaf_hit(&tree, ray, e, HitMode::Cube)
-                        })
+                        cast(
+                            &tree,
+                            ray,
+                            0.0,
+                            f32::INFINITY,
+                            HitMode::Cube,
+                            None,
+                            MAX_STEPS,
+                        )
                         .hit
                         .is_some()
                     })
@@ -91,9 +95,15 @@ fn bench(c: &mut Criterion) {
                         b.iter(|| {
                             set.iter()
                                 .filter(|ray| {
-                                    traverse(&tree, ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                                        leaf_hit(&tree, ray, e, HitMode::Cube)
-                                    })
+                                    cast(
+                                        &tree,
+                                        ray,
+                                        0.0,
+                                        f32::INFINITY,
+                                        HitMode::Cube,
+                                        None,
+                                        MAX_STEPS,
+                                    )
                                     .hit
                                     .is_some()
                                 })
