@@ -1,14 +1,15 @@
 //! `svo-view`: render `.svo` files, or print their header and statistics.
 //!
 //! ```text
-//! svo-view bunny.svo --cpu -o bunny.png
+//! svo-view bunny.svo --headless -o bunny.png          # GPU, no window
+//! svo-view bunny.svo --headless --bench 100 --vs-cpu  # GPU timing, checked against the CPU
+//! svo-view bunny.svo --cpu -o bunny.png               # the CPU reference tracer
 //! svo-view bunny.svo --cpu --aov cost -o cost.png
-//! svo-view bunny.svo --cpu --bench 10 --bounces 0 --shadows none --size 1920x1080
 //! svo-view bunny.svo --info
 //! ```
-//! All the work is in the `svo` library ([`svo::render_job::run`]); this file parses
-//! arguments and prints the report. The GPU window comes with its own issue; until then the
-//! CPU tracer is the only renderer, with or without `--cpu`.
+//! The work is in the libraries: the CPU path is [`svo::render_job::run`], the GPU path
+//! [`svo_view::headless::run`]; this file parses arguments and prints the report. The
+//! interactive window is not built yet: without `--cpu` or `--headless` the viewer says so.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
@@ -20,7 +21,7 @@ use svo::render_job::{
 };
 use svo::whitted::TraceOptions;
 
-/// Render a sparse voxel octree (.svo) file with the CPU ray tracer, or inspect it.
+/// Render a sparse voxel octree (.svo) file on the GPU or with the CPU ray tracer, or inspect it.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
@@ -29,9 +30,16 @@ struct Args {
     /// Print the header and statistics instead of rendering.
     #[arg(long)]
     info: bool,
-    /// Render with the CPU tracer (the only renderer so far).
-    #[arg(long)]
+    /// Render with the CPU reference tracer.
+    #[arg(long, conflicts_with = "headless")]
     cpu: bool,
+    /// Render on the GPU without a window (write -o, or benchmark with --bench).
+    #[arg(long)]
+    headless: bool,
+    /// With --headless: render the same frame with the CPU tracer too and print how the two
+    /// images differ.
+    #[arg(long, requires = "headless")]
+    vs_cpu: bool,
     /// Output image: .png, or .pfm / .exr for `--aov depth`. Default: the file's name with
     /// .png (.pfm for depth); none with --bench unless given.
     #[arg(short, long)]
@@ -168,6 +176,21 @@ fn real_main() -> anyhow::Result<()> {
         mesh: args.mesh.clone(),
         sky_cube_map: args.sky.clone(),
     };
+    if args.headless {
+        let report = svo_view::headless::run(&job, args.vs_cpu)
+            .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&report)?);
+        } else {
+            println!("{report}");
+        }
+        return Ok(());
+    }
+    if !args.cpu {
+        anyhow::bail!(
+            "the interactive window is not built yet: render with --headless (GPU) or --cpu"
+        );
+    }
     let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);

@@ -174,6 +174,13 @@ impl CameraRays {
         ))
     }
 
+    /// The `f32` values [`Self::dir_f32`] makes directions from: the basis (forward, right,
+    /// up), `(2 / width, 2 / height)` and the image plane's half extent at distance 1, for a
+    /// port (the GPU viewer's shader) that must make the same directions.
+    pub fn f32_basis(&self) -> ([glam::Vec3; 3], glam::Vec2, glam::Vec2) {
+        (self.basis, self.px_scale, self.half_extent)
+    }
+
     /// [`Self::dir`] in `f32` (what the renderers use: a direction needs no more, and
     /// `f64` square roots and divisions per pixel cost a sixth of a primary ray).
     #[inline]

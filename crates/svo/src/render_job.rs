@@ -346,7 +346,26 @@ pub fn run(job: &RenderJob) -> Result<RenderReport, RenderJobError> {
     with_threads(job.threads, |threads| run_inner(job, threads))?
 }
 
-fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
+/// What every renderer of a job needs, with the job's defaults filled in: the tree, the
+/// camera (framing the occupied cells unless given), the lights (one white light above the
+/// camera's right shoulder unless given), the sky and the Phong factors. The CPU path
+/// ([`run`]) and the GPU viewer both start here, so their images show the same scene.
+#[derive(Clone, Debug)]
+pub struct JobScene {
+    /// The loaded, validated tree.
+    pub tree: Octree,
+    /// The camera.
+    pub camera: Camera,
+    /// Point lights (scene units).
+    pub lights: Vec<PointLight>,
+    /// The sky.
+    pub sky: Sky,
+    /// Phong factors.
+    pub phong: Phong,
+}
+
+/// Checks `job`'s settings and output path, loads its file and sets up its scene.
+pub fn prepare(job: &RenderJob) -> Result<JobScene, RenderJobError> {
     if job.trace.max_reflections > MAX_BOUNCES || job.trace.max_refractions > MAX_BOUNCES {
         return Err(RenderJobError::Invalid(format!(
             "at most {MAX_BOUNCES} bounces"
@@ -413,7 +432,23 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         cube_map,
         ..Sky::default()
     };
-    let phong = Phong::default();
+    Ok(JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong: Phong::default(),
+    })
+}
+
+fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
+    let JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+    } = prepare(job)?;
     let exact_mesh = if job.trace.mode == HitMode::Exact {
         let path = job
             .mesh
@@ -542,7 +577,8 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
     })
 }
 
-fn median(v: &[f64]) -> f64 {
+/// The median of `v` (the upper one of an even count); `v` must not be empty.
+pub fn median(v: &[f64]) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     s[s.len() / 2]
@@ -600,7 +636,8 @@ pub fn load_cube_map(dir: &std::path::Path) -> Result<CubeMap, RenderJobError> {
     Ok(CubeMap { faces })
 }
 
-fn check_output(out: &std::path::Path, a: Aov) -> Result<(), RenderJobError> {
+/// Checks that `out` has the extension AOV `a` is written as and that its folder exists.
+pub fn check_output(out: &std::path::Path, a: Aov) -> Result<(), RenderJobError> {
     let ext = out
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -637,7 +674,9 @@ fn check_output(out: &std::path::Path, a: Aov) -> Result<(), RenderJobError> {
     Ok(())
 }
 
-fn write_output(
+/// Writes `f`'s colour or AOV `a` to `out` atomically (`cost_scale`: the steps at the
+/// hottest colour of the cost heat map).
+pub fn write_output(
     f: &Frame,
     a: Aov,
     out: &std::path::Path,

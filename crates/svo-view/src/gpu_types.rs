@@ -1,0 +1,353 @@
+//! The structs the CPU shares with `shaders/trace.wgsl`, defined once here (`#[repr(C)]`,
+//! `bytemuck::Pod`), and the shader variant: the pipeline-overridable constants that leave
+//! out what a scene does not need.
+//!
+//! `tests/gpu_layout.rs` parses the WGSL with naga and checks every struct's size and
+//! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
+
+use bytemuck::{Pod, Zeroable};
+use svo::camera::CameraRays;
+use svo::leaf_hit::HitMode;
+use svo::octree::{Channel, Octree};
+use svo::shading::{Phong, PointLight};
+use svo::sky::Sky;
+use svo::whitted::{FresnelMode, ShadowMode, TraceOptions};
+
+/// The most point lights the shader takes (they live in the uniform buffer).
+pub const MAX_LIGHTS: usize = 16;
+
+/// The scene and camera constants of a frame (WGSL `Params`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuParams {
+    /// The eye in grid space.
+    pub eye: [f32; 3],
+    /// Grid units per scene unit.
+    pub scale: f32,
+    /// Camera basis: forward (`CameraRays::f32_basis`).
+    pub forward: [f32; 3],
+    /// Offset of secondary and shadow rays, cells.
+    pub bias: f32,
+    /// Camera basis: right.
+    pub right: [f32; 3],
+    /// `2 / width`.
+    pub px_scale_x: f32,
+    /// Camera basis: up.
+    pub up: [f32; 3],
+    /// `2 / height`.
+    pub px_scale_y: f32,
+    /// Sky colour at the zenith.
+    pub sky_zenith: [f32; 3],
+    /// Half the image plane's width at distance 1.
+    pub half_w: f32,
+    /// Sky colour at the horizon.
+    pub sky_horizon: [f32; 3],
+    /// Half the image plane's height at distance 1.
+    pub half_h: f32,
+    /// Sky colour straight down.
+    pub sky_ground: [f32; 3],
+    /// Phong ambient factor.
+    pub ambient: f32,
+    /// The sky's up direction.
+    pub sky_up: [f32; 3],
+    /// Phong diffuse factor.
+    pub diffuse: f32,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tree depth.
+    pub depth: u32,
+    /// Traversal step cap per ray.
+    pub max_steps: u32,
+    /// Lights in use.
+    pub n_lights: u32,
+    /// Reflection depth limit.
+    pub max_reflections: u32,
+    /// Refraction depth limit.
+    pub max_refractions: u32,
+    /// Nodes in the node buffer.
+    pub n_nodes: u32,
+    /// Constant channel values (used where the channel is constant).
+    pub const_normal: u32,
+    /// Constant contour word.
+    pub const_contour: u32,
+    /// Constant colour word.
+    pub const_colour: u32,
+    /// Constant reflectivity byte.
+    pub const_reflectivity: u32,
+    /// Constant refractivity byte.
+    pub const_refractivity: u32,
+    /// Constant IOR word.
+    pub const_ior: u32,
+    /// Phong specular factor.
+    pub specular: f32,
+    /// Phong exponent.
+    pub shininess: f32,
+    /// `+inf` (WGSL constant expressions may not overflow).
+    pub infinity: f32,
+    /// Padding.
+    pub pad: [u32; 3],
+}
+
+/// A point light in grid space (WGSL `Light`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    /// Position, grid space.
+    pub position: [f32; 3],
+    /// Intensity (irradiance scale at one scene unit).
+    pub intensity: f32,
+    /// Linear RGB colour.
+    pub colour: [f32; 3],
+    /// Padding.
+    pub pad: f32,
+}
+
+/// The uniform buffer (WGSL `Uniforms`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuUniforms {
+    /// Scene and camera constants.
+    pub params: GpuParams,
+    /// Lights; the first `params.n_lights` are used.
+    pub lights: [GpuLight; MAX_LIGHTS],
+    /// `srgb_to_linear` of the bytes 0..=255, four a row (the CPU's table, so colours match
+    /// bit for bit).
+    pub srgb: [[f32; 4]; 64],
+}
+
+/// One pixel of output (WGSL `Pixel`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPixel {
+    /// Linear RGB.
+    pub colour: [f32; 3],
+    /// Primary hit distance, scene units; `+inf` on a miss.
+    pub depth: f32,
+    /// Primary shading normal; zero on a miss.
+    pub normal: [f32; 3],
+    /// Primary hit leaf; `u32::MAX` on a miss.
+    pub leaf: u32,
+    /// Traversal steps of the primary ray.
+    pub primary_steps: u32,
+    /// Traversal steps of all rays.
+    pub steps: u32,
+    /// Primary and secondary rays (low 16 bits) and shadow rays (high 16 bits).
+    pub rays: u32,
+    /// Rays stopped by the step cap.
+    pub capped: u32,
+}
+
+/// How a channel reaches the shader: 0 absent, 1 constant, 2 per leaf.
+fn channel_kind<T>(c: &Channel<T>) -> u32 {
+    match c {
+        Channel::Absent => 0,
+        Channel::Constant(_) => 1,
+        Channel::PerLeaf(_) => 2,
+    }
+}
+
+fn channel_const<T: Copy + Into<u32>>(c: &Channel<T>) -> u32 {
+    match c {
+        Channel::Constant(v) => (*v).into(),
+        _ => 0,
+    }
+}
+
+/// Whether some leaf has a non-zero value in channel `c`.
+fn any_nonzero(c: &Channel<u8>) -> bool {
+    match c {
+        Channel::Absent => false,
+        Channel::Constant(v) => *v > 0,
+        Channel::PerLeaf(v) => v.iter().any(|&x| x > 0),
+    }
+}
+
+/// The shader variant a scene and its settings need: the values of the WGSL
+/// pipeline-overridable constants. Paths nothing in the scene can take are switched off,
+/// so the compiled shader does not carry them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ShaderVariant {
+    /// 0 cube, 1 contour (exact is not available on the GPU).
+    pub hit_mode: u32,
+    /// The reflection and refraction block (some leaf reflects or refracts, and the
+    /// limits allow a bounce).
+    pub reflections: bool,
+    /// The refraction and Fresnel path (some leaf refracts).
+    pub refractions: bool,
+    /// 0 none, 1 opaque, 2 max refractivity, 3 product (none when there are no lights).
+    pub shadows: u32,
+    /// Schlick's Fresnel instead of the exact one.
+    pub fresnel_schlick: bool,
+    /// Volumetric media (transparent leaves without normals).
+    pub media: bool,
+    /// Per channel: 0 absent, 1 constant, 2 per leaf.
+    pub channels: [u32; 6],
+}
+
+impl ShaderVariant {
+    /// The variant for `tree` rendered with `opts` and `n_lights` lights.
+    pub fn for_scene(tree: &Octree, opts: &TraceOptions, n_lights: usize) -> Self {
+        let a = &tree.attributes;
+        let reflective = any_nonzero(&a.reflectivity);
+        let refractive = any_nonzero(&a.refractivity);
+        let bounces = (opts.max_reflections > 0 && (reflective || refractive))
+            || (opts.max_refractions > 0 && refractive);
+        Self {
+            hit_mode: u32::from(opts.mode == HitMode::Contour),
+            reflections: bounces,
+            refractions: bounces && refractive,
+            shadows: if n_lights == 0 {
+                0
+            } else {
+                match opts.shadows {
+                    ShadowMode::None => 0,
+                    ShadowMode::Opaque => 1,
+                    ShadowMode::MaxRefractivity => 2,
+                    _ => 3,
+                }
+            },
+            fresnel_schlick: opts.fresnel == FresnelMode::Schlick,
+            media: matches!(a.normal, Channel::Absent) && refractive,
+            channels: [
+                channel_kind(&a.normal),
+                channel_kind(&a.contour),
+                channel_kind(&a.colour),
+                channel_kind(&a.reflectivity),
+                channel_kind(&a.refractivity),
+                channel_kind(&a.ior),
+            ],
+        }
+    }
+
+    /// Every path on and every channel per leaf: the shader as written.
+    pub fn full() -> Self {
+        Self {
+            hit_mode: 1,
+            reflections: true,
+            refractions: true,
+            shadows: 3,
+            fresnel_schlick: false,
+            media: true,
+            channels: [2; 6],
+        }
+    }
+
+    /// The pipeline constants, by WGSL name.
+    pub fn constants(&self) -> Vec<(&'static str, f64)> {
+        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        let names = [
+            "NORMAL_CH",
+            "CONTOUR_CH",
+            "COLOUR_CH",
+            "REFLECTIVITY_CH",
+            "REFRACTIVITY_CH",
+            "IOR_CH",
+        ];
+        let mut c = vec![
+            ("HIT_MODE", f64::from(self.hit_mode)),
+            ("REFLECTIONS", b(self.reflections)),
+            ("REFRACTIONS", b(self.refractions)),
+            ("SHADOWS", f64::from(self.shadows)),
+            ("FRESNEL_SCHLICK", b(self.fresnel_schlick)),
+            ("MEDIA", b(self.media)),
+        ];
+        c.extend(names.iter().zip(self.channels).map(|(n, v)| (*n, f64::from(v))));
+        c
+    }
+
+    /// A short description for reports: the paths compiled in.
+    pub fn describe(&self) -> String {
+        let mut parts = vec![if self.hit_mode == 1 { "contour" } else { "cube" }];
+        if self.reflections {
+            parts.push("reflection");
+        }
+        if self.refractions {
+            parts.push("refraction");
+        }
+        parts.push(match self.shadows {
+            0 => "no shadows",
+            1 => "opaque shadows",
+            2 => "max shadows",
+            _ => "product shadows",
+        });
+        if self.media {
+            parts.push("media");
+        }
+        parts.join(", ")
+    }
+}
+
+/// The uniforms of a frame: `tree` seen through `rays` (a camera with `width` x `height`
+/// pixels and its eye in grid space `eye_grid`), with the lights, sky and Phong factors.
+#[allow(clippy::too_many_arguments)]
+pub fn uniforms(
+    tree: &Octree,
+    rays: &CameraRays,
+    eye_grid: glam::Vec3,
+    size: (u32, u32),
+    lights: &[PointLight],
+    sky: &Sky,
+    phong: &Phong,
+    opts: &TraceOptions,
+) -> GpuUniforms {
+    let depth = tree.depth;
+    let scale = ((1u64 << depth) as f64 / tree.root.side) as f32;
+    let (basis, px_scale, half) = rays.f32_basis();
+    let a = &tree.attributes;
+    let params = GpuParams {
+        eye: eye_grid.to_array(),
+        scale,
+        forward: basis[0].to_array(),
+        bias: opts.bias_cells,
+        right: basis[1].to_array(),
+        px_scale_x: px_scale.x,
+        up: basis[2].to_array(),
+        px_scale_y: px_scale.y,
+        sky_zenith: sky.zenith.to_array(),
+        half_w: half.x,
+        sky_horizon: sky.horizon.to_array(),
+        half_h: half.y,
+        sky_ground: sky.ground.to_array(),
+        ambient: phong.ambient,
+        sky_up: sky.up.to_array(),
+        diffuse: phong.diffuse,
+        width: size.0,
+        height: size.1,
+        depth: u32::from(depth),
+        max_steps: opts.max_steps,
+        n_lights: lights.len().min(MAX_LIGHTS) as u32,
+        max_reflections: u32::from(opts.max_reflections),
+        max_refractions: u32::from(opts.max_refractions),
+        n_nodes: tree.nodes.len() as u32,
+        const_normal: channel_const(&a.normal),
+        const_contour: channel_const(&a.contour),
+        const_colour: channel_const(&a.colour),
+        const_reflectivity: channel_const(&a.reflectivity),
+        const_refractivity: channel_const(&a.refractivity),
+        const_ior: channel_const(&a.ior),
+        specular: phong.specular,
+        shininess: phong.shininess,
+        infinity: f32::INFINITY,
+        pad: [0; 3],
+    };
+    let mut gl = [GpuLight::default(); MAX_LIGHTS];
+    for (g, l) in gl.iter_mut().zip(lights) {
+        *g = GpuLight {
+            position: tree.root.to_grid(l.position, depth).as_vec3().to_array(),
+            intensity: l.intensity,
+            colour: l.colour.to_array(),
+            pad: 0.0,
+        };
+    }
+    let mut srgb = [[0.0f32; 4]; 64];
+    for (i, v) in srgb.iter_mut().flatten().enumerate() {
+        *v = svo::mesh::srgb_to_linear(i as u8);
+    }
+    GpuUniforms {
+        params,
+        lights: gl,
+        srgb,
+    }
+}

@@ -1,0 +1,276 @@
+//! `svo-view --headless`: a render job on the GPU without a window. The scene (tree,
+//! camera, lights, sky) is set up by the same [`svo::render_job::prepare`] as the CPU
+//! path, the frame is traced by [`crate::gpu_render::GpuRenderer`], and the image or AOV is
+//! written by the CPU path's writer, so `--headless` and `--cpu` give the same files.
+//! With `vs_cpu` the CPU reference renders the same frame and the two are compared.
+
+use crate::gpu_context::{GpuContext, GpuError};
+use crate::gpu_render::GpuRenderer;
+use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
+use serde::Serialize;
+use std::fmt;
+use svo::image_compare::{self, ImageDiff};
+use svo::leaf_hit::HitMode;
+use svo::render::{RenderStats, render_timed};
+use svo::render_job::{
+    JobScene, MAX_BENCH_FRAMES, RenderJob, RenderJobError, check_output, median, prepare,
+    write_output,
+};
+use svo::surfaces::OctreeSurfaces;
+use svo::whitted::Tracer;
+use thiserror::Error;
+
+/// Errors of a headless job.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum HeadlessError {
+    /// Setting up the scene, or writing the image, failed.
+    #[error(transparent)]
+    Job(#[from] RenderJobError),
+    /// The GPU failed or refused.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// The GPU frame compared with the CPU reference's.
+#[derive(Clone, Debug, Serialize)]
+pub struct VsCpu {
+    /// Image difference (GPU vs CPU).
+    pub diff: ImageDiff,
+    /// Pixels whose primary leaf differs.
+    pub leaf_mismatch: f64,
+    /// Median CPU ms per frame.
+    pub cpu_ms: f64,
+    /// CPU threads.
+    pub cpu_threads: usize,
+}
+
+/// What a headless job did.
+#[derive(Clone, Debug, Serialize)]
+pub struct HeadlessReport {
+    /// The adapter: name, backend, type.
+    pub adapter: String,
+    /// The shader paths compiled in.
+    pub variant: String,
+    /// Image size.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Tree depth.
+    pub depth: u8,
+    /// Leaves.
+    pub leaves: u32,
+    /// Bytes of tree data on the GPU.
+    pub tree_bytes: u64,
+    /// Hit mode.
+    pub hit: &'static str,
+    /// Frames timed.
+    pub frames: u32,
+    /// Median ms per frame (submission to completion).
+    pub median_ms: f64,
+    /// Fastest frame.
+    pub min_ms: f64,
+    /// Primary rays per second at the median, millions.
+    pub primary_mrays_per_s: f64,
+    /// All rays per second at the median, millions.
+    pub mrays_per_s: f64,
+    /// Milliseconds from the start of the job to the first frame on screen (adapter, upload,
+    /// pipeline, first frame).
+    pub startup_ms: f64,
+    /// Counters of the last frame.
+    pub stats: RenderStats,
+    /// The file written.
+    pub output: Option<String>,
+    /// The comparison with the CPU reference.
+    pub vs_cpu: Option<VsCpu>,
+}
+
+impl fmt::Display for HeadlessReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.stats;
+        writeln!(f, "adapter: {}", self.adapter)?;
+        writeln!(
+            f,
+            "{}x{} depth {} ({} leaves, {} bytes on the GPU), hit {}; shader: {}",
+            self.width, self.height, self.depth, self.leaves, self.tree_bytes, self.hit, self.variant
+        )?;
+        writeln!(
+            f,
+            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
+            s.primary_rays,
+            100.0 * s.primary_hits as f64 / s.primary_rays.max(1) as f64,
+            s.secondary_rays,
+            s.shadow_rays,
+            s.primary_steps as f64 / s.primary_rays.max(1) as f64,
+            s.max_primary_steps,
+            s.capped
+        )?;
+        if let Some(o) = &self.output {
+            writeln!(f, "wrote {o}")?;
+        }
+        if let Some(c) = &self.vs_cpu {
+            writeln!(
+                f,
+                "vs CPU reference: RMSE {:.3} (8-bit sRGB), PSNR {:.2} dB, max diff {}, hit/miss differs on {:.4}% of pixels, leaf on {:.4}%; CPU {:.2} ms per frame ({} threads)",
+                c.diff.rmse,
+                c.diff.psnr_db,
+                c.diff.max_abs,
+                100.0 * c.diff.hit_mismatch,
+                100.0 * c.leaf_mismatch,
+                c.cpu_ms,
+                c.cpu_threads
+            )?;
+        }
+        write!(
+            f,
+            "{} frame(s): median {:.3} ms/frame (min {:.3}), primary {:.1} Mrays/s, all {:.1} Mrays/s; first frame after {:.0} ms",
+            self.frames,
+            self.median_ms,
+            self.min_ms,
+            self.primary_mrays_per_s,
+            self.mrays_per_s,
+            self.startup_ms
+        )
+    }
+}
+
+/// Renders `job` on the GPU (see the module docs); `vs_cpu` also renders it on the CPU and
+/// compares.
+pub fn run(job: &RenderJob, vs_cpu: bool) -> Result<HeadlessReport, HeadlessError> {
+    let start = std::time::Instant::now();
+    if job.trace.mode == HitMode::Exact {
+        return Err(GpuError::Unsupported(
+            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
+                .into(),
+        )
+        .into());
+    }
+    if job.sky_cube_map.is_some() {
+        return Err(GpuError::Unsupported(
+            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
+        )
+        .into());
+    }
+    if job.reference.is_some() || job.compare {
+        return Err(GpuError::Unsupported(
+            "the triangle reference is CPU only: use --cpu with --reference".into(),
+        )
+        .into());
+    }
+    if job
+        .bench_frames
+        .is_some_and(|n| n == 0 || n > MAX_BENCH_FRAMES)
+    {
+        return Err(RenderJobError::Invalid(format!(
+            "--bench takes 1..={MAX_BENCH_FRAMES} frames"
+        ))
+        .into());
+    }
+    if let Some(out) = &job.output {
+        check_output(out, job.aov)?;
+    }
+    let JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+    } = prepare(job)?;
+    if lights.len() > MAX_LIGHTS {
+        return Err(GpuError::Unsupported(format!(
+            "{} lights; the GPU path takes at most {MAX_LIGHTS}",
+            lights.len()
+        ))
+        .into());
+    }
+    let rays = camera.rays().map_err(RenderJobError::from)?;
+    let ctx = GpuContext::new()?;
+    let variant = ShaderVariant::for_scene(&tree, &job.trace, lights.len());
+    let renderer = GpuRenderer::new(&ctx, &tree, variant, camera.width, camera.height)?;
+    let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
+    let u = uniforms(
+        &tree,
+        &rays,
+        eye,
+        (camera.width, camera.height),
+        &lights,
+        &sky,
+        &phong,
+        &job.trace,
+    );
+    let first = renderer.render(&ctx, &u)?;
+    let startup_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut times = Vec::new();
+    match job.bench_frames {
+        Some(n) => {
+            for _ in 0..n {
+                times.push(renderer.render(&ctx, &u)?.as_secs_f64());
+            }
+        }
+        None => times.push(first.as_secs_f64()),
+    }
+    let med = median(&times);
+    let frame = renderer.read_frame(&ctx, std::time::Duration::from_secs_f64(med))?;
+    let s = frame.stats;
+    let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
+    let cost_scale = s.max_primary_steps.max(1);
+    let vs = if vs_cpu {
+        let tracer = Tracer::new(
+            OctreeSurfaces::new(&tree, job.trace.mode),
+            &lights,
+            sky.clone(),
+            phong,
+            job.trace,
+        );
+        let (cpu, cpu_times) =
+            render_timed(&tracer, &camera, job.bench_frames).map_err(RenderJobError::from)?;
+        let diff = image_compare::compare(&frame, &cpu)
+            .ok_or_else(|| RenderJobError::Invalid("the two renders differ in size".into()))?;
+        let leaf_mismatch = frame
+            .leaf
+            .iter()
+            .zip(&cpu.leaf)
+            .filter(|(a, b)| a != b)
+            .count() as f64
+            / frame.leaf.len().max(1) as f64;
+        Some(VsCpu {
+            diff,
+            leaf_mismatch,
+            cpu_ms: median(&cpu_times) * 1e3,
+            cpu_threads: rayon_threads(),
+        })
+    } else {
+        None
+    };
+    let output = match &job.output {
+        Some(out) => {
+            write_output(&frame, job.aov, out, cost_scale).map_err(RenderJobError::from)?;
+            Some(out.display().to_string())
+        }
+        None => None,
+    };
+    let min = times.iter().copied().fold(f64::INFINITY, f64::min);
+    Ok(HeadlessReport {
+        adapter: ctx.adapter_name(),
+        variant: variant.describe(),
+        width: camera.width,
+        height: camera.height,
+        depth: tree.depth,
+        leaves: tree.leaf_count,
+        tree_bytes: renderer.tree_bytes,
+        hit: job.trace.mode.name(),
+        frames: times.len() as u32,
+        median_ms: med * 1e3,
+        min_ms: min * 1e3,
+        primary_mrays_per_s: s.primary_rays as f64 / med / 1e6,
+        mrays_per_s: all / med / 1e6,
+        startup_ms,
+        stats: s,
+        output,
+        vs_cpu: vs,
+    })
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}

@@ -1,0 +1,17 @@
+//! The `svo-view` library: the GPU side of the viewer. The CPU reference tracer, the file
+//! format and the scene setup live in `svo`; this crate adds what needs wgpu.
+//!
+//! - [`gpu_types`]: the structs shared with the WGSL shader and the shader variant
+//!   (pipeline-overridable constants that leave out what a scene does not need);
+//! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
+//! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
+//! - [`headless`]: `svo-view --headless`, a render job on the GPU, optionally compared with
+//!   the CPU reference.
+//!
+//! The shader, `src/shaders/trace.wgsl`, ports `svo`'s traversal, leaf hits and Whitted
+//! loop; the golden tests (`tests/gpu_vs_cpu.rs`) hold the two to the same images.
+
+pub mod gpu_context;
+pub mod gpu_render;
+pub mod gpu_types;
+pub mod headless;

@@ -1,0 +1,882 @@
+// The GPU port of svo's CPU reference tracer: the octree traversal of
+// `octree_traverse.rs` / `grid_ray.rs`, the leaf hits of `leaf_hit.rs`, the octree surfaces
+// of `surfaces.rs` and the Whitted loop of `whitted.rs`, one invocation per pixel.
+// Every function names the Rust function it ports; keep the two in step (the golden tests
+// compare their images).
+//
+// The structs at the top are mirrored by `gpu_types.rs` (a CPU test checks sizes and
+// offsets through naga). What the scene does not need is left out by pipeline-overridable
+// constants: the compiler drops the refraction, reflection and shadow paths and the absent
+// attribute channels.
+
+// ---- pipeline-overridable constants (gpu_types::ShaderVariant) --------------------------
+override HIT_MODE: u32 = 1u;          // 0: cube, 1: contour
+override REFLECTIONS: bool = true;    // some leaf reflects, or refracts (Fresnel reflection)
+override REFRACTIONS: bool = true;    // some leaf refracts
+override SHADOWS: u32 = 3u;           // 0: none, 1: opaque, 2: max refractivity, 3: product
+override FRESNEL_SCHLICK: bool = false;
+override MEDIA: bool = false;         // transparent leaves without normals (volumes)
+// Channels: 0 absent, 1 constant (the value in `Params`), 2 per leaf (the buffer).
+override NORMAL_CH: u32 = 2u;
+override CONTOUR_CH: u32 = 2u;
+override COLOUR_CH: u32 = 1u;
+override REFLECTIVITY_CH: u32 = 1u;
+override REFRACTIVITY_CH: u32 = 1u;
+override IOR_CH: u32 = 1u;
+
+const MAX_LIGHTS: u32 = 16u;
+const MAX_DEPTH: u32 = 30u;
+const RAY_STACK: u32 = 34u;           // 2 * MAX_BOUNCES + 2, as whitted.rs
+const TINY: f32 = 8.673617e-19;       // 2^-60, grid_ray::TINY
+const DONE: u32 = 8u;
+const NO_SKIP: u32 = 0xffffffffu;
+const NO_LEAF: u32 = 0xffffffffu;
+
+struct Params {
+    eye: vec3<f32>,            // grid space
+    scale: f32,                // grid units per scene unit
+    forward: vec3<f32>,
+    bias: f32,                 // secondary ray offset, cells
+    right: vec3<f32>,
+    px_scale_x: f32,
+    up: vec3<f32>,
+    px_scale_y: f32,
+    sky_zenith: vec3<f32>,
+    half_w: f32,
+    sky_horizon: vec3<f32>,
+    half_h: f32,
+    sky_ground: vec3<f32>,
+    ambient: f32,
+    sky_up: vec3<f32>,
+    diffuse: f32,
+    width: u32,
+    height: u32,
+    depth: u32,
+    max_steps: u32,
+    n_lights: u32,
+    max_reflections: u32,
+    max_refractions: u32,
+    n_nodes: u32,
+    const_normal: u32,
+    const_contour: u32,
+    const_colour: u32,
+    const_reflectivity: u32,
+    const_refractivity: u32,
+    const_ior: u32,
+    specular: f32,
+    shininess: f32,
+    infinity: f32,             // +inf (a constant expression may not overflow)
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+struct Light {
+    position: vec3<f32>,       // grid space
+    intensity: f32,
+    colour: vec3<f32>,
+    pad: f32,
+}
+
+struct Uniforms {
+    params: Params,
+    lights: array<Light, MAX_LIGHTS>,
+    srgb: array<vec4<f32>, 64>,   // srgb_to_linear of bytes 0..255
+}
+
+struct Node {
+    info: u32,
+    first: u32,
+}
+
+struct Pixel {
+    colour: vec3<f32>,         // linear RGB
+    depth: f32,                // primary hit, scene units; +inf on a miss
+    normal: vec3<f32>,         // primary shading normal; zero on a miss
+    leaf: u32,                 // NO_LEAF on a miss
+    primary_steps: u32,
+    steps: u32,                // all rays
+    rays: u32,                 // primary + secondary (low 16 bits), shadow (high 16 bits)
+    capped: u32,
+}
+
+@group(0) @binding(0) var<uniform> u: Uniforms;
+@group(0) @binding(1) var<storage, read> nodes: array<Node>;
+@group(0) @binding(2) var<storage, read> ch_normal: array<u32>;
+@group(0) @binding(3) var<storage, read> ch_contour: array<u32>;
+@group(0) @binding(4) var<storage, read> ch_colour: array<u32>;
+@group(0) @binding(5) var<storage, read> ch_reflectivity: array<u32>;   // u8, 4 a word
+@group(0) @binding(6) var<storage, read> ch_refractivity: array<u32>;   // u8, 4 a word
+@group(0) @binding(7) var<storage, read> ch_ior: array<u32>;            // u16, 2 a word
+@group(0) @binding(8) var<storage, read_write> pixels: array<Pixel>;
+
+// ---- leaf attributes (octree.rs, normal_encoding.rs, contour.rs) -------------------------
+
+fn sign_not_zero(v: f32) -> f32 {
+    return select(-1.0, 1.0, v >= 0.0);
+}
+
+// normal_encoding::decode
+fn decode_normal(e: u32) -> vec3<f32> {
+    let x = max(f32(bitcast<i32>(e << 16u) >> 16u), -32767.0) / 32767.0;
+    let y = max(f32(bitcast<i32>(e) >> 16u), -32767.0) / 32767.0;
+    let z = 1.0 - abs(x) - abs(y);
+    var n = vec3<f32>(x, y, z);
+    if z < 0.0 {
+        n.x = (1.0 - abs(y)) * sign_not_zero(x);
+        n.y = (1.0 - abs(x)) * sign_not_zero(y);
+    }
+    return normalize(n);
+}
+
+fn has_normal() -> bool {
+    return NORMAL_CH != 0u;
+}
+
+fn normal_word(leaf: u32) -> u32 {
+    if NORMAL_CH == 2u {
+        return ch_normal[leaf];
+    }
+    return u.params.const_normal;
+}
+
+fn contour_word(leaf: u32) -> u32 {
+    if CONTOUR_CH == 2u {
+        return ch_contour[leaf];
+    }
+    return u.params.const_contour;
+}
+
+fn byte_of(w: u32, leaf: u32) -> u32 {
+    return (w >> ((leaf & 3u) * 8u)) & 0xffu;
+}
+
+fn reflectivity_byte(leaf: u32) -> u32 {
+    if REFLECTIVITY_CH == 2u {
+        return byte_of(ch_reflectivity[leaf >> 2u], leaf);
+    }
+    return u.params.const_reflectivity;
+}
+
+fn refractivity_byte(leaf: u32) -> u32 {
+    if REFRACTIVITY_CH == 2u {
+        return byte_of(ch_refractivity[leaf >> 2u], leaf);
+    }
+    return u.params.const_refractivity;
+}
+
+fn ior_word(leaf: u32) -> u32 {
+    if IOR_CH == 2u {
+        return (ch_ior[leaf >> 1u] >> ((leaf & 1u) * 16u)) & 0xffffu;
+    }
+    return u.params.const_ior;
+}
+
+fn colour_word(leaf: u32) -> u32 {
+    if COLOUR_CH == 2u {
+        return ch_colour[leaf];
+    }
+    return u.params.const_colour;
+}
+
+fn srgb(b: u32) -> f32 {
+    return u.srgb[b >> 2u][b & 3u];
+}
+
+struct Material {
+    albedo: vec3<f32>,
+    reflectivity: f32,
+    refractivity: f32,
+    ior: f32,
+}
+
+// OctreeSurfaces::material: defaults grey 0.8, not reflective, opaque, IOR 1.5.
+fn material(leaf: u32) -> Material {
+    var m = Material(vec3<f32>(0.8), 0.0, 0.0, 1.5);
+    if COLOUR_CH != 0u {
+        let c = colour_word(leaf);
+        m.albedo = vec3<f32>(srgb(c & 0xffu), srgb((c >> 8u) & 0xffu), srgb((c >> 16u) & 0xffu));
+    }
+    if REFLECTIVITY_CH != 0u {
+        m.reflectivity = f32(reflectivity_byte(leaf)) / 255.0;
+    }
+    if REFRACTIVITY_CH != 0u {
+        m.refractivity = f32(refractivity_byte(leaf)) / 255.0;
+    }
+    if IOR_CH != 0u {
+        m.ior = 1.0 + f32(ior_word(leaf)) / 16384.0;
+    }
+    return m;
+}
+
+// OctreeSurfaces::medium_of: transparent leaves without a normal; (kt | ior << 8, colour).
+const NO_MEDIUM: vec2<u32> = vec2<u32>(0xffffffffu, 0xffffffffu);
+
+fn medium_of(leaf: u32) -> vec2<u32> {
+    if !MEDIA || has_normal() {
+        return NO_MEDIUM;
+    }
+    var kt = 0u;
+    if REFRACTIVITY_CH != 0u {
+        kt = refractivity_byte(leaf);
+    }
+    if kt == 0u {
+        return NO_MEDIUM;
+    }
+    var ior = 0u;
+    if IOR_CH != 0u {
+        ior = ior_word(leaf);
+    }
+    var col = 0u;
+    if COLOUR_CH != 0u {
+        col = colour_word(leaf);
+    }
+    return vec2<u32>(kt | (ior << 8u), col);
+}
+
+// ---- rays (grid_ray.rs) ------------------------------------------------------------------
+
+struct MRay {
+    o: vec3<f32>,
+    inv: vec3<f32>,
+    mask: u32,
+    n: u32,
+    sgn: vec3<f32>,
+    off: vec3<f32>,
+    valid: bool,
+}
+
+fn finite(v: vec3<f32>) -> bool {
+    let b = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(b != vec3<u32>(0x7f800000u));
+}
+
+// MirroredRay::new
+fn mirror(origin: vec3<f32>, dir: vec3<f32>, n: u32) -> MRay {
+    var r: MRay;
+    r.valid = finite(origin) && finite(dir) && any(dir != vec3<f32>(0.0));
+    var d = dir;
+    var mask = 0u;
+    for (var axis = 0u; axis < 3u; axis++) {
+        if (bitcast<u32>(d[axis]) >> 31u) != 0u {
+            mask |= 4u >> axis;
+            d[axis] = min(d[axis], -TINY);
+        } else {
+            d[axis] = max(d[axis], TINY);
+        }
+    }
+    let m = vec3<bool>((mask & 4u) != 0u, (mask & 2u) != 0u, (mask & 1u) != 0u);
+    r.o = origin;
+    r.inv = vec3<f32>(1.0) / d;
+    r.mask = mask;
+    r.n = n;
+    r.sgn = select(vec3<f32>(1.0), vec3<f32>(-1.0), m);
+    r.off = select(vec3<f32>(0.0), vec3<f32>(f32(n)), m);
+    return r;
+}
+
+// MirroredRay::t_planes
+fn t_planes(r: MRay, p: vec3<u32>) -> vec3<f32> {
+    let real = r.off + r.sgn * vec3<f32>(p);
+    return (real - r.o) * r.inv;
+}
+
+fn min3(v: vec3<f32>) -> f32 {
+    return min(v.x, min(v.y, v.z));
+}
+
+fn max3(v: vec3<f32>) -> f32 {
+    return max(v.x, max(v.y, v.z));
+}
+
+fn unmirror_cell(r: MRay, m: vec3<u32>) -> vec3<u32> {
+    let flip = vec3<bool>((r.mask & 4u) != 0u, (r.mask & 2u) != 0u, (r.mask & 1u) != 0u);
+    return select(m, vec3<u32>(r.n - 1u) - m, flip);
+}
+
+// MirroredRay::entry_normal
+fn entry_normal(r: MRay, axis: u32) -> vec3<f32> {
+    var n = vec3<f32>(0.0);
+    n[axis] = select(-1.0, 1.0, (r.mask & (4u >> axis)) != 0u);
+    return n;
+}
+
+fn entry_normal_of(r: MRay, c0: vec3<f32>, tmin: f32) -> vec3<f32> {
+    if max3(c0) < tmin {
+        return vec3<f32>(0.0);
+    }
+    var axis = 2u;
+    if c0.x >= c0.y && c0.x >= c0.z {
+        axis = 0u;
+    } else if c0.y >= c0.z {
+        axis = 1u;
+    }
+    return entry_normal(r, axis);
+}
+
+fn exit_normal_of(r: MRay, c1: vec3<f32>) -> vec3<f32> {
+    var axis = 2u;
+    if c1.x <= c1.y && c1.x <= c1.z {
+        axis = 0u;
+    } else if c1.y <= c1.z {
+        axis = 1u;
+    }
+    return -entry_normal(r, axis);
+}
+
+// ---- the traversal (octree_traverse.rs) ----------------------------------------------
+
+fn high(c: u32) -> vec3<bool> {
+    return vec3<bool>((c & 4u) != 0u, (c & 2u) != 0u, (c & 1u) != 0u);
+}
+
+fn child_bits(c: u32) -> vec3<u32> {
+    return vec3<u32>((c >> 2u) & 1u, (c >> 1u) & 1u, c & 1u);
+}
+
+// Revelles's first_node: bit set where the mid plane is at or before the entry.
+fn first_child(tm: vec3<f32>, t: f32) -> u32 {
+    let b = tm <= vec3<f32>(t);
+    return select(0u, 4u, b.x) | select(0u, 2u, b.y) | select(0u, 1u, b.z);
+}
+
+// A stack frame: the node, its mirrored corner and size, the next child and its entry.
+// The plane parameters are recomputed from the corner (t_planes of integer planes, so they
+// are the same values the parent had).
+struct Frame {
+    node: Node,
+    origin: vec3<u32>,
+    half: u32,
+    next: u32,
+    enter: f32,
+}
+
+// What a traversal is for: the closest surface (kind 0), or the light through a shadow
+// ray (kind 1).
+struct Query {
+    kind: u32,
+    tmin: f32,
+    tmax: f32,
+    skip: u32,
+    medium: vec2<u32>,
+    half_cell: f32,            // shadow rays: half a cell in ray parameter
+}
+
+struct Outcome {
+    hit: bool,
+    t: f32,
+    t_exit: f32,
+    leaf: u32,
+    normal: vec3<f32>,
+    steps: u32,
+    capped: bool,
+    // Shadow rays.
+    blocked: bool,
+    any_kt: bool,
+    max_kt: f32,
+    trans: f32,
+    last_exit: f32,
+}
+
+// LeafShape::hit for the hit modes (leaf_hit::leaf_hit + the stored normal): the
+// parameter and shading normal of the hit inside the cell, if any.
+struct ShapeHit {
+    hit: bool,
+    t: f32,
+    normal: vec3<f32>,
+}
+
+fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_enter: f32,
+             t_exit: f32, entry_n: vec3<f32>) -> ShapeHit {
+    var h = ShapeHit(true, t_enter, entry_n);
+    if HIT_MODE == 1u && NORMAL_CH != 0u && CONTOUR_CH != 0u {
+        // leaf_hit::slab_hit, relative to the cell centre.
+        let n = decode_normal(normal_word(leaf));
+        let cw = contour_word(leaf);
+        let e = 0.5 * (abs(n.x) + abs(n.y) + abs(n.z));
+        let a = f32(cw & 0xffffu) / 65535.0;
+        let b = f32(cw >> 16u) / 65535.0;
+        let near = (2.0 * a - 1.0) * e;
+        let far = (2.0 * b - 1.0) * e;
+        let centre = vec3<f32>(cell) + vec3<f32>(0.5);
+        let sd = dot(n, ray_d);
+        let s = dot(n, ray_o - centre) + t_enter * sd;
+        if s < near {
+            if !(sd > 0.0) {
+                h.hit = false;
+                return h;
+            }
+            h.t = t_enter + (near - s) / sd;
+            h.normal = -n;
+        } else if s > far {
+            if !(sd < 0.0) {
+                h.hit = false;
+                return h;
+            }
+            h.t = t_enter + (far - s) / sd;
+            h.normal = n;
+        }
+        if !(h.t <= t_exit) {
+            h.hit = false;
+            return h;
+        }
+    }
+    if has_normal() {
+        h.normal = decode_normal(normal_word(leaf));
+    }
+    return h;
+}
+
+// traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
+// OctreeSurfaces::walk (kind 1).
+fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
+    var out: Outcome;
+    out.hit = false;
+    out.steps = 0u;
+    out.capped = false;
+    out.blocked = false;
+    out.any_kt = false;
+    out.max_kt = 0.0;
+    out.trans = 1.0;
+    out.last_exit = -u.params.infinity;
+    // Inside a medium: the run of its cells ends at (run_t, run_n, run_leaf).
+    var run = false;
+    var run_t = 0.0;
+    var run_n = vec3<f32>(0.0);
+    var run_leaf = 0u;
+
+    let depth = u.params.depth;
+    let root = nodes[0];
+    if (root.info & 0xffu) == 0u || depth == 0u || depth > MAX_DEPTH {
+        return out;
+    }
+    let n = 1u << depth;
+    let r = mirror(ray_o, ray_d, n);
+    if !r.valid || !(q.tmin <= q.tmax) {
+        return out;
+    }
+    let rt0 = t_planes(r, vec3<u32>(0u));
+    let rt1 = t_planes(r, vec3<u32>(n));
+    let enter0 = max(max3(rt0), q.tmin);
+    if !(enter0 <= min(min3(rt1), q.tmax)) {
+        return out;
+    }
+    var cur: Frame;
+    cur.node = root;
+    cur.origin = vec3<u32>(0u);
+    cur.half = n / 2u;
+    var t0 = rt0;
+    var t1 = rt1;
+    var tm = t_planes(r, vec3<u32>(cur.half));
+    cur.next = first_child(tm, enter0);
+    cur.enter = enter0;
+    var stack: array<Frame, MAX_DEPTH>;
+    var len = 0u;
+    let mask = r.mask;
+    loop {
+        if cur.next == DONE {
+            if len == 0u {
+                break;
+            }
+            len -= 1u;
+            cur = stack[len];
+            t0 = t_planes(r, cur.origin);
+            tm = t_planes(r, cur.origin + vec3<u32>(cur.half));
+            t1 = t_planes(r, cur.origin + vec3<u32>(2u * cur.half));
+            continue;
+        }
+        let c = cur.next;
+        let t_enter = cur.enter;
+        let hc = high(c);
+        let c1 = select(tm, t1, hc);
+        let m = min3(c1);
+        let tied = select(0u, 4u, c1.x == m) | select(0u, 2u, c1.y == m) | select(0u, 1u, c1.z == m);
+        cur.next = select(c | tied, DONE, (c & tied) != 0u);
+        cur.enter = select(q.tmin, m, m > q.tmin);
+        out.steps += 1u;
+        if out.steps > u.params.max_steps {
+            out.capped = true;
+            return out;
+        }
+        let real = c ^ mask;
+        let child_mask = cur.node.info & 0xffu;
+        if ((child_mask >> real) & 1u) == 0u {
+            continue;
+        }
+        if t_enter > q.tmax {
+            break;
+        }
+        let t_exit = select(q.tmax, m, m < q.tmax);
+        if t_exit < t_enter {
+            continue;
+        }
+        let rank = countOneBits(child_mask & ((1u << real) - 1u));
+        let origin = cur.origin + child_bits(c) * cur.half;
+        let c0 = select(t0, tm, hc);
+        if bitcast<i32>(cur.node.first) < 0 {
+            // A leaf: the callbacks.
+            let leaf = u32(-(bitcast<i32>(cur.node.first) + 1)) + rank;
+            let cell = unmirror_cell(r, origin);
+            if q.kind == 0u {
+                if MEDIA && q.medium.x != NO_MEDIUM.x {
+                    if run && t_enter > run_t {
+                        // A gap after the medium's cells: the ray left it there.
+                        break;
+                    }
+                    if all(medium_of(leaf) == q.medium) {
+                        run = true;
+                        run_t = t_exit;
+                        run_n = exit_normal_of(r, c1);
+                        run_leaf = leaf;
+                        continue;
+                    }
+                }
+                if leaf == q.skip {
+                    continue;
+                }
+                let h = shape_hit(ray_o, ray_d, leaf, cell, t_enter, t_exit, entry_normal_of(r, c0, q.tmin));
+                if h.hit {
+                    out.hit = true;
+                    out.t = h.t;
+                    out.t_exit = t_exit;
+                    out.leaf = leaf;
+                    out.normal = h.normal;
+                    return out;
+                }
+            } else {
+                if leaf == q.skip {
+                    continue;
+                }
+                let h = shape_hit(ray_o, ray_d, leaf, cell, t_enter, t_exit, entry_normal_of(r, c0, q.tmin));
+                if !h.hit {
+                    continue;
+                }
+                if SHADOWS == 1u {
+                    out.blocked = true;
+                    return out;
+                }
+                let kt = material(leaf).refractivity;
+                if kt <= 0.0 {
+                    out.trans = 0.0;
+                    out.blocked = true;
+                    return out;
+                }
+                out.any_kt = true;
+                out.max_kt = max(out.max_kt, kt);
+                if h.t > out.last_exit + q.half_cell {
+                    out.trans *= kt;
+                }
+                out.last_exit = t_exit;
+            }
+        } else {
+            if len == MAX_DEPTH || cur.half < 2u {
+                continue;
+            }
+            let idx = cur.node.first + rank;
+            if idx >= u.params.n_nodes {
+                continue;
+            }
+            let half = cur.half / 2u;
+            stack[len] = cur;
+            len += 1u;
+            cur.node = nodes[idx];
+            cur.origin = origin;
+            cur.half = half;
+            t0 = c0;
+            t1 = c1;
+            tm = t_planes(r, origin + vec3<u32>(half));
+            cur.next = first_child(tm, t_enter);
+            cur.enter = t_enter;
+        }
+    }
+    // The closest query inside a medium: the end of the run is the boundary.
+    if MEDIA && q.kind == 0u && run && !out.capped {
+        out.hit = true;
+        out.t = run_t;
+        out.t_exit = run_t;
+        out.leaf = run_leaf;
+        out.normal = run_n;
+    }
+    return out;
+}
+
+// ---- shading (shading.rs, sky.rs) -------------------------------------------------------
+
+fn sky_colour(d: vec3<f32>) -> vec3<f32> {
+    let p = u.params;
+    let h = clamp(dot(d, p.sky_up), -1.0, 1.0);
+    if h >= 0.0 {
+        return mix(p.sky_horizon, p.sky_zenith, sqrt(h));
+    }
+    return mix(p.sky_horizon, p.sky_ground, sqrt(-h));
+}
+
+fn reflect_dir(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return d - 2.0 * dot(d, n) * n;
+}
+
+fn fresnel_exact(cos_in: f32, n1: f32, n2: f32) -> f32 {
+    let cos_i = clamp(cos_in, 0.0, 1.0);
+    let sin_t = n1 / n2 * sqrt(max(1.0 - cos_i * cos_i, 0.0));
+    if sin_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin_t * sin_t);
+    let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+    let rp = (n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+fn fresnel_schlick(cos_in: f32, n1: f32, n2: f32) -> f32 {
+    let cos_i = clamp(cos_in, 0.0, 1.0);
+    let r0 = ((n1 - n2) / (n1 + n2)) * ((n1 - n2) / (n1 + n2));
+    var c = cos_i;
+    if n1 > n2 {
+        let e = n1 / n2;
+        let sin2_t = e * e * (1.0 - cos_i * cos_i);
+        if sin2_t >= 1.0 {
+            return 1.0;
+        }
+        c = sqrt(1.0 - sin2_t);
+    }
+    let k = 1.0 - c;
+    return r0 + (1.0 - r0) * (k * k * k * k * k);
+}
+
+// Phong::direct
+fn phong_direct(albedo: vec3<f32>, n: vec3<f32>, l: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let p = u.params;
+    let ndl = dot(n, l);
+    if ndl <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let rr = reflect_dir(-l, n);
+    let spec = pow(max(dot(rr, v), 0.0), p.shininess);
+    return albedo * (p.diffuse * ndl) + vec3<f32>(p.specular * spec);
+}
+
+// Tracer::shadow
+struct ShadowResult {
+    vis: f32,
+    steps: u32,
+    capped: bool,
+}
+
+fn shadow(start: vec3<f32>, light: vec3<f32>, skip: u32) -> ShadowResult {
+    var res = ShadowResult(1.0, 0u, false);
+    let scale = u.params.scale;
+    let to = light - start;
+    let len2 = dot(to, to);
+    var l = vec3<f32>(0.0);
+    if len2 > 0.0 {
+        l = to / sqrt(len2);
+    }
+    let dist = length(to) / scale;
+    var q: Query;
+    q.kind = 1u;
+    q.tmin = 0.0;
+    q.tmax = dist * (1.0 - 1e-5);
+    q.skip = skip;
+    q.medium = NO_MEDIUM;
+    q.half_cell = 0.5 / scale;
+    let o = traverse(start, l * scale, q);
+    res.steps = o.steps;
+    res.capped = o.capped;
+    if o.blocked {
+        res.vis = 0.0;
+    } else if SHADOWS == 2u && o.any_kt {
+        res.vis = o.max_kt;
+    } else if SHADOWS == 3u {
+        res.vis = o.trans;
+    }
+    return res;
+}
+
+// ---- the Whitted loop (whitted.rs, Tracer::trace_with) ---------------------------------
+
+struct Task {
+    origin: vec3<f32>,
+    refl: u32,
+    dir: vec3<f32>,
+    refr: u32,
+    weight: vec3<f32>,
+    skip: u32,
+    medium: vec2<u32>,
+}
+
+fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, bool>) -> vec3<f32> {
+    let eta = n1 / n2;
+    let cos_i = -dot(d, n);
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    *ok = k >= 0.0;
+    if !(*ok) {
+        return vec3<f32>(0.0);
+    }
+    return normalize(eta * d + (eta * cos_i - sqrt(k)) * n);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = u.params;
+    if gid.x >= p.width || gid.y >= p.height {
+        return;
+    }
+    // CameraRays::dir_f32
+    let sx = ((f32(gid.x) + 0.5) * p.px_scale_x - 1.0) * p.half_w;
+    let sy = (1.0 - (f32(gid.y) + 0.5) * p.px_scale_y) * p.half_h;
+    let dir0 = normalize(p.forward + p.right * sx + p.up * sy);
+
+    var px: Pixel;
+    px.colour = vec3<f32>(0.0);
+    px.depth = p.infinity;
+    px.normal = vec3<f32>(0.0);
+    px.leaf = NO_LEAF;
+    px.primary_steps = 0u;
+    px.steps = 0u;
+    var rays = 0u;
+    var shadow_rays = 0u;
+    var capped = 0u;
+
+    var stack: array<Task, RAY_STACK>;
+    stack[0] = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM);
+    var len = 1u;
+    var first = true;
+    let bias = p.bias;
+    loop {
+        if len == 0u {
+            break;
+        }
+        len -= 1u;
+        let task = stack[len];
+        let ray_d = task.dir * p.scale;
+        var q: Query;
+        q.kind = 0u;
+        q.tmin = 0.0;
+        q.tmax = p.infinity;
+        q.skip = task.skip;
+        q.medium = task.medium;
+        q.half_cell = 0.0;
+        let h = traverse(task.origin, ray_d, q);
+        rays += 1u;
+        px.steps += h.steps;
+        capped += select(0u, 1u, h.capped);
+        if first {
+            px.primary_steps = h.steps;
+            if h.hit {
+                px.depth = h.t;
+                px.leaf = h.leaf;
+            }
+        }
+        if !h.hit {
+            px.colour += task.weight * sky_colour(task.dir);
+            first = false;
+            continue;
+        }
+        let m = material(h.leaf);
+        let hp = task.origin + ray_d * h.t;
+        var n_s = h.normal;
+        if all(n_s == vec3<f32>(0.0)) {
+            n_s = -task.dir;
+        }
+        if first {
+            px.normal = n_s;
+            first = false;
+        }
+        let entering = dot(n_s, task.dir) < 0.0;
+        var n_f = n_s;
+        if !entering {
+            if m.refractivity > 0.0 {
+                n_f = -n_s;
+            } else {
+                // An opaque surface seen from behind its shading normal: turn the normal
+                // until it just faces the viewer (Vec3::normalize_or).
+                let t = n_s - task.dir * (dot(n_s, task.dir) + 1e-3);
+                let tl = length(t);
+                n_f = select(-task.dir, t / tl, tl > 0.0 && tl < p.infinity);
+            }
+        }
+        let v = -task.dir;
+
+        // Local light.
+        let kr = m.reflectivity;
+        let kt = m.refractivity;
+        let local_w = max(1.0 - kr - kt, 0.0);
+        if local_w > 0.0 {
+            var local = m.albedo * p.ambient;
+            let shadow_from = hp + n_f * bias;
+            for (var li = 0u; li < min(p.n_lights, MAX_LIGHTS); li++) {
+                let light = u.lights[li];
+                let to = light.position - hp;
+                let dist_grid = length(to);
+                if !(dist_grid > 0.0) {
+                    continue;
+                }
+                let l = to / dist_grid;
+                if dot(n_f, l) <= 0.0 {
+                    continue;
+                }
+                var vis = 1.0;
+                if SHADOWS != 0u {
+                    shadow_rays += 1u;
+                    let s = shadow(shadow_from, light.position, h.leaf);
+                    vis = s.vis;
+                    px.steps += s.steps;
+                    capped += select(0u, 1u, s.capped);
+                }
+                if vis > 0.0 {
+                    let dist = dist_grid / p.scale;
+                    let falloff = light.colour * (light.intensity / max(dist * dist, 1e-12));
+                    local += falloff * vis * phong_direct(m.albedo, n_f, l, v);
+                }
+            }
+            px.colour += task.weight * local_w * local;
+        }
+
+        // Reflection and refraction.
+        if REFLECTIONS || REFRACTIONS {
+            var n1 = m.ior;
+            var n2 = 1.0;
+            if entering {
+                n1 = 1.0;
+                n2 = m.ior;
+            }
+            let cos_i = dot(n_f, v);
+            var fr = kr;
+            var ft = 0.0;
+            var t_ok = false;
+            var t_dir = vec3<f32>(0.0);
+            if REFRACTIONS && kt > 0.0 {
+                var f: f32;
+                if FRESNEL_SCHLICK {
+                    f = fresnel_schlick(cos_i, n1, n2);
+                } else {
+                    f = fresnel_exact(cos_i, n1, n2);
+                }
+                t_dir = refract_dir(task.dir, n_f, n1, n2, &t_ok);
+                if t_ok {
+                    fr += kt * f;
+                    ft = kt * (1.0 - f);
+                } else {
+                    fr += kt;
+                }
+            }
+            if fr > 0.0 && task.refl < p.max_reflections && len < RAY_STACK {
+                stack[len] = Task(hp + n_f * bias, task.refl + 1u, normalize(reflect_dir(task.dir, n_f)),
+                                  task.refr, task.weight * fr, h.leaf, task.medium);
+                len += 1u;
+            }
+            if REFRACTIONS && t_ok && ft > 0.0 && task.refr < p.max_refractions && len < RAY_STACK {
+                var med = NO_MEDIUM;
+                if MEDIA && entering {
+                    med = medium_of(h.leaf);
+                }
+                stack[len] = Task(hp - n_f * bias, task.refl, t_dir, task.refr + 1u,
+                                  task.weight * ft * m.albedo, h.leaf, med);
+                len += 1u;
+            }
+        }
+    }
+    px.rays = min(rays, 0xffffu) | (min(shadow_rays, 0xffffu) << 16u);
+    px.capped = capped;
+    pixels[gid.y * p.width + gid.x] = px;
+}
