@@ -65,14 +65,32 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
-        let limits = adapter.limits();
         let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("svo-view"),
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device(e.to_string()))?;
+        // The adapter's own limits first; some drivers (GL through EGL) refuse a device
+        // with every limit raised, so then wgpu's defaults with the adapter's buffer sizes.
+        let own = adapter.limits();
+        let fallback = wgpu::Limits {
+            max_storage_buffer_binding_size: own.max_storage_buffer_binding_size,
+            max_buffer_size: own.max_buffer_size,
+            ..wgpu::Limits::downlevel_defaults()
+        };
+        let mut opened = None;
+        let mut failures = Vec::new();
+        for limits in [own, fallback] {
+            match pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("svo-view"),
+                required_limits: limits.clone(),
+                ..Default::default()
+            })) {
+                Ok(dq) => {
+                    opened = Some((dq, limits));
+                    break;
+                }
+                Err(e) => failures.push(e.to_string()),
+            }
+        }
+        let ((device, queue), limits) =
+            opened.ok_or_else(|| GpuError::Device(failures.join("; then ")))?;
         let errors = Arc::new(Mutex::new(Vec::new()));
         let sink = Arc::clone(&errors);
         device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {

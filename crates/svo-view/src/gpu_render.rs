@@ -17,11 +17,13 @@ pub const TRACE_WGSL: &str = include_str!("shaders/trace.wgsl");
 /// Threads per workgroup side (`@workgroup_size(8, 8, 1)` in the shader).
 const WORKGROUP: u32 = 8;
 
-/// The bytes of a channel as the shader reads them (per-leaf arrays as stored, padded to a
-/// whole `u32`; a placeholder word for constant or absent channels).
-fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>) -> Vec<u8> {
+/// The bytes of a channel as the shader reads them: per-leaf arrays as stored, padded to a
+/// whole `u32`; a placeholder word for constant or absent channels, unless `expand` asks for
+/// a constant as a per-leaf array (`ShaderVariant::everything`).
+fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) -> Vec<u8> {
     let mut b = match c {
         Channel::PerLeaf(v) => bytemuck::cast_slice::<T, u8>(v).to_vec(),
+        Channel::Constant(v) if expand => bytemuck::cast_slice::<T, u8>(&vec![*v; leaves]).to_vec(),
         _ => Vec::new(),
     };
     let padded = b.len().next_multiple_of(4).max(4);
@@ -58,13 +60,15 @@ impl GpuRenderer {
         if node_bytes.is_empty() {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
         }
+        let n = tree.leaf_count as usize;
+        let per_leaf = |k: usize| variant.channels[k] == 2;
         let chans = [
-            ("normal", channel_bytes(&a.normal)),
-            ("contour", channel_bytes(&a.contour)),
-            ("colour", channel_bytes(&a.colour)),
-            ("reflectivity", channel_bytes(&a.reflectivity)),
-            ("refractivity", channel_bytes(&a.refractivity)),
-            ("ior", channel_bytes(&a.ior)),
+            ("normal", channel_bytes(&a.normal, per_leaf(0), n)),
+            ("contour", channel_bytes(&a.contour, per_leaf(1), n)),
+            ("colour", channel_bytes(&a.colour, per_leaf(2), n)),
+            ("reflectivity", channel_bytes(&a.reflectivity, per_leaf(3), n)),
+            ("refractivity", channel_bytes(&a.refractivity, per_leaf(4), n)),
+            ("ior", channel_bytes(&a.ior, per_leaf(5), n)),
         ];
         ctx.fits("the node array", node_bytes.len() as u64)?;
         for (name, b) in &chans {

@@ -86,8 +86,11 @@ pub struct GpuParams {
     pub shininess: f32,
     /// `+inf` (WGSL constant expressions may not overflow).
     pub infinity: f32,
+    /// The shadow mode (0 none, 1 opaque, 2 max, 3 product) when the shader reads it at run
+    /// time ([`ShaderVariant::everything`]).
+    pub shadow_mode: u32,
     /// Padding.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
 }
 
 /// A point light in grid space (WGSL `Light`).
@@ -164,6 +167,16 @@ fn any_nonzero(c: &Channel<u8>) -> bool {
     }
 }
 
+/// The shader's number for a shadow mode.
+fn shadow_code(m: ShadowMode) -> u32 {
+    match m {
+        ShadowMode::None => 0,
+        ShadowMode::Opaque => 1,
+        ShadowMode::MaxRefractivity => 2,
+        _ => 3,
+    }
+}
+
 /// The shader variant a scene and its settings need: the values of the WGSL
 /// pipeline-overridable constants. Paths nothing in the scene can take are switched off,
 /// so the compiled shader does not carry them.
@@ -176,7 +189,8 @@ pub struct ShaderVariant {
     pub reflections: bool,
     /// The refraction and Fresnel path (some leaf refracts).
     pub refractions: bool,
-    /// 0 none, 1 opaque, 2 max refractivity, 3 product (none when there are no lights).
+    /// 0 none, 1 opaque, 2 max refractivity, 3 product (none when there are no lights);
+    /// 4: every mode compiled in, the one used read at run time.
     pub shadows: u32,
     /// Schlick's Fresnel instead of the exact one.
     pub fresnel_schlick: bool,
@@ -201,12 +215,7 @@ impl ShaderVariant {
             shadows: if n_lights == 0 {
                 0
             } else {
-                match opts.shadows {
-                    ShadowMode::None => 0,
-                    ShadowMode::Opaque => 1,
-                    ShadowMode::MaxRefractivity => 2,
-                    _ => 3,
-                }
+                shadow_code(opts.shadows)
             },
             fresnel_schlick: opts.fresnel == FresnelMode::Schlick,
             media: matches!(a.normal, Channel::Absent) && refractive,
@@ -221,16 +230,18 @@ impl ShaderVariant {
         }
     }
 
-    /// Every path on and every channel per leaf: the shader as written.
-    pub fn full() -> Self {
+    /// `self` with nothing left out: every shading path compiled in (the shadow mode read
+    /// at run time, the hit mode kept) and every present channel read per leaf (the
+    /// renderer then uploads constant channels as per-leaf arrays). The image is the same;
+    /// the difference in time is what leaving things out saves.
+    pub fn everything(self) -> Self {
         Self {
-            hit_mode: 1,
             reflections: true,
             refractions: true,
-            shadows: 3,
-            fresnel_schlick: false,
+            shadows: 4,
             media: true,
-            channels: [2; 6],
+            channels: self.channels.map(|c| if c == 0 { 0 } else { 2 }),
+            ..self
         }
     }
 
@@ -270,7 +281,8 @@ impl ShaderVariant {
             0 => "no shadows",
             1 => "opaque shadows",
             2 => "max shadows",
-            _ => "product shadows",
+            3 => "product shadows",
+            _ => "all shadow modes",
         });
         if self.media {
             parts.push("media");
@@ -330,7 +342,12 @@ pub fn uniforms(
         specular: phong.specular,
         shininess: phong.shininess,
         infinity: f32::INFINITY,
-        pad: [0; 3],
+        shadow_mode: if lights.is_empty() {
+            0
+        } else {
+            shadow_code(opts.shadows)
+        },
+        pad: [0; 2],
     };
     let mut gl = [GpuLight::default(); MAX_LIGHTS];
     for (g, l) in gl.iter_mut().zip(lights) {

@@ -134,9 +134,19 @@ impl fmt::Display for HeadlessReport {
     }
 }
 
-/// Renders `job` on the GPU (see the module docs); `vs_cpu` also renders it on the CPU and
-/// compares.
-pub fn run(job: &RenderJob, vs_cpu: bool) -> Result<HeadlessReport, HeadlessError> {
+/// What a headless job does besides the render job itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HeadlessOptions {
+    /// Also render the frame with the CPU reference tracer and compare.
+    pub vs_cpu: bool,
+    /// Compile every shader path in and read every channel per leaf
+    /// ([`ShaderVariant::everything`]), to measure what the scene's variant saves.
+    pub everything: bool,
+}
+
+/// Renders `job` on the GPU (see the module docs).
+pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, HeadlessError> {
+    let vs_cpu = opts.vs_cpu;
     let start = std::time::Instant::now();
     if job.trace.mode == HitMode::Exact {
         return Err(GpuError::Unsupported(
@@ -185,7 +195,10 @@ pub fn run(job: &RenderJob, vs_cpu: bool) -> Result<HeadlessReport, HeadlessErro
     }
     let rays = camera.rays().map_err(RenderJobError::from)?;
     let ctx = GpuContext::new()?;
-    let variant = ShaderVariant::for_scene(&tree, &job.trace, lights.len());
+    let mut variant = ShaderVariant::for_scene(&tree, &job.trace, lights.len());
+    if opts.everything {
+        variant = variant.everything();
+    }
     let renderer = GpuRenderer::new(&ctx, &tree, variant, camera.width, camera.height)?;
     let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
     let u = uniforms(
@@ -198,16 +211,13 @@ pub fn run(job: &RenderJob, vs_cpu: bool) -> Result<HeadlessReport, HeadlessErro
         &phong,
         &job.trace,
     );
-    let first = renderer.render(&ctx, &u)?;
+    // The first frame also compiles the pipeline on some drivers: it counts as start-up,
+    // and the frames timed come after it.
+    renderer.render(&ctx, &u)?;
     let startup_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut times = Vec::new();
-    match job.bench_frames {
-        Some(n) => {
-            for _ in 0..n {
-                times.push(renderer.render(&ctx, &u)?.as_secs_f64());
-            }
-        }
-        None => times.push(first.as_secs_f64()),
+    for _ in 0..job.bench_frames.unwrap_or(1) {
+        times.push(renderer.render(&ctx, &u)?.as_secs_f64());
     }
     let med = median(&times);
     let frame = renderer.read_frame(&ctx, std::time::Duration::from_secs_f64(med))?;

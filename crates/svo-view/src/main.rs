@@ -40,6 +40,11 @@ struct Args {
     /// images differ.
     #[arg(long, requires = "headless")]
     vs_cpu: bool,
+    /// With --headless: compile every shader path in (reflection, refraction, shadows,
+    /// media) and read every channel per leaf, instead of leaving out what the scene does
+    /// not need; the image is the same, the time shows what leaving out saves.
+    #[arg(long, requires = "headless")]
+    full_shader: bool,
     /// Output image: .png, or .pfm / .exr for `--aov depth`. Default: the file's name with
     /// .png (.pfm for depth); none with --bench unless given.
     #[arg(short, long)]
@@ -177,7 +182,11 @@ fn real_main() -> anyhow::Result<()> {
         sky_cube_map: args.sky.clone(),
     };
     if args.headless {
-        let report = svo_view::headless::run(&job, args.vs_cpu)
+        let opts = svo_view::headless::HeadlessOptions {
+            vs_cpu: args.vs_cpu,
+            everything: args.full_shader,
+        };
+        let report = svo_view::headless::run(&job, &opts)
             .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;
         if args.json {
             println!("{}", serde_json::to_string_pretty(&report)?);

@@ -13,7 +13,8 @@
 override HIT_MODE: u32 = 1u;          // 0: cube, 1: contour
 override REFLECTIONS: bool = true;    // some leaf reflects, or refracts (Fresnel reflection)
 override REFRACTIONS: bool = true;    // some leaf refracts
-override SHADOWS: u32 = 3u;           // 0: none, 1: opaque, 2: max refractivity, 3: product
+override SHADOWS: u32 = 3u;           // 0: none, 1: opaque, 2: max refractivity, 3: product,
+                                      // 4: chosen at run time (Params.shadow_mode)
 override FRESNEL_SCHLICK: bool = false;
 override MEDIA: bool = false;         // transparent leaves without normals (volumes)
 // Channels: 0 absent, 1 constant (the value in `Params`), 2 per leaf (the buffer).
@@ -66,7 +67,7 @@ struct Params {
     specular: f32,
     shininess: f32,
     infinity: f32,             // +inf (a constant expression may not overflow)
-    pad0: u32,
+    shadow_mode: u32,          // the mode when SHADOWS is 4
     pad1: u32,
     pad2: u32,
 }
@@ -232,6 +233,14 @@ fn medium_of(leaf: u32) -> vec2<u32> {
         col = colour_word(leaf);
     }
     return vec2<u32>(kt | (ior << 8u), col);
+}
+
+// The shadow mode: compiled in, or read at run time by the full shader.
+fn shadows() -> u32 {
+    if SHADOWS == 4u {
+        return u.params.shadow_mode;
+    }
+    return SHADOWS;
 }
 
 // ---- rays (grid_ray.rs) ------------------------------------------------------------------
@@ -551,7 +560,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 if !h.hit {
                     continue;
                 }
-                if SHADOWS == 1u {
+                if shadows() == 1u {
                     out.blocked = true;
                     return out;
                 }
@@ -684,9 +693,9 @@ fn shadow(start: vec3<f32>, light: vec3<f32>, skip: u32) -> ShadowResult {
     res.capped = o.capped;
     if o.blocked {
         res.vis = 0.0;
-    } else if SHADOWS == 2u && o.any_kt {
+    } else if shadows() == 2u && o.any_kt {
         res.vis = o.max_kt;
-    } else if SHADOWS == 3u {
+    } else if shadows() == 3u {
         res.vis = o.trans;
     }
     return res;
@@ -816,7 +825,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     continue;
                 }
                 var vis = 1.0;
-                if SHADOWS != 0u {
+                if shadows() != 0u {
                     shadow_rays += 1u;
                     let s = shadow(shadow_from, light.position, h.leaf);
                     vis = s.vis;
