@@ -72,6 +72,7 @@ impl GpuContext {
         let fallback = wgpu::Limits {
             max_storage_buffer_binding_size: own.max_storage_buffer_binding_size,
             max_buffer_size: own.max_buffer_size,
+            max_storage_buffers_per_shader_stage: own.max_storage_buffers_per_shader_stage,
             ..wgpu::Limits::downlevel_defaults()
         };
         let mut opened = None;
@@ -137,7 +138,9 @@ impl GpuContext {
 
     /// Checks that a storage buffer of `bytes` fits one binding.
     pub fn fits(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
-        let limit = u64::from(self.limits.max_storage_buffer_binding_size)
+        let limit = self
+            .limits
+            .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size);
         if bytes > limit {
             return Err(GpuError::TooLarge {

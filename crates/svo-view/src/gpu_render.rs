@@ -5,7 +5,7 @@
 //! AOVs and comparisons apply.
 
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_types::{GpuPixel, GpuUniforms, ShaderVariant};
+use crate::gpu_types::{GpuPixel, GpuRay, GpuRayHit, GpuUniforms, ShaderVariant};
 use glam::Vec3;
 use std::time::{Duration, Instant};
 use svo::octree::{Channel, Octree};
@@ -31,11 +31,41 @@ fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) 
     b
 }
 
+/// Bindings 0-10 of the shader (uniforms, nodes, six channels, pixels, batch rays in and
+/// out), declared once for both entry points.
+fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let read = wgpu::BufferBindingType::Storage { read_only: true };
+    let write = wgpu::BufferBindingType::Storage { read_only: false };
+    let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+    entries.extend((1..=7).map(|b| entry(b, read)));
+    entries.push(entry(8, write));
+    entries.push(entry(9, read));
+    entries.push(entry(10, write));
+    dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("trace"),
+        entries: &entries,
+    })
+}
+
 /// A tree on the GPU with a pipeline for one shader variant and buffers for one image size.
 pub struct GpuRenderer {
     pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    /// Bindings 0-7 (uniforms, nodes, channels), shared by both entry points.
+    tree_buffers: Vec<wgpu::Buffer>,
     bind_group: wgpu::BindGroup,
-    uniforms: wgpu::Buffer,
     pixels: wgpu::Buffer,
     readback: wgpu::Buffer,
     width: u32,
@@ -66,8 +96,14 @@ impl GpuRenderer {
             ("normal", channel_bytes(&a.normal, per_leaf(0), n)),
             ("contour", channel_bytes(&a.contour, per_leaf(1), n)),
             ("colour", channel_bytes(&a.colour, per_leaf(2), n)),
-            ("reflectivity", channel_bytes(&a.reflectivity, per_leaf(3), n)),
-            ("refractivity", channel_bytes(&a.refractivity, per_leaf(4), n)),
+            (
+                "reflectivity",
+                channel_bytes(&a.reflectivity, per_leaf(3), n),
+            ),
+            (
+                "refractivity",
+                channel_bytes(&a.refractivity, per_leaf(4), n),
+            ),
             ("ior", channel_bytes(&a.ior, per_leaf(5), n)),
         ];
         ctx.fits("the node array", node_bytes.len() as u64)?;
@@ -114,50 +150,32 @@ impl GpuRenderer {
             label: Some("trace.wgsl"),
             source: wgpu::ShaderSource::Wgsl(TRACE_WGSL.into()),
         });
-        let constants = variant.constants();
-        let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        let layout = bind_group_layout(dev);
+        let pipeline_layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("trace"),
-            layout: None,
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
         });
+        let pipeline = compute_pipeline(dev, &pipeline_layout, &module, "main", &variant);
         ctx.check()?;
-        let layout = pipeline.get_bind_group_layout(0);
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniforms.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: nodes.as_entire_binding(),
-            },
-        ];
-        for (i, b) in chan_bufs.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 2 + i as u32,
-                resource: b.as_entire_binding(),
-            });
-        }
-        entries.push(wgpu::BindGroupEntry {
-            binding: 8,
-            resource: pixels.as_entire_binding(),
-        });
-        let bind_group = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace"),
-            layout: &layout,
-            entries: &entries,
-        });
+        let mut tree_buffers = vec![uniforms.clone(), nodes];
+        tree_buffers.extend(chan_bufs);
+        // One placeholder each: a read-only and a read-write binding may not share a buffer.
+        let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
+        let bind_group = bind_group(
+            dev,
+            &layout,
+            &tree_buffers,
+            [&pixels, &unused_in, &unused_out],
+        );
         ctx.check()?;
         Ok(Self {
             pipeline,
+            layout,
+            pipeline_layout,
+            module,
+            tree_buffers,
             bind_group,
-            uniforms,
             pixels,
             readback,
             width,
@@ -165,6 +183,83 @@ impl GpuRenderer {
             variant,
             tree_bytes,
         })
+    }
+
+    /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
+    /// traversal and leaf hit of the variant's hit mode, nothing skipped).
+    pub fn cast(
+        &self,
+        ctx: &GpuContext,
+        u: &GpuUniforms,
+        rays: &[GpuRay],
+    ) -> Result<Vec<GpuRayHit>, GpuError> {
+        if rays.is_empty() {
+            return Ok(Vec::new());
+        }
+        let dev = &ctx.device;
+        let in_bytes: &[u8] = bytemuck::cast_slice(rays);
+        let out_len = (rays.len() * size_of::<GpuRayHit>()) as u64;
+        ctx.fits("the ray batch", in_bytes.len() as u64)?;
+        let ray_in = dev.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rays"),
+            size: in_bytes.len() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        ctx.queue.write_buffer(&ray_in, 0, in_bytes);
+        let ray_out = dev.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hits"),
+            size: out_len,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = dev.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hits readback"),
+            size: out_len,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let pipeline = compute_pipeline(
+            dev,
+            &self.pipeline_layout,
+            &self.module,
+            "cast_rays",
+            &self.variant,
+        );
+        let bg = bind_group(
+            dev,
+            &self.layout,
+            &self.tree_buffers,
+            [&self.pixels, &ray_in, &ray_out],
+        );
+        ctx.check()?;
+        ctx.queue
+            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
+        let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("cast"),
+        });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("cast_rays"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bg, &[]);
+            // At most 65,535 workgroups of 64 a dispatch in x: larger batches would need a
+            // second dimension.
+            let groups = rays.len().div_ceil(64);
+            if groups > 65_535 {
+                return Err(GpuError::Unsupported(format!(
+                    "a batch of {} rays; at most {} at once",
+                    rays.len(),
+                    65_535 * 64
+                )));
+            }
+            pass.dispatch_workgroups(groups as u32, 1, 1);
+        }
+        enc.copy_buffer_to_buffer(&ray_out, 0, &readback, 0, out_len);
+        ctx.queue.submit([enc.finish()]);
+        read_buffer(ctx, &readback)
     }
 
     /// The shader variant in use.
@@ -176,10 +271,12 @@ impl GpuRenderer {
     /// completion.
     pub fn render(&self, ctx: &GpuContext, u: &GpuUniforms) -> Result<Duration, GpuError> {
         ctx.queue
-            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(u));
+            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
         let mut enc = ctx
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("trace"),
@@ -203,28 +300,89 @@ impl GpuRenderer {
     pub fn read_frame(&self, ctx: &GpuContext, elapsed: Duration) -> Result<Frame, GpuError> {
         let mut enc = ctx
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("read"),
+            });
         enc.copy_buffer_to_buffer(&self.pixels, 0, &self.readback, 0, self.pixels.size());
         ctx.queue.submit([enc.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.readback
-            .map_async(wgpu::MapMode::Read, .., move |r| {
-                let _ = tx.send(r);
-            });
-        ctx.wait()?;
-        rx.recv()
-            .map_err(|e| GpuError::Wgpu(e.to_string()))?
-            .map_err(|e| GpuError::Wgpu(e.to_string()))?;
-        let px: Vec<GpuPixel> = {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|e| GpuError::Wgpu(e.to_string()))?;
-            bytemuck::pod_collect_to_vec(&view)
-        };
-        self.readback.unmap();
+        let px: Vec<GpuPixel> = read_buffer(ctx, &self.readback)?;
         Ok(to_frame(&px, self.width, self.height, elapsed))
     }
+}
+
+/// The pipeline of `entry` for `variant`.
+fn compute_pipeline(
+    dev: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    variant: &ShaderVariant,
+) -> wgpu::ComputePipeline {
+    let constants = variant.constants();
+    dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants: &constants,
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    })
+}
+
+/// A small placeholder for bindings an entry point does not use.
+fn dummy_buffer(dev: &wgpu::Device) -> wgpu::Buffer {
+    dev.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("unused binding"),
+        size: 256,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
+}
+
+/// Bindings 0-7 from `tree` (uniforms, nodes, channels) and 8-10 from `rest`.
+fn bind_group(
+    dev: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    tree: &[wgpu::Buffer],
+    rest: [&wgpu::Buffer; 3],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = tree
+        .iter()
+        .chain(rest)
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    dev.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("trace"),
+        layout,
+        entries: &entries,
+    })
+}
+
+/// Maps `buf` (after the queued copy into it) and reads it as `T`s.
+fn read_buffer<T: bytemuck::Pod>(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<T>, GpuError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buf.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.wait()?;
+    rx.recv()
+        .map_err(|e| GpuError::Wgpu(e.to_string()))?
+        .map_err(|e| GpuError::Wgpu(e.to_string()))?;
+    let v = {
+        let view = buf
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Wgpu(e.to_string()))?;
+        bytemuck::pod_collect_to_vec(&view)
+    };
+    buf.unmap();
+    Ok(v)
 }
 
 /// The GPU's pixels as a CPU [`Frame`] with its counters.

@@ -90,7 +90,9 @@ pub struct GpuParams {
     /// time ([`ShaderVariant::everything`]).
     pub shadow_mode: u32,
     /// Padding.
-    pub pad: [u32; 2],
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// A point light in grid space (WGSL `Light`).
@@ -139,6 +141,34 @@ pub struct GpuPixel {
     /// Primary and secondary rays (low 16 bits) and shadow rays (high 16 bits).
     pub rays: u32,
     /// Rays stopped by the step cap.
+    pub capped: u32,
+}
+
+/// A ray of a batch, in grid space (WGSL `RayIn`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRay {
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Start of the parameter range.
+    pub tmin: f32,
+    /// Direction.
+    pub dir: [f32; 3],
+    /// End of the parameter range.
+    pub tmax: f32,
+}
+
+/// The first hit of a batch ray (WGSL `RayOut`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRayHit {
+    /// Hit parameter; `+inf` on a miss.
+    pub t: f32,
+    /// Leaf; `u32::MAX` on a miss.
+    pub leaf: u32,
+    /// Traversal steps.
+    pub steps: u32,
+    /// 1 if the step cap stopped the ray.
     pub capped: u32,
 }
 
@@ -264,13 +294,22 @@ impl ShaderVariant {
             ("FRESNEL_SCHLICK", b(self.fresnel_schlick)),
             ("MEDIA", b(self.media)),
         ];
-        c.extend(names.iter().zip(self.channels).map(|(n, v)| (*n, f64::from(v))));
+        c.extend(
+            names
+                .iter()
+                .zip(self.channels)
+                .map(|(n, v)| (*n, f64::from(v))),
+        );
         c
     }
 
     /// A short description for reports: the paths compiled in.
     pub fn describe(&self) -> String {
-        let mut parts = vec![if self.hit_mode == 1 { "contour" } else { "cube" }];
+        let mut parts = vec![if self.hit_mode == 1 {
+            "contour"
+        } else {
+            "cube"
+        }];
         if self.reflections {
             parts.push("reflection");
         }
@@ -291,8 +330,42 @@ impl ShaderVariant {
     }
 }
 
-/// The uniforms of a frame: `tree` seen through `rays` (a camera with `width` x `height`
-/// pixels and its eye in grid space `eye_grid`), with the lights, sky and Phong factors.
+/// The uniforms that depend on the tree and settings alone (no camera, lights or sky):
+/// enough for the ray-batch entry point.
+pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
+    let depth = tree.depth;
+    let a = &tree.attributes;
+    let params = GpuParams {
+        scale: ((1u64 << depth) as f64 / tree.root.side) as f32,
+        bias: opts.bias_cells,
+        depth: u32::from(depth),
+        max_steps: opts.max_steps,
+        max_reflections: u32::from(opts.max_reflections),
+        max_refractions: u32::from(opts.max_refractions),
+        n_nodes: tree.nodes.len() as u32,
+        const_normal: channel_const(&a.normal),
+        const_contour: channel_const(&a.contour),
+        const_colour: channel_const(&a.colour),
+        const_reflectivity: channel_const(&a.reflectivity),
+        const_refractivity: channel_const(&a.refractivity),
+        const_ior: channel_const(&a.ior),
+        infinity: f32::INFINITY,
+        ..GpuParams::default()
+    };
+    let mut srgb = [[0.0f32; 4]; 64];
+    for (i, v) in srgb.iter_mut().flatten().enumerate() {
+        *v = svo::mesh::srgb_to_linear(i as u8);
+    }
+    GpuUniforms {
+        params,
+        lights: [GpuLight::default(); MAX_LIGHTS],
+        srgb,
+    }
+}
+
+/// The uniforms of a frame: `tree` seen through `rays` (a camera with `size` pixels and its
+/// eye in grid space `eye_grid`), with the lights (at most [`MAX_LIGHTS`]), sky and Phong
+/// factors.
 #[allow(clippy::too_many_arguments)]
 pub fn uniforms(
     tree: &Octree,
@@ -304,67 +377,44 @@ pub fn uniforms(
     phong: &Phong,
     opts: &TraceOptions,
 ) -> GpuUniforms {
-    let depth = tree.depth;
-    let scale = ((1u64 << depth) as f64 / tree.root.side) as f32;
+    let mut u = tree_uniforms(tree, opts);
     let (basis, px_scale, half) = rays.f32_basis();
-    let a = &tree.attributes;
-    let params = GpuParams {
-        eye: eye_grid.to_array(),
-        scale,
-        forward: basis[0].to_array(),
-        bias: opts.bias_cells,
-        right: basis[1].to_array(),
-        px_scale_x: px_scale.x,
-        up: basis[2].to_array(),
-        px_scale_y: px_scale.y,
-        sky_zenith: sky.zenith.to_array(),
-        half_w: half.x,
-        sky_horizon: sky.horizon.to_array(),
-        half_h: half.y,
-        sky_ground: sky.ground.to_array(),
-        ambient: phong.ambient,
-        sky_up: sky.up.to_array(),
-        diffuse: phong.diffuse,
-        width: size.0,
-        height: size.1,
-        depth: u32::from(depth),
-        max_steps: opts.max_steps,
-        n_lights: lights.len().min(MAX_LIGHTS) as u32,
-        max_reflections: u32::from(opts.max_reflections),
-        max_refractions: u32::from(opts.max_refractions),
-        n_nodes: tree.nodes.len() as u32,
-        const_normal: channel_const(&a.normal),
-        const_contour: channel_const(&a.contour),
-        const_colour: channel_const(&a.colour),
-        const_reflectivity: channel_const(&a.reflectivity),
-        const_refractivity: channel_const(&a.refractivity),
-        const_ior: channel_const(&a.ior),
-        specular: phong.specular,
-        shininess: phong.shininess,
-        infinity: f32::INFINITY,
-        shadow_mode: if lights.is_empty() {
-            0
-        } else {
-            shadow_code(opts.shadows)
-        },
-        pad: [0; 2],
+    let p = &mut u.params;
+    p.eye = eye_grid.to_array();
+    p.forward = basis[0].to_array();
+    p.right = basis[1].to_array();
+    p.up = basis[2].to_array();
+    p.px_scale_x = px_scale.x;
+    p.px_scale_y = px_scale.y;
+    p.half_w = half.x;
+    p.half_h = half.y;
+    p.sky_zenith = sky.zenith.to_array();
+    p.sky_horizon = sky.horizon.to_array();
+    p.sky_ground = sky.ground.to_array();
+    p.sky_up = sky.up.to_array();
+    p.ambient = phong.ambient;
+    p.diffuse = phong.diffuse;
+    p.specular = phong.specular;
+    p.shininess = phong.shininess;
+    p.width = size.0;
+    p.height = size.1;
+    p.n_lights = lights.len().min(MAX_LIGHTS) as u32;
+    p.shadow_mode = if lights.is_empty() {
+        0
+    } else {
+        shadow_code(opts.shadows)
     };
-    let mut gl = [GpuLight::default(); MAX_LIGHTS];
-    for (g, l) in gl.iter_mut().zip(lights) {
+    for (g, l) in u.lights.iter_mut().zip(lights) {
         *g = GpuLight {
-            position: tree.root.to_grid(l.position, depth).as_vec3().to_array(),
+            position: tree
+                .root
+                .to_grid(l.position, tree.depth)
+                .as_vec3()
+                .to_array(),
             intensity: l.intensity,
             colour: l.colour.to_array(),
             pad: 0.0,
         };
     }
-    let mut srgb = [[0.0f32; 4]; 64];
-    for (i, v) in srgb.iter_mut().flatten().enumerate() {
-        *v = svo::mesh::srgb_to_linear(i as u8);
-    }
-    GpuUniforms {
-        params,
-        lights: gl,
-        srgb,
-    }
+    u
 }

@@ -74,8 +74,9 @@ pub struct HeadlessReport {
     pub primary_mrays_per_s: f64,
     /// All rays per second at the median, millions.
     pub mrays_per_s: f64,
-    /// Milliseconds from the start of the job to the first frame on screen (adapter, upload,
-    /// pipeline, first frame).
+    /// Milliseconds of the job not spent in timed frames: loading, the adapter, the upload,
+    /// the pipeline and the untimed first frame (which also compiles the shader on some
+    /// drivers), and the CPU render with `vs_cpu`.
     pub startup_ms: f64,
     /// Counters of the last frame.
     pub stats: RenderStats,
@@ -92,7 +93,13 @@ impl fmt::Display for HeadlessReport {
         writeln!(
             f,
             "{}x{} depth {} ({} leaves, {} bytes on the GPU), hit {}; shader: {}",
-            self.width, self.height, self.depth, self.leaves, self.tree_bytes, self.hit, self.variant
+            self.width,
+            self.height,
+            self.depth,
+            self.leaves,
+            self.tree_bytes,
+            self.hit,
+            self.variant
         )?;
         writeln!(
             f,
@@ -144,6 +151,86 @@ pub struct HeadlessOptions {
     pub everything: bool,
 }
 
+/// A frame rendered on the GPU.
+pub struct GpuFrame {
+    /// The image and its AOVs and counters, as the CPU renderer makes them.
+    pub frame: svo::render::Frame,
+    /// Seconds per timed frame.
+    pub times: Vec<f64>,
+    /// The shader variant used.
+    pub variant: ShaderVariant,
+    /// Bytes of tree data uploaded.
+    pub tree_bytes: u64,
+}
+
+/// Renders `scene` on `ctx` with `trace`'s settings: one untimed frame (pipeline compilation
+/// on some drivers), then `frames` timed ones (one when `None`), and reads the last back.
+/// `everything` compiles every shader path in ([`ShaderVariant::everything`]).
+pub fn render_scene(
+    ctx: &GpuContext,
+    scene: &JobScene,
+    trace: &svo::whitted::TraceOptions,
+    everything: bool,
+    frames: Option<u32>,
+) -> Result<GpuFrame, HeadlessError> {
+    let JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+    } = scene;
+    if trace.mode == HitMode::Exact {
+        return Err(GpuError::Unsupported(
+            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
+                .into(),
+        )
+        .into());
+    }
+    if sky.cube_map.is_some() {
+        return Err(GpuError::Unsupported(
+            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
+        )
+        .into());
+    }
+    if lights.len() > MAX_LIGHTS {
+        return Err(GpuError::Unsupported(format!(
+            "{} lights; the GPU path takes at most {MAX_LIGHTS}",
+            lights.len()
+        ))
+        .into());
+    }
+    let rays = camera.rays().map_err(RenderJobError::from)?;
+    let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
+    if everything {
+        variant = variant.everything();
+    }
+    let renderer = GpuRenderer::new(ctx, tree, variant, camera.width, camera.height)?;
+    let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
+    let u = uniforms(
+        tree,
+        &rays,
+        eye,
+        (camera.width, camera.height),
+        lights,
+        sky,
+        phong,
+        trace,
+    );
+    renderer.render(ctx, &u)?;
+    let mut times = Vec::new();
+    for _ in 0..frames.unwrap_or(1) {
+        times.push(renderer.render(ctx, &u)?.as_secs_f64());
+    }
+    let frame = renderer.read_frame(ctx, std::time::Duration::from_secs_f64(median(&times)))?;
+    Ok(GpuFrame {
+        frame,
+        times,
+        variant,
+        tree_bytes: renderer.tree_bytes,
+    })
+}
+
 /// Renders `job` on the GPU (see the module docs).
 pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, HeadlessError> {
     let vs_cpu = opts.vs_cpu;
@@ -155,6 +242,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         )
         .into());
     }
+    // Before loading anything: a cube map is refused by the GPU path anyway.
     if job.sky_cube_map.is_some() {
         return Err(GpuError::Unsupported(
             "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
@@ -186,41 +274,25 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         sky,
         phong,
     } = prepare(job)?;
-    if lights.len() > MAX_LIGHTS {
-        return Err(GpuError::Unsupported(format!(
-            "{} lights; the GPU path takes at most {MAX_LIGHTS}",
-            lights.len()
-        ))
-        .into());
-    }
-    let rays = camera.rays().map_err(RenderJobError::from)?;
     let ctx = GpuContext::new()?;
-    let mut variant = ShaderVariant::for_scene(&tree, &job.trace, lights.len());
-    if opts.everything {
-        variant = variant.everything();
-    }
-    let renderer = GpuRenderer::new(&ctx, &tree, variant, camera.width, camera.height)?;
-    let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
-    let u = uniforms(
-        &tree,
-        &rays,
-        eye,
-        (camera.width, camera.height),
-        &lights,
-        &sky,
-        &phong,
-        &job.trace,
-    );
-    // The first frame also compiles the pipeline on some drivers: it counts as start-up,
-    // and the frames timed come after it.
-    renderer.render(&ctx, &u)?;
-    let startup_ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut times = Vec::new();
-    for _ in 0..job.bench_frames.unwrap_or(1) {
-        times.push(renderer.render(&ctx, &u)?.as_secs_f64());
-    }
+    let scene = JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+    };
+    let r = render_scene(&ctx, &scene, &job.trace, opts.everything, job.bench_frames)?;
+    let JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+    } = scene;
+    let (frame, times, variant, tree_bytes) = (r.frame, r.times, r.variant, r.tree_bytes);
+    let startup_ms = (start.elapsed().as_secs_f64() - times.iter().sum::<f64>()) * 1e3;
     let med = median(&times);
-    let frame = renderer.read_frame(&ctx, std::time::Duration::from_secs_f64(med))?;
     let s = frame.stats;
     let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
     let cost_scale = s.max_primary_steps.max(1);
@@ -267,7 +339,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         height: camera.height,
         depth: tree.depth,
         leaves: tree.leaf_count,
-        tree_bytes: renderer.tree_bytes,
+        tree_bytes,
         hit: job.trace.mode.name(),
         frames: times.len() as u32,
         median_ms: med * 1e3,

@@ -181,6 +181,9 @@ fn real_main() -> anyhow::Result<()> {
         mesh: args.mesh.clone(),
         sky_cube_map: args.sky.clone(),
     };
+    if (args.vs_cpu || args.full_shader) && !args.headless {
+        anyhow::bail!("--vs-cpu and --full-shader go with --headless");
+    }
     if args.headless {
         let opts = svo_view::headless::HeadlessOptions {
             vs_cpu: args.vs_cpu,

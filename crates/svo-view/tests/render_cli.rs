@@ -1,13 +1,16 @@
-//! `svo-view` rendering end to end: colour and AOV images, the depth file read back, the
+//! `svo-view --cpu` rendering end to end: colour and AOV images, the depth file read back, the
 //! comparison with the triangle reference, the benchmark line, and one-line errors with no
 //! output left behind for bad input.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Runs `svo-view --cpu ARGS` (these tests are about the CPU renderer; the GPU path has
+/// `headless_cli.rs`).
 fn view(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_svo-view"))
-        .args(args)
+        .arg("--cpu")
+        .args(args.iter().filter(|a| **a != "--cpu"))
         .output()
         .expect("run svo-view")
 }

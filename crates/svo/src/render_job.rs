@@ -388,6 +388,12 @@ pub fn prepare(job: &RenderJob) -> Result<JobScene, RenderJobError> {
         check_output(out, job.aov)?;
     }
     let (tree, _build) = read_file(&job.input)?;
+    scene(tree, job)
+}
+
+/// The scene of `job` around a tree already in memory: the camera, lights and sky with the
+/// job's defaults filled in (the settings are not checked; [`prepare`] does that).
+pub fn scene(tree: Octree, job: &RenderJob) -> Result<JobScene, RenderJobError> {
     let (lo, hi) = occupied_bounds(&tree);
     let framing = Camera::framing(lo, hi, job.width, job.height, job.fov_deg);
     let mut camera = Camera {

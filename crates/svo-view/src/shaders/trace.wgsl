@@ -111,6 +111,24 @@ struct Pixel {
 @group(0) @binding(7) var<storage, read> ch_ior: array<u32>;            // u16, 2 a word
 @group(0) @binding(8) var<storage, read_write> pixels: array<Pixel>;
 
+// The ray-batch entry point (cast_rays): rays in grid space, first hits out.
+struct RayIn {
+    origin: vec3<f32>,
+    tmin: f32,
+    dir: vec3<f32>,
+    tmax: f32,
+}
+
+struct RayOut {
+    t: f32,                    // +inf on a miss
+    leaf: u32,                 // NO_LEAF on a miss
+    steps: u32,
+    capped: u32,
+}
+
+@group(0) @binding(9) var<storage, read> ray_in: array<RayIn>;
+@group(0) @binding(10) var<storage, read_write> ray_out: array<RayOut>;
+
 // ---- leaf attributes (octree.rs, normal_encoding.rs, contour.rs) -------------------------
 
 fn sign_not_zero(v: f32) -> f32 {
@@ -888,4 +906,29 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     px.rays = min(rays, 0xffffu) | (min(shadow_rays, 0xffffu) << 16u);
     px.capped = capped;
     pixels[gid.y * p.width + gid.x] = px;
+}
+
+// The first hit of each ray of a batch (leaf_hit::cast with nothing skipped), for checking
+// the traversal against the CPU on arbitrary rays.
+@compute @workgroup_size(64, 1, 1)
+fn cast_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= arrayLength(&ray_in) {
+        return;
+    }
+    let r = ray_in[i];
+    var q: Query;
+    q.kind = 0u;
+    q.tmin = r.tmin;
+    q.tmax = r.tmax;
+    q.skip = NO_SKIP;
+    q.medium = NO_MEDIUM;
+    q.half_cell = 0.0;
+    let o = traverse(r.origin, r.dir, q);
+    var out = RayOut(u.params.infinity, NO_LEAF, o.steps, select(0u, 1u, o.capped));
+    if o.hit {
+        out.t = o.t;
+        out.leaf = o.leaf;
+    }
+    ray_out[i] = out;
 }

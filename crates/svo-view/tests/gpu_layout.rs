@@ -1,0 +1,128 @@
+//! CPU-only checks of the shaders: naga parses and validates every `.wgsl` file, and the
+//! structs shared with the GPU (`svo_view::gpu_types`, `svo::octree::Node`) have the sizes
+//! and member offsets the WGSL gives them.
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use std::mem::{offset_of, size_of};
+use std::path::Path;
+use svo::octree::Node;
+use svo_view::gpu_types::{GpuLight, GpuParams, GpuPixel, GpuRay, GpuRayHit, GpuUniforms};
+
+fn shader_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src/shaders")
+}
+
+fn parse(src: &str, name: &str) -> naga::Module {
+    naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)))
+}
+
+#[test]
+fn every_wgsl_file_parses_and_validates() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(shader_dir()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "wgsl") {
+            let src = std::fs::read_to_string(&path).unwrap();
+            let name = path.display().to_string();
+            let module = parse(&src, &name);
+            Validator::new(ValidationFlags::all(), Capabilities::empty())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
+            n += 1;
+        }
+    }
+    assert!(n >= 1, "no shaders found");
+}
+
+/// The WGSL struct `name`: its size and `(member, offset)` in order.
+fn wgsl_struct(module: &naga::Module, name: &str) -> (usize, Vec<(String, usize)>) {
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            return (
+                *span as usize,
+                members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+                    .collect(),
+            );
+        }
+    }
+    panic!("no struct {name} in the shader");
+}
+
+macro_rules! rust_struct {
+    ($t:ty; $($f:ident),* $(,)?) => {
+        (size_of::<$t>(), vec![$((stringify!($f).to_string(), offset_of!($t, $f))),*])
+    };
+}
+
+#[test]
+fn shared_structs_match_the_wgsl() {
+    let src = svo_view::gpu_render::TRACE_WGSL;
+    let m = parse(src, "trace.wgsl");
+    let cases = [
+        (
+            "Params",
+            rust_struct!(GpuParams; eye, scale, forward, bias, right, px_scale_x, up, px_scale_y,
+                sky_zenith, half_w, sky_horizon, half_h, sky_ground, ambient, sky_up, diffuse,
+                width, height, depth, max_steps, n_lights, max_reflections, max_refractions,
+                n_nodes, const_normal, const_contour, const_colour, const_reflectivity,
+                const_refractivity, const_ior, specular, shininess, infinity, shadow_mode,
+                pad1, pad2),
+        ),
+        (
+            "Light",
+            rust_struct!(GpuLight; position, intensity, colour, pad),
+        ),
+        ("Uniforms", rust_struct!(GpuUniforms; params, lights, srgb)),
+        (
+            "Pixel",
+            rust_struct!(GpuPixel; colour, depth, normal, leaf, primary_steps, steps, rays,
+                capped),
+        ),
+        ("Node", rust_struct!(Node; info, first)),
+        ("RayIn", rust_struct!(GpuRay; origin, tmin, dir, tmax)),
+        ("RayOut", rust_struct!(GpuRayHit; t, leaf, steps, capped)),
+    ];
+    for (name, rust) in cases {
+        let wgsl = wgsl_struct(&m, name);
+        assert_eq!(wgsl, rust, "struct {name}: WGSL (size, members) vs Rust");
+    }
+}
+
+#[test]
+fn shader_constants_name_real_overrides() {
+    // Every pipeline constant the variant sets exists in the shader (a typo would make
+    // pipeline creation fail at run time, and only on a GPU).
+    let m = parse(svo_view::gpu_render::TRACE_WGSL, "trace.wgsl");
+    let names: Vec<String> = m
+        .overrides
+        .iter()
+        .filter_map(|(_, o)| o.name.clone())
+        .collect();
+    let v = svo_view::gpu_types::ShaderVariant::everything(
+        svo_view::gpu_types::ShaderVariant::for_scene(
+            &svo::builder::from_cells(
+                svo::grid::RootCube {
+                    origin: glam::DVec3::ZERO,
+                    side: 1.0,
+                },
+                2,
+                [(glam::UVec3::ZERO, svo::builder::Voxel::default())],
+            )
+            .unwrap(),
+            &svo::whitted::TraceOptions::default(),
+            1,
+        ),
+    );
+    for (c, _) in v.constants() {
+        assert!(
+            names.iter().any(|n| n == c),
+            "{c} is not an override in trace.wgsl"
+        );
+    }
+    assert_eq!(names.len(), v.constants().len(), "overrides {names:?}");
+}

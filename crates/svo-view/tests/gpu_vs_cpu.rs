@@ -1,0 +1,341 @@
+//! The GPU checked against the CPU reference (lavapipe without a GPU): the headless image
+//! equals the CPU image for the same scene, camera and settings within a tight tolerance,
+//! with the same hit/miss mask; and the ray-batch entry point returns the same leaves as
+//! `svo::leaf_hit::cast` on seeded random rays, axis-parallel rays with `+0.0`/`-0.0`,
+//! rays through lattice corners and edges, and rays starting inside.
+//!
+//! Without an adapter the tests print a notice and pass, except under CI (`CI` set), where
+//! a missing adapter is a failure: CI installs lavapipe (`mesa-vulkan-drivers`).
+
+use glam::{DVec3, Vec3};
+use rand::{Rng, SeedableRng};
+use std::path::Path;
+use std::sync::{Mutex, OnceLock};
+use svo::builder::{Voxel, from_fn};
+use svo::grid::RootCube;
+use svo::grid_ray::GridRay;
+use svo::leaf_hit::{HitMode, cast};
+use svo::octree::Octree;
+use svo::octree_traverse::MAX_STEPS;
+use svo::render::{Frame, NO_LEAF, render};
+use svo::render_job::{JobScene, RenderJob, scene};
+use svo::surfaces::OctreeSurfaces;
+use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+use svo_view::gpu_context::GpuContext;
+use svo_view::gpu_render::GpuRenderer;
+use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
+use svo_view::headless::render_scene;
+
+/// One device for the whole test binary (opening one per test costs time on lavapipe);
+/// tests take turns.
+fn gpu() -> Option<std::sync::MutexGuard<'static, GpuContext>> {
+    static CTX: OnceLock<Option<Mutex<GpuContext>>> = OnceLock::new();
+    let ctx = CTX.get_or_init(|| match GpuContext::new() {
+        Ok(c) => {
+            eprintln!("GPU tests on {}", c.adapter_name());
+            Some(Mutex::new(c))
+        }
+        Err(e) => {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI needs a GPU adapter (lavapipe: apt-get install mesa-vulkan-drivers): {e}"
+            );
+            eprintln!("NOTICE: skipping the GPU tests: {e}");
+            None
+        }
+    });
+    ctx.as_ref()
+        .map(|m| m.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
+}
+
+fn torus(mtl: Option<&str>, depth: u8) -> Octree {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let obj = match mtl {
+        None => fixtures.join("torus.obj"),
+        Some(m) => {
+            // The torus with another material: a copy in a temporary folder.
+            let dir = tempfile::tempdir().unwrap().keep();
+            let src = std::fs::read_to_string(fixtures.join("torus.obj")).unwrap();
+            std::fs::write(dir.join("torus.obj"), src).unwrap();
+            std::fs::write(dir.join("torus.mtl"), m).unwrap();
+            dir.join("torus.obj")
+        }
+    };
+    let mesh = svo::import::load_mesh(&obj).unwrap();
+    let opts = svo::BakeOptions {
+        depth,
+        ..svo::BakeOptions::default()
+    };
+    svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0
+}
+
+fn job(trace: TraceOptions) -> RenderJob {
+    RenderJob {
+        width: 96,
+        height: 72,
+        trace,
+        ..RenderJob::default()
+    }
+}
+
+fn cpu_frame(s: &JobScene, trace: &TraceOptions) -> Frame {
+    let t = Tracer::new(
+        OctreeSurfaces::new(&s.tree, trace.mode),
+        &s.lights,
+        s.sky.clone(),
+        s.phong,
+        *trace,
+    );
+    render(&t, &s.camera).unwrap()
+}
+
+/// Renders `tree` on both and checks the images: the same hit/miss mask, nearly the same
+/// leaves, an RMSE (8-bit sRGB) of at most `max_rmse`, and depths within 1e-4 relative
+/// where the leaves agree. Returns the GPU frame's counters for further checks.
+fn same_image(
+    tree: Octree,
+    trace: TraceOptions,
+    max_rmse: f64,
+) -> Option<svo::render::RenderStats> {
+    let ctx = gpu()?;
+    let j = job(trace);
+    let s = scene(tree, &j).unwrap();
+    let g = render_scene(&ctx, &s, &trace, false, None).unwrap();
+    let c = cpu_frame(&s, &trace);
+    let diff = svo::image_compare::compare(&g.frame, &c).unwrap();
+    let n = c.leaf.len();
+    let leaf_diff = g
+        .frame
+        .leaf
+        .iter()
+        .zip(&c.leaf)
+        .filter(|(a, b)| a != b)
+        .count();
+    eprintln!(
+        "{}: RMSE {:.3}, max {}, hit/miss {:.4}, leaves differ on {leaf_diff} of {n}",
+        g.variant.describe(),
+        diff.rmse,
+        diff.max_abs,
+        diff.hit_mismatch
+    );
+    assert_eq!(diff.hit_mismatch, 0.0, "hit/miss masks differ");
+    assert!(leaf_diff * 200 <= n, "{leaf_diff} of {n} leaves differ");
+    assert!(diff.rmse <= max_rmse, "RMSE {} > {max_rmse}", diff.rmse);
+    for i in 0..n {
+        if g.frame.leaf[i] == c.leaf[i] && c.leaf[i] != NO_LEAF {
+            let (a, b) = (g.frame.depth[i], c.depth[i]);
+            assert!(
+                (a - b).abs() <= 1e-4 * b.abs().max(1e-3),
+                "pixel {i}: depth {a} vs {b}"
+            );
+        }
+    }
+    assert!(c.stats.primary_hits > 0, "the scene is not in view");
+    assert_eq!(g.frame.stats.primary_hits, c.stats.primary_hits);
+    assert_eq!(g.frame.stats.capped, 0);
+    Some(g.frame.stats)
+}
+
+#[test]
+fn reflective_torus_contour_with_shadows() {
+    // The fixture's copper: reflection, one light, product shadows.
+    let Some(st) = same_image(torus(None, 6), TraceOptions::default(), 0.5) else {
+        return;
+    };
+    assert!(st.secondary_rays > 0 && st.shadow_rays > 0, "{st:?}");
+}
+
+#[test]
+fn glass_torus_cube_refraction() {
+    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let trace = TraceOptions {
+        mode: HitMode::Cube,
+        shadows: ShadowMode::MaxRefractivity,
+        ..TraceOptions::default()
+    };
+    // Refraction chains through cube faces amplify rounding: a looser bound.
+    let Some(st) = same_image(torus(Some(glass), 5), trace, 2.0) else {
+        return;
+    };
+    assert!(st.secondary_rays > st.primary_hits, "{st:?}");
+}
+
+#[test]
+fn volumetric_glass_block_on_a_floor() {
+    // The 2019 report's kind of scene: a glass block without normals (a volumetric medium)
+    // standing on an opaque floor, opaque-shadowed.
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let tree = from_fn(
+        root,
+        5,
+        |_, _| true,
+        |c| {
+            if c.y == 0 {
+                Some(Voxel::solid([0.7, 0.5, 0.3, 1.0]))
+            } else if (10..22).contains(&c.x) && (1..12).contains(&c.y) && (10..22).contains(&c.z) {
+                Some(Voxel::glass())
+            } else {
+                None
+            }
+        },
+    )
+    .unwrap();
+    let trace = TraceOptions {
+        shadows: ShadowMode::Opaque,
+        ..TraceOptions::default()
+    };
+    let Some(st) = same_image(tree, trace, 1.0) else {
+        return;
+    };
+    assert!(st.secondary_rays > 0, "{st:?}");
+}
+
+/// Seeded rays over a root of `n` cells: from outside towards inside, from inside,
+/// axis-parallel with `+0.0`/`-0.0` along lattice planes and edges, and diagonal through
+/// lattice corners with a `tmin` past their start.
+fn batch(n: u32, seed: u64) -> Vec<(Vec3, Vec3, f32)> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let nf = n as f32;
+    let mut rays = Vec::new();
+    let point = |rng: &mut rand_chacha::ChaCha8Rng, lo: f32, hi: f32| {
+        Vec3::new(
+            rng.random_range(lo..hi),
+            rng.random_range(lo..hi),
+            rng.random_range(lo..hi),
+        )
+    };
+    let lattice = |rng: &mut rand_chacha::ChaCha8Rng| {
+        Vec3::new(
+            rng.random_range(0..=n) as f32,
+            rng.random_range(0..=n) as f32,
+            rng.random_range(0..=n) as f32,
+        )
+    };
+    for _ in 0..4000 {
+        let o = point(&mut rng, -0.6 * nf, 1.6 * nf);
+        let t = point(&mut rng, 0.0, nf);
+        rays.push((o, t - o, 0.0));
+    }
+    for _ in 0..2000 {
+        let o = point(&mut rng, 0.0, nf);
+        let d = point(&mut rng, -1.0, 1.0);
+        rays.push((o, d, 0.0));
+    }
+    for i in 0..2000 {
+        let axis = i % 3;
+        let mut d = Vec3::splat(if i % 2 == 0 { 0.0 } else { -0.0 });
+        d[axis] = if i % 4 < 2 { 1.0 } else { -1.0 };
+        let mut o = lattice(&mut rng);
+        if i % 5 == 0 {
+            o[(axis + 1) % 3] += 0.5;
+        }
+        o[axis] = if d[axis] > 0.0 { -3.0 } else { nf + 3.0 };
+        rays.push((o, d, 0.0));
+    }
+    for _ in 0..2000 {
+        let c = lattice(&mut rng);
+        let mut d = Vec3::ONE;
+        for k in 0..3 {
+            if rng.random_bool(0.5) {
+                d[k] = -1.0;
+            }
+        }
+        rays.push((c - d * (nf + 8.0), d, rng.random_range(0.0..nf)));
+    }
+    rays
+}
+
+/// The GPU's first hits of `rays` against `svo::leaf_hit::cast`: the same leaf for all but
+/// one in a thousand (on lavapipe: all), and where the leaf agrees the same steps and `t`.
+fn check_batch(ctx: &GpuContext, tree: &Octree, mode: HitMode, rays: &[(Vec3, Vec3, f32)]) {
+    let trace = TraceOptions {
+        mode,
+        ..TraceOptions::default()
+    };
+    let variant = ShaderVariant::for_scene(tree, &trace, 0);
+    let r = GpuRenderer::new(ctx, tree, variant, 1, 1).unwrap();
+    let gpu_rays: Vec<GpuRay> = rays
+        .iter()
+        .map(|(o, d, tmin)| GpuRay {
+            origin: o.to_array(),
+            tmin: *tmin,
+            dir: d.to_array(),
+            tmax: f32::INFINITY,
+        })
+        .collect();
+    let hits = r
+        .cast(ctx, &tree_uniforms(tree, &trace), &gpu_rays)
+        .unwrap();
+    let mut differ = 0;
+    let mut hit_count = 0;
+    for ((o, d, tmin), g) in rays.iter().zip(&hits) {
+        let ray = GridRay {
+            origin: *o,
+            dir: *d,
+        };
+        let c = cast(tree, &ray, *tmin, f32::INFINITY, mode, None, MAX_STEPS);
+        let cl = c.hit.map_or(NO_LEAF, |h| h.leaf);
+        hit_count += usize::from(cl != NO_LEAF);
+        if cl != g.leaf {
+            differ += 1;
+            eprintln!(
+                "{mode:?}: ray {o} {d} tmin {tmin}: CPU {:?}, GPU {g:?}",
+                c.hit
+            );
+        } else {
+            if let Some(h) = c.hit {
+                assert!(
+                    (h.t - g.t).abs() <= 1e-4 * h.t.abs().max(1.0),
+                    "t {} vs {}",
+                    h.t,
+                    g.t
+                );
+            }
+            assert_eq!(c.steps, g.steps, "steps of ray {o} {d}");
+        }
+        assert_eq!(g.capped, 0);
+    }
+    eprintln!(
+        "{mode:?}: {} rays, {hit_count} hits, {differ} differ",
+        rays.len()
+    );
+    assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
+    assert!(
+        differ * 1000 <= rays.len(),
+        "{differ} of {} rays differ",
+        rays.len()
+    );
+}
+
+#[test]
+fn batch_rays_hit_the_same_leaves() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    // A random sparse tree of cubes (no contours), depth 5.
+    let cubes = from_fn(
+        RootCube {
+            origin: DVec3::ZERO,
+            side: 32.0,
+        },
+        5,
+        |_, _| true,
+        |c| {
+            let h = (c.x.wrapping_mul(73_856_093)
+                ^ c.y.wrapping_mul(19_349_663)
+                ^ c.z.wrapping_mul(83_492_791))
+                % 100;
+            (h < 6).then(Voxel::default)
+        },
+    )
+    .unwrap();
+    check_batch(&ctx, &cubes, HitMode::Cube, &batch(32, 7));
+    // The torus with its contours, depth 6.
+    let t = torus(None, 6);
+    let rays = batch(64, 8);
+    check_batch(&ctx, &t, HitMode::Cube, &rays);
+    check_batch(&ctx, &t, HitMode::Contour, &rays);
+}

@@ -1,0 +1,120 @@
+//! `svo-view --headless` end to end: the colour image and the depth AOV written by the GPU,
+//! the benchmark line with the adapter's name, `--vs-cpu`, and one-line errors (before any
+//! adapter is needed) for what the GPU path does not do, or when no mode is given.
+//! Without an adapter the rendering test prints a notice and passes, except under CI.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn view(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_svo-view"))
+        .args(args)
+        .output()
+        .expect("run svo-view")
+}
+
+fn torus_svo(dir: &Path) -> PathBuf {
+    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
+    let mesh = svo::import::load_mesh(&obj).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 5,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+    let build = svo::format_header::BuildInfo {
+        generator: "test".into(),
+        strategy: "exact".into(),
+        source_triangles: mesh.triangles.len() as u64,
+    };
+    let path = dir.join("torus.svo");
+    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    path
+}
+
+/// The one-line error of a failed run.
+fn error_line(o: &std::process::Output) -> String {
+    assert!(!o.status.success(), "expected failure");
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(e.starts_with("svo-view: error:"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    e
+}
+
+#[test]
+fn headless_renders_on_the_gpu() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let png = d.path().join("t.png");
+    let o = view(&[
+        s,
+        "--headless",
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "48x36",
+        "--bench",
+        "2",
+        "--vs-cpu",
+    ]);
+    if !o.status.success() {
+        let e = String::from_utf8_lossy(&o.stderr);
+        if e.contains("no GPU adapter found") && std::env::var_os("CI").is_none() {
+            eprintln!("NOTICE: skipping the headless GPU test: {e}");
+            return;
+        }
+        panic!("{e}");
+    }
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("adapter: "), "{out}");
+    assert!(
+        out.contains("2 frame(s): median") && out.contains("Mrays/s"),
+        "{out}"
+    );
+    assert!(
+        out.contains("hit/miss differs on 0.0000% of pixels"),
+        "{out}"
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (48, 36));
+    let corner = *img.get_pixel(0, 0);
+    assert!((0..36).any(|y| *img.get_pixel(24, y) != corner));
+
+    // The depth AOV: +inf on a miss, positive distances on the torus.
+    let pfm = d.path().join("d.pfm");
+    let o = view(&[
+        s,
+        "--headless",
+        "--aov",
+        "depth",
+        "-o",
+        pfm.to_str().unwrap(),
+        "--size",
+        "40x30",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (w, h, v) = svo::image_write::read_pfm(&std::fs::read(&pfm).unwrap()).unwrap();
+    assert_eq!((w, h), (40, 30));
+    assert!(v[0].is_infinite());
+    assert!(v.iter().filter(|x| x.is_finite()).count() > 30);
+}
+
+#[test]
+fn what_the_gpu_does_not_do_is_a_clear_error() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let out = d.path().join("x.png");
+    let o = out.to_str().unwrap();
+    let e = error_line(&view(&[s, "--headless", "--hit", "exact", "-o", o]));
+    assert!(e.contains("CPU only"), "{e}");
+    let e = error_line(&view(&[s, "--headless", "--sky", "/nonexistent", "-o", o]));
+    assert!(e.contains("cube-map sky"), "{e}");
+    let e = error_line(&view(&[s, "-o", o]));
+    assert!(e.contains("--headless") && e.contains("--cpu"), "{e}");
+    let e = error_line(&view(&["/nonexistent.svo", "--headless", "-o", o]));
+    assert!(e.contains("nonexistent"), "{e}");
+    assert!(!out.exists(), "no output after an error");
+    // --vs-cpu without --headless is refused by the parser.
+    assert!(!view(&[s, "--cpu", "--vs-cpu"]).status.success());
+}
