@@ -42,6 +42,8 @@ pub enum GpuError {
 
 /// An open device with its queue and what the adapter is.
 pub struct GpuContext {
+    /// The adapter.
+    pub adapter: wgpu::Adapter,
     /// The device.
     pub device: wgpu::Device,
     /// Its queue.
@@ -60,8 +62,17 @@ impl GpuContext {
     pub fn new() -> Result<Self, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        Self::open(&instance, None)
+    }
+
+    /// [`Self::new`] on `instance`, with an adapter that can present to `surface` if given.
+    pub fn open(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Self, GpuError> {
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
+            compatible_surface: surface,
             ..Default::default()
         }))
         .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
@@ -100,6 +111,7 @@ impl GpuContext {
             }
         }));
         Ok(Self {
+            adapter,
             device,
             queue,
             info,

@@ -68,11 +68,43 @@ pub struct GpuRenderer {
     bind_group: wgpu::BindGroup,
     pixels: wgpu::Buffer,
     readback: wgpu::Buffer,
+    unused_in: wgpu::Buffer,
+    unused_out: wgpu::Buffer,
     width: u32,
     height: u32,
     variant: ShaderVariant,
+    /// Pipelines compiled before, by variant (the window switches among them).
+    pipelines: Vec<(ShaderVariant, wgpu::ComputePipeline)>,
     /// Bytes of tree data uploaded.
     pub tree_bytes: u64,
+}
+
+/// The pixel buffer of a `width` x `height` frame and the buffer it is read back through.
+fn frame_buffers(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+) -> Result<(wgpu::Buffer, wgpu::Buffer), GpuError> {
+    let bytes = u64::from(width) * u64::from(height) * size_of::<GpuPixel>() as u64;
+    ctx.fits(&format!("a {width}x{height} frame"), bytes)?;
+    let make = |label: &str, usage: wgpu::BufferUsages| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    Ok((
+        make(
+            "pixels",
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        ),
+        make(
+            "readback",
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        ),
+    ))
 }
 
 impl GpuRenderer {
@@ -110,8 +142,7 @@ impl GpuRenderer {
         for (name, b) in &chans {
             ctx.fits(&format!("the {name} channel"), b.len() as u64)?;
         }
-        let pixel_bytes = u64::from(width) * u64::from(height) * size_of::<GpuPixel>() as u64;
-        ctx.fits(&format!("a {width}x{height} frame"), pixel_bytes)?;
+        let (pixels, readback) = frame_buffers(ctx, width, height)?;
 
         let storage = |label: &str, data: &[u8]| {
             let buf = dev.create_buffer(&wgpu::BufferDescriptor {
@@ -131,18 +162,6 @@ impl GpuRenderer {
             label: Some("uniforms"),
             size: size_of::<GpuUniforms>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let pixels = dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pixels"),
-            size: pixel_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: pixel_bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
 
@@ -178,9 +197,12 @@ impl GpuRenderer {
             bind_group,
             pixels,
             readback,
+            unused_in,
+            unused_out,
             width,
             height,
             variant,
+            pipelines: Vec::new(),
             tree_bytes,
         })
     }
@@ -233,8 +255,7 @@ impl GpuRenderer {
             [&self.pixels, &ray_in, &ray_out],
         );
         ctx.check()?;
-        ctx.queue
-            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
+        self.write_uniforms(ctx, u);
         let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("cast"),
         });
@@ -262,6 +283,92 @@ impl GpuRenderer {
         read_buffer(ctx, &readback)
     }
 
+    /// Switches to `variant` (compiling its pipeline the first time). Its channels must be
+    /// those the tree was uploaded for.
+    pub fn set_variant(
+        &mut self,
+        ctx: &GpuContext,
+        variant: ShaderVariant,
+    ) -> Result<(), GpuError> {
+        if variant == self.variant {
+            return Ok(());
+        }
+        if variant.channels != self.variant.channels {
+            return Err(GpuError::Unsupported(
+                "a shader variant with other channels needs the tree uploaded again".into(),
+            ));
+        }
+        let pipeline = match self.pipelines.iter().position(|(v, _)| *v == variant) {
+            Some(i) => self.pipelines.swap_remove(i).1,
+            None => {
+                let p = compute_pipeline(
+                    &ctx.device,
+                    &self.pipeline_layout,
+                    &self.module,
+                    "main",
+                    &variant,
+                );
+                ctx.check()?;
+                p
+            }
+        };
+        let old = std::mem::replace(&mut self.pipeline, pipeline);
+        self.pipelines.push((self.variant, old));
+        self.variant = variant;
+        Ok(())
+    }
+
+    /// Makes the frame `width` x `height`.
+    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) -> Result<(), GpuError> {
+        if (width, height) == (self.width, self.height) {
+            return Ok(());
+        }
+        let (pixels, readback) = frame_buffers(ctx, width, height)?;
+        self.bind_group = bind_group(
+            &ctx.device,
+            &self.layout,
+            &self.tree_buffers,
+            [&pixels, &self.unused_in, &self.unused_out],
+        );
+        self.pixels = pixels;
+        self.readback = readback;
+        self.width = width;
+        self.height = height;
+        ctx.check()
+    }
+
+    /// The frame's pixel buffer (`GpuPixel`s, row-major), for a pass that shows it.
+    pub fn pixels(&self) -> &wgpu::Buffer {
+        &self.pixels
+    }
+
+    /// The frame size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Records one frame into `enc` with the uniforms written before (the window's path:
+    /// the blit and the overlay follow in the same encoder).
+    pub fn encode(&self, enc: &mut wgpu::CommandEncoder) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("trace"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(
+            self.width.div_ceil(WORKGROUP),
+            self.height.div_ceil(WORKGROUP),
+            1,
+        );
+    }
+
+    /// Writes the uniforms of the next frame.
+    pub fn write_uniforms(&self, ctx: &GpuContext, u: &GpuUniforms) {
+        ctx.queue
+            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
+    }
+
     /// The shader variant in use.
     pub fn variant(&self) -> &ShaderVariant {
         &self.variant
@@ -270,26 +377,13 @@ impl GpuRenderer {
     /// Renders one frame with `u` and waits for it: the wall time from submission to
     /// completion.
     pub fn render(&self, ctx: &GpuContext, u: &GpuUniforms) -> Result<Duration, GpuError> {
-        ctx.queue
-            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
+        self.write_uniforms(ctx, u);
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("trace"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(
-                self.width.div_ceil(WORKGROUP),
-                self.height.div_ceil(WORKGROUP),
-                1,
-            );
-        }
+        self.encode(&mut enc);
         let start = Instant::now();
         ctx.queue.submit([enc.finish()]);
         ctx.wait()?;

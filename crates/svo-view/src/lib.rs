@@ -6,12 +6,20 @@
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
 //! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
 //! - [`headless`]: `svo-view --headless`, a render job on the GPU, optionally compared with
-//!   the CPU reference.
+//!   the CPU reference;
+//! - [`camera_control`]: the window's orbit and fly camera;
+//! - [`window_blit`]: showing a frame's pixel buffer on a surface;
+//! - `window` (feature `window`, on by default): `svo-view FILE`, the interactive window
+//!   (winit, egui overlay).
 //!
 //! The shader, `src/shaders/trace.wgsl`, ports `svo`'s traversal, leaf hits and Whitted
 //! loop; the golden tests (`tests/gpu_vs_cpu.rs`) hold the two to the same images.
 
+pub mod camera_control;
 pub mod gpu_context;
 pub mod gpu_render;
 pub mod gpu_types;
 pub mod headless;
+#[cfg(feature = "window")]
+pub mod window;
+pub mod window_blit;

@@ -1,6 +1,7 @@
 //! `svo-view`: render `.svo` files, or print their header and statistics.
 //!
 //! ```text
+//! svo-view bunny.svo                                 # the window (GPU)
 //! svo-view bunny.svo --headless -o bunny.png          # GPU, no window
 //! svo-view bunny.svo --headless --bench 100 --vs-cpu  # GPU timing, checked against the CPU
 //! svo-view bunny.svo --cpu -o bunny.png               # the CPU reference tracer
@@ -8,8 +9,8 @@
 //! svo-view bunny.svo --info
 //! ```
 //! The work is in the libraries: the CPU path is [`svo::render_job::run`], the GPU path
-//! [`svo_view::headless::run`]; this file parses arguments and prints the report. The
-//! interactive window is not built yet: without `--cpu` or `--headless` the viewer says so.
+//! [`svo_view::headless::run`], the window `svo_view::window::run`; this file parses
+//! arguments and prints the report.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
@@ -45,8 +46,12 @@ struct Args {
     /// not need; the image is the same, the time shows what leaving out saves.
     #[arg(long, requires = "headless")]
     full_shader: bool,
+    /// In the window: close after this many frames (with -o, saving the last as a PNG).
+    #[arg(long, conflicts_with_all = ["cpu", "headless"])]
+    quit_after: Option<u32>,
     /// Output image: .png, or .pfm / .exr for `--aov depth`. Default: the file's name with
-    /// .png (.pfm for depth); none with --bench unless given.
+    /// .png (.pfm for depth); none with --bench unless given. In the window: where the
+    /// screenshot key (P) saves.
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Image size, WIDTHxHEIGHT.
@@ -199,9 +204,7 @@ fn real_main() -> anyhow::Result<()> {
         return Ok(());
     }
     if !args.cpu {
-        anyhow::bail!(
-            "the interactive window is not built yet: render with --headless (GPU) or --cpu"
-        );
+        return window(&args, &job);
     }
     let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
     if args.json {
@@ -210,4 +213,31 @@ fn real_main() -> anyhow::Result<()> {
         println!("{report}");
     }
     Ok(())
+}
+
+#[cfg(feature = "window")]
+fn window(args: &Args, job: &RenderJob) -> anyhow::Result<()> {
+    let opts = svo_view::window::WindowOptions {
+        quit_after: args.quit_after,
+        screenshot: args.output.clone(),
+    };
+    let report = svo_view::window::run(job, &opts)
+        .with_context(|| format!("showing {}", args.file.display()))?;
+    if report.frames > 0 {
+        println!(
+            "{}: {} frames, first after {:.0} ms, median {:.2} ms/frame",
+            report.adapter, report.frames, report.startup_ms, report.median_frame_ms
+        );
+    }
+    for p in &report.screenshots {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "window"))]
+fn window(_args: &Args, _job: &RenderJob) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "this svo-view was built without the window feature: render with --headless (GPU) or --cpu"
+    )
 }

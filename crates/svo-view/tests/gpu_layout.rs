@@ -91,6 +91,16 @@ fn shared_structs_match_the_wgsl() {
         let wgsl = wgsl_struct(&m, name);
         assert_eq!(wgsl, rust, "struct {name}: WGSL (size, members) vs Rust");
     }
+    // The blit shader reads the same pixels, and its parameters are two uvec2.
+    let blit = parse(svo_view::window_blit::BLIT_WGSL, "blit.wgsl");
+    assert_eq!(
+        wgsl_struct(&blit, "Pixel"),
+        rust_struct!(GpuPixel; colour, depth, normal, leaf, primary_steps, steps, rays, capped)
+    );
+    assert_eq!(
+        wgsl_struct(&blit, "BlitParams"),
+        rust_struct!(svo_view::window_blit::BlitParams; frame, dest)
+    );
 }
 
 #[test]

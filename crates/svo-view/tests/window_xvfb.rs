@@ -1,0 +1,112 @@
+//! The window under Xvfb with lavapipe: `svo-view FILE` opens a window, renders a few frames
+//! (trace, blit, overlay), captures the window and exits. Without Xvfb or an adapter the
+//! test prints a notice and passes, except under CI (`CI` set), where both are installed by
+//! `.ci/run`.
+#![cfg(feature = "window")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn torus_svo(dir: &Path) -> PathBuf {
+    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
+    let mesh = svo::import::load_mesh(&obj).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 5,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+    let build = svo::format_header::BuildInfo {
+        generator: "test".into(),
+        strategy: "exact".into(),
+        source_triangles: mesh.triangles.len() as u64,
+    };
+    let path = dir.join("torus.svo");
+    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    path
+}
+
+fn skip_or_fail(why: &str) {
+    assert!(std::env::var_os("CI").is_none(), "CI: {why}");
+    eprintln!("NOTICE: skipping the window test: {why}");
+}
+
+/// An X server on a free display, killed on drop.
+struct Xvfb(Child, u32);
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start_xvfb() -> Option<Xvfb> {
+    let n = (90..190).find(|n| !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists())?;
+    let child = Command::new("Xvfb")
+        .args([
+            &format!(":{n}"),
+            "-screen",
+            "0",
+            "640x480x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .ok()?;
+    let x = Xvfb(child, n);
+    let t = Instant::now();
+    while !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+        if t.elapsed() > Duration::from_secs(10) {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Some(x)
+}
+
+#[test]
+fn window_opens_renders_and_captures() {
+    let Some(x) = start_xvfb() else {
+        skip_or_fail("Xvfb is not installed or did not start (apt-get install xvfb)");
+        return;
+    };
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let shot = d.path().join("shot.png");
+    let runtime = d.path().join("xdg");
+    std::fs::create_dir(&runtime).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_svo-view"))
+        .args([
+            svo.to_str().unwrap(),
+            "--size",
+            "160x120",
+            "--quit-after",
+            "3",
+            "-o",
+            shot.to_str().unwrap(),
+        ])
+        .env("DISPLAY", format!(":{}", x.1))
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    if !o.status.success() && err.contains("no GPU adapter found") {
+        skip_or_fail(&err);
+        return;
+    }
+    assert!(o.status.success(), "{err}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("frames, first after"), "{out}");
+    let img = image::open(&shot).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (160, 120), "the window's size");
+    // The torus is in the middle of the window: some pixel there differs from the bottom
+    // corner's sky (the overlay is at the top left).
+    let corner = *img.get_pixel(159, 119);
+    assert!(
+        (40..120).any(|x| *img.get_pixel(x, 90) != corner),
+        "no torus in the capture"
+    );
+}
