@@ -1,8 +1,15 @@
-//! The GPU renderer: the octree's arrays uploaded as storage buffers without reformatting,
-//! the traversal and Whitted shading of `shaders/trace.wgsl` as a compute pipeline built for
+//! The GPU renderer: the octree's arrays uploaded without reformatting, the traversal and Whitted shading of `shaders/trace.wgsl` as a compute pipeline built for
 //! the scene's [`ShaderVariant`], one invocation per pixel, and the read-back into an
 //! [`svo::render::Frame`], the CPU renderer's own output type, so the same image writers,
 //! AOVs and comparisons apply.
+//!
+//! ## The arena
+//! The node array and the per-leaf channels are copied as they are stored, one after the
+//! other, into one arena of `u32` words; the shader finds each array by its word offset.
+//! The arena is split into up to [`MAX_ARENA_CHUNKS`] bindings of `2^k` words, `2^k` the
+//! largest power of two the adapter's per-binding limit allows (lavapipe: 128 MiB), so a tree
+//! larger than one binding still fits; with one chunk the shader's chunk selection compiles
+//! away. It also keeps the storage buffers per stage at 7 (the WebGPU default allows 8).
 
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_types::{GpuPixel, GpuRay, GpuRayHit, GpuUniforms, ShaderVariant};
@@ -17,22 +24,102 @@ pub const TRACE_WGSL: &str = include_str!("shaders/trace.wgsl");
 /// Threads per workgroup side (`@workgroup_size(8, 8, 1)` in the shader).
 const WORKGROUP: u32 = 8;
 
+/// The most bindings the arena is split over (`arena0` to `arena3` in the shader).
+pub const MAX_ARENA_CHUNKS: usize = 4;
+
+/// Where the tree's arrays sit in the arena.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct ArenaLayout {
+    /// Word offsets: nodes, then the six channels in `ChannelKind` order.
+    at: [u32; 7],
+    /// log2 of the words per chunk.
+    shift: u32,
+    /// Chunks in use.
+    chunks: u32,
+}
+
+impl ArenaLayout {
+    fn apply(&self, p: &mut crate::gpu_types::GpuParams) {
+        p.nodes_at = self.at[0];
+        p.normal_at = self.at[1];
+        p.contour_at = self.at[2];
+        p.colour_at = self.at[3];
+        p.reflectivity_at = self.at[4];
+        p.refractivity_at = self.at[5];
+        p.ior_at = self.at[6];
+        p.arena_shift = self.shift;
+    }
+}
+
+/// The arena of `tree` for `variant` (constant channels expanded when it reads them per
+/// leaf), in chunks of at most `chunk_limit` bytes: the layout and the chunks' bytes.
+fn build_arena(
+    tree: &Octree,
+    variant: &ShaderVariant,
+    chunk_limit: u64,
+) -> Result<(ArenaLayout, Vec<Vec<u8>>), GpuError> {
+    let a = &tree.attributes;
+    let n = tree.leaf_count as usize;
+    let per_leaf = |k: usize| variant.channels[k] == 2;
+    let parts: [Vec<u8>; 7] = [
+        bytemuck::cast_slice(&tree.nodes).to_vec(),
+        channel_bytes(&a.normal, per_leaf(0), n),
+        channel_bytes(&a.contour, per_leaf(1), n),
+        channel_bytes(&a.colour, per_leaf(2), n),
+        channel_bytes(&a.reflectivity, per_leaf(3), n),
+        channel_bytes(&a.refractivity, per_leaf(4), n),
+        channel_bytes(&a.ior, per_leaf(5), n),
+    ];
+    let total: u64 = parts.iter().map(|p| p.len() as u64).sum();
+    // Words per chunk: the largest power of two within the limit (at least 256 bytes).
+    let words_limit = (chunk_limit / 4).max(64);
+    let shift = 63 - words_limit.leading_zeros();
+    let chunk_bytes = 4u64 << shift;
+    let chunks = total.div_ceil(chunk_bytes).max(1);
+    if chunks > MAX_ARENA_CHUNKS as u64 || total / 4 > u64::from(u32::MAX) {
+        return Err(GpuError::TooLarge {
+            what: format!(
+                "the tree ({} nodes, {} leaves, in {MAX_ARENA_CHUNKS} bindings at most)",
+                tree.nodes.len(),
+                tree.leaf_count
+            ),
+            bytes: total,
+            limit: chunk_bytes * MAX_ARENA_CHUNKS as u64,
+        });
+    }
+    let mut layout = ArenaLayout {
+        shift,
+        chunks: chunks as u32,
+        ..ArenaLayout::default()
+    };
+    let mut arena = Vec::with_capacity(total as usize);
+    for (k, p) in parts.iter().enumerate() {
+        layout.at[k] = (arena.len() / 4) as u32;
+        arena.extend_from_slice(p);
+    }
+    let out = arena
+        .chunks(chunk_bytes as usize)
+        .map(<[u8]>::to_vec)
+        .collect();
+    Ok((layout, out))
+}
+
 /// The bytes of a channel as the shader reads them: per-leaf arrays as stored, padded to a
-/// whole `u32`; a placeholder word for constant or absent channels, unless `expand` asks for
-/// a constant as a per-leaf array (`ShaderVariant::everything`).
+/// whole `u32`; nothing for constant or absent channels, unless `expand` asks for a constant
+/// as a per-leaf array (`ShaderVariant::everything`).
 fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) -> Vec<u8> {
     let mut b = match c {
         Channel::PerLeaf(v) => bytemuck::cast_slice::<T, u8>(v).to_vec(),
         Channel::Constant(v) if expand => bytemuck::cast_slice::<T, u8>(&vec![*v; leaves]).to_vec(),
         _ => Vec::new(),
     };
-    let padded = b.len().next_multiple_of(4).max(4);
+    let padded = b.len().next_multiple_of(4);
     b.resize(padded, 0);
     b
 }
 
-/// Bindings 0-10 of the shader (uniforms, nodes, six channels, pixels, batch rays in and
-/// out), declared once for both entry points.
+/// Bindings 0-7 of the shader (uniforms, four arena chunks, pixels, batch rays in and out),
+/// declared once for both entry points.
 fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -47,10 +134,10 @@ fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     let read = wgpu::BufferBindingType::Storage { read_only: true };
     let write = wgpu::BufferBindingType::Storage { read_only: false };
     let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-    entries.extend((1..=7).map(|b| entry(b, read)));
-    entries.push(entry(8, write));
-    entries.push(entry(9, read));
-    entries.push(entry(10, write));
+    entries.extend((1..=4).map(|b| entry(b, read)));
+    entries.push(entry(5, write));
+    entries.push(entry(6, read));
+    entries.push(entry(7, write));
     dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("trace"),
         entries: &entries,
@@ -63,8 +150,9 @@ pub struct GpuRenderer {
     layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
-    /// Bindings 0-7 (uniforms, nodes, channels), shared by both entry points.
+    /// Bindings 0-4 (uniforms, the arena's chunks), shared by both entry points.
     tree_buffers: Vec<wgpu::Buffer>,
+    arena: ArenaLayout,
     bind_group: wgpu::BindGroup,
     pixels: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -116,34 +204,32 @@ impl GpuRenderer {
         width: u32,
         height: u32,
     ) -> Result<Self, GpuError> {
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        Self::with_chunk_limit(ctx, tree, variant, width, height, limit)
+    }
+
+    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes (the adapter's limit,
+    /// or less to test the split).
+    pub fn with_chunk_limit(
+        ctx: &GpuContext,
+        tree: &Octree,
+        variant: ShaderVariant,
+        width: u32,
+        height: u32,
+        chunk_limit: u64,
+    ) -> Result<Self, GpuError> {
         let dev = &ctx.device;
-        let a = &tree.attributes;
-        let node_bytes: &[u8] = bytemuck::cast_slice(&tree.nodes);
-        if node_bytes.is_empty() {
+        if tree.nodes.is_empty() {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
         }
-        let n = tree.leaf_count as usize;
-        let per_leaf = |k: usize| variant.channels[k] == 2;
-        let chans = [
-            ("normal", channel_bytes(&a.normal, per_leaf(0), n)),
-            ("contour", channel_bytes(&a.contour, per_leaf(1), n)),
-            ("colour", channel_bytes(&a.colour, per_leaf(2), n)),
-            (
-                "reflectivity",
-                channel_bytes(&a.reflectivity, per_leaf(3), n),
-            ),
-            (
-                "refractivity",
-                channel_bytes(&a.refractivity, per_leaf(4), n),
-            ),
-            ("ior", channel_bytes(&a.ior, per_leaf(5), n)),
-        ];
-        ctx.fits("the node array", node_bytes.len() as u64)?;
-        for (name, b) in &chans {
-            ctx.fits(&format!("the {name} channel"), b.len() as u64)?;
+        let (arena, chunks) = build_arena(tree, &variant, chunk_limit)?;
+        for c in &chunks {
+            ctx.fits("an arena chunk", c.len() as u64)?;
         }
         let (pixels, readback) = frame_buffers(ctx, width, height)?;
-
         let storage = |label: &str, data: &[u8]| {
             let buf = dev.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -154,16 +240,21 @@ impl GpuRenderer {
             ctx.queue.write_buffer(&buf, 0, data);
             buf
         };
-        let nodes = storage("nodes", node_bytes);
-        let chan_bufs: Vec<wgpu::Buffer> = chans.iter().map(|(n, b)| storage(n, b)).collect();
-        let tree_bytes =
-            node_bytes.len() as u64 + chans.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+        let tree_bytes = chunks.iter().map(|c| c.len() as u64).sum::<u64>();
         let uniforms = dev.create_buffer(&wgpu::BufferDescriptor {
             label: Some("uniforms"),
             size: size_of::<GpuUniforms>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let mut tree_buffers = vec![uniforms];
+        tree_buffers.extend(chunks.iter().map(|c| storage("arena", c)));
+        // Chunks not in use are bound to a placeholder (one for all: read-only bindings may
+        // share a buffer, a read-write one may not share it with anything).
+        let unused_chunk = dummy_buffer(dev);
+        while tree_buffers.len() < 1 + MAX_ARENA_CHUNKS {
+            tree_buffers.push(unused_chunk.clone());
+        }
 
         let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("trace.wgsl"),
@@ -175,11 +266,15 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = compute_pipeline(dev, &pipeline_layout, &module, "main", &variant);
+        let pipeline = compute_pipeline(
+            dev,
+            &pipeline_layout,
+            &module,
+            "main",
+            &variant,
+            arena.chunks,
+        );
         ctx.check()?;
-        let mut tree_buffers = vec![uniforms.clone(), nodes];
-        tree_buffers.extend(chan_bufs);
-        // One placeholder each: a read-only and a read-write binding may not share a buffer.
         let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
         let bind_group = bind_group(
             dev,
@@ -194,6 +289,7 @@ impl GpuRenderer {
             pipeline_layout,
             module,
             tree_buffers,
+            arena,
             bind_group,
             pixels,
             readback,
@@ -205,6 +301,11 @@ impl GpuRenderer {
             pipelines: Vec::new(),
             tree_bytes,
         })
+    }
+
+    /// Bindings the arena is split over.
+    pub fn arena_chunks(&self) -> u32 {
+        self.arena.chunks
     }
 
     /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
@@ -247,6 +348,7 @@ impl GpuRenderer {
             &self.module,
             "cast_rays",
             &self.variant,
+            self.arena.chunks,
         );
         let bg = bind_group(
             dev,
@@ -307,6 +409,7 @@ impl GpuRenderer {
                     &self.module,
                     "main",
                     &variant,
+                    self.arena.chunks,
                 );
                 ctx.check()?;
                 p
@@ -363,10 +466,13 @@ impl GpuRenderer {
         );
     }
 
-    /// Writes the uniforms of the next frame.
+    /// Writes the uniforms of the next frame (with the arena's offsets, which only the
+    /// renderer knows).
     pub fn write_uniforms(&self, ctx: &GpuContext, u: &GpuUniforms) {
+        let mut u = *u;
+        self.arena.apply(&mut u.params);
         ctx.queue
-            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(u));
+            .write_buffer(&self.tree_buffers[0], 0, bytemuck::bytes_of(&u));
     }
 
     /// The shader variant in use.
@@ -404,15 +510,17 @@ impl GpuRenderer {
     }
 }
 
-/// The pipeline of `entry` for `variant`.
+/// The pipeline of `entry` for `variant` with the arena in `chunks` bindings.
 fn compute_pipeline(
     dev: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     entry: &str,
     variant: &ShaderVariant,
+    chunks: u32,
 ) -> wgpu::ComputePipeline {
-    let constants = variant.constants();
+    let mut constants = variant.constants();
+    constants.push(("ARENA_CHUNKS", f64::from(chunks)));
     dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(entry),
         layout: Some(layout),
@@ -436,7 +544,7 @@ fn dummy_buffer(dev: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
-/// Bindings 0-7 from `tree` (uniforms, nodes, channels) and 8-10 from `rest`.
+/// Bindings 0-4 from `tree` (uniforms, arena chunks) and 5-7 from `rest`.
 fn bind_group(
     dev: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,

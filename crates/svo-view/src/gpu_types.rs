@@ -89,6 +89,22 @@ pub struct GpuParams {
     /// The shadow mode (0 none, 1 opaque, 2 max, 3 product) when the shader reads it at run
     /// time ([`ShaderVariant::everything`]).
     pub shadow_mode: u32,
+    /// Word offset of the node array in the arena (set by the renderer).
+    pub nodes_at: u32,
+    /// Word offset of the normal channel.
+    pub normal_at: u32,
+    /// Word offset of the contour channel.
+    pub contour_at: u32,
+    /// Word offset of the colour channel.
+    pub colour_at: u32,
+    /// Word offset of the reflectivity channel.
+    pub reflectivity_at: u32,
+    /// Word offset of the refractivity channel.
+    pub refractivity_at: u32,
+    /// Word offset of the IOR channel.
+    pub ior_at: u32,
+    /// log2 of the words per arena chunk.
+    pub arena_shift: u32,
     /// Padding.
     pub pad1: u32,
     /// Padding.

@@ -101,17 +101,7 @@ impl fmt::Display for HeadlessReport {
             self.hit,
             self.variant
         )?;
-        writeln!(
-            f,
-            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
-            s.primary_rays,
-            100.0 * s.primary_hits as f64 / s.primary_rays.max(1) as f64,
-            s.secondary_rays,
-            s.shadow_rays,
-            s.primary_steps as f64 / s.primary_rays.max(1) as f64,
-            s.max_primary_steps,
-            s.capped
-        )?;
+        writeln!(f, "{}", s.summary())?;
         if let Some(o) = &self.output {
             writeln!(f, "wrote {o}")?;
         }
@@ -151,6 +141,32 @@ pub struct HeadlessOptions {
     pub everything: bool,
 }
 
+/// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
+/// than [`MAX_LIGHTS`] lights.
+pub fn check_gpu_support(
+    trace: &svo::whitted::TraceOptions,
+    cube_map: bool,
+    lights: usize,
+) -> Result<(), GpuError> {
+    if trace.mode == HitMode::Exact {
+        return Err(GpuError::Unsupported(
+            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
+                .into(),
+        ));
+    }
+    if cube_map {
+        return Err(GpuError::Unsupported(
+            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
+        ));
+    }
+    if lights > MAX_LIGHTS {
+        return Err(GpuError::Unsupported(format!(
+            "{lights} lights; the GPU path takes at most {MAX_LIGHTS}"
+        )));
+    }
+    Ok(())
+}
+
 /// A frame rendered on the GPU.
 pub struct GpuFrame {
     /// The image and its AOVs and counters, as the CPU renderer makes them.
@@ -180,26 +196,7 @@ pub fn render_scene(
         sky,
         phong,
     } = scene;
-    if trace.mode == HitMode::Exact {
-        return Err(GpuError::Unsupported(
-            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
-                .into(),
-        )
-        .into());
-    }
-    if sky.cube_map.is_some() {
-        return Err(GpuError::Unsupported(
-            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
-        )
-        .into());
-    }
-    if lights.len() > MAX_LIGHTS {
-        return Err(GpuError::Unsupported(format!(
-            "{} lights; the GPU path takes at most {MAX_LIGHTS}",
-            lights.len()
-        ))
-        .into());
-    }
+    check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let rays = camera.rays().map_err(RenderJobError::from)?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
     if everything {
@@ -235,20 +232,8 @@ pub fn render_scene(
 pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, HeadlessError> {
     let vs_cpu = opts.vs_cpu;
     let start = std::time::Instant::now();
-    if job.trace.mode == HitMode::Exact {
-        return Err(GpuError::Unsupported(
-            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
-                .into(),
-        )
-        .into());
-    }
-    // Before loading anything: a cube map is refused by the GPU path anyway.
-    if job.sky_cube_map.is_some() {
-        return Err(GpuError::Unsupported(
-            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
-        )
-        .into());
-    }
+    // Before loading anything (the lights are counted again once the scene is made).
+    check_gpu_support(&job.trace, job.sky_cube_map.is_some(), job.lights.len())?;
     if job.reference.is_some() || job.compare {
         return Err(GpuError::Unsupported(
             "the triangle reference is CPU only: use --cpu with --reference".into(),

@@ -12,7 +12,8 @@
 use crate::camera_control::{CameraControl, CameraMode};
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::GpuRenderer;
-use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
+use crate::gpu_types::{ShaderVariant, uniforms};
+use crate::headless::check_gpu_support;
 use crate::window_blit::{Blit, BlitParams};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -83,27 +84,9 @@ struct Settings {
 /// Opens the window on `job`'s scene and runs until it is closed.
 pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, WindowError> {
     let start = Instant::now();
-    if job.trace.mode == HitMode::Exact {
-        return Err(GpuError::Unsupported(
-            "hit mode exact (the leaves' triangles) is CPU only: use --cpu, or --hit cube|contour"
-                .into(),
-        )
-        .into());
-    }
-    if job.sky_cube_map.is_some() {
-        return Err(GpuError::Unsupported(
-            "a cube-map sky is CPU only so far: use --cpu, or leave out --sky".into(),
-        )
-        .into());
-    }
+    check_gpu_support(&job.trace, job.sky_cube_map.is_some(), job.lights.len())?;
     let scene = prepare(job)?;
-    if scene.lights.len() > MAX_LIGHTS {
-        return Err(GpuError::Unsupported(format!(
-            "{} lights; the GPU path takes at most {MAX_LIGHTS}",
-            scene.lights.len()
-        ))
-        .into());
-    }
+    check_gpu_support(&job.trace, false, scene.lights.len())?;
     let event_loop = EventLoop::new().map_err(|e| WindowError::NoWindow(e.to_string()))?;
     let (lo, hi) = occupied_bounds(&scene.tree);
     let control = CameraControl::from_camera(&scene.camera, (hi - lo).length());

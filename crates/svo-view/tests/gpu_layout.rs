@@ -71,7 +71,8 @@ fn shared_structs_match_the_wgsl() {
                 width, height, depth, max_steps, n_lights, max_reflections, max_refractions,
                 n_nodes, const_normal, const_contour, const_colour, const_reflectivity,
                 const_refractivity, const_ior, specular, shininess, infinity, shadow_mode,
-                pad1, pad2),
+                nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
+                ior_at, arena_shift, pad1, pad2),
         ),
         (
             "Light",
@@ -128,11 +129,15 @@ fn shader_constants_name_real_overrides() {
             1,
         ),
     );
-    for (c, _) in v.constants() {
+    // The renderer adds the arena's chunk count; BOUNCES is derived in the shader.
+    let mut constants = v.constants();
+    constants.push(("ARENA_CHUNKS", 1.0));
+    for (c, _) in &constants {
         assert!(
             names.iter().any(|n| n == c),
             "{c} is not an override in trace.wgsl"
         );
     }
-    assert_eq!(names.len(), v.constants().len(), "overrides {names:?}");
+    assert!(names.iter().any(|n| n == "BOUNCES"));
+    assert_eq!(names.len(), constants.len() + 1, "overrides {names:?}");
 }

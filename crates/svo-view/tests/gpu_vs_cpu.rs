@@ -339,3 +339,52 @@ fn batch_rays_hit_the_same_leaves() {
     check_batch(&ctx, &t, HitMode::Cube, &rays);
     check_batch(&ctx, &t, HitMode::Contour, &rays);
 }
+
+#[test]
+fn a_tree_split_over_bindings_renders_the_same() {
+    // Arena chunks far below the adapter's limit force the split a large tree needs.
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let trace = TraceOptions::default();
+    let s = scene(torus(None, 6), &job(trace)).unwrap();
+    let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+    let whole = GpuRenderer::new(&ctx, &s.tree, variant, s.camera.width, s.camera.height).unwrap();
+    assert_eq!(whole.arena_chunks(), 1);
+    let bytes = whole.tree_bytes;
+    let split = GpuRenderer::with_chunk_limit(
+        &ctx,
+        &s.tree,
+        variant,
+        s.camera.width,
+        s.camera.height,
+        bytes / 3,
+    )
+    .unwrap();
+    assert!(split.arena_chunks() >= 3, "{} chunks", split.arena_chunks());
+    let rays = s.camera.rays().unwrap();
+    let eye = s.tree.root.to_grid(s.camera.eye, s.tree.depth).as_vec3();
+    let u = svo_view::gpu_types::uniforms(
+        &s.tree,
+        &rays,
+        eye,
+        (s.camera.width, s.camera.height),
+        &s.lights,
+        &s.sky,
+        &s.phong,
+        &trace,
+    );
+    split.render(&ctx, &u).unwrap();
+    let g = split.read_frame(&ctx, std::time::Duration::ZERO).unwrap();
+    let c = cpu_frame(&s, &trace);
+    let diff = svo::image_compare::compare(&g, &c).unwrap();
+    assert_eq!(diff.hit_mismatch, 0.0);
+    assert!(diff.rmse <= 0.5, "RMSE {}", diff.rmse);
+    let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
+    assert!(leaf_diff * 200 <= c.leaf.len(), "{leaf_diff} leaves differ");
+    // Too small to fit in four bindings: a clear error, not a crash.
+    let e = GpuRenderer::with_chunk_limit(&ctx, &s.tree, variant, 8, 8, bytes / 8)
+        .err()
+        .expect("refused");
+    assert!(e.to_string().contains("bindings"), "{e}");
+}

@@ -3,32 +3,16 @@
 //! adapter is needed) for what the GPU path does not do, or when no mode is given.
 //! Without an adapter the rendering test prints a notice and passes, except under CI.
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
+
+mod common;
+use common::torus_svo;
 
 fn view(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_svo-view"))
         .args(args)
         .output()
         .expect("run svo-view")
-}
-
-fn torus_svo(dir: &Path) -> PathBuf {
-    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
-    let mesh = svo::import::load_mesh(&obj).unwrap();
-    let opts = svo::BakeOptions {
-        depth: 5,
-        ..svo::BakeOptions::default()
-    };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
-    let build = svo::format_header::BuildInfo {
-        generator: "test".into(),
-        strategy: "exact".into(),
-        source_triangles: mesh.triangles.len() as u64,
-    };
-    let path = dir.join("torus.svo");
-    svo::format_write::write_file(&tree, &build, &path).unwrap();
-    path
 }
 
 /// The one-line error of a failed run.

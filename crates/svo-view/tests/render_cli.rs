@@ -2,8 +2,11 @@
 //! comparison with the triangle reference, the benchmark line, and one-line errors with no
 //! output left behind for bad input.
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
+
+mod common;
+use common::torus_obj;
+use common::torus_svo;
 
 /// Runs `svo-view --cpu ARGS` (these tests are about the CPU renderer; the GPU path has
 /// `headless_cli.rs`).
@@ -13,28 +16,6 @@ fn view(args: &[&str]) -> std::process::Output {
         .args(args.iter().filter(|a| **a != "--cpu"))
         .output()
         .expect("run svo-view")
-}
-
-fn torus_obj() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj")
-}
-
-/// Bakes the torus fixture at depth 5 into `dir`.
-fn torus_svo(dir: &Path) -> PathBuf {
-    let mesh = svo::import::load_mesh(&torus_obj()).unwrap();
-    let opts = svo::BakeOptions {
-        depth: 5,
-        ..svo::BakeOptions::default()
-    };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
-    let build = svo::format_header::BuildInfo {
-        generator: "test".into(),
-        strategy: "exact".into(),
-        source_triangles: mesh.triangles.len() as u64,
-    };
-    let path = dir.join("torus.svo");
-    svo::format_write::write_file(&tree, &build, &path).unwrap();
-    path
 }
 
 fn ok(o: &std::process::Output) -> String {

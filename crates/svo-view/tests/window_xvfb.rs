@@ -4,27 +4,12 @@
 //! `.ci/run`.
 #![cfg(feature = "window")]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn torus_svo(dir: &Path) -> PathBuf {
-    let obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
-    let mesh = svo::import::load_mesh(&obj).unwrap();
-    let opts = svo::BakeOptions {
-        depth: 5,
-        ..svo::BakeOptions::default()
-    };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
-    let build = svo::format_header::BuildInfo {
-        generator: "test".into(),
-        strategy: "exact".into(),
-        source_triangles: mesh.triangles.len() as u64,
-    };
-    let path = dir.join("torus.svo");
-    svo::format_write::write_file(&tree, &build, &path).unwrap();
-    path
-}
+mod common;
+use common::torus_svo;
 
 fn skip_or_fail(why: &str) {
     assert!(std::env::var_os("CI").is_none(), "CI: {why}");

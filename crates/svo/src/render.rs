@@ -38,6 +38,21 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// One line for reports: rays by kind, the share of primary hits, steps per primary
+    /// ray and the capped count.
+    pub fn summary(&self) -> String {
+        format!(
+            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
+            self.primary_rays,
+            100.0 * self.primary_hits as f64 / self.primary_rays.max(1) as f64,
+            self.secondary_rays,
+            self.shadow_rays,
+            self.primary_steps as f64 / self.primary_rays.max(1) as f64,
+            self.max_primary_steps,
+            self.capped
+        )
+    }
+
     fn add(&mut self, s: &SampleStats, primary_steps: u32, hit: bool) {
         self.primary_rays += 1;
         self.primary_hits += u64::from(hit);

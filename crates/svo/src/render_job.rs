@@ -280,17 +280,7 @@ impl fmt::Display for RenderReport {
             c.fov_deg
         )?;
         let all = s.primary_rays + s.secondary_rays + s.shadow_rays;
-        writeln!(
-            f,
-            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
-            s.primary_rays,
-            100.0 * s.primary_hits as f64 / s.primary_rays.max(1) as f64,
-            s.secondary_rays,
-            s.shadow_rays,
-            s.primary_steps as f64 / s.primary_rays.max(1) as f64,
-            s.max_primary_steps,
-            s.capped
-        )?;
+        writeln!(f, "{}", s.summary())?;
         if let Some(o) = &self.output {
             writeln!(f, "wrote {o}")?;
         }

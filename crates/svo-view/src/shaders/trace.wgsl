@@ -17,6 +17,8 @@ override SHADOWS: u32 = 3u;           // 0: none, 1: opaque, 2: max refractivity
                                       // 4: chosen at run time (Params.shadow_mode)
 override FRESNEL_SCHLICK: bool = false;
 override MEDIA: bool = false;         // transparent leaves without normals (volumes)
+// Whether rays spawn rays: without, the ray stack is never touched and compiles away.
+override BOUNCES: bool = REFLECTIONS || REFRACTIONS;
 // Channels: 0 absent, 1 constant (the value in `Params`), 2 per leaf (the buffer).
 override NORMAL_CH: u32 = 2u;
 override CONTOUR_CH: u32 = 2u;
@@ -24,6 +26,9 @@ override COLOUR_CH: u32 = 1u;
 override REFLECTIVITY_CH: u32 = 1u;
 override REFRACTIVITY_CH: u32 = 1u;
 override IOR_CH: u32 = 1u;
+// The tree's arrays live in one arena of u32 words split over this many bindings (1-4), so a
+// tree larger than one storage binding still fits (gpu_render.rs).
+override ARENA_CHUNKS: u32 = 1u;
 
 const MAX_LIGHTS: u32 = 16u;
 const MAX_DEPTH: u32 = 30u;
@@ -68,6 +73,15 @@ struct Params {
     shininess: f32,
     infinity: f32,             // +inf (a constant expression may not overflow)
     shadow_mode: u32,          // the mode when SHADOWS is 4
+    // Where each array starts in the arena, in words, and log2 of the words per chunk.
+    nodes_at: u32,
+    normal_at: u32,
+    contour_at: u32,
+    colour_at: u32,
+    reflectivity_at: u32,
+    refractivity_at: u32,
+    ior_at: u32,
+    arena_shift: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -102,14 +116,14 @@ struct Pixel {
 }
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
-@group(0) @binding(1) var<storage, read> nodes: array<Node>;
-@group(0) @binding(2) var<storage, read> ch_normal: array<u32>;
-@group(0) @binding(3) var<storage, read> ch_contour: array<u32>;
-@group(0) @binding(4) var<storage, read> ch_colour: array<u32>;
-@group(0) @binding(5) var<storage, read> ch_reflectivity: array<u32>;   // u8, 4 a word
-@group(0) @binding(6) var<storage, read> ch_refractivity: array<u32>;   // u8, 4 a word
-@group(0) @binding(7) var<storage, read> ch_ior: array<u32>;            // u16, 2 a word
-@group(0) @binding(8) var<storage, read_write> pixels: array<Pixel>;
+// The arena: the node array (2 words a node) and the per-leaf channels as stored (normal,
+// contour, colour: a word a leaf; reflectivity, refractivity: 4 bytes a word; IOR: 2 a word),
+// one after the other, split into chunks of 2^arena_shift words.
+@group(0) @binding(1) var<storage, read> arena0: array<u32>;
+@group(0) @binding(2) var<storage, read> arena1: array<u32>;
+@group(0) @binding(3) var<storage, read> arena2: array<u32>;
+@group(0) @binding(4) var<storage, read> arena3: array<u32>;
+@group(0) @binding(5) var<storage, read_write> pixels: array<Pixel>;
 
 // The ray-batch entry point (cast_rays): rays in grid space, first hits out.
 struct RayIn {
@@ -126,8 +140,36 @@ struct RayOut {
     capped: u32,
 }
 
-@group(0) @binding(9) var<storage, read> ray_in: array<RayIn>;
-@group(0) @binding(10) var<storage, read_write> ray_out: array<RayOut>;
+@group(0) @binding(6) var<storage, read> ray_in: array<RayIn>;
+@group(0) @binding(7) var<storage, read_write> ray_out: array<RayOut>;
+
+// Word i of the arena.
+fn word(i: u32) -> u32 {
+    if ARENA_CHUNKS == 1u {
+        return arena0[i];
+    }
+    let shift = u.params.arena_shift;
+    let j = i & ((1u << shift) - 1u);
+    switch i >> shift {
+        case 0u: {
+            return arena0[j];
+        }
+        case 1u: {
+            return arena1[j];
+        }
+        case 2u: {
+            return arena2[j];
+        }
+        default: {
+            return arena3[j];
+        }
+    }
+}
+
+fn node_at(i: u32) -> Node {
+    let k = u.params.nodes_at + 2u * i;
+    return Node(word(k), word(k + 1u));
+}
 
 // ---- leaf attributes (octree.rs, normal_encoding.rs, contour.rs) -------------------------
 
@@ -154,14 +196,14 @@ fn has_normal() -> bool {
 
 fn normal_word(leaf: u32) -> u32 {
     if NORMAL_CH == 2u {
-        return ch_normal[leaf];
+        return word(u.params.normal_at + leaf);
     }
     return u.params.const_normal;
 }
 
 fn contour_word(leaf: u32) -> u32 {
     if CONTOUR_CH == 2u {
-        return ch_contour[leaf];
+        return word(u.params.contour_at + leaf);
     }
     return u.params.const_contour;
 }
@@ -172,28 +214,28 @@ fn byte_of(w: u32, leaf: u32) -> u32 {
 
 fn reflectivity_byte(leaf: u32) -> u32 {
     if REFLECTIVITY_CH == 2u {
-        return byte_of(ch_reflectivity[leaf >> 2u], leaf);
+        return byte_of(word(u.params.reflectivity_at + (leaf >> 2u)), leaf);
     }
     return u.params.const_reflectivity;
 }
 
 fn refractivity_byte(leaf: u32) -> u32 {
     if REFRACTIVITY_CH == 2u {
-        return byte_of(ch_refractivity[leaf >> 2u], leaf);
+        return byte_of(word(u.params.refractivity_at + (leaf >> 2u)), leaf);
     }
     return u.params.const_refractivity;
 }
 
 fn ior_word(leaf: u32) -> u32 {
     if IOR_CH == 2u {
-        return (ch_ior[leaf >> 1u] >> ((leaf & 1u) * 16u)) & 0xffffu;
+        return (word(u.params.ior_at + (leaf >> 1u)) >> ((leaf & 1u) * 16u)) & 0xffffu;
     }
     return u.params.const_ior;
 }
 
 fn colour_word(leaf: u32) -> u32 {
     if COLOUR_CH == 2u {
-        return ch_colour[leaf];
+        return word(u.params.colour_at + leaf);
     }
     return u.params.const_colour;
 }
@@ -367,13 +409,25 @@ fn first_child(tm: vec3<f32>, t: f32) -> u32 {
     return select(0u, 4u, b.x) | select(0u, 2u, b.y) | select(0u, 1u, b.z);
 }
 
-// A stack frame: the node, its mirrored corner and size, the next child and its entry.
-// The plane parameters are recomputed from the corner (t_planes of integer planes, so they
-// are the same values the parent had).
+// The current node: the node, its mirrored corner and size, the next child and its entry.
 struct Frame {
     node: Node,
     origin: vec3<u32>,
     half: u32,
+    next: u32,
+    enter: f32,
+}
+
+// An ancestor on the stack: its node, mirrored corner, next child and that child's entry,
+// seven scalars (no vec3 padding). Its size is implied by its level, and its plane
+// parameters are recomputed from the corner when it is popped (t_planes of integer planes,
+// so they are the values it had).
+struct Saved {
+    info: u32,
+    first: u32,
+    ox: u32,
+    oy: u32,
+    oz: u32,
     next: u32,
     enter: f32,
 }
@@ -473,7 +527,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     var run_leaf = 0u;
 
     let depth = u.params.depth;
-    let root = nodes[0];
+    let root = node_at(0u);
     if (root.info & 0xffu) == 0u || depth == 0u || depth > MAX_DEPTH {
         return out;
     }
@@ -497,7 +551,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     var tm = t_planes(r, vec3<u32>(cur.half));
     cur.next = first_child(tm, enter0);
     cur.enter = enter0;
-    var stack: array<Frame, MAX_DEPTH>;
+    var stack: array<Saved, MAX_DEPTH>;
     var len = 0u;
     let mask = r.mask;
     loop {
@@ -506,7 +560,12 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 break;
             }
             len -= 1u;
-            cur = stack[len];
+            let sv = stack[len];
+            cur.node = Node(sv.info, sv.first);
+            cur.origin = vec3<u32>(sv.ox, sv.oy, sv.oz);
+            cur.half = n >> (len + 1u);
+            cur.next = sv.next;
+            cur.enter = sv.enter;
             t0 = t_planes(r, cur.origin);
             tm = t_planes(r, cur.origin + vec3<u32>(cur.half));
             t1 = t_planes(r, cur.origin + vec3<u32>(2u * cur.half));
@@ -604,9 +663,10 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 continue;
             }
             let half = cur.half / 2u;
-            stack[len] = cur;
+            stack[len] = Saved(cur.node.info, cur.node.first, cur.origin.x, cur.origin.y,
+                               cur.origin.z, cur.next, cur.enter);
             len += 1u;
-            cur.node = nodes[idx];
+            cur.node = node_at(idx);
             cur.origin = origin;
             cur.half = half;
             t0 = c0;
@@ -765,7 +825,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var capped = 0u;
 
     var stack: array<Task, RAY_STACK>;
-    stack[0] = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM);
+    let primary = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM);
+    if BOUNCES {
+        stack[0] = primary;
+    }
     var len = 1u;
     var first = true;
     let bias = p.bias;
@@ -774,7 +837,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             break;
         }
         len -= 1u;
-        let task = stack[len];
+        var task = primary;
+        if BOUNCES {
+            task = stack[len];
+        }
         let ray_d = task.dir * p.scale;
         var q: Query;
         q.kind = 0u;
@@ -860,7 +926,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
 
         // Reflection and refraction.
-        if REFLECTIONS || REFRACTIONS {
+        if BOUNCES {
             var n1 = m.ior;
             var n2 = 1.0;
             if entering {

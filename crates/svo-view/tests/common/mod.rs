@@ -1,0 +1,27 @@
+//! Helpers shared by the viewer's integration tests (each test binary uses some of them).
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+/// The torus fixture (`fixtures/torus.obj`, copper).
+pub fn torus_obj() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj")
+}
+
+/// Bakes the torus fixture at depth 5 into `dir/torus.svo`.
+pub fn torus_svo(dir: &Path) -> PathBuf {
+    let mesh = svo::import::load_mesh(&torus_obj()).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 5,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+    let build = svo::format_header::BuildInfo {
+        generator: "test".into(),
+        strategy: "exact".into(),
+        source_triangles: mesh.triangles.len() as u64,
+    };
+    let path = dir.join("torus.svo");
+    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    path
+}
