@@ -153,6 +153,7 @@ pub struct GpuRenderer {
     /// Bindings 0-4 (uniforms, the arena's chunks), shared by both entry points.
     tree_buffers: Vec<wgpu::Buffer>,
     arena: ArenaLayout,
+    placement: Placement,
     bind_group: wgpu::BindGroup,
     pixels: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -208,11 +209,18 @@ impl GpuRenderer {
             .limits
             .max_storage_buffer_binding_size
             .min(ctx.limits.max_buffer_size);
-        Self::with_chunk_limit(ctx, tree, variant, width, height, limit)
+        Self::with_options(
+            ctx,
+            tree,
+            variant,
+            width,
+            height,
+            limit,
+            StackPlacement::Auto,
+        )
     }
 
-    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes (the adapter's limit,
-    /// or less to test the split).
+    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes.
     pub fn with_chunk_limit(
         ctx: &GpuContext,
         tree: &Octree,
@@ -220,6 +228,28 @@ impl GpuRenderer {
         width: u32,
         height: u32,
         chunk_limit: u64,
+    ) -> Result<Self, GpuError> {
+        Self::with_options(
+            ctx,
+            tree,
+            variant,
+            width,
+            height,
+            chunk_limit,
+            StackPlacement::Auto,
+        )
+    }
+
+    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes (the adapter's limit,
+    /// or less to test the split) and the stacks placed as `stacks` says.
+    pub fn with_options(
+        ctx: &GpuContext,
+        tree: &Octree,
+        variant: ShaderVariant,
+        width: u32,
+        height: u32,
+        chunk_limit: u64,
+        stacks: StackPlacement,
     ) -> Result<Self, GpuError> {
         let dev = &ctx.device;
         if tree.nodes.is_empty() {
@@ -266,14 +296,14 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = compute_pipeline(
-            dev,
-            &pipeline_layout,
-            &module,
-            "main",
-            &variant,
-            arena.chunks,
-        );
+        let placement = Placement {
+            chunks: arena.chunks,
+            depth: u32::from(tree.depth),
+            wg_limit: ctx.limits.max_compute_workgroup_storage_size,
+            stacks,
+        };
+        let pipeline =
+            compute_pipeline(dev, &pipeline_layout, &module, "main", &variant, &placement);
         ctx.check()?;
         let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
         let bind_group = bind_group(
@@ -290,6 +320,7 @@ impl GpuRenderer {
             module,
             tree_buffers,
             arena,
+            placement,
             bind_group,
             pixels,
             readback,
@@ -306,6 +337,12 @@ impl GpuRenderer {
     /// Bindings the arena is split over.
     pub fn arena_chunks(&self) -> u32 {
         self.arena.chunks
+    }
+
+    /// Whether the current variant keeps (its ancestor stack, its ray stack) in workgroup
+    /// memory.
+    pub fn workgroup_stacks(&self) -> (bool, bool) {
+        self.placement.decide(&self.variant)
     }
 
     /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
@@ -348,7 +385,7 @@ impl GpuRenderer {
             &self.module,
             "cast_rays",
             &self.variant,
-            self.arena.chunks,
+            &self.placement,
         );
         let bg = bind_group(
             dev,
@@ -409,7 +446,7 @@ impl GpuRenderer {
                     &self.module,
                     "main",
                     &variant,
-                    self.arena.chunks,
+                    &self.placement,
                 );
                 ctx.check()?;
                 p
@@ -510,17 +547,92 @@ impl GpuRenderer {
     }
 }
 
-/// The pipeline of `entry` for `variant` with the arena in `chunks` bindings.
+/// Where a pipeline's stacks go, and the arena's chunk count: the constants the renderer
+/// adds to a variant's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Placement {
+    chunks: u32,
+    depth: u32,
+    /// The adapter's workgroup memory, bytes.
+    wg_limit: u32,
+    stacks: StackPlacement,
+}
+
+/// Bytes of workgroup memory per invocation: an ancestor entry, a pending ray.
+const SAVED_BYTES: u32 = 28;
+const PENDING_BYTES: u32 = 56;
+/// Invocations per workgroup.
+const WORKGROUP_INVOCATIONS: u32 = 64;
+
+impl Placement {
+    /// `(ancestors in workgroup memory, pending rays in workgroup memory)` for `variant`.
+    fn decide(&self, variant: &ShaderVariant) -> (bool, bool) {
+        let t = WORKGROUP_INVOCATIONS * self.depth.max(1) * SAVED_BYTES;
+        let r = WORKGROUP_INVOCATIONS * variant.ray_stack.max(1) * PENDING_BYTES;
+        match self.stacks {
+            StackPlacement::Private => (false, false),
+            StackPlacement::Workgroup => (true, variant.reflections),
+            StackPlacement::Auto => {
+                let wt = t <= self.wg_limit;
+                let wr = variant.reflections && r + if wt { t } else { 0 } <= self.wg_limit;
+                (wt, wr)
+            }
+        }
+    }
+
+    fn constants(&self, variant: &ShaderVariant) -> Vec<(&'static str, f64)> {
+        let (wt, wr) = self.decide(variant);
+        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        vec![
+            ("ARENA_CHUNKS", f64::from(self.chunks)),
+            ("WG_TRAVERSE", b(wt)),
+            (
+                "TSTACK",
+                if wt {
+                    f64::from(self.depth.max(1))
+                } else {
+                    1.0
+                },
+            ),
+            ("WG_RAYS", b(wr)),
+            (
+                "RSTACK",
+                if wr {
+                    f64::from(variant.ray_stack.max(1))
+                } else {
+                    1.0
+                },
+            ),
+        ]
+    }
+}
+
+/// Where the traversal's ancestor stack and the Whitted ray stack live. WGSL zero-initializes
+/// function variables, so private stacks cost their whole size in stores for every ray;
+/// workgroup memory is not initialized (the pipelines turn that off) and is sized for the
+/// tree's depth and the bounce limits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StackPlacement {
+    /// Workgroup memory where the adapter's limit allows (the ancestor stack first).
+    #[default]
+    Auto,
+    /// Private (function) memory.
+    Private,
+    /// Workgroup memory for both (the pipeline fails where it does not fit).
+    Workgroup,
+}
+
+/// The pipeline of `entry` for `variant` with the renderer's `placement`.
 fn compute_pipeline(
     dev: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     module: &wgpu::ShaderModule,
     entry: &str,
     variant: &ShaderVariant,
-    chunks: u32,
+    placement: &Placement,
 ) -> wgpu::ComputePipeline {
     let mut constants = variant.constants();
-    constants.push(("ARENA_CHUNKS", f64::from(chunks)));
+    constants.extend(placement.constants(variant));
     dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(entry),
         layout: Some(layout),

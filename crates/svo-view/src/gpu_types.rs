@@ -11,7 +11,7 @@ use svo::leaf_hit::HitMode;
 use svo::octree::{Channel, Octree};
 use svo::shading::{Phong, PointLight};
 use svo::sky::Sky;
-use svo::whitted::{FresnelMode, ShadowMode, TraceOptions};
+use svo::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions};
 
 /// The most point lights the shader takes (they live in the uniform buffer).
 pub const MAX_LIGHTS: usize = 16;
@@ -244,6 +244,8 @@ pub struct ShaderVariant {
     pub media: bool,
     /// Per channel: 0 absent, 1 constant, 2 per leaf.
     pub channels: [u32; 6],
+    /// Pending rays a pixel can have: the bounce limits plus two (one without bounces).
+    pub ray_stack: u32,
 }
 
 impl ShaderVariant {
@@ -265,6 +267,13 @@ impl ShaderVariant {
             },
             fresnel_schlick: opts.fresnel == FresnelMode::Schlick,
             media: matches!(a.normal, Channel::Absent) && refractive,
+            ray_stack: if bounces {
+                u32::from(opts.max_reflections.min(MAX_BOUNCES))
+                    + u32::from(opts.max_refractions.min(MAX_BOUNCES))
+                    + 2
+            } else {
+                1
+            },
             channels: [
                 channel_kind(&a.normal),
                 channel_kind(&a.contour),
@@ -285,6 +294,7 @@ impl ShaderVariant {
             reflections: true,
             refractions: true,
             shadows: 4,
+            ray_stack: 2 * u32::from(MAX_BOUNCES) + 2,
             media: true,
             channels: self.channels.map(|c| if c == 0 { 0 } else { 2 }),
             ..self

@@ -131,7 +131,9 @@ fn shader_constants_name_real_overrides() {
     );
     // The renderer adds the arena's chunk count; BOUNCES is derived in the shader.
     let mut constants = v.constants();
-    constants.push(("ARENA_CHUNKS", 1.0));
+    for c in ["ARENA_CHUNKS", "WG_TRAVERSE", "TSTACK", "WG_RAYS", "RSTACK"] {
+        constants.push((c, 1.0));
+    }
     for (c, _) in &constants {
         assert!(
             names.iter().any(|n| n == c),

@@ -22,7 +22,7 @@ use svo::render_job::{JobScene, RenderJob, scene};
 use svo::surfaces::OctreeSurfaces;
 use svo::whitted::{ShadowMode, TraceOptions, Tracer};
 use svo_view::gpu_context::GpuContext;
-use svo_view::gpu_render::GpuRenderer;
+use svo_view::gpu_render::{GpuRenderer, StackPlacement};
 use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
 use svo_view::headless::render_scene;
 
@@ -362,20 +362,7 @@ fn a_tree_split_over_bindings_renders_the_same() {
     )
     .unwrap();
     assert!(split.arena_chunks() >= 3, "{} chunks", split.arena_chunks());
-    let rays = s.camera.rays().unwrap();
-    let eye = s.tree.root.to_grid(s.camera.eye, s.tree.depth).as_vec3();
-    let u = svo_view::gpu_types::uniforms(
-        &s.tree,
-        &rays,
-        eye,
-        (s.camera.width, s.camera.height),
-        &s.lights,
-        &s.sky,
-        &s.phong,
-        &trace,
-    );
-    split.render(&ctx, &u).unwrap();
-    let g = split.read_frame(&ctx, std::time::Duration::ZERO).unwrap();
+    let g = render_with(&ctx, &s, &trace, &split);
     let c = cpu_frame(&s, &trace);
     let diff = svo::image_compare::compare(&g, &c).unwrap();
     assert_eq!(diff.hit_mismatch, 0.0);
@@ -387,4 +374,64 @@ fn a_tree_split_over_bindings_renders_the_same() {
         .err()
         .expect("refused");
     assert!(e.to_string().contains("bindings"), "{e}");
+}
+
+/// Renders `s` with `r` (built for `s` and `trace`).
+fn render_with(ctx: &GpuContext, s: &JobScene, trace: &TraceOptions, r: &GpuRenderer) -> Frame {
+    let rays = s.camera.rays().unwrap();
+    let eye = s.tree.root.to_grid(s.camera.eye, s.tree.depth).as_vec3();
+    let u = svo_view::gpu_types::uniforms(
+        &s.tree,
+        &rays,
+        eye,
+        (s.camera.width, s.camera.height),
+        &s.lights,
+        &s.sky,
+        &s.phong,
+        trace,
+    );
+    r.render(ctx, &u).unwrap();
+    r.read_frame(ctx, std::time::Duration::ZERO).unwrap()
+}
+
+#[test]
+fn stacks_in_private_or_workgroup_memory_render_the_same() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let trace = TraceOptions {
+        max_reflections: 1,
+        max_refractions: 2,
+        ..TraceOptions::default()
+    };
+    let s = scene(torus(Some(glass), 5), &job(trace)).unwrap();
+    let c = cpu_frame(&s, &trace);
+    let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+    assert_eq!(variant.ray_stack, 5);
+    for stacks in [StackPlacement::Private, StackPlacement::Workgroup] {
+        let r = GpuRenderer::with_options(
+            &ctx,
+            &s.tree,
+            variant,
+            s.camera.width,
+            s.camera.height,
+            u64::MAX,
+            stacks,
+        )
+        .unwrap();
+        let expect = if stacks == StackPlacement::Private {
+            (false, false)
+        } else {
+            (true, true)
+        };
+        assert_eq!(r.workgroup_stacks(), expect);
+        let g = render_with(&ctx, &s, &trace, &r);
+        let diff = svo::image_compare::compare(&g, &c).unwrap();
+        eprintln!("{stacks:?}: RMSE {:.3}, max {}", diff.rmse, diff.max_abs);
+        assert_eq!(diff.hit_mismatch, 0.0);
+        assert!(diff.rmse <= 2.0, "{stacks:?}: RMSE {}", diff.rmse);
+        assert!(g.stats.secondary_rays > 0);
+        assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{stacks:?}");
+    }
 }

@@ -19,6 +19,14 @@ override FRESNEL_SCHLICK: bool = false;
 override MEDIA: bool = false;         // transparent leaves without normals (volumes)
 // Whether rays spawn rays: without, the ray stack is never touched and compiles away.
 override BOUNCES: bool = REFLECTIONS || REFRACTIONS;
+// Where the stacks live. WGSL zero-initializes function variables, so a private stack costs
+// its whole size in stores for every ray; workgroup memory is not initialized (the pipeline
+// turns that off) and is sized here for the tree and the bounce limits: each of the 64
+// invocations of a workgroup owns TSTACK ancestor entries and RSTACK pending rays.
+override WG_TRAVERSE: bool = false;
+override TSTACK: u32 = 1u;
+override WG_RAYS: bool = false;
+override RSTACK: u32 = 1u;
 // Channels: 0 absent, 1 constant (the value in `Params`), 2 per leaf (the buffer).
 override NORMAL_CH: u32 = 2u;
 override CONTOUR_CH: u32 = 2u;
@@ -33,6 +41,7 @@ override ARENA_CHUNKS: u32 = 1u;
 const MAX_LIGHTS: u32 = 16u;
 const MAX_DEPTH: u32 = 30u;
 const RAY_STACK: u32 = 34u;           // 2 * MAX_BOUNCES + 2, as whitted.rs
+const WORKGROUP: u32 = 64u;
 const TINY: f32 = 8.673617e-19;       // 2^-60, grid_ray::TINY
 const DONE: u32 = 8u;
 const NO_SKIP: u32 = 0xffffffffu;
@@ -432,6 +441,10 @@ struct Saved {
     enter: f32,
 }
 
+var<workgroup> wg_tstack: array<Saved, WORKGROUP * TSTACK>;
+// The invocation's index in its workgroup (set by the entry points).
+var<private> lane: u32;
+
 // What a traversal is for: the closest surface (kind 0), or the light through a shadow
 // ray (kind 1).
 struct Query {
@@ -551,7 +564,9 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     var tm = t_planes(r, vec3<u32>(cur.half));
     cur.next = first_child(tm, enter0);
     cur.enter = enter0;
-    var stack: array<Saved, MAX_DEPTH>;
+    var stack: array<Saved, MAX_DEPTH>;    // unused (and dropped) with WG_TRAVERSE
+    let cap = select(MAX_DEPTH, TSTACK, WG_TRAVERSE);
+    let base = lane * TSTACK;
     var len = 0u;
     let mask = r.mask;
     loop {
@@ -560,7 +575,12 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 break;
             }
             len -= 1u;
-            let sv = stack[len];
+            var sv: Saved;
+            if WG_TRAVERSE {
+                sv = wg_tstack[base + len];
+            } else {
+                sv = stack[len];
+            }
             cur.node = Node(sv.info, sv.first);
             cur.origin = vec3<u32>(sv.ox, sv.oy, sv.oz);
             cur.half = n >> (len + 1u);
@@ -655,7 +675,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 out.last_exit = t_exit;
             }
         } else {
-            if len == MAX_DEPTH || cur.half < 2u {
+            if len == cap || cur.half < 2u {
                 continue;
             }
             let idx = cur.node.first + rank;
@@ -663,8 +683,13 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 continue;
             }
             let half = cur.half / 2u;
-            stack[len] = Saved(cur.node.info, cur.node.first, cur.origin.x, cur.origin.y,
-                               cur.origin.z, cur.next, cur.enter);
+            let saved = Saved(cur.node.info, cur.node.first, cur.origin.x, cur.origin.y,
+                              cur.origin.z, cur.next, cur.enter);
+            if WG_TRAVERSE {
+                wg_tstack[base + len] = saved;
+            } else {
+                stack[len] = saved;
+            }
             len += 1u;
             cur.node = node_at(idx);
             cur.origin = origin;
@@ -791,6 +816,31 @@ struct Task {
     medium: vec2<u32>,
 }
 
+// A pending ray as stored on a stack: 14 scalars (56 bytes, no vec3 padding).
+struct Pending {
+    ox: f32, oy: f32, oz: f32,
+    dx: f32, dy: f32, dz: f32,
+    wx: f32, wy: f32, wz: f32,
+    bounces: u32,              // reflections | refractions << 16
+    skip: u32,
+    m0: u32,
+    m1: u32,
+    pad: u32,
+}
+
+fn pack_task(t: Task) -> Pending {
+    return Pending(t.origin.x, t.origin.y, t.origin.z, t.dir.x, t.dir.y, t.dir.z,
+                   t.weight.x, t.weight.y, t.weight.z, t.refl | (t.refr << 16u), t.skip,
+                   t.medium.x, t.medium.y, 0u);
+}
+
+fn unpack_task(p: Pending) -> Task {
+    return Task(vec3<f32>(p.ox, p.oy, p.oz), p.bounces & 0xffffu, vec3<f32>(p.dx, p.dy, p.dz),
+                p.bounces >> 16u, vec3<f32>(p.wx, p.wy, p.wz), p.skip, vec2<u32>(p.m0, p.m1));
+}
+
+var<workgroup> wg_rstack: array<Pending, WORKGROUP * RSTACK>;
+
 fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, bool>) -> vec3<f32> {
     let eta = n1 / n2;
     let cos_i = -dot(d, n);
@@ -803,7 +853,9 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, b
 }
 
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(local_invocation_index) lidx: u32) {
+    lane = lidx;
     let p = u.params;
     if gid.x >= p.width || gid.y >= p.height {
         return;
@@ -824,11 +876,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var shadow_rays = 0u;
     var capped = 0u;
 
-    var stack: array<Task, RAY_STACK>;
+    var stack: array<Pending, RAY_STACK>;   // used only with BOUNCES and not WG_RAYS
+    let rcap = select(RAY_STACK, RSTACK, WG_RAYS);
+    let rbase = lane * RSTACK;
     let primary = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM);
-    if BOUNCES {
-        stack[0] = primary;
-    }
     var len = 1u;
     var first = true;
     let bias = p.bias;
@@ -838,8 +889,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         len -= 1u;
         var task = primary;
-        if BOUNCES {
-            task = stack[len];
+        if BOUNCES && !first {
+            if WG_RAYS {
+                task = unpack_task(wg_rstack[rbase + len]);
+            } else {
+                task = unpack_task(stack[len]);
+            }
         }
         let ray_d = task.dir * p.scale;
         var q: Query;
@@ -953,18 +1008,29 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     fr += kt;
                 }
             }
-            if fr > 0.0 && task.refl < p.max_reflections && len < RAY_STACK {
-                stack[len] = Task(hp + n_f * bias, task.refl + 1u, normalize(reflect_dir(task.dir, n_f)),
-                                  task.refr, task.weight * fr, h.leaf, task.medium);
+            if fr > 0.0 && task.refl < p.max_reflections && len < rcap {
+                let t = pack_task(Task(hp + n_f * bias, task.refl + 1u,
+                                       normalize(reflect_dir(task.dir, n_f)), task.refr,
+                                       task.weight * fr, h.leaf, task.medium));
+                if WG_RAYS {
+                    wg_rstack[rbase + len] = t;
+                } else {
+                    stack[len] = t;
+                }
                 len += 1u;
             }
-            if REFRACTIONS && t_ok && ft > 0.0 && task.refr < p.max_refractions && len < RAY_STACK {
+            if REFRACTIONS && t_ok && ft > 0.0 && task.refr < p.max_refractions && len < rcap {
                 var med = NO_MEDIUM;
                 if MEDIA && entering {
                     med = medium_of(h.leaf);
                 }
-                stack[len] = Task(hp - n_f * bias, task.refl, t_dir, task.refr + 1u,
-                                  task.weight * ft * m.albedo, h.leaf, med);
+                let t = pack_task(Task(hp - n_f * bias, task.refl, t_dir, task.refr + 1u,
+                                       task.weight * ft * m.albedo, h.leaf, med));
+                if WG_RAYS {
+                    wg_rstack[rbase + len] = t;
+                } else {
+                    stack[len] = t;
+                }
                 len += 1u;
             }
         }
@@ -977,7 +1043,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 // The first hit of each ray of a batch (leaf_hit::cast with nothing skipped), for checking
 // the traversal against the CPU on arbitrary rays.
 @compute @workgroup_size(64, 1, 1)
-fn cast_rays(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn cast_rays(@builtin(global_invocation_id) gid: vec3<u32>,
+             @builtin(local_invocation_index) lidx: u32) {
+    lane = lidx;
     let i = gid.x;
     if i >= arrayLength(&ray_in) {
         return;
