@@ -558,9 +558,8 @@ struct Placement {
     stacks: StackPlacement,
 }
 
-/// Bytes of workgroup memory per invocation: an ancestor entry, a pending ray.
+/// Bytes of workgroup memory per invocation and ancestor entry.
 const SAVED_BYTES: u32 = 28;
-const PENDING_BYTES: u32 = 56;
 /// Invocations per workgroup.
 const WORKGROUP_INVOCATIONS: u32 = 64;
 
@@ -568,15 +567,14 @@ impl Placement {
     /// `(ancestors in workgroup memory, pending rays in workgroup memory)` for `variant`.
     fn decide(&self, variant: &ShaderVariant) -> (bool, bool) {
         let t = WORKGROUP_INVOCATIONS * self.depth.max(1) * SAVED_BYTES;
-        let r = WORKGROUP_INVOCATIONS * variant.ray_stack.max(1) * PENDING_BYTES;
         match self.stacks {
             StackPlacement::Private => (false, false),
             StackPlacement::Workgroup => (true, variant.reflections),
-            StackPlacement::Auto => {
-                let wt = t <= self.wg_limit;
-                let wr = variant.reflections && r + if wt { t } else { 0 } <= self.wg_limit;
-                (wt, wr)
-            }
+            // Measured on the H100 (docs/benchmarks.md section 6): the ancestor stack in
+            // workgroup memory makes frames without bounces up to 1.7x faster, but costs
+            // bouncing (glass) frames 1.5x, and the ray stack there 2.7x: the shared memory
+            // they take lets fewer of those heavier workgroups run at once.
+            StackPlacement::Auto => (t <= self.wg_limit && !variant.reflections, false),
         }
     }
 
@@ -613,7 +611,8 @@ impl Placement {
 /// tree's depth and the bounce limits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StackPlacement {
-    /// Workgroup memory where the adapter's limit allows (the ancestor stack first).
+    /// The ancestor stack in workgroup memory for variants without bounces where the
+    /// adapter's limit allows; everything else private.
     #[default]
     Auto,
     /// Private (function) memory.

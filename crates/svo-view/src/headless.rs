@@ -252,21 +252,8 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     if let Some(out) = &job.output {
         check_output(out, job.aov)?;
     }
-    let JobScene {
-        tree,
-        camera,
-        lights,
-        sky,
-        phong,
-    } = prepare(job)?;
+    let scene = prepare(job)?;
     let ctx = GpuContext::new()?;
-    let scene = JobScene {
-        tree,
-        camera,
-        lights,
-        sky,
-        phong,
-    };
     let r = render_scene(&ctx, &scene, &job.trace, opts.everything, job.bench_frames)?;
     let JobScene {
         tree,
