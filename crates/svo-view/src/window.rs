@@ -402,6 +402,9 @@ impl App {
                 r.window.request_redraw();
                 return Ok(());
             }
+            // Hidden or minimized: no frames until winit says the window shows again
+            // (WindowEvent::Occluded(false)), rather than asking again at once.
+            wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
             _ => {
                 r.window.request_redraw();
                 return Ok(());
@@ -585,6 +588,12 @@ impl ApplicationHandler for App {
                 self.apply()
             }
             WindowEvent::RedrawRequested => self.redraw(el),
+            WindowEvent::Occluded(false) => {
+                if let Some(r) = &self.running {
+                    r.window.request_redraw();
+                }
+                Ok(())
+            }
             WindowEvent::ModifiersChanged(m) => {
                 self.held.shift = m.state().shift_key();
                 Ok(())
