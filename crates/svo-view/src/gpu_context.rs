@@ -148,12 +148,16 @@ impl GpuContext {
         }
     }
 
+    /// The most bytes one storage buffer binding may have.
+    pub fn binding_limit(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
     /// Checks that a storage buffer of `bytes` fits one binding.
     pub fn fits(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
-        let limit = self
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size);
+        let limit = self.binding_limit();
         if bytes > limit {
             return Err(GpuError::TooLarge {
                 what: what.to_string(),

@@ -205,37 +205,13 @@ impl GpuRenderer {
         width: u32,
         height: u32,
     ) -> Result<Self, GpuError> {
-        let limit = ctx
-            .limits
-            .max_storage_buffer_binding_size
-            .min(ctx.limits.max_buffer_size);
         Self::with_options(
             ctx,
             tree,
             variant,
             width,
             height,
-            limit,
-            StackPlacement::Auto,
-        )
-    }
-
-    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes.
-    pub fn with_chunk_limit(
-        ctx: &GpuContext,
-        tree: &Octree,
-        variant: ShaderVariant,
-        width: u32,
-        height: u32,
-        chunk_limit: u64,
-    ) -> Result<Self, GpuError> {
-        Self::with_options(
-            ctx,
-            tree,
-            variant,
-            width,
-            height,
-            chunk_limit,
+            ctx.binding_limit(),
             StackPlacement::Auto,
         )
     }
@@ -580,27 +556,15 @@ impl Placement {
 
     fn constants(&self, variant: &ShaderVariant) -> Vec<(&'static str, f64)> {
         let (wt, wr) = self.decide(variant);
-        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        // Flags, and entries per invocation (one where the stack is not there).
+        let flag = |on: bool| f64::from(u8::from(on));
+        let entries = |on: bool, n: u32| if on { f64::from(n.max(1)) } else { 1.0 };
         vec![
             ("ARENA_CHUNKS", f64::from(self.chunks)),
-            ("WG_TRAVERSE", b(wt)),
-            (
-                "TSTACK",
-                if wt {
-                    f64::from(self.depth.max(1))
-                } else {
-                    1.0
-                },
-            ),
-            ("WG_RAYS", b(wr)),
-            (
-                "RSTACK",
-                if wr {
-                    f64::from(variant.ray_stack.max(1))
-                } else {
-                    1.0
-                },
-            ),
+            ("WG_TRAVERSE", flag(wt)),
+            ("TSTACK", entries(wt, self.depth)),
+            ("WG_RAYS", flag(wr)),
+            ("RSTACK", entries(wr, variant.ray_stack)),
         ]
     }
 }
@@ -679,7 +643,10 @@ fn bind_group(
 }
 
 /// Maps `buf` (after the queued copy into it) and reads it as `T`s.
-fn read_buffer<T: bytemuck::Pod>(ctx: &GpuContext, buf: &wgpu::Buffer) -> Result<Vec<T>, GpuError> {
+pub(crate) fn read_buffer<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    buf: &wgpu::Buffer,
+) -> Result<Vec<T>, GpuError> {
     let (tx, rx) = std::sync::mpsc::channel();
     buf.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);

@@ -6,7 +6,7 @@
 //! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
 
 use bytemuck::{Pod, Zeroable};
-use svo::camera::CameraRays;
+use svo::camera::{Camera, CameraError};
 use svo::leaf_hit::HitMode;
 use svo::octree::{Channel, Octree};
 use svo::shading::{Phong, PointLight};
@@ -389,24 +389,26 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
     }
 }
 
-/// The uniforms of a frame: `tree` seen through `rays` (a camera with `size` pixels and its
-/// eye in grid space `eye_grid`), with the lights (at most [`MAX_LIGHTS`]), sky and Phong
-/// factors.
-#[allow(clippy::too_many_arguments)]
+/// The uniforms of a frame: `tree` seen through `camera`, with the lights (at most
+/// [`MAX_LIGHTS`]), sky and Phong factors; an error for invalid camera settings.
 pub fn uniforms(
     tree: &Octree,
-    rays: &CameraRays,
-    eye_grid: glam::Vec3,
-    size: (u32, u32),
+    camera: &Camera,
     lights: &[PointLight],
     sky: &Sky,
     phong: &Phong,
     opts: &TraceOptions,
-) -> GpuUniforms {
+) -> Result<GpuUniforms, CameraError> {
+    let rays = camera.rays()?;
     let mut u = tree_uniforms(tree, opts);
     let (basis, px_scale, half) = rays.f32_basis();
     let p = &mut u.params;
-    p.eye = eye_grid.to_array();
+    // The eye in grid space, as the CPU renderer converts it.
+    p.eye = tree
+        .root
+        .to_grid(camera.eye, tree.depth)
+        .as_vec3()
+        .to_array();
     p.forward = basis[0].to_array();
     p.right = basis[1].to_array();
     p.up = basis[2].to_array();
@@ -422,8 +424,8 @@ pub fn uniforms(
     p.diffuse = phong.diffuse;
     p.specular = phong.specular;
     p.shininess = phong.shininess;
-    p.width = size.0;
-    p.height = size.1;
+    p.width = camera.width;
+    p.height = camera.height;
     p.n_lights = lights.len().min(MAX_LIGHTS) as u32;
     p.shadow_mode = if lights.is_empty() {
         0
@@ -442,5 +444,5 @@ pub fn uniforms(
             pad: 0.0,
         };
     }
-    u
+    Ok(u)
 }

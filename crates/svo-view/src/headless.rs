@@ -13,8 +13,7 @@ use svo::image_compare::{self, ImageDiff};
 use svo::leaf_hit::HitMode;
 use svo::render::{RenderStats, render_timed};
 use svo::render_job::{
-    JobScene, MAX_BENCH_FRAMES, RenderJob, RenderJobError, check_output, median, prepare,
-    write_output,
+    FrameTiming, JobScene, RenderJob, RenderJobError, median, prepare, write_output,
 };
 use svo::surfaces::OctreeSurfaces;
 use svo::whitted::Tracer;
@@ -64,19 +63,12 @@ pub struct HeadlessReport {
     pub tree_bytes: u64,
     /// Hit mode.
     pub hit: &'static str,
-    /// Frames timed.
-    pub frames: u32,
-    /// Median ms per frame (submission to completion).
-    pub median_ms: f64,
-    /// Fastest frame.
-    pub min_ms: f64,
-    /// Primary rays per second at the median, millions.
-    pub primary_mrays_per_s: f64,
-    /// All rays per second at the median, millions.
-    pub mrays_per_s: f64,
-    /// Milliseconds of the job not spent in timed frames: loading, the adapter, the upload,
+    /// Time per frame (submission to completion) and throughput.
+    #[serde(flatten)]
+    pub timing: FrameTiming,
+    /// Milliseconds of the job before the timed frames: loading, the adapter, the upload,
     /// the pipeline and the untimed first frame (which also compiles the shader on some
-    /// drivers), and the CPU render with `vs_cpu`.
+    /// drivers).
     pub startup_ms: f64,
     /// Counters of the last frame.
     pub stats: RenderStats,
@@ -121,11 +113,11 @@ impl fmt::Display for HeadlessReport {
         write!(
             f,
             "{} frame(s): median {:.3} ms/frame (min {:.3}), primary {:.1} Mrays/s, all {:.1} Mrays/s; first frame after {:.0} ms",
-            self.frames,
-            self.median_ms,
-            self.min_ms,
-            self.primary_mrays_per_s,
-            self.mrays_per_s,
+            self.timing.frames,
+            self.timing.median_ms,
+            self.timing.min_ms,
+            self.timing.primary_mrays_per_s,
+            self.timing.mrays_per_s,
             self.startup_ms
         )
     }
@@ -197,23 +189,12 @@ pub fn render_scene(
         phong,
     } = scene;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
-    let rays = camera.rays().map_err(RenderJobError::from)?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
     if everything {
         variant = variant.everything();
     }
     let renderer = GpuRenderer::new(ctx, tree, variant, camera.width, camera.height)?;
-    let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
-    let u = uniforms(
-        tree,
-        &rays,
-        eye,
-        (camera.width, camera.height),
-        lights,
-        sky,
-        phong,
-        trace,
-    );
+    let u = uniforms(tree, camera, lights, sky, phong, trace).map_err(RenderJobError::from)?;
     renderer.render(ctx, &u)?;
     let mut times = Vec::new();
     for _ in 0..frames.unwrap_or(1) {
@@ -240,44 +221,24 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         )
         .into());
     }
-    if job
-        .bench_frames
-        .is_some_and(|n| n == 0 || n > MAX_BENCH_FRAMES)
-    {
-        return Err(RenderJobError::Invalid(format!(
-            "--bench takes 1..={MAX_BENCH_FRAMES} frames"
-        ))
-        .into());
-    }
-    if let Some(out) = &job.output {
-        check_output(out, job.aov)?;
-    }
+    // Checks the settings (bench frames, bounces, bias, output path) before loading.
     let scene = prepare(job)?;
     let ctx = GpuContext::new()?;
     let r = render_scene(&ctx, &scene, &job.trace, opts.everything, job.bench_frames)?;
-    let JobScene {
-        tree,
-        camera,
-        lights,
-        sky,
-        phong,
-    } = scene;
     let (frame, times, variant, tree_bytes) = (r.frame, r.times, r.variant, r.tree_bytes);
     let startup_ms = (start.elapsed().as_secs_f64() - times.iter().sum::<f64>()) * 1e3;
-    let med = median(&times);
     let s = frame.stats;
-    let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
     let cost_scale = s.max_primary_steps.max(1);
     let vs = if vs_cpu {
         let tracer = Tracer::new(
-            OctreeSurfaces::new(&tree, job.trace.mode),
-            &lights,
-            sky.clone(),
-            phong,
+            OctreeSurfaces::new(&scene.tree, job.trace.mode),
+            &scene.lights,
+            scene.sky.clone(),
+            scene.phong,
             job.trace,
         );
         let (cpu, cpu_times) =
-            render_timed(&tracer, &camera, job.bench_frames).map_err(RenderJobError::from)?;
+            render_timed(&tracer, &scene.camera, job.bench_frames).map_err(RenderJobError::from)?;
         let diff = image_compare::compare(&frame, &cpu)
             .ok_or_else(|| RenderJobError::Invalid("the two renders differ in size".into()))?;
         let leaf_mismatch = frame
@@ -303,21 +264,16 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         }
         None => None,
     };
-    let min = times.iter().copied().fold(f64::INFINITY, f64::min);
     Ok(HeadlessReport {
         adapter: ctx.adapter_name(),
         variant: variant.describe(),
-        width: camera.width,
-        height: camera.height,
-        depth: tree.depth,
-        leaves: tree.leaf_count,
+        width: scene.camera.width,
+        height: scene.camera.height,
+        depth: scene.tree.depth,
+        leaves: scene.tree.leaf_count,
         tree_bytes,
         hit: job.trace.mode.name(),
-        frames: times.len() as u32,
-        median_ms: med * 1e3,
-        min_ms: min * 1e3,
-        primary_mrays_per_s: s.primary_rays as f64 / med / 1e6,
-        mrays_per_s: all / med / 1e6,
+        timing: FrameTiming::new(&times, &s),
         startup_ms,
         stats: s,
         output,

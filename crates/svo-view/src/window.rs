@@ -11,7 +11,7 @@
 
 use crate::camera_control::{CameraControl, CameraMode};
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::GpuRenderer;
+use crate::gpu_render::{GpuRenderer, read_buffer};
 use crate::gpu_types::{ShaderVariant, uniforms};
 use crate::headless::check_gpu_support;
 use crate::window_blit::{Blit, BlitParams};
@@ -181,11 +181,6 @@ impl App {
         el.exit();
     }
 
-    /// The trace options the settings give (lights off: no shadow rays either).
-    fn trace(&self) -> TraceOptions {
-        self.settings.trace
-    }
-
     fn lights(&self) -> Vec<svo::shading::PointLight> {
         if self.settings.lights_on {
             self.scene.lights.clone()
@@ -195,7 +190,7 @@ impl App {
     }
 
     fn variant(&self) -> ShaderVariant {
-        ShaderVariant::for_scene(&self.scene.tree, &self.trace(), self.lights().len())
+        ShaderVariant::for_scene(&self.scene.tree, &self.settings.trace, self.lights().len())
     }
 
     fn frame_size(&self, r: &Running) -> (u32, u32) {
@@ -247,7 +242,8 @@ impl App {
             (config.width / s).max(1),
             (config.height / s).max(1),
         )?;
-        let blit = Blit::new(&ctx, config.format)?;
+        let mut blit = Blit::new(&ctx, config.format)?;
+        show_frame(&ctx, &renderer, &mut blit, &config);
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),
@@ -287,6 +283,7 @@ impl App {
             .renderer
             .set_variant(&r.ctx, variant)
             .and_then(|()| r.renderer.resize(&r.ctx, size.0, size.1));
+        show_frame(&r.ctx, &r.renderer, &mut r.blit, &r.config);
         self.running = Some(r);
         res.map_err(WindowError::from)
     }
@@ -363,37 +360,26 @@ impl App {
             self.control.fly(f, s, u, dt.min(0.25) * boost);
         }
         let lights = self.lights();
-        let trace = self.trace();
+        let trace = self.settings.trace;
         let settings = self.settings;
-        let variant_text = self.variant().describe();
         let ms_text = self.frame_ms.last().copied().unwrap_or(0.0);
         let Some(r) = self.running.as_mut() else {
             return Ok(());
         };
         let (fw, fh) = r.renderer.size();
         let camera = self.control.camera(fw, fh);
-        let rays = camera.rays().map_err(RenderJobError::from)?;
         let tree = &self.scene.tree;
-        let eye = tree.root.to_grid(camera.eye, tree.depth).as_vec3();
         let u = uniforms(
             tree,
-            &rays,
-            eye,
-            (fw, fh),
+            &camera,
             &lights,
             &self.scene.sky,
             &self.scene.phong,
             &trace,
-        );
+        )
+        .map_err(RenderJobError::from)?;
         r.renderer.write_uniforms(&r.ctx, &u);
-        r.blit.set_source(
-            &r.ctx,
-            r.renderer.pixels(),
-            BlitParams {
-                frame: [fw, fh],
-                dest: [r.config.width, r.config.height],
-            },
-        );
+        let variant_text = r.renderer.variant().describe();
         let texture = match r.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t)
             | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
@@ -727,33 +713,38 @@ fn capture_copy(
 
 /// The captured window as RGB bytes.
 fn read_capture(ctx: &GpuContext, c: &Capture) -> Result<Vec<u8>, GpuError> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    c.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.wait()?;
-    rx.recv()
-        .map_err(|e| GpuError::Wgpu(e.to_string()))?
-        .map_err(|e| GpuError::Wgpu(e.to_string()))?;
+    let bytes: Vec<u8> = read_buffer(ctx, &c.buffer)?;
     let mut rgb = Vec::with_capacity((c.width * c.height * 3) as usize);
+    for row in bytes
+        .chunks(c.bytes_per_row as usize)
+        .take(c.height as usize)
     {
-        let view = c
-            .buffer
-            .get_mapped_range(..)
-            .map_err(|e| GpuError::Wgpu(e.to_string()))?;
-        for row in view
-            .chunks(c.bytes_per_row as usize)
-            .take(c.height as usize)
-        {
-            for px in row[..(c.width * 4) as usize].chunks_exact(4) {
-                if c.bgra {
-                    rgb.extend_from_slice(&[px[2], px[1], px[0]]);
-                } else {
-                    rgb.extend_from_slice(&px[..3]);
-                }
+        for px in row[..(c.width * 4) as usize].chunks_exact(4) {
+            if c.bgra {
+                rgb.extend_from_slice(&[px[2], px[1], px[0]]);
+            } else {
+                rgb.extend_from_slice(&px[..3]);
             }
         }
     }
-    c.buffer.unmap();
     Ok(rgb)
+}
+
+/// Points the blit at the renderer's pixel buffer with the frame and window sizes: after
+/// the buffer or either size changes, not every frame.
+fn show_frame(
+    ctx: &GpuContext,
+    renderer: &GpuRenderer,
+    blit: &mut Blit,
+    config: &wgpu::SurfaceConfiguration,
+) {
+    let (fw, fh) = renderer.size();
+    blit.set_source(
+        ctx,
+        renderer.pixels(),
+        BlitParams {
+            frame: [fw, fh],
+            dest: [config.width, config.height],
+        },
+    );
 }

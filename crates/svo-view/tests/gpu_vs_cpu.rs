@@ -352,13 +352,14 @@ fn a_tree_split_over_bindings_renders_the_same() {
     let whole = GpuRenderer::new(&ctx, &s.tree, variant, s.camera.width, s.camera.height).unwrap();
     assert_eq!(whole.arena_chunks(), 1);
     let bytes = whole.tree_bytes;
-    let split = GpuRenderer::with_chunk_limit(
+    let split = GpuRenderer::with_options(
         &ctx,
         &s.tree,
         variant,
         s.camera.width,
         s.camera.height,
         bytes / 3,
+        StackPlacement::Auto,
     )
     .unwrap();
     assert!(split.arena_chunks() >= 3, "{} chunks", split.arena_chunks());
@@ -370,26 +371,24 @@ fn a_tree_split_over_bindings_renders_the_same() {
     let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
     assert!(leaf_diff * 200 <= c.leaf.len(), "{leaf_diff} leaves differ");
     // Too small to fit in four bindings: a clear error, not a crash.
-    let e = GpuRenderer::with_chunk_limit(&ctx, &s.tree, variant, 8, 8, bytes / 8)
-        .err()
-        .expect("refused");
+    let e = GpuRenderer::with_options(
+        &ctx,
+        &s.tree,
+        variant,
+        8,
+        8,
+        bytes / 8,
+        StackPlacement::Auto,
+    )
+    .err()
+    .expect("refused");
     assert!(e.to_string().contains("bindings"), "{e}");
 }
 
 /// Renders `s` with `r` (built for `s` and `trace`).
 fn render_with(ctx: &GpuContext, s: &JobScene, trace: &TraceOptions, r: &GpuRenderer) -> Frame {
-    let rays = s.camera.rays().unwrap();
-    let eye = s.tree.root.to_grid(s.camera.eye, s.tree.depth).as_vec3();
-    let u = svo_view::gpu_types::uniforms(
-        &s.tree,
-        &rays,
-        eye,
-        (s.camera.width, s.camera.height),
-        &s.lights,
-        &s.sky,
-        &s.phong,
-        trace,
-    );
+    let u = svo_view::gpu_types::uniforms(&s.tree, &s.camera, &s.lights, &s.sky, &s.phong, trace)
+        .unwrap();
     r.render(ctx, &u).unwrap();
     r.read_frame(ctx, std::time::Duration::ZERO).unwrap()
 }

@@ -2,22 +2,13 @@
 //! torus fixture always, and on the Stanford bunny when `../shared/models` is present.
 #![allow(missing_docs)]
 
+mod common;
+
 use criterion::{Criterion, criterion_group, criterion_main};
-use std::path::Path;
 use svo::{BakeOptions, Strategy, bake_mesh};
 
 fn bench(c: &mut Criterion) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let mut meshes = vec![("torus", root.join("fixtures/torus.obj"))];
-    let bunny = root.join("../shared/models/stanford/stanford-bunny.obj");
-    if bunny.exists() {
-        meshes.push(("bunny", bunny));
-    } else {
-        eprintln!(
-            "notice: bunny not found at {}; benching the torus only",
-            bunny.display()
-        );
-    }
+    let meshes = common::bench_meshes();
     let mut g = c.benchmark_group("bake");
     g.sample_size(10);
     for (name, path) in &meshes {

@@ -3,8 +3,9 @@
 //! the Stanford bunny when `../shared/models` is present. Throughput is reported in rays.
 #![allow(missing_docs)]
 
+mod common;
+
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use std::path::Path;
 use svo::camera::Camera;
 use svo::grid_dda::{DenseGrid, traverse_dda};
 use svo::grid_ray::GridRay;
@@ -13,17 +14,7 @@ use svo::octree_traverse::MAX_STEPS;
 use svo::{BakeOptions, bake_mesh};
 
 fn bench(c: &mut Criterion) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let mut meshes = vec![("torus", root.join("fixtures/torus.obj"))];
-    let bunny = root.join("../shared/models/stanford/stanford-bunny.obj");
-    if bunny.exists() {
-        meshes.push(("bunny", bunny));
-    } else {
-        eprintln!(
-            "notice: bunny not found at {}; benching the torus only",
-            bunny.display()
-        );
-    }
+    let meshes = common::bench_meshes();
     let mut g = c.benchmark_group("cast");
     g.sample_size(10);
     for (name, path) in &meshes {
@@ -46,18 +37,16 @@ fn bench(c: &mut Criterion) {
                     dir: r.dir_f32(x, y) * scale,
                 })
                 .collect();
+            // The work timed: first hits, counted.
+            let hits = |ray: &GridRay, mode: HitMode| {
+                cast(&tree, ray, 0.0, f32::INFINITY, mode, None, MAX_STEPS)
+                    .hit
+                    .is_some()
+            };
             g.throughput(Throughput::Elements(rays.len() as u64));
             for mode in [HitMode::Cube, HitMode::Contour] {
                 g.bench_function(format!("{name}/d{depth}/octree-{}", mode.name()), |b| {
-                    b.iter(|| {
-                        rays.iter()
-                            .filter(|ray| {
-                                cast(&tree, ray, 0.0, f32::INFINITY, mode, None, MAX_STEPS)
-                                    .hit
-                                    .is_some()
-                            })
-                            .count()
-                    })
+                    b.iter(|| rays.iter().filter(|ray| hits(ray, mode)).count())
                 });
             }
             if std::env::var_os("SVO_BENCH_SPLIT").is_some() {
@@ -70,45 +59,12 @@ fn bench(c: &mut Criterion) {
                         dir: -r.dir,
                     })
                     .collect();
-                let hits: Vec<GridRay> = rays
-                    .iter()
-                    .copied()
-                    .filter(|ray| {
-                        cast(
-                            &tree,
-                            ray,
-                            0.0,
-                            f32::INFINITY,
-                            HitMode::Cube,
-                            None,
-                            MAX_STEPS,
-                        )
-                        .hit
-                        .is_some()
-                    })
-                    .collect();
-                let misses: Vec<GridRay> =
-                    rays.iter().copied().filter(|r| !hits.contains(r)).collect();
-                for (label, set) in [("away", &away), ("hits", &hits), ("misses", &misses)] {
+                let (hit, missed): (Vec<GridRay>, Vec<GridRay>) =
+                    rays.iter().partition(|ray| hits(ray, HitMode::Cube));
+                for (label, set) in [("away", &away), ("hits", &hit), ("misses", &missed)] {
                     g.throughput(Throughput::Elements(set.len() as u64));
                     g.bench_function(format!("{name}/d{depth}/split-{label}"), |b| {
-                        b.iter(|| {
-                            set.iter()
-                                .filter(|ray| {
-                                    cast(
-                                        &tree,
-                                        ray,
-                                        0.0,
-                                        f32::INFINITY,
-                                        HitMode::Cube,
-                                        None,
-                                        MAX_STEPS,
-                                    )
-                                    .hit
-                                    .is_some()
-                                })
-                                .count()
-                        })
+                        b.iter(|| set.iter().filter(|ray| hits(ray, HitMode::Cube)).count())
                     });
                 }
                 g.throughput(Throughput::Elements(rays.len() as u64));

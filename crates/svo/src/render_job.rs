@@ -211,16 +211,9 @@ pub struct RenderReport {
     pub hit: &'static str,
     /// Threads used.
     pub threads: usize,
-    /// Frames timed.
-    pub frames: u32,
-    /// Median milliseconds per frame.
-    pub median_ms: f64,
-    /// Fastest frame, ms.
-    pub min_ms: f64,
-    /// All rays (primary, secondary, shadow) per second at the median, millions.
-    pub mrays_per_s: f64,
-    /// Primary rays per second at the median, millions.
-    pub primary_mrays_per_s: f64,
+    /// Time per frame and throughput.
+    #[cfg_attr(feature = "io", serde(flatten))]
+    pub timing: FrameTiming,
     /// Counters of the last frame.
     pub stats: RenderStats,
     /// The scale of the cost heat map (steps at the hottest colour).
@@ -302,12 +295,12 @@ impl fmt::Display for RenderReport {
         write!(
             f,
             "{} frame(s): median {:.2} ms/frame (min {:.2}), {} rays/frame, primary {:.1} Mrays/s, all {:.1} Mrays/s",
-            self.frames,
-            self.median_ms,
-            self.min_ms,
+            self.timing.frames,
+            self.timing.median_ms,
+            self.timing.min_ms,
             all,
-            self.primary_mrays_per_s,
-            self.mrays_per_s
+            self.timing.primary_mrays_per_s,
+            self.timing.mrays_per_s
         )
     }
 }
@@ -532,10 +525,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         (None, Some(r)) => r,
         (None, None) => unreachable!("one of the two renders always runs"),
     };
-    let median = median(&times);
-    let min = times.iter().copied().fold(f64::INFINITY, f64::min);
     let s = frame.stats;
-    let all = (s.primary_rays + s.secondary_rays + s.shadow_rays) as f64;
     let cost_scale = s.max_primary_steps.max(1);
     let output = match &job.output {
         Some(out) => {
@@ -555,11 +545,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             job.trace.mode.name()
         },
         threads,
-        frames: times.len() as u32,
-        median_ms: median * 1e3,
-        min_ms: min * 1e3,
-        mrays_per_s: all / median / 1e6,
-        primary_mrays_per_s: s.primary_rays as f64 / median / 1e6,
+        timing: FrameTiming::new(&times, &s),
         stats: s,
         cost_scale,
         output,
@@ -571,6 +557,38 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             fov_deg: camera.fov_deg,
         },
     })
+}
+
+/// The timing of a benchmark's frames, with the throughput it gives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct FrameTiming {
+    /// Frames timed.
+    pub frames: u32,
+    /// Median milliseconds per frame.
+    pub median_ms: f64,
+    /// Fastest frame, ms.
+    pub min_ms: f64,
+    /// All rays (primary, secondary, shadow) per second at the median, millions.
+    pub mrays_per_s: f64,
+    /// Primary rays per second at the median, millions.
+    pub primary_mrays_per_s: f64,
+}
+
+impl FrameTiming {
+    /// The timing of frames that took `times` seconds each (not empty) and cast the rays
+    /// `stats` counts per frame.
+    pub fn new(times: &[f64], stats: &RenderStats) -> Self {
+        let med = median(times);
+        let all = (stats.primary_rays + stats.secondary_rays + stats.shadow_rays) as f64;
+        Self {
+            frames: times.len() as u32,
+            median_ms: med * 1e3,
+            min_ms: times.iter().copied().fold(f64::INFINITY, f64::min) * 1e3,
+            mrays_per_s: all / med / 1e6,
+            primary_mrays_per_s: stats.primary_rays as f64 / med / 1e6,
+        }
+    }
 }
 
 /// The median of `v` (the upper one of an even count); `v` must not be empty.
