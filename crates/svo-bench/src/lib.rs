@@ -1,0 +1,702 @@
+//! `svo-bench`: regenerates the benchmark report (`docs/benchmarks.md` and its plots and
+//! pictures) from scratch on the machine at hand, every speed figure beside the accuracy it
+//! buys: the bake against the thesis's tables (time, leaves, false positives and negatives,
+//! bytes per leaf, peak memory), the `svo-bake` pipeline per phase, the geometric error of
+//! the rendered surface per depth and hit mode, images per view against the triangle
+//! reference (time per frame against RMSE/PSNR and hit/miss mismatch), primary-ray
+//! throughput, the octree against the dense-grid DDA, the external baselines where they are
+//! installed (open3d, Embree), and where the project stands against its targets.
+//!
+//! `cargo run --release -p svo-bench` (about 15 minutes on 2 cores) writes `docs/`;
+//! `--quick` (under a minute) is what CI runs so the generator cannot rot.
+
+pub mod bake_tables;
+pub mod external;
+pub mod geometry_error;
+pub mod image_tables;
+pub mod machine;
+pub mod peak_memory;
+pub mod plots;
+pub mod report;
+pub mod views;
+
+use crate::bake_tables::{BakeTables, PipelineRow};
+use crate::geometry_error::GeometryError;
+use crate::image_tables::{DdaRow, ImageRow, Throughput};
+use crate::machine::Machine;
+use crate::report::{Report, f, ms};
+use crate::views::View;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use svo::exact_surfaces::exact_surfaces;
+use svo::leaf_hit::HitMode;
+use svo::mesh::Mesh;
+use svo::mesh_reference::MeshSurfaces;
+use svo::surfaces::OctreeSurfaces;
+use svo::{BakeOptions, Octree, bake_mesh};
+
+/// What to measure and where to write.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The small, fast variant (CI): shallow depths, tiny images, one run, no external tools.
+    pub quick: bool,
+    /// The folder that receives `benchmarks.md` and `bench/*.png`.
+    pub out: PathBuf,
+    /// The main mesh (the Stanford bunny).
+    pub mesh: PathBuf,
+    /// A large mesh for the pipeline table (the dragon), if present.
+    pub large_mesh: Option<PathBuf>,
+    /// Skip open3d and Embree even where installed.
+    pub no_external: bool,
+}
+
+/// The settings a mode implies.
+struct Plan {
+    bake_max_depth: u8,
+    bake_runs: fn(u8) -> usize,
+    depths: std::ops::RangeInclusive<u8>,
+    image_depth: u8,
+    samples: usize,
+    framed_size: (u32, u32),
+    view_size: (u32, u32),
+    runs: u32,
+    throughput_depths: Vec<u8>,
+    throughput_runs: u32,
+    pipeline: Vec<(u8, Option<usize>, usize)>,
+}
+
+impl Plan {
+    fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                bake_max_depth: 6,
+                bake_runs: |_| 1,
+                depths: 4..=6,
+                image_depth: 6,
+                samples: 2_000,
+                framed_size: (240, 135),
+                view_size: (240, 135),
+                runs: 1,
+                throughput_depths: vec![6],
+                throughput_runs: 1,
+                pipeline: vec![(6, None, 1)],
+            }
+        } else {
+            Self {
+                bake_max_depth: 10,
+                bake_runs: |d| if d <= 8 { 5 } else { 3 },
+                depths: 4..=10,
+                image_depth: 8,
+                samples: 20_000,
+                framed_size: (1920, 1080),
+                view_size: (960, 540),
+                runs: 3,
+                throughput_depths: vec![8, 10],
+                throughput_runs: 10,
+                pipeline: vec![(8, None, 5), (8, Some(1), 5), (10, None, 3), (10, Some(1), 3)],
+            }
+        }
+    }
+}
+
+/// Everything measured at one depth.
+struct DepthResults {
+    depth: u8,
+    leaves: usize,
+    cell: f64,
+    thickness: Option<svo::leaf_attributes::ContourStats>,
+    geometry: Vec<(&'static str, GeometryError)>,
+}
+
+fn log(start: Instant, msg: &str) {
+    eprintln!("[{:7.1} s] {msg}", start.elapsed().as_secs_f64());
+}
+
+/// Measures everything and writes the report; returns the report's path.
+pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
+    let start = Instant::now();
+    let plan = Plan::new(opts.quick);
+    let machine = Machine::detect();
+    let bench_dir = opts.out.join("bench");
+    std::fs::create_dir_all(&bench_dir)?;
+    plots::register_font()?;
+    let mesh = svo::import::load_mesh(&opts.mesh).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot load the benchmark mesh {}: {e} (run from the repository root with \
+             ../shared/models beside it, or pass --mesh)",
+            opts.mesh.display()
+        )
+    })?;
+    let mesh_name = opts.mesh.display().to_string();
+    log(start, &format!("{mesh_name}: {} triangles", mesh.triangles.len()));
+    let tmp = tempfile::tempdir()?;
+    let lg = |m: &str| log(start, m);
+
+    // Bake tables.
+    let tables = bake_tables::measure(&mesh, plan.bake_max_depth, &plan.bake_runs, &lg)?;
+    plots::bake_time(
+        &tables,
+        &bench_dir.join("bake_time.png"),
+        "Bake time against depth per strategy (bunny)",
+    )?;
+
+    // Pipeline per phase.
+    let mut pipeline = Vec::new();
+    for &(depth, threads, runs) in &plan.pipeline {
+        let t = threads.unwrap_or(machine.threads);
+        lg(&format!("pipeline: bunny depth {depth}, {t} threads"));
+        pipeline.push(bake_tables::pipeline(
+            &format!("bunny `{}`", file_name(&opts.mesh)),
+            &opts.mesh,
+            depth,
+            t,
+            runs,
+            tmp.path(),
+        )?);
+    }
+    if !opts.quick
+        && let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists())
+    {
+        lg("pipeline: large mesh depth 10");
+        pipeline.push(bake_tables::pipeline(
+            &format!("`{}`", file_name(large)),
+            large,
+            10,
+            machine.threads,
+            3,
+            tmp.path(),
+        )?);
+    }
+
+    // External baselines.
+    let external = !opts.quick && !opts.no_external;
+    let open3d = if external && external::python_has(&["open3d", "numpy"]) {
+        lg("open3d");
+        let mut rows = vec![("bunny", external::open3d(&opts.mesh, &[8, 10])?)];
+        if let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists()) {
+            rows.push(("large", external::open3d(large, &[10])?));
+        }
+        Some(rows)
+    } else {
+        None
+    };
+
+    // Per depth: geometry error and images per view.
+    let samples = geometry_error::sample(&mesh, plan.samples, 0x5EED);
+    let water_mesh = views::water(&mesh);
+    let mut per_depth = Vec::new();
+    let mut image_rows: Vec<ImageRow> = Vec::new();
+    let mut dda_rows: Vec<DdaRow> = Vec::new();
+    let mut throughput: Vec<Throughput> = Vec::new();
+    for depth in plan.depths.clone() {
+        lg(&format!("depth {depth}: bake, geometry error"));
+        let bake = |m: &Mesh| -> anyhow::Result<(Octree, svo::bake::BakeStats)> {
+            Ok(bake_mesh(
+                m,
+                &BakeOptions {
+                    depth,
+                    ..Default::default()
+                },
+                &|_, _| {},
+            )?)
+        };
+        let (tree, stats) = bake(&mesh)?;
+        let rays = geometry_error::rays(&samples, &tree.root, depth);
+        let reference = geometry_error::distances(
+            &MeshSurfaces::new(mesh.clone(), tree.root, depth),
+            &rays,
+        );
+        let mut geometry = Vec::new();
+        for mode in [HitMode::Cube, HitMode::Contour] {
+            let got = geometry_error::distances(&OctreeSurfaces::new(&tree, mode), &rays);
+            geometry.push((mode.name(), geometry_error::compare(&got, &reference)));
+        }
+        let exact = exact_surfaces(&tree, &mesh).map_err(anyhow::Error::msg)?;
+        let got = geometry_error::distances(&exact, &rays);
+        geometry.push(("exact", geometry_error::compare(&got, &reference)));
+        per_depth.push(DepthResults {
+            depth,
+            leaves: stats.leaves,
+            cell: stats.cell_size,
+            thickness: stats.contour_thickness,
+            geometry,
+        });
+
+        let (water_tree, _) = bake(&water_mesh)?;
+        for view in View::ALL {
+            lg(&format!("depth {depth}: view {}", view.name()));
+            let (t, m) = if view.water() {
+                (&water_tree, &water_mesh)
+            } else {
+                (&tree, &mesh)
+            };
+            let size = if view == View::Framed {
+                plan.framed_size
+            } else {
+                plan.view_size
+            };
+            let (rows, frames) = image_tables::measure_view(view, t, m, size, plan.runs)?;
+            image_rows.extend(rows);
+            if depth == plan.image_depth {
+                save_frames(&bench_dir, view, &frames)?;
+            }
+        }
+        if depth <= svo::grid_dda::MAX_DDA_DEPTH {
+            lg(&format!("depth {depth}: octree against DDA"));
+            dda_rows.push(image_tables::dda(&tree, &mesh, plan.framed_size, plan.runs)?);
+        }
+        if plan.throughput_depths.contains(&depth) {
+            lg(&format!("depth {depth}: primary-ray throughput"));
+            throughput.extend(image_tables::throughput(
+                &tree,
+                &mesh,
+                plan.framed_size,
+                plan.throughput_runs,
+            )?);
+        }
+    }
+    let embree = if external && external::python_has(&["embreex", "trimesh", "numpy"]) {
+        lg("embree");
+        let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+        let cam = View::Framed.camera(lo, hi, plan.framed_size.0, plan.framed_size.1);
+        Some(external::embree(&opts.mesh, &cam, plan.throughput_runs, tmp.path())?)
+    } else {
+        None
+    };
+    for view in View::ALL {
+        let rows: Vec<ImageRow> = image_rows.iter().filter(|r| r.view == view).cloned().collect();
+        plots::error_vs_time(
+            &rows,
+            &bench_dir.join(format!("error_vs_time_{}.png", view.name())),
+            &format!("Image error against time per frame: {} view", view.name()),
+        )?;
+    }
+    plots::octree_vs_dda(&dda_rows, &bench_dir.join("octree_vs_dda.png"))?;
+
+    let measured = Measured {
+        machine,
+        plan,
+        mesh_name,
+        triangles: mesh.triangles.len(),
+        tables,
+        pipeline,
+        open3d,
+        per_depth,
+        image_rows,
+        dda_rows,
+        throughput,
+        embree,
+        external,
+    };
+    let mut r = Report::default();
+    write_report(&mut r, opts, &measured, start);
+    let path = opts.out.join("benchmarks.md");
+    r.write(&path)?;
+    lg(&format!("wrote {}", path.display()));
+    Ok(path)
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn save_frames(dir: &Path, view: View, frames: &image_tables::ViewFrames) -> anyhow::Result<()> {
+    use svo::aov::{colour_rgb8, cost_rgb8};
+    use svo::image_write::write_png;
+    let c = &frames.contour;
+    let name = view.name();
+    write_png(&dir.join(format!("{name}_contour.png")), c.width, c.height, &colour_rgb8(c))?;
+    let max = c.cost.iter().copied().max().unwrap_or(1);
+    write_png(&dir.join(format!("{name}_cost.png")), c.width, c.height, &cost_rgb8(c, max))?;
+    let t = &frames.reference;
+    write_png(&dir.join(format!("{name}_triangles.png")), t.width, t.height, &colour_rgb8(t))?;
+    Ok(())
+}
+
+/// Everything the report is written from.
+struct Measured {
+    machine: Machine,
+    plan: Plan,
+    mesh_name: String,
+    triangles: usize,
+    tables: BakeTables,
+    pipeline: Vec<PipelineRow>,
+    open3d: Option<Vec<(&'static str, (String, Vec<external::Open3d>))>>,
+    per_depth: Vec<DepthResults>,
+    image_rows: Vec<ImageRow>,
+    dda_rows: Vec<DdaRow>,
+    throughput: Vec<Throughput>,
+    embree: Option<(f64, f64)>,
+    external: bool,
+}
+
+fn sci(x: f64) -> String {
+    format!("{x:.2e}")
+}
+
+fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
+    let p = &m.plan;
+    r.heading(1, "Benchmarks");
+    r.para(&format!(
+        "**Generated by `cargo run --release -p svo-bench{}`; do not edit by hand.** \
+         Machine: {}. Mesh: `{}` ({} triangles). The whole run took {:.0} s.",
+        if opts.quick { " -- --quick" } else { "" },
+        m.machine.line(),
+        m.mesh_name,
+        m.triangles,
+        start.elapsed().as_secs_f64()
+    ));
+    r.para(
+        "Every time is a median (the runs are stated per table) measured in this one run, so \
+         the figures in this file were taken side by side. On a shared VM repeated medians of \
+         the same command can vary by 1.5x between sittings: compare within this file. Builds \
+         are `--release`. Accuracy sits beside every time: the exact strategy gives exactly \
+         the cells the triangles touch (tested against an integer brute force in \
+         `crates/svo/tests`), and image and geometric error are measured against the triangles \
+         themselves (an `obvhs` BVH with the same camera, lights and shading). GPU figures \
+         need a GPU and are recorded by hand in [gpu-benchmarks.md](gpu-benchmarks.md).",
+    );
+    if opts.quick {
+        r.para(
+            "This is the **quick** variant (shallow depths, tiny images, one run, no external \
+             tools): it checks that the generator works, its figures are not the report's.",
+        );
+    }
+
+    // 1. Bake tables.
+    r.heading(2, "1. The bake against the thesis's build-time tables");
+    let runs_note = if opts.quick {
+        "one run per cell".to_string()
+    } else {
+        "median of 5 runs per cell (3 at depths 9 and 10)".to_string()
+    };
+    bake_tables::write(r, &m.tables, &runs_note, Some("bench/bake_time.png"));
+    r.para(
+        "Reading the tables: the exact placements (`aabb-plane-sat`, `plane-sat-leaf`, \
+         `exact`) make the same cells; the thesis's \"SAT (leaf level)\" tests only the nine \
+         edge axes and \"AABB + Plane\" no edge axis, so they keep cells no triangle touches \
+         (the `+` counts). No strategy misses a touched cell (the `-` counts).",
+    );
+
+    // 2. Pipeline.
+    r.heading(2, "2. The whole `svo-bake` pipeline, per phase");
+    r.para(
+        "`svo::pipeline::run`, what `svo-bake MESH --depth D -o out.svo` runs: load, voxelize, \
+         attributes, contours, and the atomic write with `fsync`. \"bake\" is voxelize + \
+         attributes + contours; the row is the run with the median total; peak memory is the \
+         growth of the resident set during the first run (loading included).",
+    );
+    bake_tables::write_pipeline(r, &m.pipeline);
+
+    // 3. open3d.
+    r.heading(3, "Against open3d, side by side");
+    match &m.open3d {
+        Some(rows) => {
+            let mut t = Vec::new();
+            let mut version = String::new();
+            for (which, (head, list)) in rows {
+                version = head.clone();
+                for o in list {
+                    let ours = if *which == "bunny" {
+                        m.tables.exact(o.depth).map(|c| (c.seconds, c.leaves))
+                    } else {
+                        m.pipeline
+                            .iter()
+                            .find(|p| p.label != "bunny" && p.report.depth == o.depth && !p.label.starts_with("bunny"))
+                            .and_then(|p| {
+                                p.report.bake.as_ref().map(|b| {
+                                    (b.voxelize_s + b.attributes_s + b.contours_s, b.leaves)
+                                })
+                            })
+                    };
+                    if let Some((s, leaves)) = ours {
+                        t.push(vec![
+                            format!("{which} {0}^3", 1u32 << o.depth),
+                            ms(o.seconds),
+                            ms(s),
+                            format!("{:.1}x", o.seconds / s),
+                            o.voxels.to_string(),
+                            leaves.to_string(),
+                        ]);
+                    }
+                }
+            }
+            r.para(&format!(
+                "`docs/bench/open3d_voxelize.py` ({version}): \
+                 `VoxelGrid.create_from_triangle_mesh_within_bounds` on the same root cube and \
+                 grid, the voxel set only (no octree, attributes, contours or file), median of 5 \
+                 runs; ours is the whole in-memory bake (octree, attributes, contours) of the \
+                 tables above (bunny) or the pipeline table (large mesh). open3d reads vertices \
+                 as 32-bit floats, so its set can differ from the exact one by a few cells."
+            ));
+            r.table(
+                &["mesh, grid", "open3d", "svo bake", "open3d / svo", "open3d voxels", "svo leaves"],
+                &t,
+            );
+        }
+        None => r.para(if m.external {
+            "open3d is not installed here (`pip install open3d`), so it was not measured."
+        } else {
+            "Not run in this variant."
+        }),
+    }
+
+    // 4. Geometry.
+    r.heading(2, "3. Geometric error of the rendered surface, per depth and hit mode");
+    r.para(&format!(
+        "{} points sampled uniformly on the mesh by area (seed fixed); from each, one ray \
+         along the triangle's normal from either side, starting {} cells off the surface, is \
+         cast against the octree in the hit mode and against the triangles; the error is the \
+         difference of the hit distances (in cells of that depth, and in scene units). \
+         \"one-sided\" counts rays that hit in one and not the other. Contour thickness is over \
+         all leaves, in cells.",
+        p.samples,
+        geometry_error::OFFSET_CELLS
+    ));
+    let mut t = Vec::new();
+    for d in &m.per_depth {
+        for (mode, g) in &d.geometry {
+            let thick = match (mode, d.thickness) {
+                (&"contour", Some(c)) => format!(
+                    "{} / {} / {} / {}",
+                    f(c.mean, 3),
+                    f(c.p50, 3),
+                    f(c.p95, 3),
+                    f(c.max, 3)
+                ),
+                _ => String::new(),
+            };
+            t.push(vec![
+                d.depth.to_string(),
+                d.leaves.to_string(),
+                (*mode).to_string(),
+                format!("{} / {} / {}", f(g.mean, 3), f(g.p95, 3), f(g.max, 3)),
+                format!(
+                    "{} / {} / {}",
+                    sci(g.mean * d.cell),
+                    sci(g.p95 * d.cell),
+                    sci(g.max * d.cell)
+                ),
+                format!("{:.3}%", 100.0 * g.mismatch),
+                thick,
+            ]);
+        }
+    }
+    r.table(
+        &[
+            "depth",
+            "leaves",
+            "hit",
+            "error mean / p95 / max (cells)",
+            "error mean / p95 / max (scene units)",
+            "one-sided",
+            "contour thickness mean / p50 / p95 / max (cells)",
+        ],
+        &t,
+    );
+
+    // 5. Images per view.
+    r.heading(2, "4. Images: time per frame against image error, per view");
+    r.para(&format!(
+        "Shaded renders on the CPU ({} threads): one point light, transmittance shadows, up to \
+         3 reflection and 3 refraction bounces, the primary-ray prepass; median of {} frame(s) \
+         after a warm-up. Error against the triangle reference of the same camera on 8-bit \
+         sRGB; \"hit/miss\" is the share of pixels that hit in one and miss in the other; depth \
+         error is along the primary rays, in cells, where both hit. `triangles` is the reference \
+         itself (its time, error zero). The framed view is {}x{}, the others {}x{}.",
+        m.machine.threads,
+        p.runs,
+        p.framed_size.0,
+        p.framed_size.1,
+        p.view_size.0,
+        p.view_size.1
+    ));
+    for view in View::ALL {
+        r.heading(3, &format!("View `{}`", view.name()));
+        r.para(&format!("{}.", view.what()));
+        let rows: Vec<Vec<String>> = m
+            .image_rows
+            .iter()
+            .filter(|x| x.view == view)
+            .map(|x| {
+                let tri = x.mode == "triangles";
+                vec![
+                    x.depth.to_string(),
+                    x.mode.to_string(),
+                    ms(x.seconds),
+                    f(x.rays as f64 / 1e6, 2),
+                    if tri { "0".into() } else { f(x.rmse, 2) },
+                    if tri { "inf".into() } else { f(x.psnr, 2) },
+                    if tri { "0".into() } else { format!("{:.3}%", 100.0 * x.mismatch) },
+                    if tri {
+                        "0".into()
+                    } else {
+                        format!("{} / {}", f(x.depth_err.0, 3), f(x.depth_err.1, 3))
+                    },
+                    if tri { String::new() } else { f(x.steps, 1) },
+                    if tri { String::new() } else { x.capped.to_string() },
+                ]
+            })
+            .collect();
+        r.table(
+            &[
+                "depth",
+                "hit",
+                "time/frame",
+                "Mrays/frame",
+                "RMSE",
+                "PSNR dB",
+                "hit/miss",
+                "depth error mean / p95 (cells)",
+                "steps/primary ray",
+                "capped rays",
+            ],
+            &rows,
+        );
+        r.image(
+            &format!("error against time, {} view", view.name()),
+            &format!("bench/error_vs_time_{}.png", view.name()),
+        );
+        r.para(&format!(
+            "Depth {}, contour hits; the triangles; the cost heat map (traversal steps per \
+             pixel, all rays of the pixel; black = 0, red = the frame's maximum):",
+            p.image_depth
+        ));
+        let n = view.name();
+        r.para(&format!(
+            "![{n} contour](bench/{n}_contour.png) ![{n} triangles](bench/{n}_triangles.png) \
+             ![{n} cost](bench/{n}_cost.png)"
+        ));
+    }
+
+    // 6. Throughput.
+    r.heading(2, "5. Primary-ray throughput");
+    r.para(&format!(
+        "Framed view, {}x{}, primary rays only (no bounces, no shadows), median of {} frames \
+         after a warm-up, {} threads; the triangle reference through `obvhs` on the same rays.",
+        p.framed_size.0, p.framed_size.1, p.throughput_runs, m.machine.threads
+    ));
+    let mut rows: Vec<Vec<String>> = m
+        .throughput
+        .iter()
+        .map(|t| {
+            vec![
+                format!("svo, depth {}", t.depth),
+                t.mode.to_string(),
+                m.machine.threads.to_string(),
+                ms(t.seconds),
+                f(t.mrays, 1),
+                format!("{:.1}%", 100.0 * t.hit),
+            ]
+        })
+        .collect();
+    if let Some((s, mrays)) = m.embree {
+        rows.push(vec![
+            "Embree 4 (`embreex`, `docs/bench/embree_primary.py`)".into(),
+            "triangles".into(),
+            "1".into(),
+            ms(s),
+            f(mrays, 1),
+            String::new(),
+        ]);
+    }
+    r.table(
+        &["renderer", "hit", "threads", "time/frame", "Mrays/s", "rays that hit"],
+        &rows,
+    );
+    if m.embree.is_none() {
+        r.para(if m.external {
+            "Embree is not installed here (`pip install embreex trimesh`), so it was not measured."
+        } else {
+            "Embree: not run in this variant."
+        });
+    }
+
+    // 7. DDA.
+    r.heading(2, "6. The octree against the dense-grid DDA");
+    r.para(&format!(
+        "Framed view, primary rays, cube hits, no shading, median of {} frame(s). Both walks \
+         must hit the same leaf at the same parameter on every pixel.",
+        p.runs
+    ));
+    let rows: Vec<Vec<String>> = m
+        .dda_rows
+        .iter()
+        .map(|d| {
+            vec![
+                d.depth.to_string(),
+                ms(d.octree),
+                ms(d.dda),
+                format!("{:.2}x", d.dda / d.octree),
+                d.differ.to_string(),
+                d.grid_bytes.to_string(),
+            ]
+        })
+        .collect();
+    r.table(
+        &["depth", "octree", "DDA", "DDA / octree", "pixels that differ", "DDA grid bytes"],
+        &rows,
+    );
+    r.image("octree against DDA", "bench/octree_vs_dda.png");
+
+    // 8. Targets.
+    r.heading(2, "7. Targets and where we stand");
+    let mut t = Vec::new();
+    if let Some(c) = m.tables.exact(8) {
+        t.push(vec![
+            "issue 2: depth-8 bake (bunny) at most a fifth of open3d's 0.29 s (58 ms)".into(),
+            format!(
+                "{} (in-memory bake, median): {}",
+                ms(c.seconds),
+                if c.seconds <= 0.058 { "met" } else { "**not met**" }
+            ),
+        ]);
+    }
+    if let Some(c) = m.tables.exact(10) {
+        t.push(vec![
+            "issue 2: depth-10 bake (bunny) under 1 s".into(),
+            format!(
+                "{}: {}",
+                ms(c.seconds),
+                if c.seconds < 1.0 { "met" } else { "**not met**" }
+            ),
+        ]);
+    }
+    if let Some(pr) = m.pipeline.iter().find(|p| !p.label.starts_with("bunny")) {
+        let b = pr.report.bake.clone().unwrap_or_default();
+        let bake = b.voxelize_s + b.attributes_s + b.contours_s;
+        let peak = pr.peak_bytes.map_or(f64::NAN, |x| x as f64 / f64::from(1u32 << 30));
+        t.push(vec![
+            format!("issue 2: {} at depth 10 under 2 s within 4 GiB", pr.label),
+            format!(
+                "bake {}, peak {:.2} GiB: {}",
+                ms(bake),
+                peak,
+                if bake < 2.0 && peak < 4.0 { "met" } else { "**not met**" }
+            ),
+        ]);
+    }
+    if let Some((_, embree)) = m.embree
+        && let Some(ours) = m
+            .throughput
+            .iter()
+            .filter(|x| x.mode == "cube" && x.depth == 8)
+            .map(|x| x.mrays)
+            .next()
+    {
+        t.push(vec![
+            "issue 3: primary rays (depth 8) at least twice Embree's single-ray throughput".into(),
+            format!(
+                "{ours:.1} Mrays/s against Embree's {embree:.1} ({:.2}x; target 2x): {}",
+                ours / embree,
+                if ours >= 2.0 * embree { "met" } else { "**not met**" }
+            ),
+        ]);
+    }
+    if t.is_empty() {
+        r.para("(The quick variant measures no target.)");
+    } else {
+        r.table(&["target", "measured here"], &t);
+    }
+}

@@ -1,0 +1,43 @@
+//! `svo-bench`: regenerates `docs/benchmarks.md` and its plots. All the work is in the
+//! library ([`svo_bench::run`]); this file parses arguments.
+
+use clap::Parser;
+use std::path::PathBuf;
+
+/// Regenerate the benchmark report (error against run time) on this machine.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Args {
+    /// The quick variant for CI: shallow depths, tiny images, one run, no external tools.
+    #[arg(long)]
+    quick: bool,
+    /// Folder for benchmarks.md and bench/*.png (default: docs, or target/bench-quick with --quick).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// The benchmark mesh.
+    #[arg(long, default_value = "../shared/models/stanford/stanford-bunny.obj")]
+    mesh: PathBuf,
+    /// A large mesh for the pipeline table (skipped when absent).
+    #[arg(long, default_value = "../shared/models/stanford/dragon_vrip.obj.gz")]
+    large_mesh: PathBuf,
+    /// Do not run open3d and Embree even where installed.
+    #[arg(long)]
+    no_external: bool,
+}
+
+fn main() {
+    let a = Args::parse();
+    let opts = svo_bench::Options {
+        quick: a.quick,
+        out: a.out.unwrap_or_else(|| {
+            PathBuf::from(if a.quick { "target/bench-quick" } else { "docs" })
+        }),
+        mesh: a.mesh,
+        large_mesh: Some(a.large_mesh),
+        no_external: a.no_external,
+    };
+    if let Err(e) = svo_bench::run(&opts) {
+        eprintln!("svo-bench: error: {e:#}");
+        std::process::exit(1);
+    }
+}
