@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# GPU benchmark of `svo-view --headless` on the Stanford bunny (docs/benchmarks.md,
-# section 6): depths 8 and 10, cube and contour, primary rays only, shaded with one light
+# GPU benchmark of `svo-view --headless` on the Stanford bunny (docs/gpu-benchmarks.md):
+# depths 8 and 10, cube and contour, primary rays only, shaded with one light
 # and product shadows, and a glass bunny (reflection + refraction + shadows through glass);
 # each also with --full-shader (nothing left out) to measure what the scene's shader variant
 # saves, and once per depth against the CPU reference (image difference and CPU time).
@@ -10,7 +10,7 @@
 #   temporary folder first. Prints each run's report.
 # On a container with an NVIDIA driver but no libvulkan or with a GLX-only Vulkan ICD, point
 # the loader at the EGL library: a JSON with "library_path": "libEGL_nvidia.so.0" in
-# VK_DRIVER_FILES, and libvulkan.so.1 on LD_LIBRARY_PATH (see docs/benchmarks.md).
+# VK_DRIVER_FILES, and libvulkan.so.1 on LD_LIBRARY_PATH (see docs/gpu-benchmarks.md).
 set -euo pipefail
 bin=$1; mesh=$2; frames=${3:-50}
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}

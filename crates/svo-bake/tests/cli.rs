@@ -233,16 +233,20 @@ fn exports_hold_exactly_the_octree_cells() {
 }
 
 #[test]
-fn output_is_identical_for_1_and_2_threads_and_json_and_quiet_work() {
+fn output_is_identical_for_1_2_and_8_threads_and_json_and_quiet_work() {
     let Some(m) = models() else { return };
     let d = tmp();
     let a = d.path().join("a.svo");
     let b = d.path().join("b.svo");
+    let c = d.path().join("c.svo");
     let src = m.join("stanford/stanford-bunny.obj");
     ok(&[s(&src), "--depth", "8", "-o", s(&a), "--threads", "1", "-q"]);
     let quiet = ok(&[s(&src), "--depth", "8", "-o", s(&b), "--threads", "2", "-q"]);
     assert!(quiet.is_empty());
-    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    ok(&[s(&src), "--depth", "8", "-o", s(&c), "--threads", "8", "-q"]);
+    let first = std::fs::read(&a).unwrap();
+    assert_eq!(first, std::fs::read(&b).unwrap(), "1 and 2 threads differ");
+    assert_eq!(first, std::fs::read(&c).unwrap(), "1 and 8 threads differ");
     let j = ok(&[
         s(&src),
         "--depth",
@@ -367,4 +371,58 @@ fn failed_bake_keeps_the_previous_output() {
     );
     fails(&[s(&nan), "-o", s(&out)], "non-finite");
     assert_eq!(std::fs::read(&out).unwrap(), before);
+}
+
+/// Killing `svo-bake` at any moment (SIGKILL, no chance to clean up) leaves the previous
+/// output or the complete new one, never a partial file: kills spread evenly over a bake's
+/// whole run time, from before it reads its input to after it has finished.
+#[test]
+fn killed_bake_leaves_the_old_output_or_the_whole_new_one() {
+    let Some(m) = models() else { return };
+    let d = tmp();
+    let out = d.path().join("out.svo");
+    let src = m.join("stanford/stanford-bunny.obj");
+    ok(&[s(&src), "--depth", "4", "-o", s(&out), "-q"]);
+    let old = std::fs::read(&out).unwrap();
+    // The new output, made once undisturbed (the bake is deterministic), and its run time.
+    let whole = d.path().join("whole.svo");
+    let t0 = std::time::Instant::now();
+    ok(&[s(&src), "--depth", "7", "-o", s(&whole), "-q"]);
+    let run_time = t0.elapsed();
+    let new = std::fs::read(&whole).unwrap();
+    assert_ne!(old, new);
+    let (mut saw_old, mut saw_new) = (0, 0);
+    for k in 0..=12u32 {
+        let mut child = bin()
+            .args([s(&src), "--depth", "7", "-o", s(&out), "-q"])
+            .spawn()
+            .unwrap();
+        std::thread::sleep(run_time.mul_f64(f64::from(k) / 11.0));
+        let _ = child.kill();
+        let _ = child.wait();
+        let now = std::fs::read(&out).unwrap();
+        if now == old {
+            saw_old += 1;
+        } else {
+            assert!(
+                now == new,
+                "kill {k}: the output is neither the old file nor the new one"
+            );
+            saw_new += 1;
+            std::fs::write(&out, &old).unwrap();
+        }
+        // Anything else left in the folder is a temporary file beside the output.
+        for e in std::fs::read_dir(d.path()).unwrap() {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(
+                name == "out.svo" || name == "whole.svo" || name.starts_with(".out.svo."),
+                "unexpected file {name}"
+            );
+        }
+    }
+    assert!(
+        saw_old > 0,
+        "no kill landed before the rename: the test checks nothing"
+    );
+    eprintln!("kills: {saw_old} left the old output, {saw_new} the new one");
 }

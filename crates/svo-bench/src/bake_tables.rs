@@ -52,7 +52,7 @@ pub struct BakeCell {
     pub false_neg: usize,
     /// `.svo` file bytes per leaf.
     pub bytes_per_leaf: f64,
-    /// Growth of the resident set during the first run, bytes.
+    /// Peak heap bytes of the first run beyond those live before it.
     pub peak_bytes: Option<u64>,
 }
 
@@ -157,7 +157,7 @@ pub fn measure(
 }
 
 fn mib(b: Option<u64>) -> String {
-    b.map_or_else(|| "n/a".into(), |b| f(b as f64 / (1 << 20) as f64, 1))
+    b.map_or_else(|| "n/a".into(), |b| f(b as f64 / f64::from(1u32 << 20), 1))
 }
 
 /// Writes the thesis comparison and the per-strategy tables.
@@ -192,12 +192,18 @@ pub fn write(r: &mut Report, t: &BakeTables, runs_note: &str, plot: Option<&str>
     if let Some(p) = plot {
         r.image("bake time against depth per strategy", p);
     }
-    r.heading(3, "Leaves, and false positives / negatives against the exact set");
+    r.heading(
+        3,
+        "Leaves, and false positives / negatives against the exact set",
+    );
     let mut rows = Vec::new();
     for (si, s) in Strategy::ALL.iter().enumerate() {
         let mut row = vec![format!("`{s}`")];
         for c in &t.cells[si] {
-            row.push(format!("{} (+{} / -{})", c.leaves, c.false_pos, c.false_neg));
+            row.push(format!(
+                "{} (+{} / -{})",
+                c.leaves, c.false_pos, c.false_neg
+            ));
         }
         rows.push(row);
     }
@@ -218,7 +224,10 @@ pub fn write(r: &mut Report, t: &BakeTables, runs_note: &str, plot: Option<&str>
         })
         .collect();
     r.table(&h2, &rows);
-    r.heading(3, "Peak memory of the bake (MiB above the resident set before it)");
+    r.heading(
+        3,
+        "Peak heap memory of the bake (MiB live at once beyond what was live before it)",
+    );
     let rows: Vec<Vec<String>> = Strategy::ALL
         .iter()
         .enumerate()
@@ -242,7 +251,7 @@ pub struct PipelineRow {
     pub report: BakeReport,
     /// Every run's total seconds.
     pub totals: Vec<f64>,
-    /// Peak resident growth of the first run (load included), bytes.
+    /// Peak heap bytes of the first run (loading included) beyond those live before it.
     pub peak_bytes: Option<u64>,
 }
 

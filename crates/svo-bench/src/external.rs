@@ -48,9 +48,24 @@ pub struct Open3d {
     pub voxels: usize,
 }
 
-/// Runs `open3d_voxelize.py` on `mesh` at `depths`; also returns open3d's version line.
-pub fn open3d(mesh: &Path, depths: &[u8]) -> anyhow::Result<(String, Vec<Open3d>)> {
+/// Runs `open3d_voxelize.py` on `mesh` at `depths` (a gzipped mesh is unpacked into `dir`
+/// first: open3d reads no `.gz`); also returns open3d's version line.
+pub fn open3d(mesh: &Path, depths: &[u8], dir: &Path) -> anyhow::Result<(String, Vec<Open3d>)> {
     let script = scripts().join("open3d_voxelize.py");
+    let mesh = if mesh.extension().is_some_and(|e| e == "gz") {
+        let o = Command::new("gzip").arg("-dc").arg(mesh).output()?;
+        if !o.status.success() {
+            anyhow::bail!("gzip -dc {} failed", mesh.display());
+        }
+        let stem = mesh
+            .file_stem()
+            .map_or_else(|| "mesh.obj".into(), std::ffi::OsStr::to_os_string);
+        let out = dir.join(stem);
+        std::fs::write(&out, o.stdout)?;
+        out
+    } else {
+        mesh.to_path_buf()
+    };
     let mut args = vec![
         script.to_string_lossy().into_owned(),
         mesh.to_string_lossy().into_owned(),

@@ -8,6 +8,7 @@ use crate::views::View;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
+use svo::Octree;
 use svo::camera::{Camera, CameraRays};
 use svo::exact_surfaces::exact_surfaces;
 use svo::grid_dda::{DenseGrid, traverse_dda};
@@ -17,11 +18,13 @@ use svo::mesh::Mesh;
 use svo::mesh_reference::MeshSurfaces;
 use svo::octree_traverse::MAX_STEPS;
 use svo::render::{Frame, render_timed};
+use svo::render_job::JobScene;
 use svo::shading::{Phong, PointLight};
 use svo::sky::Sky;
 use svo::surfaces::{OctreeSurfaces, Surfaces};
 use svo::whitted::{ShadowMode, TraceOptions, Tracer};
-use svo::Octree;
+use svo_view::gpu_context::GpuContext;
+use svo_view::headless::render_scene;
 
 /// One render measured against the reference.
 #[derive(Clone, Debug)]
@@ -48,6 +51,8 @@ pub struct ImageRow {
     pub capped: u64,
     /// Rays per frame (primary, secondary and shadow).
     pub rays: u64,
+    /// Median seconds per frame on the GPU, and the GPU image's PSNR against the CPU image.
+    pub gpu: Option<(f64, f64)>,
 }
 
 /// The frames of one view at one depth kept for the report's pictures.
@@ -107,17 +112,46 @@ fn row(
         steps: s.primary_steps as f64 / s.primary_rays.max(1) as f64,
         capped: s.capped,
         rays: s.primary_rays + s.secondary_rays + s.shadow_rays,
+        gpu: None,
     }
 }
 
+/// The same frame on the GPU: median seconds of `runs` frames after an untimed one, and the
+/// PSNR of its image against the CPU's.
+fn gpu_frame(
+    ctx: &GpuContext,
+    tree: &Octree,
+    cam: &Camera,
+    light: PointLight,
+    mode: HitMode,
+    runs: u32,
+    cpu: &Frame,
+) -> anyhow::Result<(f64, f64)> {
+    let scene = JobScene {
+        tree: tree.clone(),
+        camera: *cam,
+        lights: vec![light],
+        sky: Sky::default(),
+        phong: Phong::default(),
+    };
+    let opts = TraceOptions {
+        mode,
+        ..TraceOptions::default()
+    };
+    let g = render_scene(ctx, &scene, &opts, false, Some(runs))?;
+    let d = svo::image_compare::compare(&g.frame, cpu).expect("frames of one camera");
+    Ok((median(&g.times), d.psnr_db))
+}
+
 /// Renders `view` of `tree` (baked from `mesh`) in every hit mode and as triangles, `runs`
-/// timed frames each after a warm-up.
+/// timed frames each after a warm-up; cube and contour also on `gpu` when given.
 pub fn measure_view(
     view: View,
     tree: &Octree,
     mesh: &Mesh,
     (width, height): (u32, u32),
     runs: u32,
+    gpu: Option<&GpuContext>,
 ) -> anyhow::Result<(Vec<ImageRow>, ViewFrames)> {
     let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
     let cam = view.camera(lo, hi, width, height);
@@ -125,13 +159,25 @@ pub fn measure_view(
     let opts = TraceOptions::default();
     let depth = tree.depth;
     let cells_per_unit = f64::from(1u32 << depth) / tree.root.side;
-    let reference_tracer = tracer(MeshSurfaces::new(mesh.clone(), tree.root, depth), light, opts);
+    let reference_tracer = tracer(
+        MeshSurfaces::new(mesh.clone(), tree.root, depth),
+        light,
+        opts,
+    );
     let (reference, ref_s) = timed(&reference_tracer, &cam, runs)?;
     let mut rows = Vec::new();
     let mut contour = None;
     for mode in [HitMode::Cube, HitMode::Contour] {
-        let (f, s) = timed(&tracer(OctreeSurfaces::new(tree, mode), light, opts), &cam, runs)?;
-        rows.push(row(view, depth, mode.name(), &f, s, &reference, cells_per_unit));
+        let (f, s) = timed(
+            &tracer(OctreeSurfaces::new(tree, mode), light, opts),
+            &cam,
+            runs,
+        )?;
+        let mut r = row(view, depth, mode.name(), &f, s, &reference, cells_per_unit);
+        if let Some(ctx) = gpu {
+            r.gpu = Some(gpu_frame(ctx, tree, &cam, light, mode, runs, &f)?);
+        }
+        rows.push(r);
         if mode == HitMode::Contour {
             contour = Some(f);
         }
@@ -139,7 +185,15 @@ pub fn measure_view(
     let exact = exact_surfaces(tree, mesh).map_err(anyhow::Error::msg)?;
     let (f, s) = timed(&tracer(exact, light, opts), &cam, runs)?;
     rows.push(row(view, depth, "exact", &f, s, &reference, cells_per_unit));
-    rows.push(row(view, depth, "triangles", &reference, ref_s, &reference, cells_per_unit));
+    rows.push(row(
+        view,
+        depth,
+        "triangles",
+        &reference,
+        ref_s,
+        &reference,
+        cells_per_unit,
+    ));
     Ok((
         rows,
         ViewFrames {
@@ -194,10 +248,18 @@ pub fn throughput(
     };
     for mode in [HitMode::Cube, HitMode::Contour] {
         let o = TraceOptions { mode, ..opts };
-        let (f, s) = timed(&tracer(OctreeSurfaces::new(tree, mode), light, o), &cam, runs)?;
+        let (f, s) = timed(
+            &tracer(OctreeSurfaces::new(tree, mode), light, o),
+            &cam,
+            runs,
+        )?;
         push(mode.name(), &f, s);
     }
-    let reference = tracer(MeshSurfaces::new(mesh.clone(), tree.root, tree.depth), light, opts);
+    let reference = tracer(
+        MeshSurfaces::new(mesh.clone(), tree.root, tree.depth),
+        light,
+        opts,
+    );
     let (f, s) = timed(&reference, &cam, runs)?;
     push("triangles", &f, s);
     Ok(out)

@@ -4,6 +4,10 @@
 use clap::Parser;
 use std::path::PathBuf;
 
+/// Counts heap bytes so the report can give each bake's peak memory.
+#[global_allocator]
+static ALLOC: svo_bench::peak_memory::CountingAlloc = svo_bench::peak_memory::CountingAlloc;
+
 /// Regenerate the benchmark report (error against run time) on this machine.
 #[derive(Parser, Debug)]
 #[command(version, about)]
@@ -23,6 +27,12 @@ struct Args {
     /// Do not run open3d and Embree even where installed.
     #[arg(long)]
     no_external: bool,
+    /// Do not use the GPU even where an adapter exists.
+    #[arg(long)]
+    no_gpu: bool,
+    /// Time a software GPU adapter (lavapipe) too; the quick variant always uses one.
+    #[arg(long)]
+    software_gpu: bool,
 }
 
 fn main() {
@@ -30,11 +40,17 @@ fn main() {
     let opts = svo_bench::Options {
         quick: a.quick,
         out: a.out.unwrap_or_else(|| {
-            PathBuf::from(if a.quick { "target/bench-quick" } else { "docs" })
+            PathBuf::from(if a.quick {
+                "target/bench-quick"
+            } else {
+                "docs"
+            })
         }),
         mesh: a.mesh,
         large_mesh: Some(a.large_mesh),
         no_external: a.no_external,
+        no_gpu: a.no_gpu,
+        software_gpu: a.software_gpu,
     };
     if let Err(e) = svo_bench::run(&opts) {
         eprintln!("svo-bench: error: {e:#}");

@@ -1,40 +1,85 @@
-//! Peak memory of a measured step: Linux keeps the process's resident high-water mark
-//! (`VmHWM`), and writing `5` to `/proc/self/clear_refs` resets it to the current resident
-//! set, so the peak of one step is its high-water mark less the resident set before it.
-//! Elsewhere (or where the reset is refused) the figure is absent, not made up.
+//! Peak heap memory of a measured step: the benchmark binary's global allocator counts the
+//! bytes live on the heap and their high-water mark, so the peak of a step is the mark
+//! reached during it less the bytes live before it. This counts what the program asked
+//! for (heap only: no stacks, code or mapped files), exactly and whatever the allocator
+//! keeps cached, which the resident set of a process does not tell.
 
-/// Resident kilobytes of `field` (`VmRSS`, `VmHWM`) in `/proc/self/status`.
-fn status_kib(field: &str) -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let l = s.lines().find(|l| l.starts_with(field))?;
-    l.split_whitespace().nth(1)?.parse().ok()
+// The allocator below is the one place in the project that needs `unsafe`: `GlobalAlloc`
+// is an unsafe trait. Every call is passed unchanged to the system allocator.
+#![allow(unsafe_code)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The system allocator, counting live bytes and their high-water mark.
+pub struct CountingAlloc;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+fn grew(n: usize) {
+    let now = LIVE.fetch_add(n, Ordering::Relaxed) + n;
+    PEAK.fetch_max(now, Ordering::Relaxed);
 }
 
-/// Runs `f` and returns its result with the bytes its peak resident set grew by, when the
-/// platform can tell.
-pub fn measure<T>(f: impl FnOnce() -> T) -> (T, Option<u64>) {
-    let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
-    let before = status_kib("VmRSS:");
-    let out = f();
-    let peak = status_kib("VmHWM:");
-    let grew = match (reset, before, peak) {
-        (true, Some(b), Some(p)) => Some(p.saturating_sub(b) * 1024),
-        _ => None,
-    };
-    (out, grew)
+fn shrank(n: usize) {
+    LIVE.fetch_sub(n, Ordering::Relaxed);
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn a_large_allocation_shows() {
-        let (_, grew) = super::measure(|| {
-            let v = vec![1u8; 64 << 20];
-            std::hint::black_box(&v);
-            v.iter().map(|&b| u64::from(b)).sum::<u64>()
-        });
-        if let Some(g) = grew {
-            assert!(g >= 60 << 20, "grew by {g} bytes");
+// SAFETY: every method forwards its arguments unchanged to `System`, which upholds the
+// `GlobalAlloc` contract; the counters are plain atomics and never touch the memory.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: the caller upholds `alloc`'s contract for `layout`, which is `System`'s.
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            grew(layout.size());
         }
+        p
     }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: as for `alloc`.
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            grew(layout.size());
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from this allocator (that is, from `System`) with `layout`.
+        unsafe { System.dealloc(ptr, layout) };
+        shrank(layout.size());
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        // SAFETY: `ptr` came from `System` with `layout`; the caller upholds the rest.
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            if new_size >= layout.size() {
+                grew(new_size - layout.size());
+            } else {
+                shrank(layout.size() - new_size);
+            }
+        }
+        p
+    }
+}
+
+/// Whether the counting allocator is the global one (the `svo-bench` binary installs it;
+/// a library user or a test harness may not).
+pub fn counting() -> bool {
+    LIVE.load(Ordering::Relaxed) > 0
+}
+
+/// Runs `f` and returns its result with the most heap bytes that were live at once during
+/// it beyond those live before it; `None` when the counting allocator is not installed.
+pub fn measure<T>(f: impl FnOnce() -> T) -> (T, Option<u64>) {
+    let before = LIVE.load(Ordering::Relaxed);
+    PEAK.store(before, Ordering::Relaxed);
+    let out = f();
+    let peak = PEAK.load(Ordering::Relaxed);
+    let grew = counting().then(|| peak.saturating_sub(before) as u64);
+    (out, grew)
 }

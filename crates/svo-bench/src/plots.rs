@@ -92,8 +92,14 @@ pub fn error_vs_time(rows: &[ImageRow], path: &Path, caption: &str) -> anyhow::R
     let (lo, hi) = shown
         .iter()
         .map(|r| psnr(r))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 70.0) };
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    let (lo, hi) = if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 70.0)
+    };
     let mut c = ChartBuilder::on(&root)
         .caption(caption, ("sans-serif", 20))
         .margin(12)
@@ -104,15 +110,22 @@ pub fn error_vs_time(rows: &[ImageRow], path: &Path, caption: &str) -> anyhow::R
         .x_desc("ms per frame (median)")
         .y_desc("PSNR vs triangles, dB (capped at 70)")
         .draw()?;
-    for (mode, colour) in [("cube", COLOURS[0]), ("contour", COLOURS[1]), ("exact", COLOURS[2])] {
+    for (mode, colour) in [
+        ("cube", COLOURS[0]),
+        ("contour", COLOURS[1]),
+        ("exact", COLOURS[2]),
+    ] {
         let pts: Vec<(f64, f64, u8)> = shown
             .iter()
             .filter(|r| r.mode == mode)
             .map(|r| (r.seconds * 1e3, psnr(r), r.depth))
             .collect();
-        c.draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))?
-            .label(mode)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+        c.draw_series(LineSeries::new(
+            pts.iter().map(|p| (p.0, p.1)),
+            colour.stroke_width(2),
+        ))?
+        .label(mode)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
         c.draw_series(pts.iter().map(|&(x, y, d)| {
             EmptyElement::at((x, y))
                 + Circle::new((0, 0), 3, colour.filled())
@@ -173,7 +186,12 @@ pub fn octree_vs_dda(rows: &[DdaRow], path: &Path) -> anyhow::Result<()> {
     {
         let pts: Vec<(f64, f64)> = rows
             .iter()
-            .map(|r| (f64::from(r.depth), if i == 0 { r.octree } else { r.dda } * 1e3))
+            .map(|r| {
+                (
+                    f64::from(r.depth),
+                    if i == 0 { r.octree } else { r.dda } * 1e3,
+                )
+            })
             .collect();
         c.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
             .label(name)

@@ -546,7 +546,7 @@ impl Placement {
         match self.stacks {
             StackPlacement::Private => (false, false),
             StackPlacement::Workgroup => (true, variant.reflections),
-            // Measured on the H100 (docs/benchmarks.md section 6): the ancestor stack in
+            // Measured on the H100 (docs/gpu-benchmarks.md): the ancestor stack in
             // workgroup memory makes frames without bounces up to 1.7x faster, but costs
             // bouncing (glass) frames 1.5x, and the ray stack there 2.7x: the shared memory
             // they take lets fewer of those heavier workgroups run at once.

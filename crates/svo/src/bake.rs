@@ -7,8 +7,9 @@ use crate::leaf_attributes::{self, ChannelSelection, ContourStats};
 use crate::mesh::{Mesh, MeshError};
 use crate::octree::{ChannelKind, ChannelStorage, Octree};
 use crate::octree_build::{self, LeafTriangles};
+use crate::overlap::triangle_box_overlap;
 use crate::strategy::Strategy;
-use crate::triangle_setup::{setup_triangles_in_order, spatial_order};
+use crate::triangle_setup::{GridTriangle, setup_triangles_in_order, spatial_order};
 use std::time::Instant;
 use thiserror::Error;
 
@@ -113,6 +114,9 @@ pub struct BakeStats {
     pub overlap_tests: u64,
     /// Triangle/leaf pairs kept.
     pub leaf_triangle_pairs: usize,
+    /// Leaves that no triangle touches (an inexact strategy's false positives, counted with
+    /// the exact test on each leaf's triangles); zero for exact strategies.
+    pub false_positives: usize,
     /// Seconds spent voxelizing.
     pub voxelize_s: f64,
     /// Seconds spent on attributes.
@@ -208,6 +212,11 @@ pub fn bake_mesh(
         progress(Phase::Voxelize, f)
     });
     let voxelize_s = t0.elapsed().as_secs_f64();
+    let false_positives = if opts.strategy.is_exact() {
+        0
+    } else {
+        count_false_positives(&tris, &vox.leaves)
+    };
     progress(Phase::Attributes, 0.0);
     let (attributes, rep) =
         leaf_attributes::compute(mesh, &tris, &order, &vox.leaves, opts.channels);
@@ -241,6 +250,7 @@ pub fn bake_mesh(
         estimated_leaves,
         overlap_tests: vox.tests,
         leaf_triangle_pairs: vox.leaves.tris.len(),
+        false_positives,
         voxelize_s,
         attributes_s: rep.attributes.as_secs_f64(),
         contours_s: rep.contours.as_secs_f64(),
@@ -252,6 +262,29 @@ pub fn bake_mesh(
     // MB on deep trees; unmapping them takes tens of ms, which nobody needs to wait for.
     drop_in_background((vox.leaves, tris, order));
     Ok((tree, stats))
+}
+
+/// Leaves whose cell no triangle of their list touches, by the exact test (a leaf's list
+/// holds every triangle that could touch it, so this is the exact count).
+fn count_false_positives(tris: &[GridTriangle], leaves: &LeafTriangles) -> usize {
+    let untouched = |i: usize| {
+        let c = leaves.cells[i];
+        let m = glam::DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+        !leaves
+            .triangles(i)
+            .iter()
+            .any(|&t| triangle_box_overlap(&tris[t as usize], m, 1.0))
+    };
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        (0..leaves.cells.len())
+            .into_par_iter()
+            .filter(|&i| untouched(i))
+            .count()
+    }
+    #[cfg(not(feature = "parallel"))]
+    (0..leaves.cells.len()).filter(|&i| untouched(i)).count()
 }
 
 /// Bytes of memory available to a new process (Linux `MemAvailable`), if known.

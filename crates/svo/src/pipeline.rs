@@ -241,23 +241,32 @@ impl fmt::Display for BakeReport {
                 "  tree        {} nodes, {} leaves (estimated {:.0}), {} triangle/leaf pairs",
                 self.nodes, self.leaves, b.estimated_leaves, b.leaf_triangle_pairs
             )?;
+            let strategy = if b.exact {
+                "exact: every touched cell, no false positive".to_string()
+            } else {
+                format!(
+                    "inexact: {} false positives ({:.2}% of the leaves; `exact` avoids them)",
+                    b.false_positives,
+                    100.0 * b.false_positives as f64 / self.leaves.max(1) as f64
+                )
+            };
+            writeln!(f, "  accuracy    strategy {} ({strategy})", b.strategy)?;
             writeln!(
                 f,
-                "  accuracy    strategy {} ({}); cell {:.4e} units; cube error <= {:.4e} units (cell diagonal)",
-                b.strategy,
-                if b.exact {
-                    "exact: no false positives or negatives"
-                } else {
-                    "inexact: a superset of the touched cells"
-                },
+                "  error       cell {:.4e} units; as cubes the surface is off by up to {:.4e} units (a cell diagonal)",
                 b.cell_size,
                 b.cell_size * 3f64.sqrt()
             )?;
             if let Some(c) = &b.contour_thickness {
                 writeln!(
                     f,
-                    "  contours    thickness mean {:.3} cells, p95 {:.3}, max {:.3} (cube: up to 1.732)",
-                    c.mean, c.p95, c.max
+                    "  contours    thickness mean {:.3} cells, p95 {:.3}, max {:.3}: as contours the surface lies \
+                     within a slab of {:.4e} units (mean; p95 {:.4e})",
+                    c.mean,
+                    c.p95,
+                    c.max,
+                    c.mean * b.cell_size,
+                    c.p95 * b.cell_size
                 )?;
             }
             let ch: Vec<String> = b.channels.iter().map(|(k, s)| format!("{k}:{s}")).collect();

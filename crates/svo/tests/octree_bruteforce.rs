@@ -108,6 +108,40 @@ fn octree_equals_brute_force_for_every_strategy() {
     }
 }
 
+/// The bake's false-positive count for an inexact strategy is exactly the cells it keeps
+/// that the brute force says no triangle touches.
+#[test]
+fn inexact_strategies_count_their_false_positives() {
+    let mut seen = 0;
+    for seed in 0..4u64 {
+        let (mesh, tris) = lattice_mesh(300 + seed, 16);
+        for depth in 2..=5u8 {
+            let expect = brute_force(&tris, depth);
+            for strategy in Strategy::ALL {
+                let opts = svo::BakeOptions {
+                    depth,
+                    strategy,
+                    ..Default::default()
+                };
+                let (tree, stats) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+                let extra = tree
+                    .leaves()
+                    .filter(|l| !expect.contains_key(&l.cell.to_array()))
+                    .count();
+                assert_eq!(
+                    stats.false_positives, extra,
+                    "seed {seed} depth {depth} {strategy}"
+                );
+                seen += extra;
+            }
+        }
+    }
+    assert!(
+        seen > 0,
+        "the meshes made no false positive: the test checks nothing"
+    );
+}
+
 #[test]
 fn tree_structure_matches_leaf_cells() {
     let (mesh, _) = lattice_mesh(42, 40);
