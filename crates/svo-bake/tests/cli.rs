@@ -426,3 +426,28 @@ fn killed_bake_leaves_the_old_output_or_the_whole_new_one() {
     );
     eprintln!("kills: {saw_old} left the old output, {saw_new} the new one");
 }
+
+/// The glTF files on which the gltf crates panic (found by the `mesh_import` fuzz target,
+/// kept in `fixtures/fuzz/mesh_import/crash-gltf-*`, whose first byte picks the format) are
+/// refused with one clear line.
+#[test]
+fn hostile_gltf_files_give_one_clear_line() {
+    let d = tmp();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/fuzz/mesh_import");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if !name.starts_with("crash-gltf-") {
+            continue;
+        }
+        let bytes = std::fs::read(&p).unwrap();
+        let input = d.path().join(format!("{name}.gltf"));
+        std::fs::write(&input, &bytes[1..]).unwrap();
+        let out = d.path().join("out.svo");
+        fails(&[s(&input), "-o", s(&out)], "gltf");
+        assert!(!out.exists());
+        n += 1;
+    }
+    assert!(n >= 3, "only {n} hostile glTF files");
+}

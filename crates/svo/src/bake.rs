@@ -260,7 +260,10 @@ pub fn bake_mesh(
     };
     // The build's temporaries (leaf triangle lists, grid-space triangles) run to hundreds of
     // MB on deep trees; unmapping them takes tens of ms, which nobody needs to wait for.
-    drop_in_background((vox.leaves, tris, order));
+    // Small ones are dropped here: a thread costs more than freeing them.
+    if vox.leaves.tris.len() + tris.len() > 1 << 16 {
+        drop_in_background((vox.leaves, tris, order));
+    }
     Ok((tree, stats))
 }
 

@@ -62,6 +62,45 @@ pub(crate) fn parse_error(path: &Path, message: impl std::fmt::Display) -> MeshE
     }
 }
 
+/// Reads and validates a mesh held in memory, in `format` (`ObjGz` is read as gzip). Files
+/// the mesh refers to (MTL libraries, textures, external glTF buffers) cannot be resolved
+/// from memory: OBJ materials fall back to the default, glTF references are an error.
+/// `name` appears in error messages.
+#[cfg_attr(
+    not(any(feature = "obj", feature = "ply", feature = "gltf")),
+    allow(unreachable_code, unused_variables)
+)]
+pub fn mesh_from_bytes(bytes: &[u8], format: MeshFormat, name: &Path) -> Result<Mesh, MeshError> {
+    let mesh: Mesh = match format {
+        #[cfg(feature = "obj")]
+        MeshFormat::Obj => import_obj::obj_from_bytes(bytes, name)?,
+        #[cfg(feature = "obj")]
+        MeshFormat::ObjGz => {
+            use std::io::Read;
+            let mut text = Vec::new();
+            flate2::read::GzDecoder::new(bytes)
+                .read_to_end(&mut text)
+                .map_err(|e| io_error(name, e))?;
+            import_obj::obj_from_bytes(&text, name)?
+        }
+        #[cfg(feature = "ply")]
+        MeshFormat::Ply => import_ply::ply_from_bytes(bytes, name)?,
+        #[cfg(feature = "gltf")]
+        MeshFormat::Gltf => import_gltf::gltf_from_bytes(bytes, name)?,
+        #[allow(unreachable_patterns)]
+        _ => {
+            return Err(MeshError::UnknownFormat {
+                path: name.display().to_string(),
+                extension: format!(
+                    "{format:?} (support not compiled in: enable the cargo feature)"
+                ),
+            });
+        }
+    };
+    mesh.validate()?;
+    Ok(mesh)
+}
+
 /// Loads and validates a mesh, choosing the importer by extension.
 // Without any importer feature every arm returns early.
 #[cfg_attr(

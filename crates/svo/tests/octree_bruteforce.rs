@@ -46,32 +46,7 @@ fn lattice_mesh(seed: u64, n: usize) -> (Mesh, Vec<[[i128; 3]; 3]>) {
 }
 
 fn brute_force(tris: &[[[i128; 3]; 3]], depth: u8) -> BTreeMap<[u32; 3], BTreeSet<u32>> {
-    // Grid cell size in lattice units: the root [0, 64] holds 2^depth cells.
-    let side = 1i128 << depth;
-    let mut out: BTreeMap<[u32; 3], BTreeSet<u32>> = BTreeMap::new();
-    for (ti, t) in tris.iter().enumerate() {
-        // scale the lattice by 2^depth so that a cell is 64 units
-        let v = t.map(|p| p.map(|c| c * side));
-        let lo = (0..3)
-            .map(|k| v.iter().map(|p| p[k]).min().unwrap())
-            .collect::<Vec<_>>();
-        let hi = (0..3)
-            .map(|k| v.iter().map(|p| p[k]).max().unwrap())
-            .collect::<Vec<_>>();
-        let range = |k: usize| ((lo[k] / 64 - 1).max(0))..=((hi[k] / 64 + 1).min(side - 1));
-        for x in range(0) {
-            for y in range(1) {
-                for z in range(2) {
-                    if ref_sat(v, [x * 64, y * 64, z * 64], 64).overlap() {
-                        out.entry([x as u32, y as u32, z as u32])
-                            .or_default()
-                            .insert(ti as u32);
-                    }
-                }
-            }
-        }
-    }
-    out
+    lattice_brute_force(tris, depth)
 }
 
 #[test]

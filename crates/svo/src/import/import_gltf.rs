@@ -168,12 +168,221 @@ impl Loader<'_> {
     }
 }
 
-/// Loads a `.gltf` or `.glb` file with its buffers and images.
+/// Loads a `.gltf` or `.glb` file with its buffers and images (resolved beside it).
 pub fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
-    let (doc, buffers, images) = gltf::import(path).map_err(|e| parse_error(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| super::io_error(path, e))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    read_gltf(&bytes, path, Some(base))
+}
+
+/// Reads a glTF (JSON with embedded `data:` buffers and images) or GLB from memory; files
+/// it refers to cannot be resolved and are an error. `name` appears in error messages.
+pub fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    read_gltf(bytes, name, None)
+}
+
+/// Parses, validates and converts a glTF document; `base` resolves its file references.
+fn read_gltf(bytes: &[u8], name: &Path, base: Option<&Path>) -> Result<Mesh, MeshError> {
+    precheck(bytes, name)?;
+    // The checks above cover every panic we know of in the gltf crates; a panic we do not
+    // know of still becomes an error for this file instead of ending the program.
+    let imported = std::panic::catch_unwind(|| {
+        let err = |e: gltf::Error| parse_error(name, e);
+        let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(err)?;
+        check_accessors(&document, name)?;
+        let buffers = gltf::import_buffers(&document, base, blob).map_err(err)?;
+        let images = gltf::import_images(&document, base, &buffers).map_err(err)?;
+        Ok::<_, MeshError>((document, buffers, images))
+    })
+    .map_err(|_| parse_error(name, "the glTF library failed on this file"))?;
+    let (doc, buffers, images) = imported?;
+    convert(name, &doc, &buffers, &images)
+}
+
+/// Refuses accessors that gltf 1.4's readers assert against (in builds with debug
+/// assertions) or compute with unchecked arithmetic: a buffer-view stride smaller than the
+/// element, an accessor of no elements or more than its buffer view holds, a sparse
+/// accessor of zero entries or more than fit (the specification requires at least one),
+/// and positions, texture coordinates or indices in a layout their meaning does not allow.
+/// Found by the `mesh_import` fuzz target.
+fn check_accessors(doc: &gltf::Document, name: &Path) -> Result<(), MeshError> {
+    for a in doc.accessors() {
+        if a.count() == 0 {
+            return Err(parse_error(
+                name,
+                format!("accessor {}: count 0 (at least 1 is required)", a.index()),
+            ));
+        }
+        if let Some(view) = a.view() {
+            let stride = view.stride().unwrap_or(a.size());
+            let end = (a.count() - 1)
+                .checked_mul(stride)
+                .and_then(|x| x.checked_add(a.size()))
+                .and_then(|x| x.checked_add(a.offset()));
+            if end.is_none_or(|e| e > view.length()) {
+                return Err(parse_error(
+                    name,
+                    format!(
+                        "accessor {}: {} elements do not fit its buffer view of {} bytes",
+                        a.index(),
+                        a.count(),
+                        view.length()
+                    ),
+                ));
+            }
+        }
+        if let Some(sp) = a.sparse()
+            && (sp.count() > a.count()
+                || sp
+                    .count()
+                    .checked_mul(a.size())
+                    .is_none_or(|n| n > sp.values().view().length()))
+        {
+            return Err(parse_error(
+                name,
+                format!(
+                    "accessor {}: {} sparse values do not fit",
+                    a.index(),
+                    sp.count()
+                ),
+            ));
+        }
+        if let Some(stride) = a.view().and_then(|v| v.stride())
+            && stride < a.size()
+        {
+            return Err(parse_error(
+                name,
+                format!(
+                    "accessor {}: buffer view stride {stride} is smaller than its {}-byte elements",
+                    a.index(),
+                    a.size()
+                ),
+            ));
+        }
+        if let Some(sp) = a.sparse()
+            && sp.count() == 0
+        {
+            return Err(parse_error(
+                name,
+                format!("accessor {}: sparse with no entries", a.index()),
+            ));
+        }
+    }
+    // The readers take the accessor's layout from the attribute's meaning, so it must be one
+    // the specification allows for that meaning.
+    use gltf::accessor::{DataType as D, Dimensions as Dim};
+    use gltf::mesh::Semantic;
+    for m in doc.meshes() {
+        for p in m.primitives() {
+            let wrong = |what: &str, a: &gltf::Accessor<'_>| {
+                parse_error(
+                    name,
+                    format!(
+                        "mesh {}, primitive {}: {what} accessor {} is {:?} {:?}",
+                        m.index(),
+                        p.index(),
+                        a.index(),
+                        a.dimensions(),
+                        a.data_type()
+                    ),
+                )
+            };
+            for (sem, a) in p.attributes() {
+                let ok = match sem {
+                    Semantic::Positions => a.dimensions() == Dim::Vec3 && a.data_type() == D::F32,
+                    Semantic::TexCoords(_) => {
+                        a.dimensions() == Dim::Vec2
+                            && matches!(a.data_type(), D::U8 | D::U16 | D::F32)
+                    }
+                    _ => true,
+                };
+                if !ok {
+                    return Err(wrong("an attribute's", &a));
+                }
+            }
+            if let Some(a) = p.indices()
+                && !(a.dimensions() == Dim::Scalar
+                    && matches!(a.data_type(), D::U8 | D::U16 | D::U32))
+            {
+                return Err(wrong("the index", &a));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses what gltf 1.4 would panic on instead of reporting: a primitive attribute naming
+/// an accessor that does not exist (its validation indexes the accessors unchecked), and a
+/// relative URI whose percent-decoding is not UTF-8 (its import unwraps the decoding).
+/// Found by the `mesh_import` fuzz target.
+fn precheck(bytes: &[u8], name: &Path) -> Result<(), MeshError> {
+    let g = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| parse_error(name, e))?;
+    let root = g.document.as_json();
+    for (mi, m) in root.meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            for idx in p.attributes.values() {
+                if idx.value() >= root.accessors.len() {
+                    return Err(parse_error(
+                        name,
+                        format!(
+                            "mesh {mi}, primitive {pi}: accessor {} does not exist ({} accessors)",
+                            idx.value(),
+                            root.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
+    for uri in uris {
+        if !uri.contains(':') && !percent_decodes_to_utf8(uri) {
+            return Err(parse_error(
+                name,
+                format!("URI {uri:?} does not percent-decode to UTF-8"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `%XX`-decoding `s` gives valid UTF-8 (a `%` without two hex digits stays as is,
+/// as the `urlencoding` crate leaves it).
+fn percent_decodes_to_utf8(s: &str) -> bool {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%'
+            && let (Some(h), Some(l)) = (
+                b.get(i + 1).copied().and_then(hex),
+                b.get(i + 2).copied().and_then(hex),
+            )
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    std::str::from_utf8(&out).is_ok()
+}
+
+fn convert(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    images: &[gltf::image::Data],
+) -> Result<Mesh, MeshError> {
     let mut l = Loader {
-        buffers: &buffers,
-        images: &images,
+        buffers,
+        images,
         tex_of_image: HashMap::new(),
         mat_index: HashMap::new(),
         mesh: Mesh::default(),
@@ -208,4 +417,19 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         mesh.triangle_uvs.clear();
     }
     Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::percent_decodes_to_utf8;
+
+    #[test]
+    fn percent_decoding_checks_utf8() {
+        assert!(percent_decodes_to_utf8("plain.bin"));
+        assert!(percent_decodes_to_utf8("a%20b.bin"));
+        assert!(percent_decodes_to_utf8("%C3%A9.bin"));
+        assert!(percent_decodes_to_utf8("100%"));
+        assert!(!percent_decodes_to_utf8("%FF.bin"));
+        assert!(!percent_decodes_to_utf8("%C3"));
+    }
 }

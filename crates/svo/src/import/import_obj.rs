@@ -9,29 +9,45 @@ use super::{io_error, parse_error};
 use crate::mesh::{Material, Mesh, MeshError, Texture};
 use glam::{DVec3, Vec2};
 use std::collections::HashMap;
-use std::io::BufReader;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-/// Loads an OBJ file (gzip-compressed when `gz`).
+/// Loads an OBJ file (gzip-compressed when `gz`); MTL files and textures are looked up
+/// beside it.
 pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    if gz {
+        let mut r = BufReader::new(flate2::read::GzDecoder::new(file));
+        read_obj(&mut r, path, Some(&dir))
+    } else {
+        read_obj(&mut BufReader::new(file), path, Some(&dir))
+    }
+}
+
+/// Reads an OBJ from memory (uncompressed). Material libraries and textures cannot be
+/// resolved without a folder, so every triangle gets the default material; `name` appears
+/// in error messages.
+pub fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    read_obj(&mut std::io::Cursor::new(bytes), name, None)
+}
+
+/// Reads an OBJ from `r`; `dir` is where its MTL files and textures are, if anywhere.
+fn read_obj(r: &mut dyn BufRead, path: &Path, dir: Option<&Path>) -> Result<Mesh, MeshError> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    let mtl_dir = dir.clone();
-    let loader = move |p: &Path| tobj::load_mtl(mtl_dir.join(p));
-    let (models, materials) = if gz {
-        let mut r = BufReader::new(flate2::read::GzDecoder::new(file));
-        tobj::load_obj_buf(&mut r, &opts, loader)
-    } else {
-        let mut r = BufReader::new(file);
-        tobj::load_obj_buf(&mut r, &opts, loader)
-    }
-    .map_err(|e| parse_error(path, e))?;
+    let mtl_dir = dir.map(Path::to_path_buf);
+    let loader = move |p: &Path| match &mtl_dir {
+        Some(d) => tobj::load_mtl(d.join(p)),
+        None => Err(tobj::LoadError::OpenFileFailed),
+    };
+    let mut r = r;
+    let (models, materials) =
+        tobj::load_obj_buf(&mut r, &opts, loader).map_err(|e| parse_error(path, e))?;
     // A missing or broken MTL file is not fatal: the default material is used.
     let materials = materials.unwrap_or_default();
 
@@ -40,7 +56,7 @@ pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
     for m in &materials {
         let texture = m.diffuse_texture.as_ref().and_then(|name| {
             *textures.entry(name.clone()).or_insert_with(|| {
-                load_texture(&dir.join(name)).map(|t| {
+                dir.and_then(|d| load_texture(&d.join(name))).map(|t| {
                     mesh.textures.push(t);
                     mesh.textures.len() - 1
                 })

@@ -37,9 +37,17 @@ fn index_list(p: &Property) -> Option<Vec<i64>> {
 /// Loads a PLY file.
 pub fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
     let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    let mut r = std::io::BufReader::new(file);
+    read_ply(&mut std::io::BufReader::new(file), path)
+}
+
+/// Reads a PLY (ASCII or binary) from memory; `name` appears in error messages.
+pub fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    read_ply(&mut std::io::Cursor::new(bytes), name)
+}
+
+fn read_ply(r: &mut impl std::io::BufRead, path: &Path) -> Result<Mesh, MeshError> {
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut r)
+        .read_ply(r)
         .map_err(|e| parse_error(path, e))?;
     let vertices = ply
         .payload

@@ -13,71 +13,9 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
 }
 
-type I3 = [i128; 3];
-
-fn sub(a: I3, b: I3) -> I3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: I3, b: I3) -> I3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot(a: I3, b: I3) -> i128 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Which axes of the 13-axis SAT do not separate, computed exactly in integers.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RefSat {
-    pub boxes: bool,
-    pub plane: bool,
-    pub edges: bool,
-}
-
-impl RefSat {
-    pub fn overlap(self) -> bool {
-        self.boxes && self.plane && self.edges
-    }
-}
-
-/// Exact SAT of the triangle `v` and the closed box `[m, m + s]`, all integers.
-pub fn ref_sat(v: [I3; 3], m: I3, s: i128) -> RefSat {
-    let corners: Vec<I3> = (0..8)
-        .map(|i| {
-            [
-                m[0] + s * ((i >> 2) & 1),
-                m[1] + s * ((i >> 1) & 1),
-                m[2] + s * (i & 1),
-            ]
-        })
-        .collect();
-    let separated = |a: I3| -> bool {
-        if a == [0, 0, 0] {
-            return false;
-        }
-        let tp: Vec<i128> = v.iter().map(|&p| dot(a, p)).collect();
-        let bp: Vec<i128> = corners.iter().map(|&p| dot(a, p)).collect();
-        let (tmin, tmax) = (*tp.iter().min().unwrap(), *tp.iter().max().unwrap());
-        let (bmin, bmax) = (*bp.iter().min().unwrap(), *bp.iter().max().unwrap());
-        tmax < bmin || bmax < tmin
-    };
-    let units = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
-    let boxes = !units.iter().any(|&u| separated(u));
-    let n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-    let plane = !separated(n);
-    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
-    let edges = !e
-        .iter()
-        .any(|&ej| units.iter().any(|&u| separated(cross(ej, u))));
-    RefSat {
-        boxes,
-        plane,
-        edges,
-    }
-}
+mod exact_sat;
+pub use exact_sat::*;
+pub mod fuzz_cases;
 
 /// Integer point to f64 grid coordinates.
 pub fn to_f(p: I3) -> DVec3 {

@@ -1,0 +1,151 @@
+//! What the fuzz targets check, as plain functions: `fuzz/fuzz_targets/*.rs` call them on
+//! the fuzzer's inputs, and `crates/svo/tests/fuzz_regressions.rs` on the inputs kept in
+//! `fixtures/fuzz/` (every crash the fuzzer found, and seeds). Each panics when a property
+//! fails. The module's parent must also declare the `exact_sat` module (the integer
+//! reference); both files depend only on `svo`, `glam`, `xxhash-rust` and `std`.
+
+use super::exact_sat;
+use glam::DVec3;
+use std::path::Path;
+use svo::format_read::from_bytes;
+use svo::format_write::to_bytes;
+use svo::import::{MeshFormat, mesh_from_bytes};
+use svo::{BakeOptions, Mesh, Strategy, bake_mesh};
+
+/// The `.svo` reader on arbitrary bytes: an error or a valid tree, never a panic, a hang or
+/// a huge allocation; a tree it accepts writes back to bytes that read as the same tree.
+/// Each input is read twice: as it is, and with its last 8 bytes replaced by the right
+/// checksum, so that mutations reach the checks behind the checksum (header, arrays, tree
+/// structure) instead of all failing at it.
+pub fn svo_read(data: &[u8]) {
+    read_one(data);
+    if data.len() >= 8 {
+        let mut fixed = data.to_vec();
+        let n = fixed.len() - 8;
+        let sum = xxhash_rust::xxh3::xxh3_64(&fixed[..n]);
+        fixed[n..].copy_from_slice(&sum.to_le_bytes());
+        read_one(&fixed);
+    }
+}
+
+fn read_one(data: &[u8]) {
+    if let Ok((tree, info)) = from_bytes(data) {
+        let again = to_bytes(&tree, &info);
+        let (back, _) = from_bytes(&again).expect("a tree we accepted must write back readably");
+        assert_eq!(back.nodes, tree.nodes);
+        assert_eq!(back.leaf_count, tree.leaf_count);
+    }
+}
+
+/// The mesh importers: the first byte picks OBJ, gzipped OBJ, PLY or glTF/GLB, the rest is
+/// the file. An error or a valid mesh, never a panic.
+pub fn mesh_import(data: &[u8]) {
+    let Some((&which, bytes)) = data.split_first() else {
+        return;
+    };
+    let format = match which % 4 {
+        0 => MeshFormat::Obj,
+        1 => MeshFormat::ObjGz,
+        2 => MeshFormat::Ply,
+        _ => MeshFormat::Gltf,
+    };
+    match mesh_from_bytes(bytes, format, Path::new("fuzz")) {
+        Ok(mesh) => mesh.validate().expect("an imported mesh is valid"),
+        // The glTF importer turns a panic inside the gltf crates into this error; each
+        // one the fuzzer finds gets a check of its own (`import_gltf::precheck`).
+        Err(e) => assert!(
+            !e.to_string().contains("the glTF library failed"),
+            "a panic in the gltf crates: {e}"
+        ),
+    }
+}
+
+/// Triangles per fuzzed mesh: lattice meshes are checked against the brute force, which
+/// visits every cell near each triangle, so they stay fewer.
+const MAX_TRIANGLES: usize = 24;
+const MAX_LATTICE_TRIANGLES: usize = 10;
+
+/// The voxelizer on small meshes: an even first byte makes a lattice mesh (coordinates on
+/// the 1/16 lattice in `[0, 4]`, the root pinned to that cube) whose tree, in every
+/// strategy, is compared with the exact `i128` brute force at depth 1-3; an odd one reads
+/// raw `f64` coordinates (any bits: NaN, infinities, huge, tiny, denormal) and bakes at
+/// depth 1-6, which must give an error or a tree that survives the file format.
+pub fn bake(data: &[u8]) {
+    let Some((&head, rest)) = data.split_first() else {
+        return;
+    };
+    // The brute force visits every cell near each triangle: shallow trees keep a run fast.
+    if head & 1 == 0 {
+        lattice(1 + (head >> 1) % 3, rest);
+    } else {
+        raw(1 + (head >> 1) % 6, rest);
+    }
+}
+
+fn lattice(depth: u8, bytes: &[u8]) {
+    let mut tris: Vec<[exact_sat::I3; 3]> = vec![
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+        [[64, 64, 64], [63, 64, 64], [64, 63, 64]],
+    ];
+    for c in bytes.chunks_exact(9).take(MAX_LATTICE_TRIANGLES) {
+        let p = |k: usize| [0, 1, 2].map(|a| i128::from(c[3 * k + a] % 65));
+        tris.push([p(0), p(1), p(2)]);
+    }
+    let mut mesh = Mesh::default();
+    for t in &tris {
+        let b = mesh.positions.len() as u32;
+        mesh.positions.extend(
+            t.iter()
+                .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / 16.0),
+        );
+        mesh.triangles.push([b, b + 1, b + 2]);
+    }
+    let expect = exact_sat::lattice_brute_force(&tris, depth);
+    for strategy in Strategy::ALL {
+        let opts = BakeOptions {
+            depth,
+            strategy,
+            ..Default::default()
+        };
+        let (tree, _) = bake_mesh(&mesh, &opts, &|_, _| {}).expect("a lattice mesh bakes");
+        let cells: std::collections::BTreeSet<[u32; 3]> =
+            tree.leaves().map(|l| l.cell.to_array()).collect();
+        for c in expect.keys() {
+            assert!(
+                cells.contains(c),
+                "{strategy} missed the touched cell {c:?}"
+            );
+        }
+        if strategy.is_exact() {
+            assert_eq!(
+                cells.len(),
+                expect.len(),
+                "{strategy} kept an untouched cell"
+            );
+        }
+    }
+}
+
+fn raw(depth: u8, bytes: &[u8]) {
+    let vals: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+        .collect();
+    let positions: Vec<DVec3> = vals
+        .chunks_exact(3)
+        .take(3 * MAX_TRIANGLES)
+        .map(|v| DVec3::new(v[0], v[1], v[2]))
+        .collect();
+    let n = positions.len() as u32 / 3;
+    let triangles = (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let mesh = Mesh::from_triangles(positions, triangles);
+    let opts = BakeOptions {
+        depth,
+        max_memory: Some(1 << 30),
+        ..Default::default()
+    };
+    if let Ok((tree, _)) = bake_mesh(&mesh, &opts, &|_, _| {}) {
+        let bytes = to_bytes(&tree, &Default::default());
+        from_bytes(&bytes).expect("a baked tree reads back");
+    }
+}
