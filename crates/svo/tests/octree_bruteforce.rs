@@ -117,6 +117,70 @@ fn inexact_strategies_count_their_false_positives() {
     );
 }
 
+/// Hand-made soups the random meshes rarely make: the same triangle three times (two with
+/// their vertices rotated or reversed), needles spanning the whole root along its diagonal
+/// and along a face, a fin of four triangles sharing one edge (non-manifold), a near-
+/// collinear triangle, and an open strip; every strategy against the brute force at depths
+/// 1 to 5, each triangle's own cells included.
+#[test]
+fn duplicate_needle_and_non_manifold_triangles_equal_brute_force() {
+    let t = |a: [i128; 3], b: [i128; 3], c: [i128; 3]| [a, b, c];
+    let mut tris = vec![
+        // Pin the root to [0, 4]^3 exactly.
+        t([0, 0, 0], [1, 0, 0], [0, 1, 0]),
+        t([64, 64, 64], [63, 64, 64], [64, 63, 64]),
+        // Duplicates.
+        t([5, 7, 9], [40, 12, 30], [20, 50, 11]),
+        t([40, 12, 30], [20, 50, 11], [5, 7, 9]),
+        t([20, 50, 11], [40, 12, 30], [5, 7, 9]),
+        // Needles: the root's diagonal, and along the face z = 0 at y = 32 (a cell boundary).
+        t([0, 0, 0], [64, 64, 64], [64, 64, 63]),
+        t([0, 32, 0], [64, 32, 0], [64, 33, 0]),
+        // Near-collinear: the third vertex one lattice step off the line.
+        t([3, 3, 3], [61, 35, 19], [32, 19, 12]),
+    ];
+    // A fin: four triangles around the edge (16, 16, 16)-(48, 16, 16).
+    for apex in [[32, 40, 16], [32, 16, 40], [32, 0, 16], [32, 16, 0]] {
+        tris.push(t([16, 16, 16], [48, 16, 16], apex));
+    }
+    // An open strip of triangles along x on the plane y = 48.
+    for k in 0..6 {
+        let x = 8 * k;
+        tris.push(t([x, 48, 10], [x + 8, 48, 10], [x, 48, 30]));
+        tris.push(t([x + 8, 48, 10], [x + 8, 48, 30], [x, 48, 30]));
+    }
+    let mut mesh = Mesh::default();
+    for tri in &tris {
+        let b = mesh.positions.len() as u32;
+        mesh.positions.extend(tri.iter().map(|&p| to_f(p)));
+        mesh.triangles.push([b, b + 1, b + 2]);
+    }
+    for depth in 1..=5u8 {
+        let expect = brute_force(&tris, depth);
+        for strategy in Strategy::ALL {
+            let (_, leaves) = voxelize_mesh(&mesh, depth, strategy).unwrap();
+            let got: BTreeMap<[u32; 3], BTreeSet<u32>> = (0..leaves.cells.len())
+                .map(|i| {
+                    (
+                        leaves.cells[i],
+                        leaves.triangles(i).iter().copied().collect(),
+                    )
+                })
+                .collect();
+            if strategy.is_exact() {
+                assert_eq!(got, expect, "depth {depth} {strategy}");
+            } else {
+                for (cell, ts) in &expect {
+                    assert!(
+                        got.get(cell).is_some_and(|g| g.is_superset(ts)),
+                        "depth {depth} {strategy} lost {cell:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn tree_structure_matches_leaf_cells() {
     let (mesh, _) = lattice_mesh(42, 40);

@@ -727,13 +727,19 @@ fn reflect_dir(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return d - 2.0 * dot(d, n) * n;
 }
 
+// shading::cos2_transmitted
+fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
+    let e2 = eta * eta;
+    return (1.0 - e2) + e2 * (cos_i * cos_i);
+}
+
 fn fresnel_exact(cos_in: f32, n1: f32, n2: f32) -> f32 {
     let cos_i = clamp(cos_in, 0.0, 1.0);
-    let sin_t = n1 / n2 * sqrt(max(1.0 - cos_i * cos_i, 0.0));
-    if sin_t >= 1.0 {
+    let cos2_t = cos2_transmitted(cos_i, n1 / n2);
+    if cos2_t <= 0.0 {
         return 1.0;
     }
-    let cos_t = sqrt(1.0 - sin_t * sin_t);
+    let cos_t = sqrt(cos2_t);
     let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
     let rp = (n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i);
     return 0.5 * (rs * rs + rp * rp);
@@ -744,12 +750,11 @@ fn fresnel_schlick(cos_in: f32, n1: f32, n2: f32) -> f32 {
     let r0 = ((n1 - n2) / (n1 + n2)) * ((n1 - n2) / (n1 + n2));
     var c = cos_i;
     if n1 > n2 {
-        let e = n1 / n2;
-        let sin2_t = e * e * (1.0 - cos_i * cos_i);
-        if sin2_t >= 1.0 {
+        let cos2_t = cos2_transmitted(cos_i, n1 / n2);
+        if cos2_t <= 0.0 {
             return 1.0;
         }
-        c = sqrt(1.0 - sin2_t);
+        c = sqrt(cos2_t);
     }
     let k = 1.0 - c;
     return r0 + (1.0 - r0) * (k * k * k * k * k);
@@ -844,7 +849,7 @@ var<workgroup> wg_rstack: array<Pending, WORKGROUP * RSTACK>;
 fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, bool>) -> vec3<f32> {
     let eta = n1 / n2;
     let cos_i = -dot(d, n);
-    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    let k = cos2_transmitted(cos_i, eta);
     *ok = k >= 0.0;
     if !(*ok) {
         return vec3<f32>(0.0);
