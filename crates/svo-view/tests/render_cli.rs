@@ -264,6 +264,30 @@ fn bad_input_gives_one_line_and_no_output() {
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("not the mesh the tree was baked from"));
     assert!(!out.exists());
+    // A tree deeper than the f32 tracer resolves is refused, not drawn wrong.
+    let deep = d.path().join("deep.svo");
+    let tri = svo::Mesh::from_triangles(
+        vec![
+            glam::DVec3::ZERO,
+            glam::DVec3::new(1e-6, 0.0, 0.0),
+            glam::DVec3::new(0.0, 1e-6, 0.0),
+            glam::DVec3::ONE,
+        ],
+        vec![[0, 1, 2], [3, 3, 3]],
+    );
+    let opts = svo::BakeOptions {
+        depth: svo::render_job::MAX_TRACE_DEPTH + 1,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&tri, &opts, &|_, _| {}).unwrap();
+    svo::format_write::write_file(&tree, &Default::default(), &deep).unwrap();
+    let r = view(&[deep.to_str().unwrap(), "-o", o]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("32-bit floats"),
+        "{err}"
+    );
+    assert!(!out.exists());
     // Errors are one line (clap's usage errors aside).
     let r = view(&["missing.svo", "-o", o]);
     let err = String::from_utf8_lossy(&r.stderr);
