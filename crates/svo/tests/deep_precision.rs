@@ -62,7 +62,7 @@ fn deep_trees_hit_the_right_leaf_at_the_right_distance() {
                 cells.push(UVec3::new(c(&mut rng), c(&mut rng), c(&mut rng)));
             }
         }
-        cells.sort_by_key(glam::UVec3::to_array);
+        cells.sort_by_key(UVec3::to_array);
         cells.dedup();
         let root = RootCube {
             origin: DVec3::ZERO,
