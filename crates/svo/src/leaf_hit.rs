@@ -150,3 +150,99 @@ pub fn cast(
         leaf_hit(tree, ray, e, mode)
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The entry of the unit cell at the origin for `ray` (an `f64` slab test).
+    fn entry(ray: &GridRay) -> Option<LeafEntry> {
+        let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if !(0.0..=1.0).contains(&o[a]) {
+                    return None;
+                }
+                continue;
+            }
+            let (p, q) = (-o[a] / d[a], (1.0 - o[a]) / d[a]);
+            t0 = t0.max(p.min(q));
+            t1 = t1.min(p.max(q));
+        }
+        (t0 <= t1).then(|| LeafEntry {
+            leaf: 0,
+            cell: UVec3::ZERO,
+            t_enter: t0 as f32,
+            t_exit: t1 as f32,
+            entry_normal: Vec3::X,
+            exit_normal: Vec3::X,
+        })
+    }
+
+    /// Zero-thickness and full-thickness contours, and rays parallel to the contour planes
+    /// (with `+0.0` and `-0.0` components), grazing along them and crossing them: never a
+    /// NaN parameter; a zero-thickness slab is hit where the `f64` plane is, within `1e-5`;
+    /// a parallel ray hits only when it runs inside the slab; a full slab is the cube.
+    #[test]
+    fn thin_full_and_grazing_contours() {
+        let n = Vec3::new(1.0, 2.0, 2.0) / 3.0;
+        let e = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
+        // A direction in the plane: perpendicular to n.
+        let along = Vec3::new(2.0, -1.0, 0.0).normalize();
+        let mut parallel = 0;
+        for k in 0..=40 {
+            let offset = -e + 2.0 * e * k as f32 / 40.0;
+            // Zero thickness at `offset`.
+            for (dir, start) in [
+                (-n, Vec3::splat(0.5) + n * 2.0),
+                (n, Vec3::splat(0.5) - n * 2.0),
+                (along, Vec3::splat(0.5) + n * offset - along * 2.0),
+                (along * -1.0, Vec3::splat(0.5) + n * offset + along * 2.0),
+                (Vec3::new(0.0, -0.0, 1.0), Vec3::new(0.5, 0.5, -1.0)),
+                (Vec3::new(-0.0, 0.0, -1.0), Vec3::new(0.5, 0.5, 2.0)),
+            ] {
+                let ray = GridRay { origin: start, dir };
+                let Some(en) = entry(&ray) else { continue };
+                let h = slab_hit(&ray, &en, n, offset, offset);
+                let sd = n.dot(dir);
+                if sd == 0.0 || sd.abs() < 1e-6 {
+                    parallel += 1;
+                    // Runs in the plane (start on it) or beside it.
+                    if let Some(h) = h {
+                        assert!(h.t.is_finite() && h.t >= en.t_enter);
+                    }
+                    continue;
+                }
+                // Where the f64 ray meets the plane n . (p - c) = offset.
+                let c = glam::DVec3::splat(0.5);
+                let (o, d, nd) = (start.as_dvec3(), dir.as_dvec3(), n.as_dvec3());
+                let t_plane = (f64::from(offset) - nd.dot(o - c)) / nd.dot(d);
+                let inside = t_plane >= f64::from(en.t_enter) - 1e-5
+                    && t_plane <= f64::from(en.t_exit) + 1e-5;
+                match h {
+                    Some(h) => {
+                        assert!(h.t.is_finite());
+                        assert!(
+                            (f64::from(h.t) - t_plane).abs() < 1e-5,
+                            "{k} {dir}: {} vs {t_plane}",
+                            h.t
+                        );
+                    }
+                    // A plane met within rounding of where the ray enters or leaves the
+                    // cell touches it only at its boundary: either answer is right.
+                    None => assert!(
+                        !inside
+                            || (t_plane - f64::from(en.t_exit)).abs() < 1e-5
+                            || (t_plane - f64::from(en.t_enter)).abs() < 1e-5,
+                        "{k} {dir}: missed the plane at {t_plane}"
+                    ),
+                }
+                // The full slab is the cube.
+                let full = slab_hit(&ray, &en, n, -e, e).expect("the full slab fills the cell");
+                assert_eq!(full.t, en.t_enter);
+            }
+        }
+        assert!(parallel > 0, "no ray ran parallel to the planes");
+    }
+}
