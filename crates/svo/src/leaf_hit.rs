@@ -170,7 +170,7 @@ mod tests {
             t0 = t0.max(p.min(q));
             t1 = t1.min(p.max(q));
         }
-        (t0 <= t1).then(|| LeafEntry {
+        (t0 <= t1).then_some(LeafEntry {
             leaf: 0,
             cell: UVec3::ZERO,
             t_enter: t0 as f32,
