@@ -7,7 +7,7 @@
 //! states: up to depth 16 every ray hits the reference's leaf and its entry parameter is
 //! within `1e-3` cells plus the `f32` rounding of its magnitude. Deeper, a ray that grazes a
 //! leaf by less than the `f32` spacing of its coordinates can miss it (measured here, and
-//! open in `docs/stability.md`: the fix is an origin split into integer and fraction).
+//! open in `docs/stability.md`).
 
 mod common;
 

@@ -478,3 +478,120 @@ fn primary_prepass_changes_nothing_but_the_steps() {
         }
     }
 }
+
+/// Two facing mirrors (a hall of mirrors): a ray between them bounces until the reflection
+/// limit, exactly that many times for every limit up to `MAX_BOUNCES`, and the colour stays
+/// finite; nothing loops or overflows the ray stack.
+#[test]
+fn facing_mirrors_stop_at_the_reflection_limit() {
+    let mirror = Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.9,
+        refractivity: 0.0,
+        ior: 1.5,
+        normal: None,
+    };
+    let mut cells = Vec::new();
+    for a in 0..16 {
+        for b in 0..16 {
+            cells.push((UVec3::new(0, a, b), mirror));
+            cells.push((UVec3::new(15, a, b), mirror));
+        }
+    }
+    let scene = grid16(cells);
+    let light = PointLight {
+        position: DVec3::new(8.0, 8.0, 8.0),
+        colour: Vec3::ONE,
+        intensity: 40.0,
+    };
+    for limit in [0u8, 1, 2, 7, svo::whitted::MAX_BOUNCES] {
+        let o = TraceOptions {
+            max_reflections: limit,
+            ..opts(ShadowMode::Opaque)
+        };
+        let t = Tracer::new(
+            OctreeSurfaces::new(&scene, HitMode::Cube),
+            &[light],
+            black_sky(),
+            Phong::default(),
+            o,
+        );
+        // Perpendicular to the mirrors, and at an angle (it still bounces between them).
+        for dir in [Vec3::X, Vec3::new(1.0, 0.01, 0.005).normalize()] {
+            let s = t.trace(Vec3::new(8.0, 8.0, 8.0), dir);
+            assert!(s.colour.is_finite(), "limit {limit}: {}", s.colour);
+            assert_eq!(
+                s.stats.rays,
+                1 + u32::from(limit),
+                "limit {limit}, {dir}: primary plus one ray per reflection"
+            );
+            assert_eq!(s.stats.capped, 0);
+        }
+    }
+}
+
+/// A light inside a closed box: with opaque shadows nothing outside is lit, and every
+/// inner wall is; the shadow rays that start on a surface do not hit it.
+#[test]
+fn a_light_inside_closed_geometry_lights_only_the_inside() {
+    let mut cells = Vec::new();
+    for a in 4..12 {
+        for b in 4..12 {
+            for (x, y, z) in [
+                (4, a, b),
+                (11, a, b),
+                (a, 4, b),
+                (a, 11, b),
+                (a, b, 4),
+                (a, b, 11),
+            ] {
+                cells.push((UVec3::new(x, y, z), grey(0.5)));
+            }
+        }
+    }
+    // A floor outside the box.
+    for a in 0..16 {
+        for b in 0..16 {
+            cells.push((UVec3::new(a, 0, b), grey(0.5)));
+        }
+    }
+    cells.sort_by_key(|c| c.0.to_array());
+    cells.dedup_by_key(|c| c.0);
+    let scene = grid16(cells);
+    let light = PointLight {
+        position: DVec3::new(8.0, 8.0, 8.0),
+        colour: Vec3::ONE,
+        intensity: 10.0,
+    };
+    let mut phong = Phong::default();
+    phong.ambient = 0.0;
+    let t = Tracer::new(
+        OctreeSurfaces::new(&scene, HitMode::Cube),
+        &[light],
+        black_sky(),
+        phong,
+        opts(ShadowMode::Opaque),
+    );
+    // Outside: the floor and the box's outer walls are dark.
+    assert_eq!(
+        shade(&t, Vec3::new(2.0, 6.0, 2.0), Vec3::new(2.0, 0.5, 2.5)),
+        Vec3::ZERO
+    );
+    assert_eq!(
+        shade(&t, Vec3::new(14.5, 8.0, 8.0), Vec3::new(11.5, 8.0, 8.0)),
+        Vec3::ZERO
+    );
+    // Inside: from near the light, every wall is lit.
+    let inside = Vec3::new(7.0, 7.5, 8.5);
+    for to in [
+        Vec3::new(4.5, 8.0, 8.0),
+        Vec3::new(11.5, 8.0, 8.0),
+        Vec3::new(8.0, 4.5, 8.0),
+        Vec3::new(8.0, 11.5, 8.0),
+        Vec3::new(8.0, 8.0, 4.5),
+        Vec3::new(8.0, 8.0, 11.5),
+    ] {
+        let c = shade(&t, inside, to);
+        assert!(c.x > 0.01 && c.is_finite(), "wall towards {to} is {c}");
+    }
+}
