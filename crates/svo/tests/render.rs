@@ -563,8 +563,10 @@ fn a_light_inside_closed_geometry_lights_only_the_inside() {
         colour: Vec3::ONE,
         intensity: 10.0,
     };
-    let mut phong = Phong::default();
-    phong.ambient = 0.0;
+    let phong = Phong {
+        ambient: 0.0,
+        ..Phong::default()
+    };
     let t = Tracer::new(
         OctreeSurfaces::new(&scene, HitMode::Cube),
         &[light],
