@@ -40,6 +40,15 @@ fn grey(c: f32) -> Voxel {
     }
 }
 
+/// A white mirror cell of `reflectivity`.
+fn mirror(reflectivity: f32) -> Voxel {
+    Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity,
+        ..grey(1.0)
+    }
+}
+
 /// Black sky, so only the scene contributes.
 fn black_sky() -> Sky {
     Sky {
@@ -174,13 +183,7 @@ fn shadows_through_two_glass_panes_in_each_mode() {
 #[test]
 fn mirror_reflects_the_lit_wall() {
     // A mirror floor (y = 0) and a lit grey wall (x = 15); black sky.
-    let mirror = Voxel {
-        colour: [1.0, 1.0, 1.0, 1.0],
-        reflectivity: 1.0,
-        refractivity: 0.0,
-        ior: 1.5,
-        normal: None,
-    };
+    let mirror = mirror(1.0);
     let mut cells = Vec::new();
     for a in 0..16 {
         for b in 0..16 {
@@ -484,13 +487,7 @@ fn primary_prepass_changes_nothing_but_the_steps() {
 /// finite; nothing loops or overflows the ray stack.
 #[test]
 fn facing_mirrors_stop_at_the_reflection_limit() {
-    let mirror = Voxel {
-        colour: [1.0, 1.0, 1.0, 1.0],
-        reflectivity: 0.9,
-        refractivity: 0.0,
-        ior: 1.5,
-        normal: None,
-    };
+    let mirror = mirror(0.9);
     let mut cells = Vec::new();
     for a in 0..16 {
         for b in 0..16 {
