@@ -196,48 +196,34 @@ pub fn write(r: &mut Report, t: &BakeTables, runs_note: &str, plot: Option<&str>
         3,
         "Leaves, and false positives / negatives against the exact set",
     );
-    let mut rows = Vec::new();
-    for (si, s) in Strategy::ALL.iter().enumerate() {
-        let mut row = vec![format!("`{s}`")];
-        for c in &t.cells[si] {
-            row.push(format!(
-                "{} (+{} / -{})",
-                c.leaves, c.false_pos, c.false_neg
-            ));
-        }
-        rows.push(row);
-    }
+    // One row per strategy, one cell per depth.
+    let per_strategy = |cell: &dyn Fn(&BakeCell) -> String| -> Vec<Vec<String>> {
+        Strategy::ALL
+            .iter()
+            .zip(&t.cells)
+            .map(|(s, cells)| {
+                let mut row = vec![format!("`{s}`")];
+                row.extend(cells.iter().map(cell));
+                row
+            })
+            .collect()
+    };
     let mut h2 = header.clone();
     h2[0] = "strategy";
-    r.table(&h2, &rows);
+    r.table(
+        &h2,
+        &per_strategy(&|c| format!("{} (+{} / -{})", c.leaves, c.false_pos, c.false_neg)),
+    );
     r.heading(
         3,
         "File bytes per leaf (`.svo`, all channels; constants in the header)",
     );
-    let rows: Vec<Vec<String>> = Strategy::ALL
-        .iter()
-        .enumerate()
-        .map(|(si, s)| {
-            let mut row = vec![format!("`{s}`")];
-            row.extend(t.cells[si].iter().map(|c| f(c.bytes_per_leaf, 2)));
-            row
-        })
-        .collect();
-    r.table(&h2, &rows);
+    r.table(&h2, &per_strategy(&|c| f(c.bytes_per_leaf, 2)));
     r.heading(
         3,
         "Peak heap memory of the bake (MiB live at once beyond what was live before it)",
     );
-    let rows: Vec<Vec<String>> = Strategy::ALL
-        .iter()
-        .enumerate()
-        .map(|(si, s)| {
-            let mut row = vec![format!("`{s}`")];
-            row.extend(t.cells[si].iter().map(|c| mib(c.peak_bytes)));
-            row
-        })
-        .collect();
-    r.table(&h2, &rows);
+    r.table(&h2, &per_strategy(&|c| mib(c.peak_bytes)));
 }
 
 /// One `svo-bake` pipeline measurement.

@@ -182,25 +182,16 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
 
     // External baselines.
     let external = !opts.quick && !opts.no_external;
-    let large_name = opts
-        .large_mesh
-        .as_deref()
-        .map(file_name)
-        .unwrap_or_default();
     let open3d = if external && external::python_has(&["open3d", "numpy"]) {
         lg("open3d");
-        let mut rows = vec![("bunny", external::open3d(&opts.mesh, &[8, 10], tmp.path()))];
+        let mut rows = vec![(
+            "bunny".to_string(),
+            external::open3d(&opts.mesh, &[8, 10], tmp.path()),
+        )];
         if let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists()) {
-            rows.push((
-                large_name.as_str(),
-                external::open3d(large, &[10], tmp.path()),
-            ));
+            rows.push((file_name(large), external::open3d(large, &[10], tmp.path())));
         }
-        Some(
-            rows.into_iter()
-                .map(|(w, r)| (w.to_string(), r))
-                .collect::<Vec<_>>(),
-        )
+        Some(rows)
     } else {
         None
     };

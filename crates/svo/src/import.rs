@@ -62,6 +62,18 @@ pub(crate) fn parse_error(path: &Path, message: impl std::fmt::Display) -> MeshE
     }
 }
 
+/// The error for a format whose importer's cargo feature is off.
+#[cfg_attr(
+    all(feature = "obj", feature = "ply", feature = "gltf"),
+    allow(dead_code)
+)]
+fn not_compiled_in(path: &Path, format: MeshFormat) -> MeshError {
+    MeshError::UnknownFormat {
+        path: path.display().to_string(),
+        extension: format!("{format:?} (support not compiled in: enable the cargo feature)"),
+    }
+}
+
 /// Reads and validates a mesh held in memory, in `format` (`ObjGz` is read as gzip). Files
 /// the mesh refers to (MTL libraries, textures, external glTF buffers) cannot be resolved
 /// from memory: OBJ materials fall back to the default, glTF references are an error.
@@ -88,14 +100,7 @@ pub fn mesh_from_bytes(bytes: &[u8], format: MeshFormat, name: &Path) -> Result<
         #[cfg(feature = "gltf")]
         MeshFormat::Gltf => import_gltf::gltf_from_bytes(bytes, name)?,
         #[allow(unreachable_patterns)]
-        _ => {
-            return Err(MeshError::UnknownFormat {
-                path: name.display().to_string(),
-                extension: format!(
-                    "{format:?} (support not compiled in: enable the cargo feature)"
-                ),
-            });
-        }
+        _ => return Err(not_compiled_in(name, format)),
     };
     mesh.validate()?;
     Ok(mesh)
@@ -130,14 +135,7 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
         #[cfg(feature = "gltf")]
         MeshFormat::Gltf => import_gltf::load_gltf(path)?,
         #[allow(unreachable_patterns)]
-        _ => {
-            return Err(MeshError::UnknownFormat {
-                path: path.display().to_string(),
-                extension: format!(
-                    "{format:?} (support not compiled in: enable the cargo feature)"
-                ),
-            });
-        }
+        _ => return Err(not_compiled_in(path, format)),
     };
     mesh.validate()?;
     Ok(mesh)

@@ -45,16 +45,12 @@ fn lattice_mesh(seed: u64, n: usize) -> (Mesh, Vec<[[i128; 3]; 3]>) {
     (mesh, tris)
 }
 
-fn brute_force(tris: &[[[i128; 3]; 3]], depth: u8) -> BTreeMap<[u32; 3], BTreeSet<u32>> {
-    lattice_brute_force(tris, depth)
-}
-
 #[test]
 fn octree_equals_brute_force_for_every_strategy() {
     for seed in 0..6u64 {
         let (mesh, tris) = lattice_mesh(100 + seed, 12 + 4 * seed as usize);
         for depth in 1..=5u8 {
-            let expect = brute_force(&tris, depth);
+            let expect = lattice_brute_force(&tris, depth);
             for strategy in Strategy::ALL {
                 let (root, leaves) = voxelize_mesh(&mesh, depth, strategy).unwrap();
                 assert_eq!(root.origin, DVec3::ZERO);
@@ -91,7 +87,7 @@ fn inexact_strategies_count_their_false_positives() {
     for seed in 0..4u64 {
         let (mesh, tris) = lattice_mesh(300 + seed, 16);
         for depth in 2..=5u8 {
-            let expect = brute_force(&tris, depth);
+            let expect = lattice_brute_force(&tris, depth);
             for strategy in Strategy::ALL {
                 let opts = svo::BakeOptions {
                     depth,
@@ -156,7 +152,7 @@ fn duplicate_needle_and_non_manifold_triangles_equal_brute_force() {
         mesh.triangles.push([b, b + 1, b + 2]);
     }
     for depth in 1..=5u8 {
-        let expect = brute_force(&tris, depth);
+        let expect = lattice_brute_force(&tris, depth);
         for strategy in Strategy::ALL {
             let (_, leaves) = voxelize_mesh(&mesh, depth, strategy).unwrap();
             let got: BTreeMap<[u32; 3], BTreeSet<u32>> = (0..leaves.cells.len())

@@ -183,12 +183,15 @@ pub fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
 
 /// Parses, validates and converts a glTF document; `base` resolves its file references.
 fn read_gltf(bytes: &[u8], name: &Path, base: Option<&Path>) -> Result<Mesh, MeshError> {
-    precheck(bytes, name)?;
-    // The checks above cover every panic we know of in the gltf crates; a panic we do not
-    // know of still becomes an error for this file instead of ending the program.
-    let imported = std::panic::catch_unwind(|| {
-        let err = |e: gltf::Error| parse_error(name, e);
-        let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(err)?;
+    let err = |e: gltf::Error| parse_error(name, e);
+    // Parsed once, checked, then validated: the validation is what can panic.
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(err)?;
+    precheck(document.as_json(), name)?;
+    // The checks cover every panic we know of in the gltf crates; a panic we do not know of
+    // still becomes an error for this file instead of ending the program.
+    let imported = std::panic::catch_unwind(move || {
+        let document = gltf::Document::from_json(document.into_json()).map_err(err)?;
         check_accessors(&document, name)?;
         let buffers = gltf::import_buffers(&document, base, blob).map_err(err)?;
         let images = gltf::import_images(&document, base, &buffers).map_err(err)?;
@@ -315,9 +318,7 @@ fn check_accessors(doc: &gltf::Document, name: &Path) -> Result<(), MeshError> {
 /// an accessor that does not exist (its validation indexes the accessors unchecked), and a
 /// relative URI whose percent-decoding is not UTF-8 (its import unwraps the decoding).
 /// Found by the `mesh_import` fuzz target.
-fn precheck(bytes: &[u8], name: &Path) -> Result<(), MeshError> {
-    let g = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| parse_error(name, e))?;
-    let root = g.document.as_json();
+fn precheck(root: &gltf::json::Root, name: &Path) -> Result<(), MeshError> {
     for (mi, m) in root.meshes.iter().enumerate() {
         for (pi, p) in m.primitives.iter().enumerate() {
             for idx in p.attributes.values() {

@@ -36,65 +36,48 @@ impl RefSat {
     }
 }
 
+/// Whether axis `a` separates the triangle `v` from the closed box `[m, m + s]` (a zero axis
+/// separates nothing). The box projects onto `[a.m + neg, a.m + pos]` with `pos` and `neg`
+/// the sums of the axis's positive and negative components times `s`.
+fn separated(v: [I3; 3], m: I3, s: i128, a: I3) -> bool {
+    if a == [0, 0, 0] {
+        return false;
+    }
+    let tp = v.map(|p| dot(a, p));
+    let (tmin, tmax) = (tp.iter().min().unwrap_or(&0), tp.iter().max().unwrap_or(&0));
+    let base = dot(a, m);
+    let pos: i128 = a.iter().map(|&c| c.max(0) * s).sum();
+    let neg: i128 = a.iter().map(|&c| c.min(0) * s).sum();
+    *tmax < base + neg || base + pos < *tmin
+}
+
+const UNITS: [I3; 3] = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
+
+/// The triangle's nine edge axes `e_j x unit_k`.
+fn edge_axes(v: [I3; 3]) -> impl Iterator<Item = I3> {
+    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
+    e.into_iter()
+        .flat_map(|ej| UNITS.iter().map(move |&u| cross(ej, u)))
+}
+
 /// Exact SAT of the triangle `v` and the closed box `[m, m + s]`, all integers.
 pub fn ref_sat(v: [I3; 3], m: I3, s: i128) -> RefSat {
-    let corners: [I3; 8] = std::array::from_fn(|i| {
-        let i = i as i128;
-        [
-            m[0] + s * ((i >> 2) & 1),
-            m[1] + s * ((i >> 1) & 1),
-            m[2] + s * (i & 1),
-        ]
-    });
-    let separated = |a: I3| -> bool {
-        if a == [0, 0, 0] {
-            return false;
-        }
-        let tp = v.map(|p| dot(a, p));
-        let bp = corners.map(|p| dot(a, p));
-        let (tmin, tmax) = (tp.iter().min().unwrap_or(&0), tp.iter().max().unwrap_or(&0));
-        let (bmin, bmax) = (bp.iter().min().unwrap_or(&0), bp.iter().max().unwrap_or(&0));
-        tmax < bmin || bmax < tmin
-    };
-    let units = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
-    let boxes = !units.iter().any(|&u| separated(u));
-    let n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-    let plane = !separated(n);
-    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
-    let edges = !e
-        .iter()
-        .any(|&ej| units.iter().any(|&u| separated(cross(ej, u))));
+    let sep = |a: I3| separated(v, m, s, a);
     RefSat {
-        boxes,
-        plane,
-        edges,
+        boxes: !UNITS.iter().any(|&u| sep(u)),
+        plane: !sep(cross(sub(v[1], v[0]), sub(v[2], v[0]))),
+        edges: !edge_axes(v).any(sep),
     }
 }
 
 /// Whether the triangle `v` and the closed box `[m, m + s]` overlap: [`ref_sat`]'s answer,
-/// stopping at the first separating axis (the plane first: it rejects most cells near a
-/// large triangle).
+/// stopping at the first separating axis (the box axes, then the plane, which rejects most
+/// cells near a large triangle, then the edges).
 pub fn ref_overlap(v: [I3; 3], m: I3, s: i128) -> bool {
-    let separated = |a: I3| -> bool {
-        if a == [0, 0, 0] {
-            return false;
-        }
-        let tp = v.map(|p| dot(a, p));
-        let (tmin, tmax) = (tp.iter().min().unwrap_or(&0), tp.iter().max().unwrap_or(&0));
-        // The box's extent along `a`: its min corner plus the positive or negative parts.
-        let base = dot(a, m);
-        let pos: i128 = a.iter().map(|&c| (c.max(0)) * s).sum();
-        let neg: i128 = a.iter().map(|&c| (c.min(0)) * s).sum();
-        *tmax < base + neg || base + pos < *tmin
-    };
-    let units = [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
-    let n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
-    !units.iter().any(|&u| separated(u))
-        && !separated(n)
-        && !e
-            .iter()
-            .any(|&ej| units.iter().any(|&u| separated(cross(ej, u))))
+    let sep = |a: I3| separated(v, m, s, a);
+    !UNITS.iter().any(|&u| sep(u))
+        && !sep(cross(sub(v[1], v[0]), sub(v[2], v[0])))
+        && !edge_axes(v).any(sep)
 }
 
 /// Every cell of a tree of `depth` over the root `[0, 64]^3` (lattice units) that each
