@@ -3,13 +3,12 @@
 
 use crate::estimate::estimate;
 use crate::grid::RootCube;
-use crate::leaf_attributes::{self, ChannelSelection, ContourStats};
+use crate::leaf_attributes::{AttributeInputs, ChannelSelection, ContourStats};
 use crate::mesh::{Mesh, MeshError};
 use crate::octree::{ChannelKind, ChannelStorage, Octree};
 use crate::octree_build::{self, LeafTriangles};
-use crate::overlap::triangle_box_overlap;
 use crate::strategy::Strategy;
-use crate::triangle_setup::{GridTriangle, setup_triangles_in_order, spatial_order};
+use crate::triangle_setup::{setup_triangles_in_order, spatial_order};
 use std::time::Instant;
 use thiserror::Error;
 
@@ -208,25 +207,24 @@ pub fn bake_mesh(
     let t0 = Instant::now();
     let order = spatial_order(mesh, &root);
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
-    let vox = octree_build::voxelize(&tris, opts.depth, opts.strategy, &|f| {
-        progress(Phase::Voxelize, f)
-    });
-    let voxelize_s = t0.elapsed().as_secs_f64();
-    let false_positives = if opts.strategy.is_exact() {
-        0
-    } else {
-        count_false_positives(&tris, &vox.leaves)
-    };
+    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
+    let (nodes, values, tests) =
+        octree_build::voxelize_with_attributes(&inputs, opts.depth, opts.strategy, &|f| {
+            progress(Phase::Voxelize, f)
+        });
+    let wall = t0.elapsed();
+    let (pairs, false_positives) = (values.pairs, values.false_positives as usize);
+    let leaf_count = values.len();
     progress(Phase::Attributes, 0.0);
-    let (attributes, rep) =
-        leaf_attributes::compute(mesh, &tris, &order, &vox.leaves, opts.channels);
+    let (attributes, rep) = inputs.finish(values, wall);
     progress(Phase::Attributes, 1.0);
+    let voxelize_s = (wall - rep.attributes - rep.contours).as_secs_f64();
     let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
     let tree = Octree {
         root,
         depth: opts.depth,
-        nodes: vox.nodes,
-        leaf_count: vox.leaves.cells.len() as u32,
+        nodes,
+        leaf_count: leaf_count as u32,
         attributes,
     };
     let a = &tree.attributes;
@@ -248,8 +246,8 @@ pub fn bake_mesh(
         nodes: tree.nodes.len(),
         leaves: tree.leaf_count as usize,
         estimated_leaves,
-        overlap_tests: vox.tests,
-        leaf_triangle_pairs: vox.leaves.tris.len(),
+        overlap_tests: tests,
+        leaf_triangle_pairs: pairs as usize,
         false_positives,
         voxelize_s,
         attributes_s: rep.attributes.as_secs_f64(),
@@ -258,36 +256,14 @@ pub fn bake_mesh(
         payload_bytes: tree.payload_bytes(),
         channels,
     };
-    // The build's temporaries (leaf triangle lists, grid-space triangles) run to hundreds of
-    // MB on deep trees; unmapping them takes tens of ms, which nobody needs to wait for.
+    // The build's temporaries (grid-space triangles, unit normals) run to hundreds of MB
+    // for large meshes; unmapping them takes tens of ms, which nobody needs to wait for.
     // Small ones are dropped here: a thread costs more than freeing them.
-    if vox.leaves.tris.len() + tris.len() > 1 << 16 {
-        drop_in_background((vox.leaves, tris, order));
+    drop(inputs);
+    if tris.len() > 1 << 16 {
+        drop_in_background((tris, order));
     }
     Ok((tree, stats))
-}
-
-/// Leaves whose cell no triangle of their list touches, by the exact test (a leaf's list
-/// holds every triangle that could touch it, so this is the exact count).
-fn count_false_positives(tris: &[GridTriangle], leaves: &LeafTriangles) -> usize {
-    let untouched = |i: usize| {
-        let c = leaves.cells[i];
-        let m = glam::DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-        !leaves
-            .triangles(i)
-            .iter()
-            .any(|&t| triangle_box_overlap(&tris[t as usize], m, 1.0))
-    };
-    #[cfg(feature = "parallel")]
-    {
-        use rayon::prelude::*;
-        (0..leaves.cells.len())
-            .into_par_iter()
-            .filter(|&i| untouched(i))
-            .count()
-    }
-    #[cfg(not(feature = "parallel"))]
-    (0..leaves.cells.len()).filter(|&i| untouched(i)).count()
 }
 
 /// Bytes of memory available to a new process (Linux `MemAvailable`), if known.

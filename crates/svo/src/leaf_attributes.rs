@@ -1,35 +1,26 @@
 //! Per-leaf attributes and contours from the triangles that touch each leaf.
 //!
-//! Every triangle in a leaf is clipped to the cell ([`crate::clip`]); its clipped area is its
-//! weight. The leaf's normal is the area-weighted mean of the triangles' unit normals; colour
+//! The voxelizer hands every leaf its contacts: each touching triangle's part inside the
+//! cell (sliced by [`crate::grid_slice`] at the bottom levels, clipped by [`crate::clip`]
+//! elsewhere), whose area is the triangle's weight. The leaf's normal is the area-weighted mean of the triangles' unit normals; colour
 //! (material colour times texture, sampled at the clipped polygon's centre, averaged in linear
 //! space), reflectivity, refractivity and IOR are area-weighted means too. Where all contacts
 //! have zero area (a triangle only touching the cell, or degenerate triangles) every triangle
 //! weighs the same. The contour is then fitted to the clipped polygons against the *encoded*
 //! normal ([`crate::contour`]).
 //!
-//! Leaves are processed in parallel in fixed-size blocks and concatenated in order, so the
-//! output does not depend on the thread count. Within a block the attribute and contour steps
-//! are timed separately, which is how the bake summary reports them.
+//! The values are computed as the voxelizer emits each leaf, so they come in leaf order
+//! whatever the thread count, and no list of triangles per leaf is ever stored. Contours are
+//! fitted per block of leaves after their attributes, so the two are timed separately, which
+//! is how the bake summary reports them.
 
-use crate::clip::clip_to_unit_cube;
 use crate::contour;
 use crate::mesh::{Material, Mesh, linear_to_srgb};
 use crate::normal_encoding;
 use crate::octree::{Channel, ChannelKind, LeafAttributes, ior_encode};
-use crate::octree_build::LeafTriangles;
 use crate::triangle_setup::GridTriangle;
 use glam::{DVec3, Vec2, Vec3};
-use std::time::{Duration, Instant};
-
-/// Leaves per block of the parallel pass.
-const BLOCK: usize = 2048;
-
-/// A leaf touched by a single triangle at most this many cells across skips clipping: the
-/// triangle's own vertices bound the contour. Its planes then sit at most the normal's
-/// quantization error (under 6.5e-5 rad) times the triangle's extent, under 0.01 cells,
-/// beyond the clipped fit.
-const SINGLE_TRIANGLE_MAX_EXTENT: f64 = 64.0;
+use std::time::Duration;
 
 /// Which channels to compute.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,10 +94,10 @@ pub struct ContourStats {
     pub max: f64,
 }
 
-/// What the attribute pass returns besides the channels.
+/// Timings and contour statistics of the attribute work done while voxelizing.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct AttributeReport {
-    /// Time spent computing attributes (including clipping), apportioned to wall time.
+    /// Time spent on per-leaf attributes, apportioned to wall time.
     pub attributes: Duration,
     /// Time spent fitting contours, apportioned to wall time.
     pub contours: Duration,
@@ -114,279 +105,370 @@ pub struct AttributeReport {
     pub contour_stats: Option<ContourStats>,
 }
 
-#[derive(Default)]
-struct Block {
-    normal: Vec<u32>,
-    contour: Vec<u32>,
-    colour: Vec<u32>,
-    reflectivity: Vec<u8>,
-    refractivity: Vec<u8>,
-    ior: Vec<u16>,
-    thickness: Vec<f32>,
-    t_attr: Duration,
-    t_contour: Duration,
+/// A triangle's part in a leaf: the triangle (an index into the grid-space triangles), the
+/// part's area (its weight) and its points, `pts[start..start + len]` of the caller's buffer.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Contact {
+    /// The leaf's cell within its block (a local Morton index), for sorting.
+    pub key: u16,
+    /// Grid-space triangle index.
+    pub tri: u32,
+    /// Area of the triangle's part in the cell (zero for a touch).
+    pub area: f64,
+    /// First point.
+    pub start: u32,
+    /// Number of points.
+    pub len: u32,
 }
 
-/// Computes the selected channels for the voxelizer's leaves. `tris` are the grid-space
-/// triangles the leaves' lists index, and `order[k]` the mesh triangle of `tris[k]`.
-pub fn compute(
-    mesh: &Mesh,
-    tris: &[GridTriangle],
-    order: &[u32],
-    leaves: &LeafTriangles,
+/// What the per-leaf computation reads: materials, the triangles' unit normals and which
+/// channels are wanted and vary (the others are stored as constants or left out).
+pub struct AttributeInputs<'a> {
+    mesh: &'a Mesh,
+    tris: &'a [GridTriangle],
+    order: &'a [u32],
     select: ChannelSelection,
-) -> (LeafAttributes, AttributeReport) {
-    let wall = Instant::now();
-    let n_leaves = leaves.cells.len();
-    let want_contour = select.has(ChannelKind::Contour);
-    let want_normal = select.has(ChannelKind::Normal) || want_contour;
+    normals: Vec<DVec3>,
+    want_normal: bool,
+    want_contour: bool,
+    per_leaf_colour: bool,
+    per_leaf_refl: bool,
+    per_leaf_refr: bool,
+    per_leaf_ior: bool,
+}
 
-    // Which material channels vary over the triangles (the others are constants).
-    let mats: Vec<&Material> = if mesh.materials.is_empty() {
+impl<'a> AttributeInputs<'a> {
+    /// Inputs for the grid-space triangles `tris`, where `order[k]` is the mesh triangle of
+    /// `tris[k]`, computing the channels in `select`.
+    pub fn new(
+        mesh: &'a Mesh,
+        tris: &'a [GridTriangle],
+        order: &'a [u32],
+        select: ChannelSelection,
+    ) -> Self {
+        let want_contour = select.has(ChannelKind::Contour);
+        let want_normal = select.has(ChannelKind::Normal) || want_contour;
+        let mats = materials(mesh);
+        let textured = mats.iter().any(|m| m.texture.is_some()) && !mesh.triangle_uvs.is_empty();
+        let varies = |f: &dyn Fn(&Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
+        let per_leaf_colour =
+            select.has(ChannelKind::Colour) && (textured || varies(&|m| encode_colour(m.colour)));
+        let per_leaf_refl =
+            select.has(ChannelKind::Reflectivity) && varies(&|m| u32::from(unorm8(m.reflectivity)));
+        let per_leaf_refr =
+            select.has(ChannelKind::Refractivity) && varies(&|m| u32::from(unorm8(m.refractivity)));
+        let per_leaf_ior =
+            select.has(ChannelKind::Ior) && varies(&|m| u32::from(ior_encode(m.ior)));
+        let mut inputs = Self {
+            mesh,
+            tris,
+            order,
+            select,
+            normals: Vec::new(),
+            want_normal,
+            want_contour,
+            per_leaf_colour,
+            per_leaf_refl,
+            per_leaf_refr,
+            per_leaf_ior,
+        };
+        // Unit normals of the grid-space triangles (zero for degenerate ones).
+        if inputs.needs_geometry() {
+            inputs.normals = tris
+                .iter()
+                .map(|t| {
+                    let len = t.n.length();
+                    if len > 0.0 && len.is_finite() {
+                        t.n / len
+                    } else {
+                        DVec3::ZERO
+                    }
+                })
+                .collect();
+        }
+        inputs
+    }
+
+    /// Whether any per-leaf value needs the triangles' parts in the cells (areas, points);
+    /// without it the voxelizer need not clip.
+    pub fn needs_geometry(&self) -> bool {
+        self.want_normal
+            || self.per_leaf_colour
+            || self.per_leaf_refl
+            || self.per_leaf_refr
+            || self.per_leaf_ior
+    }
+
+    /// Whether contours are made.
+    pub fn wants_contour(&self) -> bool {
+        self.want_contour
+    }
+
+    /// The grid-space triangles.
+    pub fn triangles(&self) -> &'a [GridTriangle] {
+        self.tris
+    }
+
+    /// Computes one leaf's attributes from its `contacts`, whose points `pts` are in a frame
+    /// with origin at grid position `origin`, in which the cell's minimum corner is `cell`,
+    /// and appends them to `out`. The contour is left pending ([`LeafValues::fit_contours`]).
+    pub fn push_leaf(
+        &self,
+        out: &mut LeafValues,
+        origin: DVec3,
+        cell: DVec3,
+        contacts: &[Contact],
+        contact_start: u32,
+        pts: &[DVec3],
+    ) {
+        out.count += 1;
+        out.pairs += contacts.len() as u64;
+        if !self.needs_geometry() {
+            return;
+        }
+        let wsum: f64 = contacts.iter().map(|c| c.area).sum();
+        let weight = |c: &Contact| if wsum > 0.0 { c.area } else { 1.0 };
+        let material = |ti: u32| self.mesh.material_of(self.order[ti as usize] as usize);
+        if self.want_normal {
+            let mut s = DVec3::ZERO;
+            for c in contacts {
+                s += self.normals[c.tri as usize] * weight(c);
+            }
+            if !(s.length() > 1e-12 * wsum.max(1e-300)) {
+                // Opposite sheets cancel: take the heaviest triangle's normal.
+                s = contacts
+                    .iter()
+                    .map(|c| (self.normals[c.tri as usize], c.area))
+                    .filter(|(n, _)| *n != DVec3::ZERO)
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .map_or(DVec3::Z, |(n, _)| n);
+            }
+            let enc = normal_encoding::encode(s.as_vec3());
+            if self.select.has(ChannelKind::Normal) {
+                out.normal.push(enc);
+            }
+            if self.want_contour {
+                out.pending.push(PendingContour {
+                    contacts: contact_start..contact_start + contacts.len() as u32,
+                    centre: cell + DVec3::splat(0.5),
+                    normal: normal_encoding::decode(enc),
+                });
+            }
+        }
+        if self.per_leaf_colour {
+            let mut acc = [0.0f64; 4];
+            let mut ws = 0.0;
+            for c in contacts {
+                let w = weight(c);
+                let p = out_points(pts, c);
+                let centre = if p.is_empty() {
+                    cell + DVec3::splat(0.5)
+                } else {
+                    p.iter().sum::<DVec3>() / p.len() as f64
+                };
+                let ti = c.tri as usize;
+                let col = triangle_colour(
+                    self.mesh,
+                    self.order[ti] as usize,
+                    &self.tris[ti],
+                    centre + origin,
+                );
+                for (a, v) in acc.iter_mut().zip(col) {
+                    *a += w * f64::from(v);
+                }
+                ws += w;
+            }
+            let ws = if ws > 0.0 { ws } else { 1.0 };
+            out.colour.push(encode_colour(acc.map(|v| (v / ws) as f32)));
+        }
+        let avg = |f: &dyn Fn(&Material) -> f32| -> f32 {
+            let (mut a, mut ws) = (0.0f64, 0.0);
+            for c in contacts {
+                let w = weight(c);
+                a += w * f64::from(f(material(c.tri)));
+                ws += w;
+            }
+            if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
+        };
+        if self.per_leaf_refl {
+            out.reflectivity.push(unorm8(avg(&|m| m.reflectivity)));
+        }
+        if self.per_leaf_refr {
+            out.refractivity.push(unorm8(avg(&|m| m.refractivity)));
+        }
+        if self.per_leaf_ior {
+            out.ior.push(ior_encode(avg(&|m| m.ior)));
+        }
+    }
+
+    /// The leaf attributes from the voxelizer's values, with constants for the channels that
+    /// do not vary, and the report.
+    pub fn finish(&self, mut v: LeafValues, wall: Duration) -> (LeafAttributes, AttributeReport) {
+        let select = self.select;
+        let m0 = materials(self.mesh)[0];
+        let mut attrs = LeafAttributes::default();
+        if select.has(ChannelKind::Normal) {
+            attrs.normal = Channel::PerLeaf(std::mem::take(&mut v.normal));
+        }
+        if self.want_contour {
+            attrs.contour = Channel::PerLeaf(std::mem::take(&mut v.contour));
+        }
+        if select.has(ChannelKind::Colour) {
+            attrs.colour = if self.per_leaf_colour {
+                Channel::PerLeaf(std::mem::take(&mut v.colour))
+            } else {
+                Channel::Constant(encode_colour(m0.colour))
+            };
+        }
+        if select.has(ChannelKind::Reflectivity) {
+            attrs.reflectivity = if self.per_leaf_refl {
+                Channel::PerLeaf(std::mem::take(&mut v.reflectivity))
+            } else {
+                Channel::Constant(unorm8(m0.reflectivity))
+            };
+        }
+        if select.has(ChannelKind::Refractivity) {
+            attrs.refractivity = if self.per_leaf_refr {
+                Channel::PerLeaf(std::mem::take(&mut v.refractivity))
+            } else {
+                Channel::Constant(unorm8(m0.refractivity))
+            };
+        }
+        if select.has(ChannelKind::Ior) {
+            attrs.ior = if self.per_leaf_ior {
+                Channel::PerLeaf(std::mem::take(&mut v.ior))
+            } else {
+                Channel::Constant(ior_encode(m0.ior))
+            };
+        }
+        if v.count > 0 {
+            attrs.compact();
+        }
+        // Apportion the wall time by the measured thread time of each step.
+        let busy = (v.t_voxelize + v.t_attributes + v.t_contours).as_secs_f64();
+        let share = |d: Duration| {
+            if busy > 0.0 {
+                wall.mul_f64(d.as_secs_f64() / busy)
+            } else {
+                Duration::ZERO
+            }
+        };
+        let contour_stats = self.want_contour.then(|| thickness_stats(&mut v.thickness));
+        (
+            attrs,
+            AttributeReport {
+                attributes: share(v.t_attributes),
+                contours: share(v.t_contours),
+                contour_stats,
+            },
+        )
+    }
+}
+
+/// The mesh's materials (the default one when it has none).
+fn materials(mesh: &Mesh) -> Vec<&Material> {
+    if mesh.materials.is_empty() {
         vec![mesh.material_of(0)]
     } else {
         mesh.materials.iter().collect()
-    };
-    let textured = mats.iter().any(|m| m.texture.is_some()) && !mesh.triangle_uvs.is_empty();
-    let varies = |f: &dyn Fn(&Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
-    let colour_key = |m: &Material| encode_colour(m.colour);
-    let per_leaf_colour = select.has(ChannelKind::Colour) && (textured || varies(&colour_key));
-    let per_leaf_refl =
-        select.has(ChannelKind::Reflectivity) && varies(&|m| u32::from(unorm8(m.reflectivity)));
-    let per_leaf_refr =
-        select.has(ChannelKind::Refractivity) && varies(&|m| u32::from(unorm8(m.refractivity)));
-    let per_leaf_ior = select.has(ChannelKind::Ior) && varies(&|m| u32::from(ior_encode(m.ior)));
-    let need_clip =
-        want_normal || per_leaf_colour || per_leaf_refl || per_leaf_refr || per_leaf_ior;
+    }
+}
 
-    // Unit normals of the grid-space triangles (zero for degenerate ones); material values
-    // are read through `material`, the mesh triangle's material.
-    let normals: Vec<DVec3> = if need_clip {
-        tris.iter()
-            .map(|t| {
-                let len = t.n.length();
-                if len > 0.0 && len.is_finite() {
-                    t.n / len
-                } else {
-                    DVec3::ZERO
+/// The points of contact `c` in `pts`.
+fn out_points<'p>(pts: &'p [DVec3], c: &Contact) -> &'p [DVec3] {
+    &pts[c.start as usize..(c.start + c.len) as usize]
+}
+
+/// A leaf whose contour waits for its block's points.
+#[derive(Clone, Debug)]
+pub struct PendingContour {
+    contacts: std::ops::Range<u32>,
+    centre: DVec3,
+    normal: Vec3,
+}
+
+/// Per-leaf values as the voxelizer emits them, leaf after leaf, for the selected channels
+/// that vary; with counts and the thread time of each step.
+#[derive(Debug, Default)]
+pub struct LeafValues {
+    count: usize,
+    /// Encoded normals.
+    pub normal: Vec<u32>,
+    /// Encoded contours.
+    pub contour: Vec<u32>,
+    /// RGBA8 colours.
+    pub colour: Vec<u32>,
+    /// Reflectivities.
+    pub reflectivity: Vec<u8>,
+    /// Refractivities.
+    pub refractivity: Vec<u8>,
+    /// Encoded IORs.
+    pub ior: Vec<u16>,
+    /// Contour thickness per leaf, in cells (for the statistics).
+    pub thickness: Vec<f32>,
+    /// Leaf/triangle contacts.
+    pub pairs: u64,
+    /// Leaves that no triangle touches (inexact strategies only).
+    pub false_positives: u64,
+    /// Thread time of voxelizing (tests, slicing, tree).
+    pub t_voxelize: Duration,
+    /// Thread time of the per-leaf attributes.
+    pub t_attributes: Duration,
+    /// Thread time of the contours.
+    pub t_contours: Duration,
+    pending: Vec<PendingContour>,
+}
+
+impl LeafValues {
+    /// Number of leaves.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether there are no leaves.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Fits the pending contours from the contacts and their points, given in the same
+    /// calls to [`AttributeInputs::push_leaf`].
+    pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[DVec3]) {
+        for p in self.pending.drain(..) {
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            let nd = p.normal.as_dvec3();
+            for c in &contacts[p.contacts.start as usize..p.contacts.end as usize] {
+                for q in out_points(pts, c) {
+                    let d = nd.dot(*q - p.centre);
+                    lo = lo.min(d);
+                    hi = hi.max(d);
                 }
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let material = |ti: u32| mesh.material_of(order[ti as usize] as usize);
-
-    let do_block = |b: usize| -> Block {
-        let start = b * BLOCK;
-        let end = (start + BLOCK).min(n_leaves);
-        let mut out = Block::default();
-        if !need_clip {
-            return out;
-        }
-        let t0 = Instant::now();
-        // Clipped polygons of the block: points flat, one area and point range per polygon.
-        let mut pts: Vec<DVec3> = Vec::new();
-        let mut poly_end: Vec<usize> = Vec::new();
-        let mut areas: Vec<f64> = Vec::new();
-        let mut leaf_poly_end: Vec<usize> = Vec::with_capacity(end - start);
-        let mut normals_f: Vec<Vec3> = Vec::with_capacity(end - start);
-        for leaf in start..end {
-            let cell = leaves.cells[leaf];
-            let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
-            let list = leaves.triangles(leaf);
-            let first_poly = areas.len();
-            let mut wsum = 0.0;
-            let single = list.len() == 1 && !textured && {
-                let t = &tris[list[0] as usize];
-                (t.hi - t.lo).max_element() <= SINGLE_TRIANGLE_MAX_EXTENT
+            }
+            let c = if lo <= hi {
+                contour::pack(lo, hi, p.normal)
+            } else {
+                contour::fit(&[], p.normal)
             };
-            if single {
-                // One small triangle: its normal and material are the leaf's whatever the
-                // weight, and its vertices bound its clipped part, so no clipping is needed
-                // (the contour is conservative; see SINGLE_TRIANGLE_MAX_EXTENT).
-                let t = &tris[list[0] as usize];
-                pts.extend(t.v.iter().map(|&v| v - m));
-                poly_end.push(pts.len());
-                areas.push(1.0);
-                wsum = 1.0;
-            }
-            for &ti in list.iter().filter(|_| !single) {
-                let t = &tris[ti as usize];
-                let mut p = clip_to_unit_cube([t.v[0] - m, t.v[1] - m, t.v[2] - m]);
-                if p.len == 0 {
-                    // Touching only, and rounding lost the contact: keep the vertices pulled
-                    // onto the cell so the contour still covers the contact.
-                    p.len = 3;
-                    for k in 0..3 {
-                        p.v[k] = (t.v[k] - m).clamp(DVec3::ZERO, DVec3::ONE);
-                    }
-                }
-                let area = p.area();
-                wsum += area;
-                pts.extend_from_slice(p.points());
-                poly_end.push(pts.len());
-                areas.push(area);
-            }
-            let leaf_areas = &areas[first_poly..];
-            let weight = |k: usize| if wsum > 0.0 { leaf_areas[k] } else { 1.0 };
-            if want_normal {
-                let mut s = DVec3::ZERO;
-                for (k, &ti) in list.iter().enumerate() {
-                    s += normals[ti as usize] * weight(k);
-                }
-                if !(s.length() > 1e-12 * wsum.max(1e-300)) {
-                    // Opposite sheets cancel: take the heaviest triangle's normal.
-                    s = list
-                        .iter()
-                        .zip(leaf_areas)
-                        .map(|(&ti, &a)| (normals[ti as usize], a))
-                        .filter(|(n, _)| *n != DVec3::ZERO)
-                        .max_by(|a, b| a.1.total_cmp(&b.1))
-                        .map_or(DVec3::Z, |(n, _)| n);
-                }
-                let enc = normal_encoding::encode(s.as_vec3());
-                out.normal.push(enc);
-                normals_f.push(normal_encoding::decode(enc));
-            }
-            if per_leaf_colour {
-                let mut c = [0.0f64; 4];
-                let mut ws = 0.0;
-                for (k, &ti) in list.iter().enumerate() {
-                    let w = weight(k);
-                    let pi = first_poly + k;
-                    let p0 = if pi == 0 { 0 } else { poly_end[pi - 1] };
-                    let centre =
-                        pts[p0..poly_end[pi]].iter().sum::<DVec3>() / (poly_end[pi] - p0) as f64;
-                    let col = triangle_colour(
-                        mesh,
-                        order[ti as usize] as usize,
-                        &tris[ti as usize],
-                        centre + m,
-                    );
-                    for (acc, v) in c.iter_mut().zip(col) {
-                        *acc += w * f64::from(v);
-                    }
-                    ws += w;
-                }
-                let ws = if ws > 0.0 { ws } else { 1.0 };
-                out.colour.push(encode_colour(c.map(|v| (v / ws) as f32)));
-            }
-            let avg = |f: &dyn Fn(&Material) -> f32| -> f32 {
-                let mut a = 0.0f64;
-                let mut ws = 0.0;
-                for (k, &ti) in list.iter().enumerate() {
-                    let w = weight(k);
-                    a += w * f64::from(f(material(ti)));
-                    ws += w;
-                }
-                if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
-            };
-            if per_leaf_refl {
-                out.reflectivity.push(unorm8(avg(&|i| i.reflectivity)));
-            }
-            if per_leaf_refr {
-                out.refractivity.push(unorm8(avg(&|i| i.refractivity)));
-            }
-            if per_leaf_ior {
-                out.ior.push(ior_encode(avg(&|i| i.ior)));
-            }
-            leaf_poly_end.push(pts.len());
+            self.thickness.push(contour::thickness(c, p.normal));
+            self.contour.push(c);
         }
-        let t1 = Instant::now();
-        out.t_attr = t1 - t0;
-        if want_contour {
-            let mut begin = 0;
-            for (k, &end_p) in leaf_poly_end.iter().enumerate() {
-                let c = contour::fit(&pts[begin..end_p], normals_f[k]);
-                begin = end_p;
-                out.thickness.push(contour::thickness(c, normals_f[k]));
-                out.contour.push(c);
-            }
-            out.t_contour = t1.elapsed();
-        }
-        out
-    };
-
-    let n_blocks = n_leaves.div_ceil(BLOCK);
-    #[cfg(feature = "parallel")]
-    let blocks: Vec<Block> = {
-        use rayon::prelude::*;
-        (0..n_blocks).into_par_iter().map(do_block).collect()
-    };
-    #[cfg(not(feature = "parallel"))]
-    let blocks: Vec<Block> = (0..n_blocks).map(do_block).collect();
-
-    let mut attrs = LeafAttributes::default();
-    let mut cat = Block::default();
-    for b in blocks {
-        cat.normal.extend(b.normal);
-        cat.contour.extend(b.contour);
-        cat.colour.extend(b.colour);
-        cat.reflectivity.extend(b.reflectivity);
-        cat.refractivity.extend(b.refractivity);
-        cat.ior.extend(b.ior);
-        cat.thickness.extend(b.thickness);
-        cat.t_attr += b.t_attr;
-        cat.t_contour += b.t_contour;
-    }
-    let m0 = mats[0];
-    if select.has(ChannelKind::Normal) {
-        attrs.normal = Channel::PerLeaf(cat.normal);
-    }
-    if want_contour {
-        attrs.contour = Channel::PerLeaf(cat.contour);
-    }
-    if select.has(ChannelKind::Colour) {
-        attrs.colour = if per_leaf_colour {
-            Channel::PerLeaf(cat.colour)
-        } else {
-            Channel::Constant(encode_colour(m0.colour))
-        };
-    }
-    if select.has(ChannelKind::Reflectivity) {
-        attrs.reflectivity = if per_leaf_refl {
-            Channel::PerLeaf(cat.reflectivity)
-        } else {
-            Channel::Constant(unorm8(m0.reflectivity))
-        };
-    }
-    if select.has(ChannelKind::Refractivity) {
-        attrs.refractivity = if per_leaf_refr {
-            Channel::PerLeaf(cat.refractivity)
-        } else {
-            Channel::Constant(unorm8(m0.refractivity))
-        };
-    }
-    if select.has(ChannelKind::Ior) {
-        attrs.ior = if per_leaf_ior {
-            Channel::PerLeaf(cat.ior)
-        } else {
-            Channel::Constant(ior_encode(m0.ior))
-        };
-    }
-    if n_leaves > 0 {
-        attrs.compact();
     }
 
-    // Apportion the wall time of the pass by the measured thread time of each step.
-    let wall = wall.elapsed();
-    let busy = (cat.t_attr + cat.t_contour).as_secs_f64();
-    let share = if busy > 0.0 {
-        cat.t_contour.as_secs_f64() / busy
-    } else {
-        0.0
-    };
-    let contours = wall.mul_f64(share);
-    let contour_stats = want_contour.then(|| thickness_stats(&mut cat.thickness));
-    (
-        attrs,
-        AttributeReport {
-            attributes: wall - contours,
-            contours,
-            contour_stats,
-        },
-    )
+    /// Appends `other`'s leaves after these.
+    pub fn append(&mut self, mut other: Self) {
+        self.count += other.count;
+        self.normal.append(&mut other.normal);
+        self.contour.append(&mut other.contour);
+        self.colour.append(&mut other.colour);
+        self.reflectivity.append(&mut other.reflectivity);
+        self.refractivity.append(&mut other.refractivity);
+        self.ior.append(&mut other.ior);
+        self.thickness.append(&mut other.thickness);
+        self.pairs += other.pairs;
+        self.false_positives += other.false_positives;
+        self.t_voxelize += other.t_voxelize;
+        self.t_attributes += other.t_attributes;
+        self.t_contours += other.t_contours;
+    }
 }
 
 fn thickness_stats(v: &mut [f32]) -> ContourStats {

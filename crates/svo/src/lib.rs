@@ -41,6 +41,7 @@ pub mod grid;
 pub mod grid_dda;
 #[cfg(feature = "trace")]
 pub mod grid_ray;
+pub mod grid_slice;
 #[cfg(feature = "trace")]
 pub mod image_compare;
 #[cfg(feature = "image-io")]
@@ -56,6 +57,7 @@ pub mod normal_encoding;
 pub mod octree;
 pub mod octree_build;
 pub mod octree_layout;
+pub mod octree_scatter;
 #[cfg(feature = "trace")]
 pub mod octree_traverse;
 pub mod octree_validate;

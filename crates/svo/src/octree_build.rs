@@ -13,13 +13,18 @@
 //! levels are built by scattering triangles into cells instead of recursing (`docs/algorithms.md`).
 
 use crate::child_classify::{child_cell, child_offset, classify_children};
+use crate::leaf_attributes::{AttributeInputs, Contact, LeafValues};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
-use crate::overlap::{edge_interval, edges_overlap, plane_tolerance, vertex_inside};
+use crate::octree_scatter::{
+    SCATTER_LEVELS, ScatterScratch, clip_contacts, scatter_pairs, scatter_sliced,
+};
+use crate::overlap::{edges_overlap, plane_tolerance, triangle_box_overlap};
 use crate::strategy::Strategy;
 use crate::triangle_setup::GridTriangle;
 use glam::DVec3;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
 
 /// Levels (from the root) whose children may be built in parallel.
 const PARALLEL_LEVELS: u8 = 3;
@@ -53,6 +58,100 @@ impl LeafStore for LeafTriangles {
     }
 }
 
+impl LeafStore for LeafValues {
+    fn len(&self) -> usize {
+        LeafValues::len(self)
+    }
+}
+
+/// What the voxelizer makes of leaves: how a leaf is stored from a triangle list (the
+/// recursion's last level), how the bottom levels are scattered, and how parts are joined.
+trait LeafSink: LeafStore + Sized {
+    /// Appends the leaf at `cell` touched by the triangles of `list`.
+    fn push_list(&mut self, ctx: &Ctx<'_>, cell: [u32; 3], list: &[u32], scratch: &mut Scratch);
+    /// Builds the subtree of a node of the bottom levels ([`crate::octree_scatter`]).
+    fn scatter(
+        ctx: &Ctx<'_>,
+        level: u8,
+        cell: [u32; 3],
+        list: &[u32],
+        chunk: &mut Chunk<Self>,
+        scratch: &mut ScatterScratch,
+        tests: &mut u64,
+    ) -> Option<Node>;
+    /// Appends `other`'s leaves after these.
+    fn append(&mut self, other: Self);
+}
+
+impl LeafSink for LeafTriangles {
+    fn push_list(&mut self, _: &Ctx<'_>, cell: [u32; 3], list: &[u32], _: &mut Scratch) {
+        self.cells.push(cell);
+        self.tris.extend_from_slice(list);
+        self.ends.push(self.tris.len() as u64);
+    }
+
+    fn scatter(
+        ctx: &Ctx<'_>,
+        level: u8,
+        cell: [u32; 3],
+        list: &[u32],
+        chunk: &mut Chunk<Self>,
+        scratch: &mut ScatterScratch,
+        tests: &mut u64,
+    ) -> Option<Node> {
+        scatter_pairs(ctx, level, cell, list, chunk, scratch, tests)
+    }
+
+    fn append(&mut self, mut other: Self) {
+        let off = self.tris.len() as u64;
+        self.cells.append(&mut other.cells);
+        self.ends.extend(other.ends.iter().map(|e| e + off));
+        self.tris.append(&mut other.tris);
+    }
+}
+
+impl LeafSink for LeafValues {
+    fn push_list(&mut self, ctx: &Ctx<'_>, cell: [u32; 3], list: &[u32], scratch: &mut Scratch) {
+        let t0 = Instant::now();
+        let inputs = ctx
+            .attributes
+            .expect("the bake's voxelizer has attribute inputs");
+        let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+        if !ctx.strategy.is_exact()
+            && !list
+                .iter()
+                .any(|&t| triangle_box_overlap(&ctx.tris[t as usize], m, 1.0))
+        {
+            self.false_positives += 1;
+        }
+        let (contacts, pts) = (&mut scratch.contacts, &mut scratch.pts);
+        clip_contacts(ctx.tris, cell, list, contacts, pts);
+        inputs.push_leaf(self, m, DVec3::ZERO, contacts, 0, pts);
+        let t1 = Instant::now();
+        if inputs.wants_contour() {
+            self.fit_contours(contacts, pts);
+        }
+        self.t_attributes += t1 - t0;
+        self.t_contours += t1.elapsed();
+    }
+
+    fn scatter(
+        ctx: &Ctx<'_>,
+        level: u8,
+        cell: [u32; 3],
+        list: &[u32],
+        chunk: &mut Chunk<Self>,
+        scratch: &mut ScatterScratch,
+        tests: &mut u64,
+    ) -> Option<Node> {
+        scatter_sliced(ctx, level, cell, list, chunk, scratch, tests)
+    }
+
+    fn append(&mut self, other: Self) {
+        LeafValues::append(self, other);
+    }
+}
+
 /// The voxelizer's output: the node layout and the leaves with their triangles.
 #[derive(Debug, Default)]
 pub struct Voxelized {
@@ -64,16 +163,24 @@ pub struct Voxelized {
     pub tests: u64,
 }
 
-/// Per-task reusable buffers: one set of child lists per level, and the scatter pairs.
+/// Per-task reusable buffers: one set of child lists per level, the scatter's buffers, and
+/// a leaf's contacts when attributes are computed.
 struct Scratch {
     lists: Vec<[Vec<u32>; 8]>,
-    pairs: Vec<(u16, u32)>,
+    scatter: ScatterScratch,
+    contacts: Vec<Contact>,
+    pts: Vec<DVec3>,
 }
 
-struct Ctx<'a> {
-    tris: &'a [GridTriangle],
-    depth: u8,
+/// What every step of one voxelization reads.
+pub struct Ctx<'a> {
+    /// Grid-space triangles.
+    pub tris: &'a [GridTriangle],
+    /// Tree depth.
+    pub depth: u8,
     strategy: Strategy,
+    /// Attribute inputs, when leaves get their attributes as they are made.
+    pub attributes: Option<&'a AttributeInputs<'a>>,
     progress: &'a (dyn Fn(f64) + Sync),
     done: AtomicU64,
     total: u64,
@@ -81,6 +188,13 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Counts the progress of a whole node at `level` built in one go.
+    pub fn node_done(&self, level: u8) {
+        if level <= self.progress_level {
+            self.advance(self.units(level));
+        }
+    }
+
     fn advance(&self, units: u64) {
         let d = self.done.fetch_add(units, Ordering::Relaxed) + units;
         (self.progress)(d as f64 / self.total as f64);
@@ -175,217 +289,19 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
     tests
 }
 
-/// Levels above the leaves below which the default strategy scatters triangles into cells
-/// instead of recursing (see [`scatter`]).
-const SCATTER_LEVELS: u8 = 3;
-
-/// The default strategy's bottom levels: for a node of at most `2^SCATTER_LEVELS` cells per
-/// axis, every triangle enumerates the cells of its bounding box inside the node that its
-/// plane crosses (per column along the normal's dominant axis) and runs on each the complete
-/// test of [`crate::overlap::triangle_box_overlap`], with the plane distance and edge
-/// intervals prepared once per triangle; the `(cell, triangle)` pairs are sorted by the
-/// cells' Morton order and the subtree is emitted bottom-up. Same cells and lists as the
-/// recursion, with far less per-node overhead.
-fn scatter(
-    ctx: &Ctx<'_>,
-    level: u8,
-    cell: [u32; 3],
-    list: &[u32],
-    chunk: &mut Chunk<LeafTriangles>,
-    pairs: &mut Vec<(u16, u32)>,
-    tests: &mut u64,
-) -> Option<Node> {
-    let k = ctx.depth - level;
-    let n = 1i64 << k;
-    let base = [i64::from(cell[0]), i64::from(cell[1]), i64::from(cell[2])];
-    pairs.clear();
-    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
-    for &ti in list {
-        let t = &ctx.tris[ti as usize];
-        // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
-        let range = |a: usize| -> (i64, i64) {
-            let f = floor_i64(t.lo[a]);
-            let ceil_minus_1 = if f as f64 == t.lo[a] { f - 1 } else { f };
-            let lo = (ceil_minus_1 - base[a]).max(0);
-            let hi = (floor_i64(t.hi[a]) - base[a]).min(n - 1);
-            (lo, hi)
-        };
-        let ((x0, x1), (y0, y1), (z0, z1)) = (range(0), range(1), range(2));
-        if x0 > x1 || y0 > y1 || z0 > z1 {
-            continue;
-        }
-        // Plane: signed distance of a cell's min corner is `base + n . (x, y, z)`; one
-        // tolerance covers every cell of the node (as in `overlap::plane_overlaps`).
-        let nn = t.n;
-        let d0 = node_min - t.v[0];
-        let pbase = nn.dot(d0);
-        let pos = nn.x.max(0.0) + nn.y.max(0.0) + nn.z.max(0.0);
-        let neg = nn.x.min(0.0) + nn.y.min(0.0) + nn.z.min(0.0);
-        // Cell corners are within `3n` of the node's, and a cell spans 3 more.
-        let ptol = plane_tolerance(
-            t,
-            d0.x.abs() + d0.y.abs() + d0.z.abs() + 3.0 * n as f64 + 3.0,
-        );
-        // Edge axes: the triangle's interval on each, and the cell's radius on it plus the
-        // rounding bound (as in `overlap::edges_overlap`).
-        let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
-        for (i, axis) in axes.iter_mut().enumerate() {
-            let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, i / 3, i % 3);
-            *axis = (a1, a2, i1, i2, lo, hi, (0.5 + t.edge_tol) * w);
-        }
-        let test = |x: i64, y: i64, z: i64| -> bool {
-            let m = node_min + DVec3::new(x as f64, y as f64, z as f64);
-            vertex_inside(t, m, 1.0) || {
-                let dist = pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
-                dist + neg <= ptol && dist + pos >= -ptol && {
-                    let c = m + DVec3::splat(0.5);
-                    axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
-                        let pc = a1 * c[i1] + a2 * c[i2];
-                        lo <= pc + rad && hi >= pc - rad
-                    })
-                }
-            }
-        };
-        let ranges = [(x0, x1), (y0, y1), (z0, z1)];
-        // Columns along the normal's dominant axis `w`: only the cells that the plane
-        // crosses in a column can touch the triangle, so the others are skipped. The range
-        // is widened by a margin far above its rounding error; near-degenerate triangles,
-        // whose plane is rounding noise, test their whole box.
-        let na = nn.abs();
-        let w = if na.x >= na.y && na.x >= na.z {
-            0
-        } else if na.y >= na.z {
-            1
-        } else {
-            2
-        };
-        let (u, v) = ((w + 1) % 3, (w + 2) % 3);
-        let prune = na[w] > 1e-6 * t.n_scale && na[w].is_finite();
-        // The plane's w-coordinate is `w_at(u, v) = wc - su u - sv v`; over a column
-        // `[u, u + 1] x [v, v + 1]` it spans that value plus the corner offsets below.
-        let (su, sv) = (nn[u] / nn[w], nn[v] / nn[w]);
-        let wc = nn.dot(t.v[0]) / nn[w];
-        let (off_lo, off_hi) = (
-            (-su).min(0.0) + (-sv).min(0.0),
-            (-su).max(0.0) + (-sv).max(0.0),
-        );
-        for cu in ranges[u].0..=ranges[u].1 {
-            for cv in ranges[v].0..=ranges[v].1 {
-                let (mut w0, mut w1) = ranges[w];
-                if prune {
-                    let at = wc - su * (base[u] + cu) as f64 - sv * (base[v] + cv) as f64;
-                    let (lo, hi) = (at + off_lo, at + off_hi);
-                    let margin = 1e-7 * (1.0 + lo.abs().max(hi.abs()));
-                    if lo.is_finite() && hi.is_finite() {
-                        // Cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
-                        w0 = w0.max(floor_i64(lo - margin) - base[w]);
-                        w1 = w1.min(floor_i64(hi + margin) - base[w]);
-                    }
-                }
-                for cw in w0..=w1 {
-                    let mut p = [0i64; 3];
-                    p[u] = cu;
-                    p[v] = cv;
-                    p[w] = cw;
-                    *tests += 1;
-                    if test(p[0], p[1], p[2]) {
-                        pairs.push((morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k), ti));
-                    }
-                }
-            }
-        }
-    }
-    // Triangles stay in list order within a cell: a stable sort by cell.
-    pairs.sort_by_key(|p| p.0);
-    if level <= ctx.progress_level {
-        ctx.advance(ctx.units(level));
-    }
-    emit_sorted(pairs, k, 0, cell, chunk)
-}
-
-/// `floor` as an integer without a libm call (baseline x86-64 has no rounding
-/// instruction); `x` is a finite grid coordinate far below `2^62`.
-#[inline]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - i64::from((t as f64) > x)
-}
-
-/// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
-#[inline]
-fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
-    let mut m = 0u32;
-    for b in (0..u32::from(k)).rev() {
-        m = m << 3 | ((x >> b) & 1) << 2 | ((y >> b) & 1) << 1 | ((z >> b) & 1);
-    }
-    m as u16
-}
-
-/// Emits the subtree of sorted `(morton, triangle)` pairs of a node `k` levels above the
-/// leaves (`k - depth_below` at this call), with min corner `cell`.
-fn emit_sorted(
-    pairs: &[(u16, u32)],
-    k: u8,
-    done: u8,
-    cell: [u32; 3],
-    chunk: &mut Chunk<LeafTriangles>,
-) -> Option<Node> {
-    if pairs.is_empty() {
-        return None;
-    }
-    let below = k - done; // levels from this node to the leaves
-    let shift = 3 * u32::from(below - 1);
-    let child = |m: u16| ((u32::from(m) >> shift) & 7) as u8;
-    let half = 1u32 << (below - 1);
-    let mut mask = 0u8;
-    if below == 1 {
-        let base = chunk.leaves.len();
-        let mut start = 0;
-        while start < pairs.len() {
-            let m = pairs[start].0;
-            let end = start + pairs[start..].partition_point(|p| p.0 == m);
-            let i = child(m);
-            mask |= 1 << i;
-            chunk.leaves.cells.push(child_cell(cell, i, 1));
-            chunk
-                .leaves
-                .tris
-                .extend(pairs[start..end].iter().map(|p| p.1));
-            chunk.leaves.ends.push(chunk.leaves.tris.len() as u64);
-            start = end;
-        }
-        return Some(Chunk::<LeafTriangles>::leaf_parent(mask, base));
-    }
-    let mut records = [Node::default(); 8];
-    let mut count = 0;
-    let mut start = 0;
-    while start < pairs.len() {
-        let i = child(pairs[start].0);
-        let end = start + pairs[start..].partition_point(|p| child(p.0) == i);
-        let c = child_cell(cell, i, half);
-        if let Some(r) = emit_sorted(&pairs[start..end], k, done + 1, c, chunk) {
-            mask |= 1 << i;
-            records[count] = r;
-            count += 1;
-        }
-        start = end;
-    }
-    (mask != 0).then(|| chunk.push_children(mask, &records[..count]))
-}
-
 /// Builds the subtree of the node at `level` with integer min corner `cell` (in units of
 /// leaf cells) sequentially into `chunk`, returning its record, or `None` if it holds no leaf.
-fn build_seq(
+fn build_seq<L: LeafSink>(
     ctx: &Ctx<'_>,
     level: u8,
     cell: [u32; 3],
     list: &[u32],
-    chunk: &mut Chunk<LeafTriangles>,
+    chunk: &mut Chunk<L>,
     scratch: &mut Scratch,
     tests: &mut u64,
 ) -> Option<Node> {
     if ctx.strategy == Strategy::Exact && ctx.depth - level <= SCATTER_LEVELS {
-        return scatter(ctx, level, cell, list, chunk, &mut scratch.pairs, tests);
+        return L::scatter(ctx, level, cell, list, chunk, &mut scratch.scatter, tests);
     }
     let scratch_lists = &mut scratch.lists;
     let s = f64::from(1u32 << (ctx.depth - level));
@@ -402,11 +318,11 @@ fn build_seq(
                 continue;
             }
             mask |= 1 << i;
-            chunk.leaves.cells.push(child_cell(cell, i as u8, 1));
-            chunk.leaves.tris.extend_from_slice(l);
-            chunk.leaves.ends.push(chunk.leaves.tris.len() as u64);
+            chunk
+                .leaves
+                .push_list(ctx, child_cell(cell, i as u8, 1), l, scratch);
         }
-        record = (mask != 0).then(|| Chunk::<LeafTriangles>::leaf_parent(mask, base));
+        record = (mask != 0).then(|| Chunk::<L>::leaf_parent(mask, base));
     } else {
         let mut records = [Node::default(); 8];
         let mut k = 0;
@@ -437,61 +353,51 @@ fn build_seq(
 /// A subtree built by parallel tasks: a sequential chunk, or a node of the top levels
 /// whose children were built independently. Assembled once at the end ([`assemble`]), so
 /// the output is copied once, not once per parallel level.
-enum Part {
-    Seq(Chunk<LeafTriangles>, Option<Node>),
-    Par(Vec<(u8, Part)>),
+enum Part<L> {
+    Seq(Chunk<L>, Option<Node>),
+    Par(Vec<(u8, Part<L>)>),
 }
 
-/// One piece of the final node and leaf arrays: a sequential chunk, or the children block
-/// of a node of the parallel levels, with where it goes.
+/// One piece of the final node array: a sequential chunk's nodes with the offsets of its
+/// nodes and leaves, or the children block of a node of the parallel levels.
 enum Job {
     Chunk {
-        chunk: Chunk<LeafTriangles>,
+        nodes: Vec<Node>,
         node_off: usize,
         leaf_off: usize,
-        tri_off: usize,
     },
     Block {
         records: Vec<Node>,
     },
 }
 
-/// A job with its destination slices: nodes, cells, list ends, triangle references.
-type Task<'a> = (
-    Job,
-    &'a mut [Node],
-    &'a mut [[u32; 3]],
-    &'a mut [u64],
-    &'a mut [u32],
-);
-
-/// Plans the post-order placement of a part: pushes its jobs with their final offsets and
-/// returns its root record relocated there. `off` is (nodes, leaves, triangle references).
-fn plan(part: Part, jobs: &mut Vec<Job>, off: &mut (usize, usize, usize)) -> Option<Node> {
+/// Plans the post-order placement of a part: appends its leaves to `leaves`, pushes its
+/// node jobs with their final offsets and returns its root record relocated there. `off` is
+/// the number of nodes placed so far.
+fn plan<L: LeafSink>(
+    part: Part<L>,
+    jobs: &mut Vec<Job>,
+    off: &mut usize,
+    leaves: &mut L,
+) -> Option<Node> {
     match part {
         Part::Seq(chunk, rec) => {
             let rec = rec?;
-            let (node_off, leaf_off, tri_off) = *off;
-            off.0 += chunk.nodes.len();
-            off.1 += chunk.leaves.cells.len();
-            off.2 += chunk.leaves.tris.len();
+            let (node_off, leaf_off) = (*off, leaves.len());
+            *off += chunk.nodes.len();
+            leaves.append(chunk.leaves);
             jobs.push(Job::Chunk {
-                chunk,
+                nodes: chunk.nodes,
                 node_off,
                 leaf_off,
-                tri_off,
             });
-            Some(Chunk::<LeafTriangles>::relocate(
-                rec,
-                node_off as u32,
-                leaf_off,
-            ))
+            Some(Chunk::<L>::relocate(rec, node_off as u32, leaf_off))
         }
         Part::Par(children) => {
             let mut records = Vec::with_capacity(8);
             let mut mask = 0u8;
             for (i, p) in children {
-                if let Some(r) = plan(p, jobs, off) {
+                if let Some(r) = plan(p, jobs, off, leaves) {
                     mask |= 1 << i;
                     records.push(r);
                 }
@@ -500,8 +406,8 @@ fn plan(part: Part, jobs: &mut Vec<Job>, off: &mut (usize, usize, usize)) -> Opt
                 return None;
             }
             // Children blocks hold their records in reverse until the final reversal.
-            let start = off.0;
-            off.0 += records.len();
+            let start = *off;
+            *off += records.len();
             records.reverse();
             jobs.push(Job::Block { records });
             Some(Node {
@@ -512,73 +418,55 @@ fn plan(part: Part, jobs: &mut Vec<Job>, off: &mut (usize, usize, usize)) -> Opt
     }
 }
 
-/// Copies the parts into one chunk: offsets are planned first, then every piece is copied
-/// (and relocated) into its own slice of the final arrays in parallel.
-fn assemble(part: Part) -> (Chunk<LeafTriangles>, Option<Node>) {
+/// Joins the parts into one chunk: the leaves are appended in order while the offsets are
+/// planned, then every node piece is copied (and relocated) into its own slice of the final
+/// array in parallel.
+fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
     let mut jobs = Vec::new();
-    let mut off = (0, 0, 0);
-    let root = plan(part, &mut jobs, &mut off);
-    let mut out = Chunk::<LeafTriangles>::new();
-    out.nodes = vec![Node::default(); off.0];
-    out.leaves.cells = vec![[0; 3]; off.1];
-    out.leaves.ends = vec![0; off.1];
-    out.leaves.tris = vec![0; off.2];
-    {
-        // Split the arrays into the jobs' disjoint slices, in order.
-        let (mut nodes, mut cells, mut ends, mut tris) = (
-            &mut out.nodes[..],
-            &mut out.leaves.cells[..],
-            &mut out.leaves.ends[..],
-            &mut out.leaves.tris[..],
-        );
-        let mut tasks = Vec::with_capacity(jobs.len());
-        for job in jobs {
-            let (n, l, t) = match &job {
-                Job::Chunk { chunk, .. } => (
-                    chunk.nodes.len(),
-                    chunk.leaves.cells.len(),
-                    chunk.leaves.tris.len(),
-                ),
-                Job::Block { records } => (records.len(), 0, 0),
-            };
-            let (dn, rn) = std::mem::take(&mut nodes).split_at_mut(n);
-            let (dc, rc) = std::mem::take(&mut cells).split_at_mut(l);
-            let (de, re) = std::mem::take(&mut ends).split_at_mut(l);
-            let (dt, rt) = std::mem::take(&mut tris).split_at_mut(t);
-            (nodes, cells, ends, tris) = (rn, rc, re, rt);
-            tasks.push((job, dn, dc, de, dt));
-        }
-        let copy = |(job, dn, dc, de, dt): Task<'_>| match job {
-            Job::Chunk {
-                chunk,
-                node_off,
-                leaf_off,
-                tri_off,
-            } => {
-                for (d, s) in dn.iter_mut().zip(&chunk.nodes) {
-                    *d = Chunk::<LeafTriangles>::relocate(*s, node_off as u32, leaf_off);
-                }
-                dc.copy_from_slice(&chunk.leaves.cells);
-                for (d, s) in de.iter_mut().zip(&chunk.leaves.ends) {
-                    *d = s + tri_off as u64;
-                }
-                dt.copy_from_slice(&chunk.leaves.tris);
-            }
-            Job::Block { records } => dn.copy_from_slice(&records),
+    let mut off = 0;
+    let mut out = Chunk::<L>::new();
+    let root = plan(part, &mut jobs, &mut off, &mut out.leaves);
+    out.nodes = vec![Node::default(); off];
+    let mut rest = &mut out.nodes[..];
+    let mut tasks = Vec::with_capacity(jobs.len());
+    for job in jobs {
+        let n = match &job {
+            Job::Chunk { nodes, .. } => nodes.len(),
+            Job::Block { records } => records.len(),
         };
-        #[cfg(feature = "parallel")]
-        {
-            use rayon::prelude::*;
-            tasks.into_par_iter().for_each(copy);
-        }
-        #[cfg(not(feature = "parallel"))]
-        tasks.into_iter().for_each(copy);
+        let (dst, r) = std::mem::take(&mut rest).split_at_mut(n);
+        rest = r;
+        tasks.push((job, dst));
     }
+    let copy = |(job, dst): (Job, &mut [Node])| match job {
+        Job::Chunk {
+            nodes,
+            node_off,
+            leaf_off,
+        } => {
+            for (d, s) in dst.iter_mut().zip(&nodes) {
+                *d = Chunk::<L>::relocate(*s, node_off as u32, leaf_off);
+            }
+        }
+        Job::Block { records } => dst.copy_from_slice(&records),
+    };
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        tasks.into_par_iter().for_each(copy);
+    }
+    #[cfg(not(feature = "parallel"))]
+    tasks.into_iter().for_each(copy);
     (out, root)
 }
 
 /// Builds the subtree of a node, in parallel over children at the top levels.
-fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, u64) {
+fn build_node<L: LeafSink>(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+) -> (Part<L>, u64) {
     let parallel = cfg!(feature = "parallel")
         && level < PARALLEL_LEVELS
         && level + 2 < ctx.depth
@@ -587,7 +475,9 @@ fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, 
         let mut chunk = Chunk::new();
         let mut scratch = Scratch {
             lists: vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)],
-            pairs: Vec::new(),
+            scatter: ScatterScratch::default(),
+            contacts: Vec::new(),
+            pts: Vec::new(),
         };
         let mut tests = 0;
         let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);
@@ -609,7 +499,7 @@ fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, 
             return None;
         }
         let child = child_cell(cell, i as u8, half);
-        Some(build_node(ctx, level + 1, child, l))
+        Some(build_node::<L>(ctx, level + 1, child, l))
     };
     #[cfg(feature = "parallel")]
     let results: Vec<_> = {
@@ -631,14 +521,14 @@ fn build_node(ctx: &Ctx<'_>, level: u8, cell: [u32; 3], list: &[u32]) -> (Part, 
     (Part::Par(children), tests)
 }
 
-/// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
-/// whose root is `[0, 2^depth]^3`. `progress` receives the fraction of the root's volume done.
-pub fn voxelize(
+/// Runs the voxelizer with leaves of type `L`.
+fn build<L: LeafSink>(
     tris: &[GridTriangle],
     depth: u8,
     strategy: Strategy,
+    attributes: Option<&AttributeInputs<'_>>,
     progress: &(dyn Fn(f64) + Sync),
-) -> Voxelized {
+) -> (Vec<Node>, L, u64) {
     assert!(
         (1..=crate::MAX_DEPTH).contains(&depth),
         "depth {depth} out of range"
@@ -648,6 +538,7 @@ pub fn voxelize(
         tris,
         depth,
         strategy,
+        attributes,
         progress,
         done: AtomicU64::new(0),
         total: 8u64.pow(u32::from(progress_level)),
@@ -661,15 +552,40 @@ pub fn voxelize(
             t.lo.cmple(DVec3::splat(side)).all() && t.hi.cmpge(DVec3::ZERO).all()
         })
         .collect();
-    let (part, tests) = build_node(&ctx, 0, [0, 0, 0], &all);
+    let (part, tests) = build_node::<L>(&ctx, 0, [0, 0, 0], &all);
     let (chunk, root) = match part {
         Part::Seq(chunk, root) => (chunk, root),
         par => assemble(par),
     };
     let (nodes, leaves) = chunk.finish(root);
+    (nodes, leaves, tests)
+}
+
+/// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
+/// whose root is `[0, 2^depth]^3`, keeping each leaf's list of triangles. `progress`
+/// receives the fraction of the root's volume done.
+pub fn voxelize(
+    tris: &[GridTriangle],
+    depth: u8,
+    strategy: Strategy,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Voxelized {
+    let (nodes, leaves, tests) = build::<LeafTriangles>(tris, depth, strategy, None, progress);
     Voxelized {
         nodes,
         leaves,
         tests,
     }
+}
+
+/// Voxelizes like [`voxelize`] and computes each leaf's attributes as it is made (the
+/// bake's path): no list of triangles per leaf is kept. The triangles are `inputs`'s.
+/// Returns the nodes, the leaves' values and the number of overlap tests run.
+pub fn voxelize_with_attributes(
+    inputs: &AttributeInputs<'_>,
+    depth: u8,
+    strategy: Strategy,
+    progress: &(dyn Fn(f64) + Sync),
+) -> (Vec<Node>, LeafValues, u64) {
+    build::<LeafValues>(inputs.triangles(), depth, strategy, Some(inputs), progress)
 }

@@ -1,0 +1,400 @@
+//! Slicing a triangle through the cells of a small block of the grid.
+//!
+//! The voxelizer's bottom levels ([`crate::octree_scatter`]) need, for every cell a triangle
+//! touches, the part of the triangle inside the cell: its area weighs the leaf's attributes
+//! and its vertices bound the contour. Clipping the triangle against each cell's six faces
+//! costs six plane passes per cell; slicing it costs about one: the triangle is clipped to
+//! the block once, cut into slabs by the block's x planes, each slab into columns by the y
+//! planes and each column into cells by the z planes, every cut sending the polygon's two
+//! sides on at once (Sutherland-Hodgman with both outputs).
+//!
+//! The pieces are only approximately the exact intersections (the cut points are rounded,
+//! though their coordinate on the cutting axis is set exactly). The caller decides cell
+//! membership from them with care: a piece whose centroid lies well inside its cell proves
+//! the contact (the centroid is within rounding of a point of the triangle); any other
+//! piece, and any neighbour cell that a piece's vertex comes near without being on the
+//! shared face, is decided by the exact overlap test (see [`near_code`]).
+
+use glam::DVec3;
+
+/// The most vertices a polygon may have while slicing. A triangle intersected with a box
+/// has at most 9; rounding in degenerate cases could add a few, so there is room for more,
+/// and a polygon that would exceed it makes [`slice_triangle`] report failure.
+const CAP: usize = 12;
+
+/// A convex polygon of at most [`CAP`] vertices.
+#[derive(Clone, Copy, Debug)]
+pub struct Poly {
+    v: [DVec3; CAP],
+    n: usize,
+    overflow: bool,
+}
+
+impl Default for Poly {
+    fn default() -> Self {
+        Self {
+            v: [DVec3::ZERO; CAP],
+            n: 0,
+            overflow: false,
+        }
+    }
+}
+
+impl Poly {
+    /// The vertices.
+    pub fn points(&self) -> &[DVec3] {
+        &self.v[..self.n]
+    }
+
+    #[inline]
+    fn push(&mut self, p: DVec3) {
+        if self.n < CAP {
+            self.v[self.n] = p;
+            self.n += 1;
+        } else {
+            self.overflow = true;
+        }
+    }
+
+    /// The polygon's area (zero below three vertices).
+    pub fn area(&self) -> f64 {
+        polygon_area(self.points())
+    }
+}
+
+/// The area of a planar convex polygon.
+pub fn polygon_area(p: &[DVec3]) -> f64 {
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let mut s = DVec3::ZERO;
+    for i in 1..p.len() - 1 {
+        s += (p[i] - p[0]).cross(p[i + 1] - p[0]);
+    }
+    0.5 * s.length()
+}
+
+/// Cuts `src` by the plane `p[axis] = c` into its closed lower and upper sides. Vertices on
+/// the plane go to both; each crossing edge adds its intersection, with the coordinate on
+/// `axis` set to exactly `c`, to both.
+#[inline]
+fn cut(src: &Poly, axis: usize, c: f64, lo: &mut Poly, hi: &mut Poly) {
+    lo.n = 0;
+    hi.n = 0;
+    let n = src.n;
+    for i in 0..n {
+        let p = src.v[i];
+        let q = src.v[if i + 1 == n { 0 } else { i + 1 }];
+        let (dp, dq) = (p[axis] - c, q[axis] - c);
+        if dp <= 0.0 {
+            lo.push(p);
+        }
+        if dp >= 0.0 {
+            hi.push(p);
+        }
+        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+            let mut x = p + (q - p) * (dp / (dp - dq));
+            x[axis] = c;
+            lo.push(x);
+            hi.push(x);
+        }
+    }
+    lo.overflow |= src.overflow;
+    hi.overflow |= src.overflow;
+}
+
+/// `floor` as an integer for a finite value of moderate size (no libm call).
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// Calls `f(i, slab)` for every unit slab `[i, i + 1]` along `axis` (within `0..n`) that
+/// the polygon reaches, in order. A polygon that reaches a plane `p[axis] = i` only with
+/// points on it still gives the slab beyond the plane those points (closed cells), so a
+/// point exactly on a plane is always in the parts on both sides.
+#[inline]
+fn slabs(poly: &Poly, axis: usize, n: u32, buf: &mut [Poly; 3], f: &mut impl FnMut(u32, &Poly)) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in poly.points() {
+        lo = lo.min(p[axis]);
+        hi = hi.max(p[axis]);
+    }
+    let last = i64::from(n) - 1;
+    let fl = floor_i64(lo);
+    let i0 = (fl - i64::from(fl as f64 == lo)).clamp(0, last);
+    let i1 = floor_i64(hi).clamp(i0, last);
+    if i0 == i1 {
+        f(i0 as u32, poly);
+        return;
+    }
+    // Ping-pong between two buffers for what is left above each cut.
+    let [below, x, y] = buf;
+    let (mut rest, mut above) = (x, y);
+    cut(poly, axis, (i0 + 1) as f64, below, rest);
+    if below.n > 0 {
+        f(i0 as u32, below);
+    }
+    for i in i0 + 1..i1 {
+        if rest.n == 0 {
+            return;
+        }
+        cut(rest, axis, (i + 1) as f64, below, above);
+        if below.n > 0 {
+            f(i as u32, below);
+        }
+        std::mem::swap(&mut rest, &mut above);
+    }
+    if rest.n > 0 {
+        f(i1 as u32, rest);
+    }
+}
+
+/// Reusable polygon buffers for [`Slicer::slice`]: three per axis.
+#[derive(Default)]
+pub struct Slicer {
+    clip: [Poly; 3],
+    bufs: [[Poly; 3]; 3],
+}
+
+impl Slicer {
+    /// Slices the triangle `v` (coordinates local to a block of `n^3` unit cells,
+    /// `[0, n]^3`) into its parts per cell, calling `f(cell, part)` for each. Returns
+    /// `false` when the triangle, clipped to the block, is empty (it misses the block, or
+    /// touches it only where rounding lost the contact) or has an area of at most
+    /// `min_area` (it only grazes the block), or a polygon overflowed; the caller then
+    /// falls back to testing cells one by one.
+    pub fn slice(
+        &mut self,
+        v: [DVec3; 3],
+        n: u32,
+        min_area: f64,
+        f: &mut impl FnMut([u32; 3], &Poly),
+    ) -> bool {
+        let [poly, a, b] = &mut self.clip;
+        poly.n = 0;
+        poly.overflow = false;
+        for p in v {
+            poly.push(p);
+        }
+        // Clip to the block, against the faces that the triangle's bounds cross.
+        let lo = v[0].min(v[1]).min(v[2]);
+        let hi = v[0].max(v[1]).max(v[2]);
+        let side = f64::from(n);
+        for axis in 0..3 {
+            if lo[axis] < 0.0 {
+                cut(poly, axis, 0.0, a, b);
+                std::mem::swap(poly, b);
+            }
+            if hi[axis] > side {
+                cut(poly, axis, side, a, b);
+                std::mem::swap(poly, a);
+            }
+        }
+        if poly.n == 0 || poly.overflow {
+            return false;
+        }
+        if lo.cmplt(DVec3::ZERO).any() || hi.cmpgt(DVec3::splat(side)).any() {
+            // Pin the clipped coordinates into the block (interpolation may round just
+            // outside).
+            for p in &mut poly.v[..poly.n] {
+                *p = p.clamp(DVec3::ZERO, DVec3::splat(side));
+            }
+            // A triangle that only grazes the block (what is left is a point, a segment or
+            // a sliver on its faces) is left to the cell tests, which judge such contacts
+            // with their own tolerance.
+            if poly.area() <= min_area {
+                return false;
+            }
+        }
+        let mut overflow = false;
+        let [bx, by, bz] = &mut self.bufs;
+        slabs(poly, 0, n, bx, &mut |x, slab| {
+            slabs(slab, 1, n, by, &mut |y, column| {
+                slabs(column, 2, n, bz, &mut |z, part| {
+                    overflow |= part.overflow;
+                    f([x, y, z], part);
+                });
+            });
+        });
+        !overflow
+    }
+}
+
+/// [`Slicer::slice`] with buffers of its own.
+pub fn slice_triangle(v: [DVec3; 3], n: u32, f: &mut impl FnMut([u32; 3], &Poly)) -> bool {
+    Slicer::default().slice(v, n, 0.0, f)
+}
+
+/// How a point sits in its unit cell `[0, 1]^3` (coordinates `f` relative to the cell's
+/// minimum corner), per axis in two bits: bit 0 when it is near the lower face without
+/// being on it (`0 < f <= eps`), bit 1 the same for the upper face; axis `a` in bits
+/// `2a..2a + 2`. A point exactly on a face needs no flag: slicing puts it in the parts on
+/// both sides ([`slice_triangle`]), so the neighbour has a part already.
+#[inline]
+pub fn near_code(f: DVec3, eps: f64) -> usize {
+    let mut code = 0;
+    for a in 0..3 {
+        code |= usize::from(f[a] > 0.0 && f[a] <= eps) << (2 * a);
+        code |= usize::from(f[a] < 1.0 && f[a] >= 1.0 - eps) << (2 * a + 1);
+    }
+    code
+}
+
+/// Whether a point (cell-local coordinates `f`) is more than `eps` inside the cell on every
+/// axis.
+#[inline]
+pub fn well_inside(f: DVec3, eps: f64) -> bool {
+    f.cmpgt(DVec3::splat(eps)).all() && f.cmplt(DVec3::splat(1.0 - eps)).all()
+}
+
+/// For each [`near_code`], the neighbour offsets a point with that code may also touch,
+/// as a mask over the 27 offsets `(dx, dy, dz)` in `{-1, 0, 1}^3` (bit
+/// `(dx + 1) + 3 (dy + 1) + 9 (dz + 1)`), the cell itself (bit 13) excluded.
+pub const NEIGHBOURS: [u32; 64] = neighbour_table();
+
+const fn neighbour_table() -> [u32; 64] {
+    let mut t = [0u32; 64];
+    let mut code = 0;
+    while code < 64 {
+        let mut mask = 0u32;
+        let mut bit = 0;
+        while bit < 27 {
+            let d = [bit % 3, bit / 3 % 3, bit / 9];
+            let mut ok = true;
+            let mut a = 0;
+            while a < 3 {
+                let c = (code >> (2 * a)) & 3;
+                // Offset 0 is always allowed; -1 needs the lower flag, +1 the upper.
+                ok &= d[a] == 1 || (d[a] == 0 && c & 1 != 0) || (d[a] == 2 && c & 2 != 0);
+                a += 1;
+            }
+            if ok && bit != 13 {
+                mask |= 1 << bit;
+            }
+            bit += 1;
+        }
+        t[code] = mask;
+        code += 1;
+    }
+    t
+}
+
+/// The offset `(dx, dy, dz)` of bit `b` of a [`NEIGHBOURS`] mask.
+#[inline]
+pub fn neighbour_offset(b: u32) -> [i64; 3] {
+    let b = i64::from(b);
+    [b % 3 - 1, b / 3 % 3 - 1, b / 9 - 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri_area(v: [DVec3; 3]) -> f64 {
+        0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length()
+    }
+
+    #[test]
+    fn pieces_cover_the_triangle_and_stay_in_their_cells() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let v = [0; 3].map(|_| DVec3::new(rnd() * 8.0, rnd() * 8.0, rnd() * 8.0));
+            let mut sum = 0.0;
+            let ok = slice_triangle(v, 8, &mut |c, p| {
+                let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+                for q in p.points() {
+                    assert!(q.cmpge(m - 1e-12).all() && q.cmple(m + 1.0 + 1e-12).all());
+                }
+                sum += p.area();
+            });
+            assert!(ok);
+            let a = tri_area(v);
+            assert!((sum - a).abs() <= 1e-9 * a.max(1.0), "{sum} vs {a}");
+        }
+    }
+
+    #[test]
+    fn pieces_equal_clipping_to_each_cell() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..500 {
+            let v = [0; 3]
+                .map(|_| DVec3::new(rnd() * 12.0 - 2.0, rnd() * 12.0 - 2.0, rnd() * 12.0 - 2.0));
+            let mut got = std::collections::BTreeMap::new();
+            slice_triangle(v, 8, &mut |c, p| {
+                *got.entry(c).or_insert(0.0) += p.area();
+            });
+            for x in 0..8u32 {
+                for y in 0..8u32 {
+                    for z in 0..8u32 {
+                        let m = DVec3::new(f64::from(x), f64::from(y), f64::from(z));
+                        let want = crate::clip::clip_to_unit_cube(v.map(|p| p - m)).area();
+                        let g = got.get(&[x, y, z]).copied().unwrap_or(0.0);
+                        assert!((g - want).abs() < 1e-9, "{:?}: {g} vs {want}", [x, y, z]);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn clipped_to_the_block() {
+        // A triangle much larger than the block: the pieces cover the block's cross-section.
+        let v = [
+            DVec3::new(-100.0, -100.0, 2.5),
+            DVec3::new(300.0, -100.0, 2.5),
+            DVec3::new(-100.0, 300.0, 2.5),
+        ];
+        let mut sum = 0.0;
+        let mut cells = 0;
+        assert!(slice_triangle(v, 4, &mut |c, p| {
+            assert_eq!(c[2], 2);
+            sum += p.area();
+            cells += 1;
+        }));
+        assert_eq!(cells, 16);
+        assert!((sum - 16.0).abs() < 1e-9);
+        // Missing the block entirely.
+        let far = v.map(|p| p + DVec3::new(0.0, 0.0, 10.0));
+        assert!(!slice_triangle(far, 4, &mut |_, _| panic!(
+            "no piece expected"
+        )));
+    }
+
+    #[test]
+    fn neighbour_table_matches_its_definition() {
+        assert_eq!(NEIGHBOURS[0], 0);
+        // Near the lower x face only: just (-1, 0, 0).
+        assert_eq!(NEIGHBOURS[0b01], 1 << 12);
+        assert_eq!(neighbour_offset(12), [-1, 0, 0]);
+        // Near the upper x and upper y faces: (+1,0,0), (0,+1,0), (+1,+1,0).
+        let m = NEIGHBOURS[0b10 | 0b10 << 2];
+        assert_eq!(m.count_ones(), 3);
+        for b in [14, 16, 17] {
+            assert!(m & 1 << b != 0, "bit {b}");
+        }
+        // Near a corner: all 7 others of the 2x2x2 block.
+        assert_eq!(NEIGHBOURS[0b01 | 0b01 << 2 | 0b01 << 4].count_ones(), 7);
+        assert_eq!(
+            near_code(DVec3::new(0.5, 1e-12, 0.999_999_999_9), 1e-9),
+            0b01 << 2 | 0b10 << 4
+        );
+        // On a face exactly: the slicing has the neighbour's part already.
+        assert_eq!(near_code(DVec3::new(0.0, 0.5, 1.0), 1e-9), 0);
+        assert!(well_inside(DVec3::splat(0.5), 1e-9));
+        assert!(!well_inside(DVec3::new(0.5, 0.0, 0.5), 1e-9));
+    }
+}

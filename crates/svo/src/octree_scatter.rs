@@ -1,0 +1,608 @@
+//! The default strategy's bottom levels: triangles scattered into the cells of a small
+//! block instead of recursing.
+//!
+//! A node at most `2^SCATTER_LEVELS` cells across is built in one go: every triangle of
+//! its list names the cells it touches, the `(cell, triangle)` contacts are sorted by the
+//! cells' Morton order, and the subtree is emitted bottom-up ([`emit_sorted`]). Two ways to
+//! name the cells, with the same result:
+//!
+//! * [`scatter_pairs`] (the voxelizer alone): the cells of the triangle's bounding box that
+//!   its plane crosses, per column along the normal's dominant axis, each decided by the
+//!   complete overlap test with the plane and edge intervals prepared once per triangle
+//!   ([`CellTest`]).
+//! * [`scatter_sliced`] (the bake, attributes included): the triangle is sliced through the
+//!   block ([`crate::grid_slice`]), which yields its part in every cell at once; those parts
+//!   are the leaves' area weights and contour points. A part whose centroid is well inside
+//!   its cell proves the contact; the other parts, and the neighbour cells that a part's
+//!   vertex comes near, are decided by [`CellTest`], so the cells are exactly those of
+//!   [`scatter_pairs`] (tested by comparing both on random and real meshes).
+
+use crate::child_classify::child_cell;
+use crate::clip::clip_to_unit_cube;
+use crate::grid_slice::{
+    NEIGHBOURS, Slicer, near_code, neighbour_offset, polygon_area, well_inside,
+};
+use crate::leaf_attributes::{Contact, LeafValues};
+use crate::octree::Node;
+use crate::octree_build::{Ctx, LeafTriangles};
+use crate::octree_layout::{Chunk, LeafStore};
+use crate::overlap::{edge_interval, plane_tolerance, vertex_inside};
+use crate::triangle_setup::GridTriangle;
+use glam::DVec3;
+use std::time::Instant;
+
+/// Levels above the leaves below which the default strategy scatters triangles into cells
+/// instead of recursing.
+pub const SCATTER_LEVELS: u8 = 3;
+
+/// How far inside its cell (relative to the coordinates' magnitude) a part's vertex must be
+/// to prove the contact without the exact test: far above the rounding of the slicing (a
+/// few ulps per cut, nine cuts at most).
+const SLICE_MARGIN: f64 = 1e-10;
+
+/// Per-task buffers of the scatter, reused from node to node.
+#[derive(Default)]
+pub struct ScatterScratch {
+    pairs: Vec<(u16, u32)>,
+    contacts: Vec<Contact>,
+    pts: Vec<DVec3>,
+    sorted: Vec<Contact>,
+    counts: Vec<u32>,
+    verify: Vec<usize>,
+    candidates: Vec<u16>,
+    seen: [u64; 8],
+    slicer: Slicer,
+}
+
+/// The complete overlap test of one triangle against the unit cells of a block, with the
+/// plane distance and the edge intervals prepared once (the same bounds as
+/// [`crate::overlap::triangle_box_overlap`], with one plane tolerance for the whole block).
+pub struct CellTest<'a> {
+    t: &'a GridTriangle,
+    node_min: DVec3,
+    pbase: f64,
+    pos: f64,
+    neg: f64,
+    ptol: f64,
+    axes: [(f64, f64, usize, usize, f64, f64, f64); 9],
+}
+
+impl<'a> CellTest<'a> {
+    /// Prepares the test of `t` against the cells of the block of side `n` at `node_min`.
+    pub fn new(t: &'a GridTriangle, node_min: DVec3, n: f64) -> Self {
+        let nn = t.n;
+        let d0 = node_min - t.v[0];
+        let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
+        for (i, axis) in axes.iter_mut().enumerate() {
+            let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, i / 3, i % 3);
+            *axis = (a1, a2, i1, i2, lo, hi, (0.5 + t.edge_tol) * w);
+        }
+        Self {
+            t,
+            node_min,
+            pbase: nn.dot(d0),
+            pos: nn.x.max(0.0) + nn.y.max(0.0) + nn.z.max(0.0),
+            neg: nn.x.min(0.0) + nn.y.min(0.0) + nn.z.min(0.0),
+            // Cell corners are within `3n` of the node's, and a cell spans 3 more.
+            ptol: plane_tolerance(t, d0.x.abs() + d0.y.abs() + d0.z.abs() + 3.0 * n + 3.0),
+            axes,
+        }
+    }
+
+    /// Whether the triangle touches the closed unit cell at local coordinates `(x, y, z)`.
+    #[inline]
+    pub fn touches(&self, x: i64, y: i64, z: i64) -> bool {
+        let t = self.t;
+        let m = self.node_min + DVec3::new(x as f64, y as f64, z as f64);
+        vertex_inside(t, m, 1.0) || {
+            let nn = t.n;
+            let dist = self.pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
+            dist + self.neg <= self.ptol && dist + self.pos >= -self.ptol && {
+                let c = m + DVec3::splat(0.5);
+                self.axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
+                    let pc = a1 * c[i1] + a2 * c[i2];
+                    lo <= pc + rad && hi >= pc - rad
+                })
+            }
+        }
+    }
+}
+
+/// Calls `f` with the local coordinates of every cell of the block (side `n = 2^k` cells at
+/// integer corner `base`) that `t` touches: the cells of its bounding box, per column along
+/// the normal's dominant axis only those the plane crosses, each decided by [`CellTest`].
+fn touched_cells(
+    t: &GridTriangle,
+    base: [i64; 3],
+    n: i64,
+    tests: &mut u64,
+    f: &mut impl FnMut([i64; 3]),
+) {
+    // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
+    let range = |a: usize| -> (i64, i64) {
+        let fl = floor_i64(t.lo[a]);
+        let ceil_minus_1 = if fl as f64 == t.lo[a] { fl - 1 } else { fl };
+        let lo = (ceil_minus_1 - base[a]).max(0);
+        let hi = (floor_i64(t.hi[a]) - base[a]).min(n - 1);
+        (lo, hi)
+    };
+    let ranges = [range(0), range(1), range(2)];
+    if ranges.iter().any(|r| r.0 > r.1) {
+        return;
+    }
+    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    let test = CellTest::new(t, node_min, n as f64);
+    // Columns along the normal's dominant axis `w`: only the cells that the plane crosses
+    // in a column can touch the triangle, so the others are skipped. The range is widened
+    // by a margin far above its rounding error; near-degenerate triangles, whose plane is
+    // rounding noise, test their whole box.
+    let nn = t.n;
+    let na = nn.abs();
+    let w = if na.x >= na.y && na.x >= na.z {
+        0
+    } else if na.y >= na.z {
+        1
+    } else {
+        2
+    };
+    let (u, v) = ((w + 1) % 3, (w + 2) % 3);
+    let prune = na[w] > 1e-6 * t.n_scale && na[w].is_finite();
+    // The plane's w-coordinate is `w_at(u, v) = wc - su u - sv v`; over a column
+    // `[u, u + 1] x [v, v + 1]` it spans that value plus the corner offsets below.
+    let (su, sv) = (nn[u] / nn[w], nn[v] / nn[w]);
+    let wc = nn.dot(t.v[0]) / nn[w];
+    let (off_lo, off_hi) = (
+        (-su).min(0.0) + (-sv).min(0.0),
+        (-su).max(0.0) + (-sv).max(0.0),
+    );
+    for cu in ranges[u].0..=ranges[u].1 {
+        for cv in ranges[v].0..=ranges[v].1 {
+            let (mut w0, mut w1) = ranges[w];
+            if prune {
+                let at = wc - su * (base[u] + cu) as f64 - sv * (base[v] + cv) as f64;
+                let (lo, hi) = (at + off_lo, at + off_hi);
+                let margin = 1e-7 * (1.0 + lo.abs().max(hi.abs()));
+                if lo.is_finite() && hi.is_finite() {
+                    w0 = w0.max(floor_i64(lo - margin) - base[w]);
+                    w1 = w1.min(floor_i64(hi + margin) - base[w]);
+                }
+            }
+            for cw in w0..=w1 {
+                let mut p = [0i64; 3];
+                p[u] = cu;
+                p[v] = cv;
+                p[w] = cw;
+                *tests += 1;
+                if test.touches(p[0], p[1], p[2]) {
+                    f(p);
+                }
+            }
+        }
+    }
+}
+
+/// The block of the node at `level` with integer min corner `cell`: its side in cells
+/// (`2^k`), `k`, and its corner as integers.
+fn block(ctx: &Ctx<'_>, level: u8, cell: [u32; 3]) -> (i64, u8, [i64; 3]) {
+    let k = ctx.depth - level;
+    (
+        1i64 << k,
+        k,
+        [i64::from(cell[0]), i64::from(cell[1]), i64::from(cell[2])],
+    )
+}
+
+/// The voxelizer's bottom levels with triangle lists as leaves (see the module docs).
+pub fn scatter_pairs(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+    chunk: &mut Chunk<LeafTriangles>,
+    scratch: &mut ScatterScratch,
+    tests: &mut u64,
+) -> Option<Node> {
+    let (n, k, base) = block(ctx, level, cell);
+    let pairs = &mut scratch.pairs;
+    pairs.clear();
+    for &ti in list {
+        touched_cells(&ctx.tris[ti as usize], base, n, tests, &mut |p| {
+            pairs.push((morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k), ti));
+        });
+    }
+    // Triangles stay in list order within a cell: a stable sort by cell.
+    pairs.sort_by_key(|p| p.0);
+    ctx.node_done(level);
+    emit_sorted(
+        pairs,
+        |p| p.0,
+        k,
+        0,
+        cell,
+        chunk,
+        &mut |leaves: &mut LeafTriangles, c, run: &[(u16, u32)], _| {
+            leaves.cells.push(c);
+            leaves.tris.extend(run.iter().map(|p| p.1));
+            leaves.ends.push(leaves.tris.len() as u64);
+        },
+    )
+}
+
+/// The bake's bottom levels: the same cells as [`scatter_pairs`], each leaf emitted with its
+/// attributes computed from the triangles' parts in it (see the module docs).
+pub fn scatter_sliced(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    list: &[u32],
+    chunk: &mut Chunk<LeafValues>,
+    scratch: &mut ScatterScratch,
+    tests: &mut u64,
+) -> Option<Node> {
+    let inputs = ctx
+        .attributes
+        .expect("the bake's voxelizer has attribute inputs");
+    let geometry = inputs.needs_geometry();
+    let t0 = Instant::now();
+    let (n, k, base) = block(ctx, level, cell);
+    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    let ScatterScratch {
+        contacts,
+        pts,
+        sorted,
+        counts,
+        verify,
+        candidates,
+        seen,
+        slicer,
+        ..
+    } = scratch;
+    contacts.clear();
+    pts.clear();
+    let key_of = |p: [i64; 3]| morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k);
+    for &ti in list {
+        let t = &ctx.tris[ti as usize];
+        let first = contacts.len();
+        // Exactly degenerate triangles, and those whose slicing fails, take the cell tests.
+        let mut sliced = false;
+        if geometry && t.n != DVec3::ZERO {
+            let local = t.v.map(|v| v - node_min);
+            let reach = local
+                .iter()
+                .fold(n as f64, |a, v| a.max(v.abs().max_element()));
+            let eps = SLICE_MARGIN * reach;
+            verify.clear();
+            candidates.clear();
+            sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
+                let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+                let mut near = 0u32;
+                let mut sum = DVec3::ZERO;
+                for &p in part.points() {
+                    near |= NEIGHBOURS[near_code(p - m, eps)];
+                    sum += p;
+                }
+                let centroid = sum / part.points().len() as f64;
+                if !well_inside(centroid - m, eps) {
+                    verify.push(contacts.len());
+                }
+                let c = c.map(i64::from);
+                while near != 0 {
+                    let b = near.trailing_zeros();
+                    near &= near - 1;
+                    let o = neighbour_offset(b);
+                    let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
+                    if q.iter().all(|&x| (0..n).contains(&x)) {
+                        candidates.push((q[0] | q[1] << 4 | q[2] << 8) as u16);
+                    }
+                }
+                let slot = (c[0] + 8 * c[1] + 64 * c[2]) as usize;
+                seen[slot / 64] |= 1 << (slot % 64);
+                contacts.push(Contact {
+                    key: key_of(c),
+                    tri: ti,
+                    area: part.area(),
+                    start: pts.len() as u32,
+                    len: part.points().len() as u32,
+                });
+                pts.extend_from_slice(part.points());
+            });
+            if sliced {
+                let test = (!verify.is_empty() || !candidates.is_empty())
+                    .then(|| CellTest::new(t, node_min, n as f64));
+                if let Some(test) = &test {
+                    // Parts that do not prove their contact: keep those the test confirms.
+                    let mut dead = 0;
+                    for &i in verify.iter() {
+                        let c = local_cell(contacts[i].key, k);
+                        *tests += 1;
+                        if !test.touches(c[0], c[1], c[2]) {
+                            contacts[i].len = u32::MAX;
+                            dead += 1;
+                        }
+                    }
+                    if dead > 0 {
+                        let mut w = first;
+                        for r in first..contacts.len() {
+                            if contacts[r].len != u32::MAX {
+                                contacts[w] = contacts[r];
+                                w += 1;
+                            }
+                        }
+                        contacts.truncate(w);
+                    }
+                    // Neighbours a part comes near: touches that slicing may have lost.
+                    candidates.sort_unstable();
+                    candidates.dedup();
+                    for &q in candidates.iter() {
+                        let c = [i64::from(q & 15), i64::from(q >> 4 & 15), i64::from(q >> 8)];
+                        let slot = (c[0] + 8 * c[1] + 64 * c[2]) as usize;
+                        if seen[slot / 64] & 1 << (slot % 64) != 0 {
+                            continue;
+                        }
+                        *tests += 1;
+                        if test.touches(c[0], c[1], c[2]) {
+                            push_touch(contacts, pts, t, ti, node_min, c, key_of(c));
+                        }
+                    }
+                }
+            } else {
+                // Start over with the cell tests.
+                contacts.truncate(first);
+            }
+            *seen = [0; 8];
+        }
+        if !sliced {
+            touched_cells(t, base, n, tests, &mut |c| {
+                if geometry {
+                    let m = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+                    let p = clip_to_unit_cube(t.v.map(|v| v - node_min - m));
+                    if p.len == 0 {
+                        push_touch(contacts, pts, t, ti, node_min, c, key_of(c));
+                        return;
+                    }
+                    contacts.push(Contact {
+                        key: key_of(c),
+                        tri: ti,
+                        area: p.area(),
+                        start: pts.len() as u32,
+                        len: p.len as u32,
+                    });
+                    pts.extend(p.points().iter().map(|&q| q + m));
+                } else {
+                    contacts.push(Contact {
+                        key: key_of(c),
+                        tri: ti,
+                        ..Contact::default()
+                    });
+                }
+            });
+        }
+    }
+    // Triangles stay in list order within a cell: a stable counting sort by cell.
+    counts.clear();
+    counts.resize((1usize << (3 * k)) + 1, 0);
+    for c in contacts.iter() {
+        counts[usize::from(c.key) + 1] += 1;
+    }
+    for i in 1..counts.len() {
+        counts[i] += counts[i - 1];
+    }
+    sorted.clear();
+    sorted.resize(contacts.len(), Contact::default());
+    for c in contacts.iter() {
+        let slot = &mut counts[usize::from(c.key)];
+        sorted[*slot as usize] = *c;
+        *slot += 1;
+    }
+    let contacts = sorted;
+    ctx.node_done(level);
+    let t1 = Instant::now();
+    let node = emit_sorted(
+        contacts,
+        |c| c.key,
+        k,
+        0,
+        cell,
+        chunk,
+        &mut |leaves: &mut LeafValues, c, run: &[Contact], start| {
+            let m = DVec3::new(
+                f64::from(c[0]) - node_min.x,
+                f64::from(c[1]) - node_min.y,
+                f64::from(c[2]) - node_min.z,
+            );
+            inputs.push_leaf(leaves, node_min, m, run, start as u32, pts);
+        },
+    );
+    let t2 = Instant::now();
+    if inputs.wants_contour() {
+        chunk.leaves.fit_contours(contacts, pts);
+    }
+    let t3 = Instant::now();
+    chunk.leaves.t_voxelize += t1 - t0;
+    chunk.leaves.t_attributes += t2 - t1;
+    chunk.leaves.t_contours += t3 - t2;
+    node
+}
+
+/// Records a contact that slicing lost or rounding emptied (the triangle only touches the
+/// cell): no area, and the triangle's vertices pulled onto the cell as its points, so the
+/// contour still covers the contact.
+fn push_touch(
+    contacts: &mut Vec<Contact>,
+    pts: &mut Vec<DVec3>,
+    t: &GridTriangle,
+    ti: u32,
+    node_min: DVec3,
+    c: [i64; 3],
+    key: u16,
+) {
+    let m = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    contacts.push(Contact {
+        key,
+        tri: ti,
+        area: 0.0,
+        start: pts.len() as u32,
+        len: 3,
+    });
+    pts.extend(t.v.iter().map(|&v| (v - node_min).clamp(m, m + DVec3::ONE)));
+}
+
+/// The contacts of a leaf made by the recursion (the inexact strategies' last level): each
+/// triangle clipped to the cell, in cell-local coordinates.
+pub fn clip_contacts(
+    tris: &[GridTriangle],
+    cell: [u32; 3],
+    list: &[u32],
+    contacts: &mut Vec<Contact>,
+    pts: &mut Vec<DVec3>,
+) {
+    let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+    contacts.clear();
+    pts.clear();
+    for &ti in list {
+        let t = &tris[ti as usize];
+        let local = t.v.map(|v| v - m);
+        let p = clip_to_unit_cube(local);
+        let start = pts.len() as u32;
+        if p.len == 0 {
+            pts.extend(local.map(|v| v.clamp(DVec3::ZERO, DVec3::ONE)));
+        } else {
+            pts.extend_from_slice(p.points());
+        }
+        let len = pts.len() as u32 - start;
+        contacts.push(Contact {
+            key: 0,
+            tri: ti,
+            area: polygon_area(&pts[start as usize..]),
+            start,
+            len,
+        });
+    }
+}
+
+/// The local cell coordinates of a Morton key of `k` levels.
+fn local_cell(key: u16, k: u8) -> [i64; 3] {
+    let mut c = [0i64; 3];
+    for b in 0..u32::from(k) {
+        c[0] |= i64::from(key >> (3 * b + 2) & 1) << b;
+        c[1] |= i64::from(key >> (3 * b + 1) & 1) << b;
+        c[2] |= i64::from(key >> (3 * b) & 1) << b;
+    }
+    c
+}
+
+/// `floor` as an integer without a libm call (baseline x86-64 has no rounding
+/// instruction); `x` is a finite grid coordinate far below `2^62`.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
+#[inline]
+fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
+    let mut m = 0u32;
+    for b in (0..u32::from(k)).rev() {
+        m = m << 3 | ((x >> b) & 1) << 2 | ((y >> b) & 1) << 1 | ((z >> b) & 1);
+    }
+    m as u16
+}
+
+/// Emits the subtree of `items` sorted by their Morton `key`, for a node `k` levels above
+/// the leaves (`k - done` at this call) with min corner `cell`. `leaf` appends one leaf
+/// from its cell, its run of items and the run's start in the whole slice.
+fn emit_sorted<T, L: LeafStore>(
+    items: &[T],
+    key: impl Fn(&T) -> u16 + Copy,
+    k: u8,
+    done: u8,
+    cell: [u32; 3],
+    chunk: &mut Chunk<L>,
+    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize),
+) -> Option<Node> {
+    emit_at(items, 0, key, k, done, cell, chunk, leaf)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn emit_at<T, L: LeafStore>(
+    items: &[T],
+    offset: usize,
+    key: impl Fn(&T) -> u16 + Copy,
+    k: u8,
+    done: u8,
+    cell: [u32; 3],
+    chunk: &mut Chunk<L>,
+    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize),
+) -> Option<Node> {
+    if items.is_empty() {
+        return None;
+    }
+    let below = k - done; // levels from this node to the leaves
+    let shift = 3 * u32::from(below - 1);
+    let child = |m: u16| ((u32::from(m) >> shift) & 7) as u8;
+    let half = 1u32 << (below - 1);
+    let mut mask = 0u8;
+    if below == 1 {
+        let base = chunk.leaves.len();
+        let mut start = 0;
+        while start < items.len() {
+            let m = key(&items[start]);
+            let end = start + items[start..].partition_point(|p| key(p) == m);
+            let i = child(m);
+            mask |= 1 << i;
+            leaf(
+                &mut chunk.leaves,
+                child_cell(cell, i, 1),
+                &items[start..end],
+                offset + start,
+            );
+            start = end;
+        }
+        return Some(Chunk::<L>::leaf_parent(mask, base));
+    }
+    let mut records = [Node::default(); 8];
+    let mut count = 0;
+    let mut start = 0;
+    while start < items.len() {
+        let i = child(key(&items[start]));
+        let end = start + items[start..].partition_point(|p| child(key(p)) == i);
+        let c = child_cell(cell, i, half);
+        if let Some(r) = emit_at(
+            &items[start..end],
+            offset + start,
+            key,
+            k,
+            done + 1,
+            c,
+            chunk,
+            leaf,
+        ) {
+            mask |= 1 << i;
+            records[count] = r;
+            count += 1;
+        }
+        start = end;
+    }
+    (mask != 0).then(|| chunk.push_children(mask, &records[..count]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_keys_round_trip() {
+        for k in 1..=3u8 {
+            let n = 1u32 << k;
+            for x in 0..n {
+                for y in 0..n {
+                    for z in 0..n {
+                        let key = morton_local(x, y, z, k);
+                        assert_eq!(local_cell(key, k), [x, y, z].map(i64::from));
+                    }
+                }
+            }
+        }
+    }
+}
