@@ -19,8 +19,12 @@ pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
     }
     let t = |d: f64| ((d + e) / (2.0 * e)).clamp(0.0, 1.0) * 65535.0;
     // One quantum of margin covers the f32 arithmetic of renderers.
-    let lo = (t(dmin).floor() - 1.0).clamp(0.0, 65535.0) as u32;
-    let hi = (t(dmax).ceil() + 1.0).clamp(0.0, 65535.0) as u32;
+    // floor and ceil of values in [0, 65535] by truncation (no libm call).
+    let (a, b) = (t(dmin), t(dmax));
+    let (fa, fb) = (a as u32, b as u32);
+    let cb = fb + u32::from((fb as f64) < b);
+    let lo = fa.saturating_sub(1);
+    let hi = (cb + 1).min(65535);
     lo | (hi << 16)
 }
 

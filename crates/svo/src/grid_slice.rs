@@ -228,18 +228,15 @@ pub fn slice_triangle(v: [DVec3; 3], n: u32, f: &mut impl FnMut([u32; 3], &Poly)
 }
 
 /// How a point sits in its unit cell `[0, 1]^3` (coordinates `f` relative to the cell's
-/// minimum corner), per axis in two bits: bit 0 when it is near the lower face without
-/// being on it (`0 < f <= eps`), bit 1 the same for the upper face; axis `a` in bits
-/// `2a..2a + 2`. A point exactly on a face needs no flag: slicing puts it in the parts on
-/// both sides ([`slice_triangle`]), so the neighbour has a part already.
+/// minimum corner), in six bits: bit `a` (for axis `a` = x, y, z) when it is near the lower
+/// face without being on it (`0 < f <= eps`), bit `3 + a` the same for the upper face. A
+/// point exactly on a face needs no flag: slicing puts it in the parts on both sides
+/// ([`slice_triangle`]), so the neighbour has a part already.
 #[inline]
 pub fn near_code(f: DVec3, eps: f64) -> usize {
-    let mut code = 0;
-    for a in 0..3 {
-        code |= usize::from(f[a] > 0.0 && f[a] <= eps) << (2 * a);
-        code |= usize::from(f[a] < 1.0 && f[a] >= 1.0 - eps) << (2 * a + 1);
-    }
-    code
+    let lo = f.cmpgt(DVec3::ZERO) & f.cmple(DVec3::splat(eps));
+    let hi = f.cmplt(DVec3::ONE) & f.cmpge(DVec3::splat(1.0 - eps));
+    (lo.bitmask() | hi.bitmask() << 3) as usize
 }
 
 /// Whether a point (cell-local coordinates `f`) is more than `eps` inside the cell on every
@@ -265,9 +262,9 @@ const fn neighbour_table() -> [u32; 64] {
             let mut ok = true;
             let mut a = 0;
             while a < 3 {
-                let c = (code >> (2 * a)) & 3;
+                let (lo, hi) = ((code >> a) & 1 != 0, (code >> (3 + a)) & 1 != 0);
                 // Offset 0 is always allowed; -1 needs the lower flag, +1 the upper.
-                ok &= d[a] == 1 || (d[a] == 0 && c & 1 != 0) || (d[a] == 2 && c & 2 != 0);
+                ok &= d[a] == 1 || (d[a] == 0 && lo) || (d[a] == 2 && hi);
                 a += 1;
             }
             if ok && bit != 13 {
@@ -378,19 +375,19 @@ mod tests {
     fn neighbour_table_matches_its_definition() {
         assert_eq!(NEIGHBOURS[0], 0);
         // Near the lower x face only: just (-1, 0, 0).
-        assert_eq!(NEIGHBOURS[0b01], 1 << 12);
+        assert_eq!(NEIGHBOURS[0b000_001], 1 << 12);
         assert_eq!(neighbour_offset(12), [-1, 0, 0]);
         // Near the upper x and upper y faces: (+1,0,0), (0,+1,0), (+1,+1,0).
-        let m = NEIGHBOURS[0b10 | 0b10 << 2];
+        let m = NEIGHBOURS[0b011_000];
         assert_eq!(m.count_ones(), 3);
         for b in [14, 16, 17] {
             assert!(m & 1 << b != 0, "bit {b}");
         }
         // Near a corner: all 7 others of the 2x2x2 block.
-        assert_eq!(NEIGHBOURS[0b01 | 0b01 << 2 | 0b01 << 4].count_ones(), 7);
+        assert_eq!(NEIGHBOURS[0b000_111].count_ones(), 7);
         assert_eq!(
             near_code(DVec3::new(0.5, 1e-12, 0.999_999_999_9), 1e-9),
-            0b01 << 2 | 0b10 << 4
+            0b100_010
         );
         // On a face exactly: the slicing has the neighbour's part already.
         assert_eq!(near_code(DVec3::new(0.0, 0.5, 1.0), 1e-9), 0);

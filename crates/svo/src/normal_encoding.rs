@@ -22,7 +22,12 @@ pub fn encode(n: Vec3) -> u32 {
             (1.0 - p.x.abs()) * sign_not_zero(p.y),
         );
     }
-    let q = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16;
+    // Round half away from zero without a libm call (baseline x86-64 has no rounding
+    // instruction): add a signed half, then truncate.
+    let q = |v: f32| {
+        let r = v.clamp(-1.0, 1.0) * 32767.0;
+        ((r + 0.5f32.copysign(r)) as i32).clamp(-32767, 32767) as i16 as u16
+    };
     u32::from(q(o.x)) | (u32::from(q(o.y)) << 16)
 }
 

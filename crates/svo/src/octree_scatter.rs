@@ -33,7 +33,7 @@ use std::time::Instant;
 
 /// Levels above the leaves below which the default strategy scatters triangles into cells
 /// instead of recursing.
-pub const SCATTER_LEVELS: u8 = 3;
+pub const SCATTER_LEVELS: u8 = 4;
 
 /// How far inside its cell (relative to the coordinates' magnitude) a part's vertex must be
 /// to prove the contact without the exact test: far above the rounding of the slicing (a
@@ -50,7 +50,8 @@ pub struct ScatterScratch {
     counts: Vec<u32>,
     verify: Vec<usize>,
     candidates: Vec<u16>,
-    seen: [u64; 8],
+    seen: Vec<u64>,
+    slots: Vec<usize>,
     slicer: Slicer,
 }
 
@@ -254,11 +255,14 @@ pub fn scatter_sliced(
         verify,
         candidates,
         seen,
+        slots,
         slicer,
         ..
     } = scratch;
     contacts.clear();
     pts.clear();
+    seen.clear();
+    seen.resize((1usize << (3 * k)).div_ceil(64), 0);
     let key_of = |p: [i64; 3]| morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k);
     for &ti in list {
         let t = &ctx.tris[ti as usize];
@@ -275,36 +279,43 @@ pub fn scatter_sliced(
             candidates.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+                let start = pts.len() as u32;
+                let mut codes = 0usize;
                 let mut near = 0u32;
                 let mut sum = DVec3::ZERO;
                 for &p in part.points() {
-                    near |= NEIGHBOURS[near_code(p - m, eps)];
+                    let code = near_code(p - m, eps);
+                    codes |= code;
+                    near |= NEIGHBOURS[code];
                     sum += p;
+                    pts.push(p);
                 }
                 let centroid = sum / part.points().len() as f64;
                 if !well_inside(centroid - m, eps) {
                     verify.push(contacts.len());
                 }
                 let c = c.map(i64::from);
-                while near != 0 {
-                    let b = near.trailing_zeros();
-                    near &= near - 1;
-                    let o = neighbour_offset(b);
-                    let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
-                    if q.iter().all(|&x| (0..n).contains(&x)) {
-                        candidates.push((q[0] | q[1] << 4 | q[2] << 8) as u16);
+                if codes != 0 {
+                    while near != 0 {
+                        let b = near.trailing_zeros();
+                        near &= near - 1;
+                        let o = neighbour_offset(b);
+                        let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
+                        if q.iter().all(|&x| (0..n).contains(&x)) {
+                            candidates.push((q[0] | q[1] << 5 | q[2] << 10) as u16);
+                        }
                     }
                 }
-                let slot = (c[0] + 8 * c[1] + 64 * c[2]) as usize;
+                let slot = (c[0] | c[1] << k | c[2] << (2 * k)) as usize;
                 seen[slot / 64] |= 1 << (slot % 64);
+                slots.push(slot);
                 contacts.push(Contact {
                     key: key_of(c),
                     tri: ti,
                     area: part.area(),
-                    start: pts.len() as u32,
+                    start,
                     len: part.points().len() as u32,
                 });
-                pts.extend_from_slice(part.points());
             });
             if sliced {
                 let test = (!verify.is_empty() || !candidates.is_empty())
@@ -334,8 +345,12 @@ pub fn scatter_sliced(
                     candidates.sort_unstable();
                     candidates.dedup();
                     for &q in candidates.iter() {
-                        let c = [i64::from(q & 15), i64::from(q >> 4 & 15), i64::from(q >> 8)];
-                        let slot = (c[0] + 8 * c[1] + 64 * c[2]) as usize;
+                        let c = [
+                            i64::from(q & 31),
+                            i64::from(q >> 5 & 31),
+                            i64::from(q >> 10),
+                        ];
+                        let slot = (c[0] | c[1] << k | c[2] << (2 * k)) as usize;
                         if seen[slot / 64] & 1 << (slot % 64) != 0 {
                             continue;
                         }
@@ -349,7 +364,10 @@ pub fn scatter_sliced(
                 // Start over with the cell tests.
                 contacts.truncate(first);
             }
-            *seen = [0; 8];
+            for &slot in slots.iter() {
+                seen[slot / 64] = 0;
+            }
+            slots.clear();
         }
         if !sliced {
             touched_cells(t, base, n, tests, &mut |c| {
