@@ -22,7 +22,7 @@ pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
     // floor and ceil of values in [0, 65535] by truncation (no libm call).
     let (a, b) = (t(dmin), t(dmax));
     let (fa, fb) = (a as u32, b as u32);
-    let cb = fb + u32::from((fb as f64) < b);
+    let cb = fb + u32::from(f64::from(fb) < b);
     let lo = fa.saturating_sub(1);
     let hi = (cb + 1).min(65535);
     lo | (hi << 16)
