@@ -11,6 +11,7 @@
 //! `--quick` (under a minute) is what CI runs so the generator cannot rot.
 
 pub mod bake_tables;
+pub mod deep_tables;
 pub mod external;
 pub mod geometry_error;
 pub mod image_tables;
@@ -67,6 +68,8 @@ struct Plan {
     throughput_depths: Vec<u8>,
     throughput_runs: u32,
     pipeline: Vec<(u8, Option<usize>, usize)>,
+    deep_max_depth: u8,
+    deep_runs: fn(u8) -> usize,
 }
 
 impl Plan {
@@ -84,6 +87,8 @@ impl Plan {
                 throughput_depths: vec![6],
                 throughput_runs: 1,
                 pipeline: vec![(6, None, 1)],
+                deep_max_depth: 8,
+                deep_runs: |_| 1,
             }
         } else {
             Self {
@@ -103,6 +108,8 @@ impl Plan {
                     (10, None, 3),
                     (10, Some(1), 3),
                 ],
+                deep_max_depth: 20,
+                deep_runs: |d| if d <= 16 { 5 } else { 3 },
             }
         }
     }
@@ -179,6 +186,9 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
             tmp.path(),
         )?);
     }
+
+    // Deep trees.
+    let deep = deep_tables::measure(plan.deep_max_depth, plan.deep_runs, &lg);
 
     // External baselines.
     let external = !opts.quick && !opts.no_external;
@@ -346,6 +356,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         triangles: mesh.triangles.len(),
         tables,
         pipeline,
+        deep,
         open3d,
         per_depth,
         image_rows,
@@ -409,6 +420,7 @@ struct Measured {
     triangles: usize,
     tables: BakeTables,
     pipeline: Vec<PipelineRow>,
+    deep: Vec<deep_tables::DeepRow>,
     open3d: Option<Vec<(String, Open3dRun)>>,
     per_depth: Vec<DepthResults>,
     image_rows: Vec<ImageRow>,
@@ -555,6 +567,14 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             "Not run in this variant."
         }),
     }
+
+    r.heading(3, "Deep trees: time and heap per leaf");
+    let deep_note = if opts.quick {
+        "one run per depth (depths 1-8)"
+    } else {
+        "median of 5 runs per depth (3 above depth 16)"
+    };
+    deep_tables::write(r, &m.deep, deep_note);
 
     // 4. Geometry.
     r.heading(

@@ -193,6 +193,62 @@ fn volumetric_glass_block_on_a_floor() {
     assert!(st.secondary_rays > 0, "{st:?}");
 }
 
+/// A glass box inside a water box (surface leaves with outward normals): refraction from
+/// water into glass and back uses both media's IORs (nested media), on both tracers.
+#[test]
+fn glass_inside_water_nested_media() {
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    // The outward normal of a cell on the surface of the box [lo, hi) (sum of the faces it
+    // lies on), or None inside or outside it.
+    let shell = |c: glam::UVec3, lo: u32, hi: u32| -> Option<glam::Vec3> {
+        let inside = |v: u32| (lo..hi).contains(&v);
+        if !(inside(c.x) && inside(c.y) && inside(c.z)) {
+            return None;
+        }
+        let axis = |v: u32| {
+            if v == lo {
+                -1.0
+            } else if v == hi - 1 {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let n = glam::Vec3::new(axis(c.x), axis(c.y), axis(c.z));
+        (n != glam::Vec3::ZERO).then(|| n.normalize())
+    };
+    let tree = from_fn(
+        root,
+        5,
+        |_, _| true,
+        |c| {
+            let medium = |n: glam::Vec3, ior: f32, colour: [f32; 4]| Voxel {
+                colour,
+                reflectivity: 0.05,
+                refractivity: 0.9,
+                ior,
+                normal: Some(n),
+            };
+            shell(c, 12, 20)
+                .map(|n| medium(n, 1.5, [0.9, 1.0, 0.9, 1.0]))
+                .or_else(|| shell(c, 4, 28).map(|n| medium(n, 1.33, [0.8, 0.9, 1.0, 1.0])))
+        },
+    )
+    .unwrap();
+    let trace = TraceOptions {
+        mode: HitMode::Cube,
+        shadows: ShadowMode::None,
+        ..TraceOptions::default()
+    };
+    let Some(st) = same_image(tree, trace, 2.0) else {
+        return;
+    };
+    assert!(st.secondary_rays > st.primary_hits, "{st:?}");
+}
+
 /// Seeded rays over a root of `n` cells: from outside towards inside, from inside,
 /// axis-parallel with `+0.0`/`-0.0` along lattice planes and edges, and diagonal through
 /// lattice corners with a `tmin` past their start.

@@ -218,7 +218,11 @@ pub fn bake_mesh(
     progress(Phase::Attributes, 0.0);
     let (attributes, rep) = inputs.finish(values, wall);
     progress(Phase::Attributes, 1.0);
-    let voxelize_s = (wall - rep.attributes - rep.contours).as_secs_f64();
+    // The shares are rounded, so their sum may pass the wall time by a nanosecond.
+    let voxelize_s = wall
+        .saturating_sub(rep.attributes)
+        .saturating_sub(rep.contours)
+        .as_secs_f64();
     let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
     let tree = Octree {
         root,

@@ -13,8 +13,12 @@
 //!   Schlick) moves `kt * F` to the reflection, which weighs `kr + kt F`, and the refraction
 //!   (Snell) weighs `kt (1 - F)`, tinted by the leaf colour. Total internal reflection sends
 //!   it all to the reflection.
-//! - The medium: a ray arriving against the leaf normal enters (`1 -> IOR`), one arriving
-//!   along it leaves (`IOR -> 1`). Media do not nest. Transparent leaves without a normal
+//! - The medium: a ray arriving against the leaf normal enters, one arriving along it leaves.
+//!   Each ray carries the IORs of the media it is in, two deep (the one it travels in, and
+//!   the one around that; air outside): entering goes from the current medium's IOR to the
+//!   leaf's (`1 -> IOR` from air), leaving from the leaf's IOR to the surrounding medium's
+//!   (`IOR -> 1` into air). So glass in water refracts at `1.33 -> 1.5`. A third level of
+//!   nesting forgets the outermost medium (it is taken as air on the way out). Transparent leaves without a normal
 //!   (solid blocks from the builder) form volumetric media ([`crate::surfaces::Medium`]): a
 //!   ray refracted into one passes through its cells and meets the boundary where it leaves
 //!   them, as the 2019 report's "hit where the material changes" rule.
@@ -36,6 +40,7 @@
 use crate::grid::RootCube;
 use crate::grid_ray::GridRay;
 use crate::leaf_hit::HitMode;
+use crate::octree::{ior_decode, ior_encode};
 use crate::octree_traverse::MAX_STEPS;
 use crate::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::sky::Sky;
@@ -176,6 +181,9 @@ struct Task {
     skip: u32,
     /// The volumetric medium the ray travels in, [`NO_MEDIUM`] for none.
     medium: u64,
+    /// The IORs of the media the ray is in, as [`ior_encode`] codes: the current one in the
+    /// low 16 bits, the one around it in the high 16 (0: air).
+    iors: u32,
 }
 
 const NO_MEDIUM: u64 = u64::MAX;
@@ -191,6 +199,7 @@ const EMPTY: Task = Task {
     refr: 0,
     skip: 0,
     medium: 0,
+    iors: 0,
 };
 
 const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
@@ -287,6 +296,7 @@ impl<S: Surfaces> Tracer<S> {
             refr: 0,
             skip: NO_SKIP,
             medium: NO_MEDIUM,
+            iors: 0,
         };
         let mut len = 1usize;
         let mut first = true;
@@ -374,7 +384,18 @@ impl<S: Surfaces> Tracer<S> {
             }
 
             // Reflection and refraction.
-            let (n1, n2) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+            // From the medium the ray is in into the leaf's, or out of the leaf's into the
+            // one around it.
+            let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
+            let (n1, n2, iors_after) = if entering {
+                (
+                    ior_decode(here as u16),
+                    m.ior,
+                    u32::from(ior_encode(m.ior)) | here << 16,
+                )
+            } else {
+                (m.ior, ior_decode(around as u16), around)
+            };
             let cos_i = n_f.dot(v);
             let (mut fr, mut ft) = (kr, 0.0);
             let mut t_dir = None;
@@ -401,6 +422,7 @@ impl<S: Surfaces> Tracer<S> {
                     skip: h.id,
                     // A reflection stays on its side of the boundary.
                     medium: task.medium,
+                    iors: task.iors,
                 };
                 len += 1;
             }
@@ -422,6 +444,7 @@ impl<S: Surfaces> Tracer<S> {
                         Some(m) if entering => m.0,
                         _ => NO_MEDIUM,
                     },
+                    iors: iors_after,
                 };
                 len += 1;
             }

@@ -280,6 +280,69 @@ fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
     );
 }
 
+/// Nested media: a glass slab inside a water slab, looked through at normal incidence. Each
+/// boundary transmits `1 - ((n1 - n2) / (n1 + n2))^2` with the IORs on its two sides, so the
+/// inner boundaries are water/glass (1.33/1.5), not air/glass as they would be if media did
+/// not nest; both orders of crossing are checked, and a reflection inside the glass keeps
+/// the glass's medium.
+#[test]
+fn nested_media_refract_with_the_surrounding_medium() {
+    let slab = |ior: f32, n: Vec3| Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.0,
+        refractivity: 1.0,
+        ior,
+        normal: Some(n),
+    };
+    let (water, glass) = (1.33f32, 1.5f32);
+    // Water from y = 3 to 12, glass from y = 6 to 9 (surface leaves with outward normals).
+    let scene = grid16((0..16).flat_map(|x| {
+        (0..16).flat_map(move |z| {
+            [
+                (UVec3::new(x, 3, z), slab(water, Vec3::NEG_Y)),
+                (UVec3::new(x, 6, z), slab(glass, Vec3::NEG_Y)),
+                (UVec3::new(x, 8, z), slab(glass, Vec3::Y)),
+                (UVec3::new(x, 11, z), slab(water, Vec3::Y)),
+            ]
+        })
+    }));
+    let sky = Sky {
+        zenith: Vec3::ONE,
+        horizon: Vec3::ONE,
+        ground: Vec3::ONE,
+        up: Vec3::Y,
+        cube_map: None,
+    };
+    let t = Tracer::new(
+        OctreeSurfaces::new(&scene, HitMode::Cube),
+        &[],
+        sky,
+        Phong::default(),
+        TraceOptions {
+            max_reflections: 0,
+            max_refractions: 8,
+            ..opts(ShadowMode::None)
+        },
+    );
+    let tr = |a: f32, b: f32| 1.0 - ((a - b) / (a + b)).powi(2);
+    // The IORs go through the file's 1/16384 steps.
+    let q = |n: f32| svo::octree::ior_decode(svo::octree::ior_encode(n));
+    let (w, g) = (q(water), q(glass));
+    let want = tr(1.0, w) * tr(w, g) * tr(g, w) * tr(w, 1.0);
+    let unnested = tr(1.0, w) * tr(1.0, g) * tr(g, 1.0) * tr(w, 1.0);
+    assert!(
+        (want - unnested).abs() > 1e-3,
+        "the scene cannot tell nesting apart"
+    );
+    for (from, to) in [(1.0, 15.0), (15.0, 1.0)] {
+        let c = shade(&t, Vec3::new(8.5, from, 8.5), Vec3::new(8.5, to, 8.5));
+        assert!(
+            (c - Vec3::splat(want)).abs().max_element() < 1e-5,
+            "from y = {from}: {c}, want {want} (unnested {unnested})"
+        );
+    }
+}
+
 fn torus_mesh() -> svo::Mesh {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
     svo::import::load_mesh(std::path::Path::new(path)).unwrap()

@@ -819,6 +819,8 @@ struct Task {
     weight: vec3<f32>,
     skip: u32,
     medium: vec2<u32>,
+    // IOR codes of the media the ray is in: current (low 16 bits), around it (high 16).
+    iors: u32,
 }
 
 // A pending ray as stored on a stack: 14 scalars (56 bytes, no vec3 padding).
@@ -830,18 +832,19 @@ struct Pending {
     skip: u32,
     m0: u32,
     m1: u32,
-    pad: u32,
+    iors: u32,
 }
 
 fn pack_task(t: Task) -> Pending {
     return Pending(t.origin.x, t.origin.y, t.origin.z, t.dir.x, t.dir.y, t.dir.z,
                    t.weight.x, t.weight.y, t.weight.z, t.refl | (t.refr << 16u), t.skip,
-                   t.medium.x, t.medium.y, 0u);
+                   t.medium.x, t.medium.y, t.iors);
 }
 
 fn unpack_task(p: Pending) -> Task {
     return Task(vec3<f32>(p.ox, p.oy, p.oz), p.bounces & 0xffffu, vec3<f32>(p.dx, p.dy, p.dz),
-                p.bounces >> 16u, vec3<f32>(p.wx, p.wy, p.wz), p.skip, vec2<u32>(p.m0, p.m1));
+                p.bounces >> 16u, vec3<f32>(p.wx, p.wy, p.wz), p.skip, vec2<u32>(p.m0, p.m1),
+                p.iors);
 }
 
 var<workgroup> wg_rstack: array<Pending, WORKGROUP * RSTACK>;
@@ -884,7 +887,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     var stack: array<Pending, RAY_STACK>;   // used only with BOUNCES and not WG_RAYS
     let rcap = select(RAY_STACK, RSTACK, WG_RAYS);
     let rbase = lane * RSTACK;
-    let primary = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM);
+    let primary = Task(p.eye, 0u, dir0, 0u, vec3<f32>(1.0), NO_SKIP, NO_MEDIUM, 0u);
     var len = 1u;
     var first = true;
     let bias = p.bias;
@@ -987,11 +990,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
 
         // Reflection and refraction.
         if BOUNCES {
+            // whitted.rs: from the medium the ray is in into the leaf's, or out of the
+            // leaf's into the one around it.
+            let here = task.iors & 0xffffu;
+            let around = task.iors >> 16u;
             var n1 = m.ior;
-            var n2 = 1.0;
+            var n2 = 1.0 + f32(around) / 16384.0;
+            var iors_after = around;
             if entering {
-                n1 = 1.0;
+                n1 = 1.0 + f32(here) / 16384.0;
                 n2 = m.ior;
+                iors_after = ior_word(h.leaf) | (here << 16u);
             }
             let cos_i = dot(n_f, v);
             var fr = kr;
@@ -1016,7 +1025,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
             if fr > 0.0 && task.refl < p.max_reflections && len < rcap {
                 let t = pack_task(Task(hp + n_f * bias, task.refl + 1u,
                                        normalize(reflect_dir(task.dir, n_f)), task.refr,
-                                       task.weight * fr, h.leaf, task.medium));
+                                       task.weight * fr, h.leaf, task.medium, task.iors));
                 if WG_RAYS {
                     wg_rstack[rbase + len] = t;
                 } else {
@@ -1030,7 +1039,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                     med = medium_of(h.leaf);
                 }
                 let t = pack_task(Task(hp - n_f * bias, task.refl, t_dir, task.refr + 1u,
-                                       task.weight * ft * m.albedo, h.leaf, med));
+                                       task.weight * ft * m.albedo, h.leaf, med, iors_after));
                 if WG_RAYS {
                     wg_rstack[rbase + len] = t;
                 } else {
