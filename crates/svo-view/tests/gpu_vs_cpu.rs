@@ -203,7 +203,7 @@ fn glass_inside_water_nested_media() {
     };
     // The outward normal of a cell on the surface of the box [lo, hi) (sum of the faces it
     // lies on), or None inside or outside it.
-    let shell = |c: glam::UVec3, lo: u32, hi: u32| -> Option<glam::Vec3> {
+    let shell = |c: glam::UVec3, lo: u32, hi: u32| -> Option<Vec3> {
         let inside = |v: u32| (lo..hi).contains(&v);
         if !(inside(c.x) && inside(c.y) && inside(c.z)) {
             return None;
@@ -217,15 +217,15 @@ fn glass_inside_water_nested_media() {
                 0.0
             }
         };
-        let n = glam::Vec3::new(axis(c.x), axis(c.y), axis(c.z));
-        (n != glam::Vec3::ZERO).then(|| n.normalize())
+        let n = Vec3::new(axis(c.x), axis(c.y), axis(c.z));
+        (n != Vec3::ZERO).then(|| n.normalize())
     };
     let tree = from_fn(
         root,
         5,
         |_, _| true,
         |c| {
-            let medium = |n: glam::Vec3, ior: f32, colour: [f32; 4]| Voxel {
+            let medium = |n: Vec3, ior: f32, colour: [f32; 4]| Voxel {
                 colour,
                 reflectivity: 0.05,
                 refractivity: 0.9,
