@@ -396,6 +396,54 @@ fn batch_rays_hit_the_same_leaves() {
     check_batch(&ctx, &t, HitMode::Contour, &rays);
 }
 
+/// Deep trees (depths 16, 20 and 24): clusters of leaves in the middle and the far corner of
+/// the root, where `f32` grid coordinates are coarsest, hit by rays from a few to a few
+/// hundred cells away (as `crates/svo/tests/deep_precision.rs` does on the CPU against an
+/// `f64` reference): the GPU finds the CPU's leaf with the same steps and `t`.
+#[test]
+fn deep_tree_batch_rays_hit_the_same_leaves() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xDEE9);
+    for depth in [16u8, 20, 24] {
+        let side = 1u64 << depth;
+        let mut cells = Vec::new();
+        for centre in [side / 2, side - 6] {
+            for _ in 0..30 {
+                let mut c =
+                    || (centre as i64 + rng.random_range(-4..4)).clamp(0, side as i64 - 1) as u32;
+                cells.push(glam::UVec3::new(c(), c(), c()));
+            }
+        }
+        cells.sort_by_key(|c| c.to_array());
+        cells.dedup();
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: side as f64,
+        };
+        let tree =
+            svo::builder::from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default())))
+                .unwrap();
+        let rays: Vec<(Vec3, Vec3, f32)> = (0..2000)
+            .map(|_| {
+                let target = cells[rng.random_range(0..cells.len())].as_dvec3()
+                    + DVec3::new(rng.random(), rng.random(), rng.random());
+                let dist = 10f64.powf(rng.random_range(0.5..2.5));
+                let dir = DVec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                )
+                .normalize();
+                ((target - dir * dist).as_vec3(), dir.as_vec3(), 0.0)
+            })
+            .collect();
+        eprintln!("depth {depth}:");
+        check_batch(&ctx, &tree, HitMode::Cube, &rays);
+    }
+}
+
 #[test]
 fn a_tree_split_over_bindings_renders_the_same() {
     // Arena chunks far below the adapter's limit force the split a large tree needs.

@@ -74,11 +74,12 @@ pub fn polygon_area(p: &[DVec3]) -> f64 {
     0.5 * s.length()
 }
 
-/// Cuts `src` by the plane `p[axis] = c` into its closed lower and upper sides. Vertices on
-/// the plane go to both; each crossing edge adds its intersection, with the coordinate on
-/// `axis` set to exactly `c`, to both.
+/// Cuts `src` by the plane `p[axis] = c` into its closed lower and upper sides. A vertex
+/// within `eps` of the plane counts as on it: it goes to both sides, moved onto the plane;
+/// each edge that crosses from more than `eps` below to more than `eps` above adds its
+/// intersection, with the coordinate on `axis` set to exactly `c`, to both.
 #[inline]
-fn cut(src: &Poly, axis: usize, c: f64, lo: &mut Poly, hi: &mut Poly) {
+fn cut(src: &Poly, axis: usize, c: f64, eps: f64, lo: &mut Poly, hi: &mut Poly) {
     lo.n = 0;
     hi.n = 0;
     let n = src.n;
@@ -86,13 +87,17 @@ fn cut(src: &Poly, axis: usize, c: f64, lo: &mut Poly, hi: &mut Poly) {
         let p = src.v[i];
         let q = src.v[if i + 1 == n { 0 } else { i + 1 }];
         let (dp, dq) = (p[axis] - c, q[axis] - c);
-        if dp <= 0.0 {
+        if dp < -eps {
             lo.push(p);
-        }
-        if dp >= 0.0 {
+        } else if dp > eps {
             hi.push(p);
+        } else {
+            let mut on = p;
+            on[axis] = c;
+            lo.push(on);
+            hi.push(on);
         }
-        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+        if (dp < -eps && dq > eps) || (dp > eps && dq < -eps) {
             let mut x = p + (q - p) * (dp / (dp - dq));
             x[axis] = c;
             lo.push(x);
@@ -111,43 +116,54 @@ fn floor_i64(x: f64) -> i64 {
 }
 
 /// Calls `f(i, slab)` for every unit slab `[i, i + 1]` along `axis` (within `0..n`) that
-/// the polygon reaches, in order. A polygon that reaches a plane `p[axis] = i` only with
-/// points on it still gives the slab beyond the plane those points (closed cells), so a
-/// point exactly on a plane is always in the parts on both sides.
+/// the polygon reaches or comes within `eps` of, with its part there (see [`cut`]). So a
+/// cell that the triangle touches only with a face, an edge or a corner, or misses by no
+/// more than rounding, gets a part (on its boundary; the caller decides it with the exact
+/// test), and points made later by cuts on other axes lie within the polygon's extent, so
+/// they cannot come near another slab unseen.
 #[inline]
-fn slabs(poly: &Poly, axis: usize, n: u32, buf: &mut [Poly; 3], f: &mut impl FnMut(u32, &Poly)) {
+fn slabs(
+    poly: &Poly,
+    axis: usize,
+    n: u32,
+    eps: f64,
+    buf: &mut [Poly; 3],
+    f: &mut impl FnMut(u32, &Poly),
+) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in poly.points() {
         lo = lo.min(p[axis]);
         hi = hi.max(p[axis]);
     }
     let last = i64::from(n) - 1;
-    let fl = floor_i64(lo);
-    let i0 = (fl - i64::from(fl as f64 == lo)).clamp(0, last);
-    let i1 = floor_i64(hi).clamp(i0, last);
-    if i0 == i1 {
-        f(i0 as u32, poly);
+    // Closed slabs: a polygon reaching down to a plane also reaches the slab below it.
+    let reach = lo - eps;
+    let fl = floor_i64(reach);
+    let a = (fl - i64::from(fl as f64 == reach)).clamp(0, last);
+    let b = floor_i64(hi + eps).clamp(a, last);
+    if a == b {
+        f(a as u32, poly);
         return;
     }
     // Ping-pong between two buffers for what is left above each cut.
     let [below, x, y] = buf;
     let (mut rest, mut above) = (x, y);
-    cut(poly, axis, (i0 + 1) as f64, below, rest);
+    cut(poly, axis, (a + 1) as f64, eps, below, rest);
     if below.n > 0 {
-        f(i0 as u32, below);
+        f(a as u32, below);
     }
-    for i in i0 + 1..i1 {
+    for i in a + 1..b {
         if rest.n == 0 {
             return;
         }
-        cut(rest, axis, (i + 1) as f64, below, above);
+        cut(rest, axis, (i + 1) as f64, eps, below, above);
         if below.n > 0 {
             f(i as u32, below);
         }
         std::mem::swap(&mut rest, &mut above);
     }
     if rest.n > 0 {
-        f(i1 as u32, rest);
+        f(b as u32, rest);
     }
 }
 
@@ -160,16 +176,17 @@ pub struct Slicer {
 
 impl Slicer {
     /// Slices the triangle `v` (coordinates local to a block of `n^3` unit cells,
-    /// `[0, n]^3`) into its parts per cell, calling `f(cell, part)` for each. Returns
-    /// `false` when the triangle, clipped to the block, is empty (it misses the block, or
-    /// touches it only where rounding lost the contact) or has an area of at most
-    /// `min_area` (it only grazes the block), or a polygon overflowed; the caller then
+    /// `[0, n]^3`) into its parts per cell, calling `f(cell, part)` for each; a cell the
+    /// triangle only touches, or misses by at most `eps`, gets a part on its boundary (points
+    /// within `eps` of a cutting plane are moved onto it and go to both sides, see [`cut`]). Returns `false` when the triangle, clipped to the block, is empty (it
+    /// misses the block, or touches it only where rounding lost the contact) or has an area
+    /// of at most `eps` (it only grazes the block), or a polygon overflowed; the caller then
     /// falls back to testing cells one by one.
     pub fn slice(
         &mut self,
         v: [DVec3; 3],
         n: u32,
-        min_area: f64,
+        eps: f64,
         f: &mut impl FnMut([u32; 3], &Poly),
     ) -> bool {
         let [poly, a, b] = &mut self.clip;
@@ -184,11 +201,11 @@ impl Slicer {
         let side = f64::from(n);
         for axis in 0..3 {
             if lo[axis] < 0.0 {
-                cut(poly, axis, 0.0, a, b);
+                cut(poly, axis, 0.0, eps, a, b);
                 std::mem::swap(poly, b);
             }
             if hi[axis] > side {
-                cut(poly, axis, side, a, b);
+                cut(poly, axis, side, eps, a, b);
                 std::mem::swap(poly, a);
             }
         }
@@ -204,15 +221,15 @@ impl Slicer {
             // A triangle that only grazes the block (what is left is a point, a segment or
             // a sliver on its faces) is left to the cell tests, which judge such contacts
             // with their own tolerance.
-            if poly.area() <= min_area {
+            if poly.area() <= eps {
                 return false;
             }
         }
         let mut overflow = false;
         let [bx, by, bz] = &mut self.bufs;
-        slabs(poly, 0, n, bx, &mut |x, slab| {
-            slabs(slab, 1, n, by, &mut |y, column| {
-                slabs(column, 2, n, bz, &mut |z, part| {
+        slabs(poly, 0, n, eps, bx, &mut |x, slab| {
+            slabs(slab, 1, n, eps, by, &mut |y, column| {
+                slabs(column, 2, n, eps, bz, &mut |z, part| {
                     overflow |= part.overflow;
                     f([x, y, z], part);
                 });
@@ -227,62 +244,11 @@ pub fn slice_triangle(v: [DVec3; 3], n: u32, f: &mut impl FnMut([u32; 3], &Poly)
     Slicer::default().slice(v, n, 0.0, f)
 }
 
-/// How a point sits in its unit cell `[0, 1]^3` (coordinates `f` relative to the cell's
-/// minimum corner), in six bits: bit `a` (for axis `a` = x, y, z) when it is near the lower
-/// face without being on it (`0 < f <= eps`), bit `3 + a` the same for the upper face. A
-/// point exactly on a face needs no flag: slicing puts it in the parts on both sides
-/// ([`slice_triangle`]), so the neighbour has a part already.
-#[inline]
-pub fn near_code(f: DVec3, eps: f64) -> usize {
-    let lo = f.cmpgt(DVec3::ZERO) & f.cmple(DVec3::splat(eps));
-    let hi = f.cmplt(DVec3::ONE) & f.cmpge(DVec3::splat(1.0 - eps));
-    (lo.bitmask() | hi.bitmask() << 3) as usize
-}
-
 /// Whether a point (cell-local coordinates `f`) is more than `eps` inside the cell on every
 /// axis.
 #[inline]
 pub fn well_inside(f: DVec3, eps: f64) -> bool {
     f.cmpgt(DVec3::splat(eps)).all() && f.cmplt(DVec3::splat(1.0 - eps)).all()
-}
-
-/// For each [`near_code`], the neighbour offsets a point with that code may also touch,
-/// as a mask over the 27 offsets `(dx, dy, dz)` in `{-1, 0, 1}^3` (bit
-/// `(dx + 1) + 3 (dy + 1) + 9 (dz + 1)`), the cell itself (bit 13) excluded.
-pub const NEIGHBOURS: [u32; 64] = neighbour_table();
-
-const fn neighbour_table() -> [u32; 64] {
-    let mut t = [0u32; 64];
-    let mut code = 0;
-    while code < 64 {
-        let mut mask = 0u32;
-        let mut bit = 0;
-        while bit < 27 {
-            let d = [bit % 3, bit / 3 % 3, bit / 9];
-            let mut ok = true;
-            let mut a = 0;
-            while a < 3 {
-                let (lo, hi) = ((code >> a) & 1 != 0, (code >> (3 + a)) & 1 != 0);
-                // Offset 0 is always allowed; -1 needs the lower flag, +1 the upper.
-                ok &= d[a] == 1 || (d[a] == 0 && lo) || (d[a] == 2 && hi);
-                a += 1;
-            }
-            if ok && bit != 13 {
-                mask |= 1 << bit;
-            }
-            bit += 1;
-        }
-        t[code] = mask;
-        code += 1;
-    }
-    t
-}
-
-/// The offset `(dx, dy, dz)` of bit `b` of a [`NEIGHBOURS`] mask.
-#[inline]
-pub fn neighbour_offset(b: u32) -> [i64; 3] {
-    let b = i64::from(b);
-    [b % 3 - 1, b / 3 % 3 - 1, b / 9 - 1]
 }
 
 #[cfg(test)]
@@ -372,26 +338,31 @@ mod tests {
     }
 
     #[test]
-    fn neighbour_table_matches_its_definition() {
-        assert_eq!(NEIGHBOURS[0], 0);
-        // Near the lower x face only: just (-1, 0, 0).
-        assert_eq!(NEIGHBOURS[0b000_001], 1 << 12);
-        assert_eq!(neighbour_offset(12), [-1, 0, 0]);
-        // Near the upper x and upper y faces: (+1,0,0), (0,+1,0), (+1,+1,0).
-        let m = NEIGHBOURS[0b011_000];
-        assert_eq!(m.count_ones(), 3);
-        for b in [14, 16, 17] {
-            assert!(m & 1 << b != 0, "bit {b}");
-        }
-        // Near a corner: all 7 others of the 2x2x2 block.
-        assert_eq!(NEIGHBOURS[0b000_111].count_ones(), 7);
-        assert_eq!(
-            near_code(DVec3::new(0.5, 1e-12, 0.999_999_999_9), 1e-9),
-            0b100_010
-        );
-        // On a face exactly: the slicing has the neighbour's part already.
-        assert_eq!(near_code(DVec3::new(0.0, 0.5, 1.0), 1e-9), 0);
+    fn well_inside_means_off_every_face() {
         assert!(well_inside(DVec3::splat(0.5), 1e-9));
         assert!(!well_inside(DVec3::new(0.5, 0.0, 0.5), 1e-9));
+        assert!(!well_inside(DVec3::new(0.5, 0.5, 1.0 - 1e-12), 1e-9));
+    }
+
+    #[test]
+    fn touches_and_near_misses_give_boundary_parts() {
+        // A vertical triangle whose edge runs along the cell edge x = 5, y = 4 (exactly, and
+        // then a hair off it): the diagonal neighbours it touches along that edge get parts.
+        for dy in [0.0, 1e-15, -1e-15] {
+            let v = [
+                DVec3::new(2.5, 8.0, 2.0),
+                DVec3::new(7.5, 0.0, 2.0),
+                DVec3::new(7.5, 0.0, 8.0),
+            ]
+            .map(|p| p + DVec3::new(0.0, dy, 0.0));
+            let mut cells = std::collections::BTreeSet::new();
+            assert!(Slicer::default().slice(v, 8, 1e-9, &mut |c, _| {
+                cells.insert(c);
+            }));
+            for z in 2..=4 {
+                assert!(cells.contains(&[4, 3, z]), "dy {dy}: [4, 3, {z}] missing");
+                assert!(cells.contains(&[5, 4, z]), "dy {dy}: [5, 4, {z}] missing");
+            }
+        }
     }
 }

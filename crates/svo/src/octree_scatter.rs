@@ -13,15 +13,14 @@
 //! * [`scatter_sliced`] (the bake, attributes included): the triangle is sliced through the
 //!   block ([`crate::grid_slice`]), which yields its part in every cell at once; those parts
 //!   are the leaves' area weights and contour points. A part whose centroid is well inside
-//!   its cell proves the contact; the other parts, and the neighbour cells that a part's
-//!   vertex comes near, are decided by [`CellTest`], so the cells are exactly those of
-//!   [`scatter_pairs`] (tested by comparing both on random and real meshes).
+//!   its cell proves the contact; the other parts (including those slicing gives the cells
+//!   that the triangle touches only on their boundary or misses by a hair) are decided by
+//!   [`CellTest`], so the cells are those of [`scatter_pairs`] (tested against the brute
+//!   force and against [`scatter_pairs`] on random, grid-aligned and real meshes).
 
 use crate::child_classify::child_cell;
 use crate::clip::clip_to_unit_cube;
-use crate::grid_slice::{
-    NEIGHBOURS, Slicer, near_code, neighbour_offset, polygon_area, well_inside,
-};
+use crate::grid_slice::{Slicer, polygon_area, well_inside};
 use crate::leaf_attributes::{Contact, LeafValues};
 use crate::octree::Node;
 use crate::octree_build::{Ctx, LeafTriangles};
@@ -49,9 +48,6 @@ pub struct ScatterScratch {
     sorted: Vec<Contact>,
     counts: Vec<u32>,
     verify: Vec<usize>,
-    candidates: Vec<u16>,
-    seen: Vec<u64>,
-    slots: Vec<usize>,
     slicer: Slicer,
 }
 
@@ -253,16 +249,11 @@ pub fn scatter_sliced(
         sorted,
         counts,
         verify,
-        candidates,
-        seen,
-        slots,
         slicer,
         ..
     } = scratch;
     contacts.clear();
     pts.clear();
-    seen.clear();
-    seen.resize((1usize << (3 * k)).div_ceil(64), 0);
     let key_of = |p: [i64; 3]| morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k);
     for &ti in list {
         let t = &ctx.tris[ti as usize];
@@ -276,98 +267,53 @@ pub fn scatter_sliced(
                 .fold(n as f64, |a, v| a.max(v.abs().max_element()));
             let eps = SLICE_MARGIN * reach;
             verify.clear();
-            candidates.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
                 let start = pts.len() as u32;
-                let mut codes = 0usize;
-                let mut near = 0u32;
                 let mut sum = DVec3::ZERO;
                 for &p in part.points() {
-                    let code = near_code(p - m, eps);
-                    codes |= code;
-                    near |= NEIGHBOURS[code];
                     sum += p;
                     pts.push(p);
                 }
+                // A centroid well inside the cell is within rounding of a point of the
+                // triangle: the contact is proven. Other parts take the exact test.
                 let centroid = sum / part.points().len() as f64;
                 if !well_inside(centroid - m, eps) {
                     verify.push(contacts.len());
                 }
-                let c = c.map(i64::from);
-                if codes != 0 {
-                    while near != 0 {
-                        let b = near.trailing_zeros();
-                        near &= near - 1;
-                        let o = neighbour_offset(b);
-                        let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
-                        if q.iter().all(|&x| (0..n).contains(&x)) {
-                            candidates.push((q[0] | q[1] << 5 | q[2] << 10) as u16);
-                        }
-                    }
-                }
-                let slot = (c[0] | c[1] << k | c[2] << (2 * k)) as usize;
-                seen[slot / 64] |= 1 << (slot % 64);
-                slots.push(slot);
                 contacts.push(Contact {
-                    key: key_of(c),
+                    key: key_of(c.map(i64::from)),
                     tri: ti,
                     area: part.area(),
                     start,
                     len: part.points().len() as u32,
                 });
             });
-            if sliced {
-                let test = (!verify.is_empty() || !candidates.is_empty())
-                    .then(|| CellTest::new(t, node_min, n as f64));
-                if let Some(test) = &test {
-                    // Parts that do not prove their contact: keep those the test confirms.
-                    let mut dead = 0;
-                    for &i in verify.iter() {
-                        let c = local_cell(contacts[i].key, k);
-                        *tests += 1;
-                        if !test.touches(c[0], c[1], c[2]) {
-                            contacts[i].len = u32::MAX;
-                            dead += 1;
-                        }
-                    }
-                    if dead > 0 {
-                        let mut w = first;
-                        for r in first..contacts.len() {
-                            if contacts[r].len != u32::MAX {
-                                contacts[w] = contacts[r];
-                                w += 1;
-                            }
-                        }
-                        contacts.truncate(w);
-                    }
-                    // Neighbours a part comes near: touches that slicing may have lost.
-                    candidates.sort_unstable();
-                    candidates.dedup();
-                    for &q in candidates.iter() {
-                        let c = [
-                            i64::from(q & 31),
-                            i64::from(q >> 5 & 31),
-                            i64::from(q >> 10),
-                        ];
-                        let slot = (c[0] | c[1] << k | c[2] << (2 * k)) as usize;
-                        if seen[slot / 64] & 1 << (slot % 64) != 0 {
-                            continue;
-                        }
-                        *tests += 1;
-                        if test.touches(c[0], c[1], c[2]) {
-                            push_touch(contacts, pts, t, ti, node_min, c, key_of(c));
-                        }
+            if sliced && !verify.is_empty() {
+                let test = CellTest::new(t, node_min, n as f64);
+                let mut dead = 0;
+                for &i in verify.iter() {
+                    let c = local_cell(contacts[i].key, k);
+                    *tests += 1;
+                    if !test.touches(c[0], c[1], c[2]) {
+                        contacts[i].len = u32::MAX;
+                        dead += 1;
                     }
                 }
-            } else {
+                if dead > 0 {
+                    let mut w = first;
+                    for r in first..contacts.len() {
+                        if contacts[r].len != u32::MAX {
+                            contacts[w] = contacts[r];
+                            w += 1;
+                        }
+                    }
+                    contacts.truncate(w);
+                }
+            } else if !sliced {
                 // Start over with the cell tests.
                 contacts.truncate(first);
             }
-            for &slot in slots.iter() {
-                seen[slot / 64] = 0;
-            }
-            slots.clear();
         }
         if !sliced {
             touched_cells(t, base, n, tests, &mut |c| {

@@ -2,12 +2,19 @@
 //! spacing near the far side of a depth-`d` root is `2^(d - 24)` cells. For depths 12 to 30,
 //! clusters of leaves near the root's middle and its far corner are hit by rays starting a
 //! few to a few hundred cells away; each hit (leaf and entry parameter) is compared with an
-//! `f64` slab test of the same `f32` ray against every leaf. Prints the worst error per depth
+//! `f64` slab test of the same `f32` ray against every leaf it *enters* (a stretch of
+//! positive length inside the closed cell). Prints the worst error per depth
 //! (`cargo test --test deep_precision -- --nocapture`) and asserts what `docs/stability.md`
-//! states: up to depth 16 every ray hits the reference's leaf and its entry parameter is
-//! within `1e-3` cells plus the `f32` rounding of its magnitude. Deeper, a ray that grazes a
-//! leaf by less than the `f32` spacing of its coordinates can miss it (measured here, and
-//! open in `docs/stability.md`).
+//! states: up to depth 24 every ray hits the reference's leaf and its entry parameter is
+//! within `1e-3` cells plus the `f32` rounding of its magnitude and of the origin. From
+//! depth 25 the cells' own planes are no longer `f32` integers, and rays go wrong (printed,
+//! not asserted; such trees are refused by the renderers).
+//!
+//! Deep origins round to coarse `f32` steps (a sixteenth of a cell at depth 20, a whole cell
+//! at 24), so a ray often *starts on* a leaf's face and moves away from it; that touches the
+//! leaf without entering it, and the traversal rightly goes on to the leaf the ray enters.
+//! (An earlier reference that counted such touches reported 2-38 "wrong" rays per 3,000 at
+//! depths 20-24: every one of them was this.)
 
 mod common;
 
@@ -37,7 +44,9 @@ fn reference(cells: &[UVec3], o: DVec3, d: DVec3) -> Option<(UVec3, f64)> {
             t0 = t0.max(p.min(q));
             t1 = t1.min(p.max(q));
         }
-        if t0 <= t1 && best.is_none_or(|b| t0 < b.1) {
+        // Entered: a stretch of positive length inside the closed cell (a ray that starts on
+        // a cell's face and moves away, or grazes an edge, touches the cell without entering it).
+        if t0 < t1 && best.is_none_or(|b| t0 < b.1) {
             best = Some((c, t0));
         }
     }
@@ -119,7 +128,7 @@ fn deep_trees_hit_the_right_leaf_at_the_right_distance() {
         }
         let spacing = (side as f64 / f64::from(1u32 << 24)).max(f64::from(f32::EPSILON));
         println!("{depth} | {rays} | {hits} | {wrong} | {worst:.3e} | {spacing:.3e}");
-        if depth <= 16 {
+        if depth <= 24 {
             assert!(hits > rays / 2, "depth {depth}: only {hits} hits");
             assert_eq!(
                 wrong, 0,
