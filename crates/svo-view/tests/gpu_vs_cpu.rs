@@ -416,7 +416,7 @@ fn deep_tree_batch_rays_hit_the_same_leaves() {
                 cells.push(glam::UVec3::new(c(), c(), c()));
             }
         }
-        cells.sort_by_key(|c| c.to_array());
+        cells.sort_by_key(glam::UVec3::to_array);
         cells.dedup();
         let root = RootCube {
             origin: DVec3::ZERO,
