@@ -13,11 +13,20 @@ use glam::{DVec3, Vec3};
 
 /// Packs the offsets `[dmin, dmax]` (along unit normal `n`, from the cell centre, in cells).
 pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
-    let e = 0.5 * f64::from(n.x.abs() + n.y.abs() + n.z.abs());
+    pack_with_thickness(dmin, dmax, n).0
+}
+
+/// [`pack`], with the packed contour's [`thickness`] (computed from the quantized offsets
+/// without unpacking).
+pub fn pack_with_thickness(dmin: f64, dmax: f64, n: Vec3) -> (u32, f32) {
+    let l1 = n.x.abs() + n.y.abs() + n.z.abs();
+    let e = 0.5 * f64::from(l1);
     if !(e > 0.0) || !(dmin <= dmax) {
-        return 0xFFFF_0000;
+        return (0xFFFF_0000, l1);
     }
-    let t = |d: f64| ((d + e) / (2.0 * e)).clamp(0.0, 1.0) * 65535.0;
+    // The fraction of the cell's extent `[-e, e]` in unorm16 steps (one division).
+    let scale = 65535.0 / (2.0 * e);
+    let t = |d: f64| ((d + e) * scale).clamp(0.0, 65535.0);
     // One quantum of margin covers the f32 arithmetic of renderers.
     // floor and ceil of values in [0, 65535] by truncation (no libm call).
     let (a, b) = (t(dmin), t(dmax));
@@ -25,7 +34,7 @@ pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
     let cb = fb + u32::from(f64::from(fb) < b);
     let lo = fa.saturating_sub(1);
     let hi = (cb + 1).min(65535);
-    lo | (hi << 16)
+    (lo | (hi << 16), (hi - lo) as f32 * (l1 / 65535.0))
 }
 
 /// Unpacks to the fractions `(near, far)` of the cell's extent along the normal.
@@ -64,4 +73,30 @@ pub fn fit(points: &[DVec3], n: Vec3) -> u32 {
         hi = hi.max(d);
     }
     pack(lo, hi, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thickness_from_packing_equals_unpacked_thickness() {
+        for (dmin, dmax, n) in [
+            (-0.3, 0.1, Vec3::new(0.6, 0.0, 0.8)),
+            (0.0, 0.0, Vec3::Z),
+            (-0.8, 0.8, Vec3::new(0.577, 0.577, 0.578)),
+            (0.2, 0.21, Vec3::new(-0.1, 0.99, 0.0)),
+        ] {
+            let (c, t) = pack_with_thickness(dmin, dmax, n);
+            assert_eq!(c, pack(dmin, dmax, n));
+            assert!(
+                (t - thickness(c, n)).abs() < 1e-6,
+                "{t} vs {}",
+                thickness(c, n)
+            );
+            // Conservative: the packed slab encloses [dmin, dmax] (all within the cell).
+            let (a, b) = offsets(c, n);
+            assert!(f64::from(a) <= dmin && f64::from(b) >= dmax);
+        }
+    }
 }

@@ -9,11 +9,13 @@
 //! sides on at once (Sutherland-Hodgman with both outputs).
 //!
 //! The pieces are only approximately the exact intersections (the cut points are rounded,
-//! though their coordinate on the cutting axis is set exactly). The caller decides cell
-//! membership from them with care: a piece whose centroid lies well inside its cell proves
-//! the contact (the centroid is within rounding of a point of the triangle); any other
-//! piece, and any neighbour cell that a piece's vertex comes near without being on the
-//! shared face, is decided by the exact overlap test (see [`near_code`]).
+//! though their coordinate on the cutting axis is set exactly). So that no touched cell is
+//! lost to rounding, a vertex within `eps` of a cutting plane counts as on it and goes to
+//! both sides: every cell the triangle touches, or misses by at most `eps`, gets a
+//! piece. The caller decides membership from the pieces with care: a piece whose centroid
+//! lies well inside its cell proves the contact ([`well_inside`]; the centroid is within
+//! rounding of a point of the triangle); any other piece is decided by the exact overlap
+//! test.
 
 use glam::DVec3;
 
@@ -22,7 +24,7 @@ use glam::DVec3;
 /// and a polygon that would exceed it makes [`slice_triangle`] report failure.
 const CAP: usize = 12;
 
-/// A convex polygon of at most [`CAP`] vertices.
+/// A convex polygon of at most 12 vertices.
 #[derive(Clone, Copy, Debug)]
 pub struct Poly {
     v: [DVec3; CAP],
@@ -178,7 +180,7 @@ impl Slicer {
     /// Slices the triangle `v` (coordinates local to a block of `n^3` unit cells,
     /// `[0, n]^3`) into its parts per cell, calling `f(cell, part)` for each; a cell the
     /// triangle only touches, or misses by at most `eps`, gets a part on its boundary (points
-    /// within `eps` of a cutting plane are moved onto it and go to both sides, see [`cut`]). Returns `false` when the triangle, clipped to the block, is empty (it
+    /// within `eps` of a cutting plane are moved onto it and go to both sides). Returns `false` when the triangle, clipped to the block, is empty (it
     /// misses the block, or touches it only where rounding lost the contact) or has an area
     /// of at most `eps` (it only grazes the block), or a polygon overflowed; the caller then
     /// falls back to testing cells one by one.

@@ -106,7 +106,9 @@ pub struct AttributeReport {
 }
 
 /// A triangle's part in a leaf: the triangle (an index into the grid-space triangles), the
-/// part's area (its weight) and its points, `pts[start..start + len]` of the caller's buffer.
+/// part's area (its weight) and its points, `pts[start..start + len]` of the caller's buffer,
+/// relative to the cell's minimum corner (so `[0, 1]^3`) in `f32`: their rounding (under
+/// `1e-7` cells) is far inside the contour's one-quantum margin.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Contact {
     /// The leaf's cell within its block (a local Morton index), for sorting.
@@ -209,17 +211,16 @@ impl<'a> AttributeInputs<'a> {
         self.tris
     }
 
-    /// Computes one leaf's attributes from its `contacts`, whose points `pts` are in a frame
-    /// with origin at grid position `origin`, in which the cell's minimum corner is `cell`,
-    /// and appends them to `out`. The contour is left pending ([`LeafValues::fit_contours`]).
+    /// Computes the attributes of the leaf at grid cell `cell` (its minimum corner) from its
+    /// `contacts` (points in `pts`, cell-local) and appends them to `out`. The contour is
+    /// left pending ([`LeafValues::fit_contours`]).
     pub fn push_leaf(
         &self,
         out: &mut LeafValues,
-        origin: DVec3,
         cell: DVec3,
         contacts: &[Contact],
         contact_start: u32,
-        pts: &[DVec3],
+        pts: &[Vec3],
     ) {
         out.count += 1;
         out.pairs += contacts.len() as u64;
@@ -250,7 +251,6 @@ impl<'a> AttributeInputs<'a> {
             if self.want_contour {
                 out.pending.push(PendingContour {
                     contacts: contact_start..contact_start + contacts.len() as u32,
-                    centre: cell + DVec3::splat(0.5),
                     normal: normal_encoding::decode(enc),
                 });
             }
@@ -262,16 +262,16 @@ impl<'a> AttributeInputs<'a> {
                 let w = weight(c);
                 let p = out_points(pts, c);
                 let centre = if p.is_empty() {
-                    cell + DVec3::splat(0.5)
+                    DVec3::splat(0.5)
                 } else {
-                    p.iter().sum::<DVec3>() / p.len() as f64
+                    (p.iter().sum::<Vec3>() / p.len() as f32).as_dvec3()
                 };
                 let ti = c.tri as usize;
                 let col = triangle_colour(
                     self.mesh,
                     self.order[ti] as usize,
                     &self.tris[ti],
-                    centre + origin,
+                    centre + cell,
                 );
                 for (a, v) in acc.iter_mut().zip(col) {
                     *a += w * f64::from(v);
@@ -375,7 +375,7 @@ fn materials(mesh: &Mesh) -> Vec<&Material> {
 }
 
 /// The points of contact `c` in `pts`.
-fn out_points<'p>(pts: &'p [DVec3], c: &Contact) -> &'p [DVec3] {
+fn out_points<'p>(pts: &'p [Vec3], c: &Contact) -> &'p [Vec3] {
     &pts[c.start as usize..(c.start + c.len) as usize]
 }
 
@@ -383,7 +383,6 @@ fn out_points<'p>(pts: &'p [DVec3], c: &Contact) -> &'p [DVec3] {
 #[derive(Clone, Debug)]
 pub struct PendingContour {
     contacts: std::ops::Range<u32>,
-    centre: DVec3,
     normal: Vec3,
 }
 
@@ -432,23 +431,24 @@ impl LeafValues {
 
     /// Fits the pending contours from the contacts and their points, given in the same
     /// calls to [`AttributeInputs::push_leaf`].
-    pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[DVec3]) {
+    pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[Vec3]) {
         for p in self.pending.drain(..) {
-            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            let nd = p.normal.as_dvec3();
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
             for c in &contacts[p.contacts.start as usize..p.contacts.end as usize] {
-                for q in out_points(pts, c) {
-                    let d = nd.dot(*q - p.centre);
+                for &q in out_points(pts, c) {
+                    let d = p.normal.dot(q - Vec3::splat(0.5));
                     lo = lo.min(d);
                     hi = hi.max(d);
                 }
             }
-            let c = if lo <= hi {
-                contour::pack(lo, hi, p.normal)
+            let (lo, hi) = (f64::from(lo), f64::from(hi));
+            let (c, thickness) = if lo <= hi {
+                contour::pack_with_thickness(lo, hi, p.normal)
             } else {
-                contour::fit(&[], p.normal)
+                let c = contour::fit(&[], p.normal);
+                (c, contour::thickness(c, p.normal))
             };
-            self.thickness.push(contour::thickness(c, p.normal));
+            self.thickness.push(thickness);
             self.contour.push(c);
         }
     }

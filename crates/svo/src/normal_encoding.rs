@@ -14,7 +14,7 @@ pub fn encode(n: Vec3) -> u32 {
     if !(l1 > 0.0) || !l1.is_finite() {
         return encode(Vec3::Z);
     }
-    let p = n / l1;
+    let p = n * (1.0 / l1);
     let mut o = Vec2::new(p.x, p.y);
     if p.z < 0.0 {
         o = Vec2::new(

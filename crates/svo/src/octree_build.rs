@@ -126,7 +126,7 @@ impl LeafSink for LeafValues {
         }
         let (contacts, pts) = (&mut scratch.contacts, &mut scratch.pts);
         clip_contacts(ctx.tris, cell, list, contacts, pts);
-        inputs.push_leaf(self, m, DVec3::ZERO, contacts, 0, pts);
+        inputs.push_leaf(self, m, contacts, 0, pts);
         let t1 = Instant::now();
         if inputs.wants_contour() {
             self.fit_contours(contacts, pts);
@@ -169,7 +169,7 @@ struct Scratch {
     lists: Vec<[Vec<u32>; 8]>,
     scatter: ScatterScratch,
     contacts: Vec<Contact>,
-    pts: Vec<DVec3>,
+    pts: Vec<glam::Vec3>,
 }
 
 /// What every step of one voxelization reads.

@@ -3,7 +3,7 @@
 //!
 //! A node at most `2^SCATTER_LEVELS` cells across is built in one go: every triangle of
 //! its list names the cells it touches, the `(cell, triangle)` contacts are sorted by the
-//! cells' Morton order, and the subtree is emitted bottom-up ([`emit_sorted`]). Two ways to
+//! cells' Morton order, and the subtree is emitted bottom-up ((`emit_sorted`)). Two ways to
 //! name the cells, with the same result:
 //!
 //! * [`scatter_pairs`] (the voxelizer alone): the cells of the triangle's bounding box that
@@ -27,7 +27,7 @@ use crate::octree_build::{Ctx, LeafTriangles};
 use crate::octree_layout::{Chunk, LeafStore};
 use crate::overlap::{edge_interval, plane_tolerance, vertex_inside};
 use crate::triangle_setup::GridTriangle;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use std::time::Instant;
 
 /// Levels above the leaves below which the default strategy scatters triangles into cells
@@ -44,7 +44,7 @@ const SLICE_MARGIN: f64 = 1e-10;
 pub struct ScatterScratch {
     pairs: Vec<(u16, u32)>,
     contacts: Vec<Contact>,
-    pts: Vec<DVec3>,
+    pts: Vec<Vec3>,
     sorted: Vec<Contact>,
     counts: Vec<u32>,
     verify: Vec<usize>,
@@ -273,7 +273,7 @@ pub fn scatter_sliced(
                 let mut sum = DVec3::ZERO;
                 for &p in part.points() {
                     sum += p;
-                    pts.push(p);
+                    pts.push((p - m).as_vec3());
                 }
                 // A centroid well inside the cell is within rounding of a point of the
                 // triangle: the contact is proven. Other parts take the exact test.
@@ -331,7 +331,7 @@ pub fn scatter_sliced(
                         start: pts.len() as u32,
                         len: p.len as u32,
                     });
-                    pts.extend(p.points().iter().map(|&q| q + m));
+                    pts.extend(p.points().iter().map(|q| q.as_vec3()));
                 } else {
                     contacts.push(Contact {
                         key: key_of(c),
@@ -369,12 +369,8 @@ pub fn scatter_sliced(
         cell,
         chunk,
         &mut |leaves: &mut LeafValues, c, run: &[Contact], start| {
-            let m = DVec3::new(
-                f64::from(c[0]) - node_min.x,
-                f64::from(c[1]) - node_min.y,
-                f64::from(c[2]) - node_min.z,
-            );
-            inputs.push_leaf(leaves, node_min, m, run, start as u32, pts);
+            let cell = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+            inputs.push_leaf(leaves, cell, run, start as u32, pts);
         },
     );
     let t2 = Instant::now();
@@ -393,7 +389,7 @@ pub fn scatter_sliced(
 /// contour still covers the contact.
 fn push_touch(
     contacts: &mut Vec<Contact>,
-    pts: &mut Vec<DVec3>,
+    pts: &mut Vec<Vec3>,
     t: &GridTriangle,
     ti: u32,
     node_min: DVec3,
@@ -408,7 +404,10 @@ fn push_touch(
         start: pts.len() as u32,
         len: 3,
     });
-    pts.extend(t.v.iter().map(|&v| (v - node_min).clamp(m, m + DVec3::ONE)));
+    pts.extend(
+        t.v.iter()
+            .map(|&v| (v - node_min - m).clamp(DVec3::ZERO, DVec3::ONE).as_vec3()),
+    );
 }
 
 /// The contacts of a leaf made by the recursion (the inexact strategies' last level): each
@@ -418,7 +417,7 @@ pub fn clip_contacts(
     cell: [u32; 3],
     list: &[u32],
     contacts: &mut Vec<Contact>,
-    pts: &mut Vec<DVec3>,
+    pts: &mut Vec<Vec3>,
 ) {
     let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
     contacts.clear();
@@ -428,18 +427,20 @@ pub fn clip_contacts(
         let local = t.v.map(|v| v - m);
         let p = clip_to_unit_cube(local);
         let start = pts.len() as u32;
-        if p.len == 0 {
-            pts.extend(local.map(|v| v.clamp(DVec3::ZERO, DVec3::ONE)));
+        let area = if p.len == 0 {
+            let touch = local.map(|v| v.clamp(DVec3::ZERO, DVec3::ONE));
+            pts.extend(touch.iter().map(|v| v.as_vec3()));
+            polygon_area(&touch)
         } else {
-            pts.extend_from_slice(p.points());
-        }
-        let len = pts.len() as u32 - start;
+            pts.extend(p.points().iter().map(|v| v.as_vec3()));
+            p.area()
+        };
         contacts.push(Contact {
             key: 0,
             tri: ti,
-            area: polygon_area(&pts[start as usize..]),
+            area,
             start,
-            len,
+            len: pts.len() as u32 - start,
         });
     }
 }
