@@ -193,6 +193,22 @@ fn volumetric_glass_block_on_a_floor() {
     assert!(st.secondary_rays > 0, "{st:?}");
 }
 
+/// The 2019 report's voxel box (glass panes and semi-solid cube as volumetric media, a
+/// solid frame, void holes): the same image on both.
+#[test]
+fn report_scene_2019() {
+    let tree = svo::scene_report2019::report_scene(5, 64, 64).unwrap().tree;
+    let trace = TraceOptions {
+        mode: HitMode::Cube,
+        shadows: ShadowMode::Transmittance,
+        ..TraceOptions::default()
+    };
+    let Some(st) = same_image(tree, trace, 1.0) else {
+        return;
+    };
+    assert!(st.secondary_rays > st.primary_hits, "{st:?}");
+}
+
 /// A glass box inside a water box (surface leaves with outward normals): refraction from
 /// water into glass and back uses both media's IORs (nested media), on both tracers.
 #[test]

@@ -477,14 +477,20 @@ fn thickness_stats(v: &mut [f32]) -> ContourStats {
     }
     let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
     let max = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let mut q = |f: f64| {
-        let k = ((v.len() - 1) as f64 * f).round() as usize;
-        f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+    let rank = |f: f64| ((v.len() - 1) as f64 * f).round() as usize;
+    let (k50, k95) = (rank(0.5), rank(0.95));
+    // Select the 95th percentile, then the median among the values below it.
+    let (below, p95, _) = v.select_nth_unstable_by(k95, f32::total_cmp);
+    let p95 = f64::from(*p95);
+    let p50 = if k50 < k95 {
+        f64::from(*below.select_nth_unstable_by(k50, f32::total_cmp).1)
+    } else {
+        p95
     };
     ContourStats {
         mean,
-        p50: q(0.5),
-        p95: q(0.95),
+        p50,
+        p95,
         max: f64::from(max),
     }
 }

@@ -67,6 +67,8 @@ pub mod render;
 #[cfg(all(feature = "image-io", feature = "reference"))]
 pub mod render_job;
 #[cfg(feature = "trace")]
+pub mod scene_report2019;
+#[cfg(feature = "trace")]
 pub mod shading;
 #[cfg(feature = "trace")]
 pub mod sky;

@@ -1,0 +1,157 @@
+//! The 2019 report's scene (its section 3.2 and figure 9), built with the programmatic
+//! builder ([`crate::builder::from_fn`]): a voxel box whose outer layer is glass panes in a
+//! solid frame, with a void hole in the middle of each pane and no pane at the front, and a
+//! semi-solid cube in the middle of the otherwise void interior; lit by three coloured point
+//! lights (red between the box and the camera, blue off to the left, green inside the box in
+//! the bottom corner nearest the camera).
+//!
+//! The report's rules, with all sizes as fractions of the box's half-side ("radius") and the
+//! regions square (the report builds them with per-axis loops):
+//!
+//! * the outer layer of cells is glass where the cell lies within 87.5% of the face's centre
+//!   (on both in-face axes), solid frame elsewhere;
+//! * within 25% of the face's centre the pane has a void hole;
+//! * the front face (towards `+z`, the camera) has no pane: only its frame;
+//! * inside, a semi-solid cube of radius 12.5%.
+//!
+//! Materials from the report's table 1, in this tracer's model (local Phong light weighs
+//! `1 - kr - kt`): glass `kr 0.2, kt 0.8, IOR 1.5` (the report's reflectivity 0.3 would make
+//! `kr + kt` exceed one), semi-solid `kr 0.3, kt 0.2, IOR 1.5`, solid `kr 0.2, kt 0`; void is
+//! no voxel. No voxel stores a normal, so glass and semi-solid form volumetric media (the
+//! report's "hit where the material changes") and solid cells show their faces.
+
+use crate::builder::{BuilderError, Voxel, from_fn};
+use crate::camera::Camera;
+use crate::grid::RootCube;
+use crate::octree::Octree;
+use crate::shading::PointLight;
+use glam::{DVec3, UVec3, Vec3};
+
+/// The scene: the tree (root `[-1, 1]^3`), its lights and the camera of the report's
+/// renderings.
+#[derive(Clone, Debug)]
+pub struct ReportScene {
+    /// The voxel box.
+    pub tree: Octree,
+    /// Red, blue and green point lights.
+    pub lights: Vec<PointLight>,
+    /// Looking at the open front of the box, slightly from above and the right.
+    pub camera: Camera,
+}
+
+/// What a cell of the box is made of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReportMaterial {
+    /// The outer frame.
+    Solid,
+    /// A pane.
+    Glass,
+    /// The centre cube.
+    SemiSolid,
+}
+
+impl ReportMaterial {
+    /// The voxel for this material.
+    pub fn voxel(self) -> Voxel {
+        match self {
+            Self::Solid => Voxel {
+                colour: [1.0, 1.0, 1.0, 1.0],
+                reflectivity: 0.2,
+                refractivity: 0.0,
+                ior: 1.0,
+                normal: None,
+            },
+            Self::Glass => Voxel {
+                colour: [1.0, 1.0, 1.0, 1.0],
+                reflectivity: 0.2,
+                refractivity: 0.8,
+                ior: 1.5,
+                normal: None,
+            },
+            Self::SemiSolid => Voxel {
+                colour: [1.0, 1.0, 1.0, 1.0],
+                reflectivity: 0.3,
+                refractivity: 0.2,
+                ior: 1.5,
+                normal: None,
+            },
+        }
+    }
+}
+
+/// The material of cell `c` of a box of `n` cells per side by the report's rules, `None`
+/// for void.
+pub fn report_material(c: UVec3, n: u32) -> Option<ReportMaterial> {
+    // Cell centres in [-1, 1].
+    let u = (c.as_dvec3() + DVec3::splat(0.5)) / f64::from(n) * 2.0 - DVec3::ONE;
+    let on = |a: usize| c[a] == 0 || c[a] == n - 1;
+    let outer = (0..3).any(on);
+    if !outer {
+        return (u.abs().max_element() <= 0.125).then_some(ReportMaterial::SemiSolid);
+    }
+    // A cell on several faces (an edge or corner of the box) is frame: it is at the edge of
+    // every face it lies on.
+    let faces: Vec<usize> = (0..3).filter(|&a| on(a)).collect();
+    if faces.len() > 1 {
+        return Some(ReportMaterial::Solid);
+    }
+    let a = faces[0];
+    let r = (0..3)
+        .filter(|&b| b != a)
+        .map(|b| u[b].abs())
+        .fold(0.0, f64::max);
+    if r > 0.875 {
+        return Some(ReportMaterial::Solid);
+    }
+    let front = a == 2 && c.z == n - 1;
+    if front || r <= 0.25 {
+        None
+    } else {
+        Some(ReportMaterial::Glass)
+    }
+}
+
+/// Builds the scene with `2^depth` cells per side, for a `width` x `height` image.
+pub fn report_scene(depth: u8, width: u32, height: u32) -> Result<ReportScene, BuilderError> {
+    let root = RootCube {
+        origin: DVec3::splat(-1.0),
+        side: 2.0,
+    };
+    let n = 1u32 << depth.min(31);
+    let tree = from_fn(
+        root,
+        depth,
+        |_, _| true,
+        |c| report_material(c, n).map(ReportMaterial::voxel),
+    )?;
+    let lights = vec![
+        PointLight {
+            position: DVec3::new(0.35, 0.25, 1.7),
+            colour: Vec3::new(1.0, 0.15, 0.1),
+            intensity: 1.2,
+        },
+        PointLight {
+            position: DVec3::new(-2.2, 0.9, 1.6),
+            colour: Vec3::new(0.15, 0.3, 1.0),
+            intensity: 5.0,
+        },
+        PointLight {
+            position: DVec3::new(-0.7, -0.75, 0.75),
+            colour: Vec3::new(0.1, 1.0, 0.2),
+            intensity: 0.35,
+        },
+    ];
+    let camera = Camera {
+        eye: DVec3::new(1.1, 0.9, 3.6),
+        target: DVec3::new(0.0, -0.05, 0.0),
+        up: DVec3::Y,
+        fov_deg: 45.0,
+        width,
+        height,
+    };
+    Ok(ReportScene {
+        tree,
+        lights,
+        camera,
+    })
+}
