@@ -840,6 +840,31 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
                 }
             ),
         ]);
+        // The same target against open3d measured in this run.
+        let side_by_side = m
+            .open3d
+            .iter()
+            .flatten()
+            .filter(|(which, _)| which == "bunny")
+            .filter_map(|(_, run)| run.as_ref().ok())
+            .flat_map(|(_, rows)| rows.iter())
+            .find(|o| o.depth == 8);
+        if let Some(o) = side_by_side {
+            t.push(vec![
+                "issue 2: the same, against open3d measured in this run (a fifth of it)".into(),
+                format!(
+                    "{} against {} ({:.1}x): {}",
+                    ms(c.seconds),
+                    ms(o.seconds / 5.0),
+                    o.seconds / c.seconds,
+                    if c.seconds <= o.seconds / 5.0 {
+                        "met"
+                    } else {
+                        "**not met**"
+                    }
+                ),
+            ]);
+        }
     }
     if let Some(c) = m.tables.exact(10) {
         t.push(vec![
