@@ -2,15 +2,18 @@
 //!
 //! At every node the triangles are classified into children by their bounding boxes
 //! (thesis Algorithm 1, [`crate::child_classify`]) and then filtered by the tests that the
-//! [`Strategy`] puts at that level ([`crate::overlap`]). Leaves keep the list of triangles
-//! that touch them, which the attribute and contour passes use.
+//! [`Strategy`] puts at that level ([`crate::overlap`]). What a leaf becomes depends on the
+//! caller: [`voxelize`] keeps each leaf's list of triangles; [`voxelize_with_attributes`]
+//! (the bake) computes the leaf's attributes and contour from its triangles' parts the moment
+//! it is made and keeps no list.
 //!
 //! The top levels build their children in parallel (rayon, feature `parallel`); the subtrees'
 //! places in the final arrays are planned in child order and each is copied there in
 //! parallel, so the output is identical whatever the thread count. Below those levels a task
 //! recurses sequentially, reusing one scratch list per level, so memory stays proportional to
-//! the triangles on the current path plus the output. In the default strategy the last three
-//! levels are built by scattering triangles into cells instead of recursing (`docs/algorithms.md`).
+//! the triangles on the current path plus the output. In the default strategy the last four
+//! levels are built in one go per 16^3 block instead of recursing ([`crate::octree_scatter`],
+//! `docs/algorithms.md`).
 
 use crate::child_classify::{child_cell, child_offset, classify_children};
 use crate::leaf_attributes::{AttributeInputs, Contact, LeafValues};
