@@ -16,7 +16,7 @@
 //! `docs/algorithms.md`).
 
 use crate::child_classify::{child_cell, child_offset, classify_children};
-use crate::leaf_attributes::{AttributeInputs, Contact, LeafValues};
+use crate::leaf_attributes::{AttributeInputs, LeafValues};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
 use crate::octree_scatter::{
@@ -127,7 +127,7 @@ impl LeafSink for LeafValues {
         {
             self.false_positives += 1;
         }
-        let (contacts, pts) = (&mut scratch.contacts, &mut scratch.pts);
+        let (contacts, pts) = scratch.scatter.contact_buffers();
         clip_contacts(ctx.tris, cell, list, contacts, pts);
         inputs.push_leaf(self, m, contacts, 0, pts);
         let t1 = Instant::now();
@@ -166,13 +166,11 @@ pub struct Voxelized {
     pub tests: u64,
 }
 
-/// Per-task reusable buffers: one set of child lists per level, the scatter's buffers, and
-/// a leaf's contacts when attributes are computed.
+/// Per-task reusable buffers: one set of child lists per level, and the scatter's buffers
+/// (whose contact buffers also serve leaves made by the recursion).
 struct Scratch {
     lists: Vec<[Vec<u32>; 8]>,
     scatter: ScatterScratch,
-    contacts: Vec<Contact>,
-    pts: Vec<glam::Vec3>,
 }
 
 /// What every step of one voxelization reads.
@@ -479,8 +477,6 @@ fn build_node<L: LeafSink>(
         let mut scratch = Scratch {
             lists: vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)],
             scatter: ScatterScratch::default(),
-            contacts: Vec::new(),
-            pts: Vec::new(),
         };
         let mut tests = 0;
         let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);

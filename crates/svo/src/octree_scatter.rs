@@ -51,6 +51,14 @@ pub struct ScatterScratch {
     slicer: Slicer,
 }
 
+impl ScatterScratch {
+    /// The contact and point buffers, for a leaf made outside the scatter (the recursion's
+    /// last level in the inexact strategies, [`clip_contacts`]).
+    pub fn contact_buffers(&mut self) -> (&mut Vec<Contact>, &mut Vec<Vec3>) {
+        (&mut self.contacts, &mut self.pts)
+    }
+}
+
 /// The complete overlap test of one triangle against the unit cells of a block, with the
 /// plane distance and the edge intervals prepared once (the same bounds as
 /// [`crate::overlap::triangle_box_overlap`], with one plane tolerance for the whole block).
