@@ -17,6 +17,7 @@ use std::sync::Mutex;
 use svo::bake::{BakeOptions, Phase, available_memory};
 use svo::leaf_attributes::ChannelSelection;
 use svo::pipeline::{BakeJob, run};
+use svo::solid_mode::SolidMode;
 use svo::strategy::Strategy;
 
 /// Bake a triangle mesh (OBJ, OBJ.GZ, PLY, glTF, GLB) into a sparse voxel octree (.svo), or
@@ -54,9 +55,19 @@ struct Args {
     /// No progress bar and no summary (errors are still printed).
     #[arg(short, long)]
     quiet: bool,
+    /// Fill the inside: `--solid` (or `--solid closed`) for closed meshes (an open mesh is
+    /// refused, with its count of open edges); `--solid vote` for meshes with holes (parity
+    /// along x, y and z columns, the majority deciding).
+    #[arg(long, num_args = 0..=1, default_missing_value = "closed", value_name = "MODE",
+          value_parser = parse_solid)]
+    solid: Option<SolidMode>,
     /// Bake even when the memory estimate exceeds the available memory.
     #[arg(long)]
     force: bool,
+}
+
+fn parse_solid(s: &str) -> Result<SolidMode, String> {
+    SolidMode::parse(s).ok_or_else(|| format!("unknown solid mode `{s}` (closed, vote)"))
 }
 
 fn main() {
@@ -94,6 +105,7 @@ fn real_main() -> anyhow::Result<()> {
             channels,
             pad: args.pad,
             max_memory: if args.force { None } else { available_memory() },
+            solid: args.solid,
         },
         threads: args.threads,
     };
@@ -118,6 +130,7 @@ fn real_main() -> anyhow::Result<()> {
             bar.set_message(match phase {
                 Phase::Voxelize => "voxelize",
                 Phase::Attributes => "attributes",
+                Phase::Solid => "solid",
             });
         }
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);

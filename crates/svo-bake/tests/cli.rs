@@ -451,3 +451,77 @@ fn hostile_gltf_files_give_one_clear_line() {
     }
     assert!(n >= 3, "only {n} hostile glTF files");
 }
+
+#[test]
+fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
+    let torus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
+    let d = tmp();
+    let surface = d.path().join("surface.svo");
+    let solid = d.path().join("solid.svo");
+    ok(&[s(&torus), "--depth", "6", "-o", s(&surface), "-q"]);
+    let out = ok(&[s(&torus), "--depth", "6", "--solid", "-o", s(&solid)]);
+    assert!(out.contains("interior leaves (closed fill"), "{out}");
+    let (a, b) = (read_tree(&surface), read_tree(&solid));
+    // Every surface leaf is kept, interior leaves are added, the file round-trips them.
+    let interior = b
+        .leaves()
+        .filter(|l| b.attributes.is_interior(l.index as usize))
+        .count();
+    assert_eq!(b.leaf_count as usize, a.leaf_count as usize + interior);
+    assert!(interior > a.leaf_count as usize);
+    for l in a.leaves() {
+        let j = b.leaf_at(l.cell).expect("surface leaf kept") as usize;
+        assert!(!b.attributes.is_interior(j));
+    }
+    // The vote mode gives the same file on a closed mesh; binvox holds the solid cells.
+    let voted = d.path().join("voted.svo");
+    ok(&[
+        s(&torus),
+        "--depth",
+        "6",
+        "--solid",
+        "vote",
+        "-o",
+        s(&voted),
+        "-q",
+    ]);
+    assert_eq!(
+        std::fs::read(&solid).unwrap(),
+        std::fs::read(&voted).unwrap()
+    );
+    let bv = d.path().join("solid.binvox");
+    ok(&[s(&solid), "-o", s(&bv), "-q"]);
+    let (_, _, _, got) = svo::export_binvox::read_binvox(&std::fs::read(&bv).unwrap()).unwrap();
+    assert_eq!(got.len(), b.leaf_count as usize);
+    let o = run(&[s(&torus), "--solid", "inside", "-o", s(&voted)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("unknown solid mode `inside` (closed, vote)"),
+        "{err}"
+    );
+    let Some(m) = models() else { return };
+    // The bunny has holes in its base.
+    let out_path = d.path().join("bunny.svo");
+    fails(
+        &[
+            s(&m.join("stanford/bun_zipper.ply")),
+            "--depth",
+            "5",
+            "--solid",
+            "-o",
+            s(&out_path),
+        ],
+        "open edges",
+    );
+    assert!(!out_path.exists());
+    let out = ok(&[
+        s(&m.join("stanford/bun_zipper.ply")),
+        "--depth",
+        "5",
+        "--solid",
+        "vote",
+        "-o",
+        s(&out_path),
+    ]);
+    assert!(out.contains("interior leaves (vote fill"), "{out}");
+}

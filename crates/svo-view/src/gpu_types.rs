@@ -242,6 +242,8 @@ pub struct ShaderVariant {
     pub fresnel_schlick: bool,
     /// Volumetric media (transparent leaves without normals).
     pub media: bool,
+    /// Interior leaves of a solid bake (normal word `NO_NORMAL`), which rays pass through.
+    pub interior: bool,
     /// Per channel: 0 absent, 1 constant, 2 per leaf.
     pub channels: [u32; 6],
     /// Pending rays a pixel can have: the bounce limits plus two (one without bounces).
@@ -267,6 +269,7 @@ impl ShaderVariant {
             },
             fresnel_schlick: opts.fresnel == FresnelMode::Schlick,
             media: matches!(a.normal, Channel::Absent) && refractive,
+            interior: a.has_interior(),
             ray_stack: if bounces {
                 u32::from(opts.max_reflections.min(MAX_BOUNCES))
                     + u32::from(opts.max_refractions.min(MAX_BOUNCES))
@@ -296,6 +299,7 @@ impl ShaderVariant {
             shadows: 4,
             ray_stack: 2 * u32::from(MAX_BOUNCES) + 2,
             media: true,
+            interior: true,
             channels: self.channels.map(|c| if c == 0 { 0 } else { 2 }),
             ..self
         }
@@ -319,6 +323,7 @@ impl ShaderVariant {
             ("SHADOWS", f64::from(self.shadows)),
             ("FRESNEL_SCHLICK", b(self.fresnel_schlick)),
             ("MEDIA", b(self.media)),
+            ("INTERIOR", b(self.interior)),
         ];
         c.extend(
             names
@@ -351,6 +356,9 @@ impl ShaderVariant {
         });
         if self.media {
             parts.push("media");
+        }
+        if self.interior {
+            parts.push("interior");
         }
         parts.join(", ")
     }

@@ -49,6 +49,10 @@ fn gpu() -> Option<std::sync::MutexGuard<'static, GpuContext>> {
 }
 
 fn torus(mtl: Option<&str>, depth: u8) -> Octree {
+    torus_with(mtl, depth, None)
+}
+
+fn torus_with(mtl: Option<&str>, depth: u8, solid: Option<svo::solid_mode::SolidMode>) -> Octree {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let obj = match mtl {
         None => fixtures.join("torus.obj"),
@@ -64,6 +68,7 @@ fn torus(mtl: Option<&str>, depth: u8) -> Octree {
     let mesh = svo::import::load_mesh(&obj).unwrap();
     let opts = svo::BakeOptions {
         depth,
+        solid,
         ..svo::BakeOptions::default()
     };
     svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0
@@ -155,6 +160,25 @@ fn glass_torus_cube_refraction() {
     };
     // Refraction chains through cube faces amplify rounding: a looser bound.
     let Some(st) = same_image(torus(Some(glass), 5), trace, 2.0) else {
+        return;
+    };
+    assert!(st.secondary_rays > st.primary_hits, "{st:?}");
+}
+
+#[test]
+fn solid_glass_torus_passes_through_its_interior_leaves() {
+    // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both
+    // tracers, so refracted rays meet the far side of the surface, not the next cell.
+    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.3\nillum 7\n";
+    let tree = torus_with(Some(glass), 6, Some(svo::solid_mode::SolidMode::Closed));
+    assert!(tree.attributes.has_interior());
+    let trace = TraceOptions {
+        shadows: ShadowMode::Transmittance,
+        ..TraceOptions::default()
+    };
+    let variant = ShaderVariant::for_scene(&tree, &trace, 1);
+    assert!(variant.interior && variant.describe().contains("interior"));
+    let Some(st) = same_image(tree, trace, 1.0) else {
         return;
     };
     assert!(st.secondary_rays > st.primary_hits, "{st:?}");

@@ -7,6 +7,7 @@ use crate::leaf_attributes::{AttributeInputs, ChannelSelection, ContourStats};
 use crate::mesh::{Mesh, MeshError};
 use crate::octree::{ChannelKind, ChannelStorage, Octree};
 use crate::octree_build::{self, LeafTriangles};
+use crate::solid_mode::SolidMode;
 use crate::strategy::Strategy;
 use crate::triangle_setup::{setup_triangles_in_order, spatial_order};
 use std::time::Instant;
@@ -40,6 +41,18 @@ pub enum BakeError {
         /// The limit, GiB.
         limit_gib: f64,
     },
+    /// A closed-mesh solid bake of a mesh with open edges.
+    #[error(
+        "the mesh is not closed: {open_edges} open edges (edges used by an odd number of triangles), \
+         so its inside is not defined; --solid needs a closed mesh (use --solid vote for meshes with holes)"
+    )]
+    OpenMesh {
+        /// Edges used by an odd number of triangles.
+        open_edges: usize,
+    },
+    /// A solid bake without the `solid` cargo feature.
+    #[error("solid voxelization needs svo's `solid` cargo feature")]
+    SolidUnavailable,
     /// Contours need the normal channel.
     #[error(
         "the contour channel needs the normal channel (add `normal` to --channels, or drop `contour`)"
@@ -60,6 +73,8 @@ pub struct BakeOptions {
     pub pad: u32,
     /// Refuse when the estimated peak memory exceeds this many bytes.
     pub max_memory: Option<u64>,
+    /// Fill the inside of the mesh with interior leaves (see [`crate::solid_fill`]).
+    pub solid: Option<SolidMode>,
 }
 
 impl Default for BakeOptions {
@@ -70,6 +85,7 @@ impl Default for BakeOptions {
             channels: ChannelSelection::ALL,
             pad: 0,
             max_memory: None,
+            solid: None,
         }
     }
 }
@@ -81,6 +97,8 @@ pub enum Phase {
     Voxelize,
     /// Attributes and contours.
     Attributes,
+    /// Filling the inside (solid bakes).
+    Solid,
 }
 
 /// Statistics of one bake.
@@ -122,6 +140,12 @@ pub struct BakeStats {
     pub attributes_s: f64,
     /// Seconds spent on contours.
     pub contours_s: f64,
+    /// The solid mode, when the inside was filled.
+    pub solid: Option<String>,
+    /// Interior leaves added by the solid fill (included in `leaves`).
+    pub interior_leaves: usize,
+    /// Seconds spent filling the inside.
+    pub solid_s: f64,
     /// Contour thickness in cells, when contours were made.
     pub contour_thickness: Option<ContourStats>,
     /// Bytes of nodes and per-leaf arrays in memory.
@@ -139,6 +163,16 @@ pub fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeE
         return Err(BakeError::ContourWithoutNormal);
     }
     mesh.validate()?;
+    match opts.solid {
+        Some(_) if cfg!(not(feature = "solid")) => return Err(BakeError::SolidUnavailable),
+        Some(SolidMode::Closed) => {
+            let open_edges = crate::mesh_closed::open_edges(mesh);
+            if open_edges > 0 {
+                return Err(BakeError::OpenMesh { open_edges });
+            }
+        }
+        _ => {}
+    }
     let (lo, hi) = mesh.bounds().ok_or(MeshError::Empty)?;
     let root = RootCube::around(lo, hi, opts.depth, opts.pad);
     let est = estimate(mesh, &root, opts.depth);
@@ -224,13 +258,23 @@ pub fn bake_mesh(
         .saturating_sub(rep.contours)
         .as_secs_f64();
     let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
-    let tree = Octree {
+    let mut tree = Octree {
         root,
         depth: opts.depth,
         nodes,
         leaf_count: leaf_count as u32,
         attributes,
     };
+    let (mut interior_leaves, mut solid_s) = (0, 0.0);
+    if let Some(mode) = opts.solid {
+        let t = Instant::now();
+        progress(Phase::Solid, 0.0);
+        let (solid, added) = fill_solid(mesh, tree, mode, opts)?;
+        tree = solid;
+        interior_leaves = added;
+        solid_s = t.elapsed().as_secs_f64();
+        progress(Phase::Solid, 1.0);
+    }
     let a = &tree.attributes;
     let channels = a
         .storage()
@@ -256,6 +300,9 @@ pub fn bake_mesh(
         voxelize_s,
         attributes_s: rep.attributes.as_secs_f64(),
         contours_s: rep.contours.as_secs_f64(),
+        solid: opts.solid.map(|m| m.name().to_string()),
+        interior_leaves,
+        solid_s,
         contour_thickness: rep.contour_stats,
         payload_bytes: tree.payload_bytes(),
         channels,
@@ -268,6 +315,50 @@ pub fn bake_mesh(
         drop_in_background((tris, order));
     }
     Ok((tree, stats))
+}
+
+/// The surface tree with the inside of `mesh` added as interior leaves, and how many.
+#[cfg(feature = "solid")]
+fn fill_solid(
+    mesh: &Mesh,
+    surface: Octree,
+    mode: SolidMode,
+    opts: &BakeOptions,
+) -> Result<(Octree, usize), BakeError> {
+    use crate::solid_fill::{FillLimit, interior_cells, merge_interior};
+    let (cells, _) = interior_cells(
+        mesh,
+        &surface.root,
+        surface.depth,
+        mode,
+        &surface,
+        opts.max_memory,
+    )
+    .map_err(|FillLimit::TooMany { cells, bytes }| {
+        const GIB: f64 = (1u64 << 30) as f64;
+        BakeError::TooLarge {
+            depth: opts.depth,
+            leaves: cells,
+            gib: bytes / GIB,
+            limit_gib: opts.max_memory.unwrap_or(0) as f64 / GIB,
+        }
+    })?;
+    if cells.is_empty() {
+        return Ok((surface, 0));
+    }
+    let tree = merge_interior(&surface, mesh, &cells);
+    drop_in_background(surface);
+    Ok((tree, cells.len()))
+}
+
+#[cfg(not(feature = "solid"))]
+fn fill_solid(
+    _: &Mesh,
+    _: Octree,
+    _: SolidMode,
+    _: &BakeOptions,
+) -> Result<(Octree, usize), BakeError> {
+    Err(BakeError::SolidUnavailable)
 }
 
 /// Bytes of memory available to a new process (Linux `MemAvailable`), if known.

@@ -104,17 +104,25 @@ impl Voxel {
     }
 }
 
-#[derive(Default)]
-struct Voxels(Vec<Voxel>);
+/// Leaves of any type, for the builders that keep one value per leaf.
+pub(crate) struct LeafVec<T>(pub Vec<T>);
 
-impl LeafStore for Voxels {
+impl<T> Default for LeafVec<T> {
+    fn default() -> Self {
+        Self(Vec::new())
+    }
+}
+
+impl<T: Send> LeafStore for LeafVec<T> {
     fn len(&self) -> usize {
         self.0.len()
     }
 }
 
+type Voxels = LeafVec<Voxel>;
+
 /// The Morton key of a cell: child indices from the root down, 3 bits a level.
-fn morton(c: UVec3, depth: u8) -> u128 {
+pub(crate) fn morton(c: UVec3, depth: u8) -> u128 {
     let mut k = 0u128;
     for level in (0..depth).rev() {
         let i = ((c.x >> level) & 1) << 2 | ((c.y >> level) & 1) << 1 | ((c.z >> level) & 1);
@@ -162,11 +170,24 @@ pub fn from_cells(
     Ok(finish(root, depth, chunk, rec))
 }
 
-fn build_sorted(
-    cells: &[(u128, Voxel)],
+/// The packed nodes over cells sorted by strictly increasing Morton key, and their values in
+/// leaf order (which is the key order).
+#[cfg(feature = "solid")]
+pub(crate) fn layout_sorted<T: Copy + Send>(
+    cells: &[(u128, T)],
+    depth: u8,
+) -> (Vec<crate::octree::Node>, Vec<T>) {
+    let mut chunk = Chunk::<LeafVec<T>>::new();
+    let rec = build_sorted(cells, depth, 0, &mut chunk);
+    let (nodes, LeafVec(values)) = chunk.finish(rec);
+    (nodes, values)
+}
+
+fn build_sorted<T: Copy + Send>(
+    cells: &[(u128, T)],
     depth: u8,
     level: u8,
-    chunk: &mut Chunk<Voxels>,
+    chunk: &mut Chunk<LeafVec<T>>,
 ) -> Option<crate::octree::Node> {
     if cells.is_empty() {
         return None;
@@ -180,7 +201,7 @@ fn build_sorted(
             mask |= 1 << child(k);
             chunk.leaves.0.push(vox);
         }
-        return Some(Chunk::<Voxels>::leaf_parent(mask, base));
+        return Some(Chunk::<LeafVec<T>>::leaf_parent(mask, base));
     }
     let mut records = Vec::with_capacity(8);
     let mut start = 0;
@@ -253,7 +274,7 @@ fn finish(
     chunk: Chunk<Voxels>,
     rec: Option<crate::octree::Node>,
 ) -> Octree {
-    let (nodes, Voxels(vox)) = chunk.finish(rec);
+    let (nodes, LeafVec(vox)) = chunk.finish(rec);
     let mut attributes = LeafAttributes {
         colour: Channel::PerLeaf(vox.iter().map(|v| encode_colour(v.colour)).collect()),
         reflectivity: Channel::PerLeaf(vox.iter().map(|v| unorm8(v.reflectivity)).collect()),

@@ -11,6 +11,10 @@
 
 use glam::{DVec3, Vec3};
 
+/// The contour of the whole cell (near plane at 0, far at 1): what interior leaves of a solid
+/// bake store.
+pub const FULL: u32 = 0xFFFF_0000;
+
 /// Packs the offsets `[dmin, dmax]` (along unit normal `n`, from the cell centre, in cells).
 pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
     pack_with_thickness(dmin, dmax, n).0

@@ -51,6 +51,7 @@ pub mod leaf_attributes;
 #[cfg(feature = "trace")]
 pub mod leaf_hit;
 pub mod mesh;
+pub mod mesh_closed;
 #[cfg(feature = "reference")]
 pub mod mesh_reference;
 pub mod normal_encoding;
@@ -72,6 +73,9 @@ pub mod scene_report2019;
 pub mod shading;
 #[cfg(feature = "trace")]
 pub mod sky;
+#[cfg(feature = "solid")]
+pub mod solid_fill;
+pub mod solid_mode;
 pub mod strategy;
 #[cfg(feature = "trace")]
 pub mod surfaces;

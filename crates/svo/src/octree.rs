@@ -174,6 +174,10 @@ impl ChannelStorage {
     }
 }
 
+/// The normal word of an interior leaf of a solid bake: both halves `i16::MIN`, which the
+/// normal encoding never produces (it clamps to `±32767`).
+pub const NO_NORMAL: u32 = 0x8000_8000;
+
 /// The per-leaf attribute arrays (struct of arrays).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LeafAttributes {
@@ -202,10 +206,31 @@ impl LeafAttributes {
         self.ior.compact();
     }
 
-    /// The stored values of leaf `i`, decoded.
+    /// Whether leaf `i` is an interior cell of a solid bake: its normal word is
+    /// [`NO_NORMAL`]. Renderers pass through interior leaves (the surface leaves around
+    /// them are what a ray meets).
+    #[inline]
+    pub fn is_interior(&self, i: usize) -> bool {
+        self.normal.get(i) == Some(NO_NORMAL)
+    }
+
+    /// Whether any leaf is an interior cell (a scan of the normal channel).
+    pub fn has_interior(&self) -> bool {
+        match &self.normal {
+            Channel::Absent => false,
+            Channel::Constant(w) => *w == NO_NORMAL,
+            Channel::PerLeaf(v) => v.contains(&NO_NORMAL),
+        }
+    }
+
+    /// The stored values of leaf `i`, decoded (an interior leaf has no normal).
     pub fn get(&self, i: usize) -> LeafValue {
         LeafValue {
-            normal: self.normal.get(i).map(normal_encoding::decode),
+            normal: self
+                .normal
+                .get(i)
+                .filter(|&w| w != NO_NORMAL)
+                .map(normal_encoding::decode),
             contour: self.contour.get(i).map(crate::contour::unpack),
             colour: self.colour.get(i).map(u32::to_le_bytes),
             reflectivity: self.reflectivity.get(i).map(|v| f32::from(v) / 255.0),

@@ -241,6 +241,14 @@ impl fmt::Display for BakeReport {
                 "  tree        {} nodes, {} leaves (estimated {:.0}), {} triangle/leaf pairs",
                 self.nodes, self.leaves, b.estimated_leaves, b.leaf_triangle_pairs
             )?;
+            if let Some(mode) = &b.solid {
+                writeln!(
+                    f,
+                    "  solid       {} interior leaves ({mode} fill; {} surface leaves)",
+                    b.interior_leaves,
+                    self.leaves - b.interior_leaves.min(self.leaves)
+                )?;
+            }
             let strategy = if b.exact {
                 "exact: every touched cell, no false positive".to_string()
             } else {
@@ -281,11 +289,16 @@ impl fmt::Display for BakeReport {
             )?;
             writeln!(
                 f,
-                "  time        load {}, voxelize {}, attributes {}, contours {}, write {}, total {}",
+                "  time        load {}, voxelize {}, attributes {}, contours {}{}, write {}, total {}",
                 ms(self.load_s),
                 ms(b.voxelize_s),
                 ms(b.attributes_s),
                 ms(b.contours_s),
+                if b.solid.is_some() {
+                    format!(", solid fill {}", ms(b.solid_s))
+                } else {
+                    String::new()
+                },
                 ms(self.write_s),
                 ms(self.total_s)
             )?;

@@ -152,6 +152,8 @@ pub struct OctreeSurfaces<'a, L = HitMode> {
     tree: &'a Octree,
     shape: L,
     srgb: [f32; 256],
+    /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
+    interior: bool,
 }
 
 impl<'a> OctreeSurfaces<'a> {
@@ -168,6 +170,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             tree,
             shape,
             srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
+            interior: tree.attributes.has_interior(),
         }
     }
 
@@ -201,6 +204,10 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
     /// The surface hit of leaf entry `e`, if the shape is hit.
     #[inline]
     fn surface_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
+        if self.interior && self.tree.attributes.is_interior(e.leaf as usize) {
+            // Inside a solid: the surface leaves around it are the interfaces.
+            return None;
+        }
         let (t, normal) = self.shape.hit(self.tree, ray, e)?;
         Some(SurfaceHit {
             t,

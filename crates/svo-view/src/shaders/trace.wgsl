@@ -17,6 +17,7 @@ override SHADOWS: u32 = 3u;           // 0: none, 1: opaque, 2: max refractivity
                                       // 4: chosen at run time (Params.shadow_mode)
 override FRESNEL_SCHLICK: bool = false;
 override MEDIA: bool = false;         // transparent leaves without normals (volumes)
+override INTERIOR: bool = false;      // interior leaves of a solid bake (passed through)
 // Whether rays spawn rays: without, the ray stack is never touched and compiles away.
 override BOUNCES: bool = REFLECTIONS || REFRACTIONS;
 // Where the stacks live. WGSL zero-initializes function variables, so a private stack costs
@@ -208,6 +209,14 @@ fn normal_word(leaf: u32) -> u32 {
         return word(u.params.normal_at + leaf);
     }
     return u.params.const_normal;
+}
+
+// octree::NO_NORMAL: the normal word of an interior leaf of a solid bake.
+const NO_NORMAL_WORD: u32 = 0x80008000u;
+
+// LeafAttributes::is_interior
+fn is_interior(leaf: u32) -> bool {
+    return INTERIOR && NORMAL_CH != 0u && normal_word(leaf) == NO_NORMAL_WORD;
 }
 
 fn contour_word(leaf: u32) -> u32 {
@@ -483,6 +492,11 @@ struct ShapeHit {
 fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_enter: f32,
              t_exit: f32, entry_n: vec3<f32>) -> ShapeHit {
     var h = ShapeHit(true, t_enter, entry_n);
+    if is_interior(leaf) {
+        // OctreeSurfaces::surface_hit: inside a solid, the surface leaves are the interfaces.
+        h.hit = false;
+        return h;
+    }
     if HIT_MODE == 1u && NORMAL_CH != 0u && CONTOUR_CH != 0u {
         // leaf_hit::slab_hit, relative to the cell centre.
         let n = decode_normal(normal_word(leaf));

@@ -71,7 +71,8 @@ const MAX_LATTICE_TRIANGLES: usize = 10;
 /// bake's 16^3 blocks are below the root, so contacts across block faces are exercised);
 /// an odd one reads
 /// raw `f64` coordinates (any bits: NaN, infinities, huge, tiny, denormal) and bakes at
-/// depth 1-6, which must give an error or a tree that survives the file format.
+/// depth 1-6, which must give an error or a tree that survives the file format (and, with
+/// the `solid` feature, a vote-filled tree that keeps every surface leaf).
 pub fn bake(data: &[u8]) {
     let Some((&head, rest)) = data.split_first() else {
         return;
@@ -149,5 +150,23 @@ fn raw(depth: u8, bytes: &[u8]) {
     if let Ok((tree, _)) = bake_mesh(&mesh, &opts, &|_, _| {}) {
         let bytes = to_bytes(&tree, &Default::default());
         from_bytes(&bytes).expect("a baked tree reads back");
+        // The same mesh filled by voting (these meshes are rarely closed): a valid tree
+        // that keeps every surface leaf.
+        #[cfg(feature = "solid")]
+        {
+            let solid_opts = BakeOptions {
+                solid: Some(svo::solid_mode::SolidMode::Vote),
+                ..opts
+            };
+            if let Ok((solid, _)) = bake_mesh(&mesh, &solid_opts, &|_, _| {}) {
+                svo::octree_validate::validate(&solid).expect("a solid tree is valid");
+                for l in tree.leaves() {
+                    let i = solid.leaf_at(l.cell).expect("a surface leaf is kept");
+                    assert!(!solid.attributes.is_interior(i as usize));
+                }
+                let bytes = to_bytes(&solid, &Default::default());
+                from_bytes(&bytes).expect("a solid tree reads back");
+            }
+        }
     }
 }
