@@ -82,6 +82,7 @@ fn main() -> anyhow::Result<()> {
         generator: "builder_sphere example".into(),
         strategy: "builder".into(),
         source_triangles: 0,
+        ..Default::default()
     };
     let bytes = svo::format_write::write_file(&tree, &build, std::path::Path::new(&out))?;
     println!("wrote {out} ({bytes} bytes)");

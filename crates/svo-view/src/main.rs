@@ -69,6 +69,10 @@ struct Args {
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 40.0)]
     fov: f64,
+    /// A camera view stored in the file (by name or index), with its field of view. Default:
+    /// the file's first view, unless --eye is given.
+    #[arg(long, conflicts_with_all = ["eye", "target", "up"])]
+    view: Option<String>,
     /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
     /// --mesh or --reference).
     #[arg(long, default_value = "contour", value_parser = parse_hit)]
@@ -82,8 +86,9 @@ struct Args {
     /// Refraction depth limit (overrides --bounces).
     #[arg(long)]
     refractions: Option<u8>,
-    /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: one white light above
-    /// the camera; intensity defaults to the squared distance to the model's centre.
+    /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: the file's lights, else
+    /// one white light above the camera; intensity defaults to the squared distance to the
+    /// model's centre.
     #[arg(long, value_parser = LightSpec::parse)]
     light: Vec<LightSpec>,
     /// Shadows: none, opaque, max (the 2019 report's max-refractivity rule) or product
@@ -178,6 +183,7 @@ fn real_main() -> anyhow::Result<()> {
             ..TraceOptions::default()
         },
         lights: args.light.clone(),
+        view: args.view.clone(),
         aov,
         bench_frames: args.bench,
         threads: args.threads,

@@ -28,6 +28,7 @@ fn info_describes_a_file_and_errors_are_one_line() {
         generator: "test".into(),
         strategy: "builder".into(),
         source_triangles: 0,
+        ..Default::default()
     };
     svo::format_write::write_file(&tree, &build, &path).unwrap();
 

@@ -296,3 +296,90 @@ fn bad_input_gives_one_line_and_no_output() {
         "{err}"
     );
 }
+
+#[test]
+fn stored_views_and_lights_are_used_unless_overridden() {
+    use svo::scene_info::{SceneInfo, StoredCamera, StoredLight};
+    let d = tempfile::tempdir().unwrap();
+    let plain = torus_svo(d.path());
+    let (tree, mut build) = svo::format_read::read_file(&plain).unwrap();
+    let view_of = |name: &str, eye: [f64; 3], fov_deg: f64| StoredCamera {
+        name: name.into(),
+        eye,
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_deg,
+    };
+    build.scene = SceneInfo {
+        lights: vec![StoredLight {
+            position: [0.0, -3.0, 1.0],
+            colour: [1.0, 0.0, 0.0],
+            intensity: 9.0,
+        }],
+        cameras: vec![
+            view_of("front", [0.0, -3.0, 0.5], 50.0),
+            view_of("top", [0.2, 0.0, 3.0], 30.0),
+        ],
+    };
+    let svo = d.path().join("scene.svo");
+    svo::format_write::write_file(&tree, &build, &svo).unwrap();
+    let s = svo.to_str().unwrap();
+    let png = d.path().join("v.png");
+    let p = png.to_str().unwrap();
+    let first = ok(&view(&[s, "-o", p, "--size", "48x36"]));
+    assert!(
+        first.contains("--eye 0.000000,-3.000000,0.500000") && first.contains("--fov 50"),
+        "{first}"
+    );
+    // The stored light is red: beside a white light at the same place, the green channel
+    // loses what the light gave, the red one keeps it.
+    let sums = |path: &std::path::Path| {
+        let img = image::open(path).unwrap().to_rgb8();
+        img.pixels().fold([0u64; 2], |a, p| {
+            [a[0] + u64::from(p[0]), a[1] + u64::from(p[1])]
+        })
+    };
+    let red = sums(&png);
+    let white_png = d.path().join("w.png");
+    ok(&view(&[
+        s,
+        "--light",
+        "0,-3,1:1,1,1:9",
+        "-o",
+        white_png.to_str().unwrap(),
+        "--size",
+        "48x36",
+    ]));
+    let white = sums(&white_png);
+    assert!(
+        red[1] * 100 < white[1] * 95,
+        "green: red light {red:?}, white light {white:?}"
+    );
+    assert!(
+        red[0] * 1000 > white[0] * 995,
+        "red: red light {red:?}, white light {white:?}"
+    );
+    for name in ["top", "1"] {
+        let out = ok(&view(&[s, "--view", name, "-o", p, "--size", "48x36"]));
+        assert!(
+            out.contains("--eye 0.200000,0.000000,3.000000") && out.contains("--fov 30"),
+            "{out}"
+        );
+    }
+    // The command line wins: its own camera and light.
+    let out = ok(&view(&[
+        s, "--eye", "3,0,0", "--light", "0,0,3", "-o", p, "--size", "48x36",
+    ]));
+    assert!(out.contains("--eye 3.000000,0.000000,0.000000"), "{out}");
+    let o = view(&[s, "--view", "side", "-o", p]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("no view \"side\"; the file has front, top"),
+        "{err}"
+    );
+    let info = ok(&view(&[s, "--info"]));
+    assert!(
+        info.contains("view           \"top\"") && info.contains("light          (0, -3, 1)"),
+        "{info}"
+    );
+}

@@ -35,6 +35,32 @@ pub fn describe(tree: &Octree, build: &BuildInfo, file_bytes: u64) -> String {
     );
     let _ = writeln!(out, "nodes          {}", tree.nodes.len());
     let _ = writeln!(out, "leaves         {}", tree.leaf_count);
+    if let Channel::PerLeaf(v) = &tree.attributes.normal {
+        let interior = v.iter().filter(|&&w| w == crate::octree::NO_NORMAL).count();
+        if interior > 0 {
+            let _ = writeln!(
+                out,
+                "solid          {interior} interior leaves, {} surface leaves",
+                v.len() - interior
+            );
+        }
+    }
+    for l in &build.scene.lights {
+        let [x, y, z] = l.position;
+        let [r, g, b] = l.colour;
+        let _ = writeln!(
+            out,
+            "light          ({x}, {y}, {z}) colour ({r}, {g}, {b}) intensity {}",
+            l.intensity
+        );
+    }
+    for c in &build.scene.cameras {
+        let _ = writeln!(
+            out,
+            "view           {:?}: eye {:?} target {:?} up {:?} fov {}",
+            c.name, c.eye, c.target, c.up, c.fov_deg
+        );
+    }
     // Nodes per level, walking the packed layout breadth-first.
     let mut level = vec![0u32];
     let mut counts = Vec::new();

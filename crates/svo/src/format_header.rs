@@ -1,9 +1,10 @@
-//! The `.svo` file header (format version 1); `docs/format.md` gives every byte.
+//! The `.svo` file header (format version 2; version 1 is still read); `docs/format.md`
+//! gives every byte.
 //!
 //! ```text
 //! offset  size  field
 //! 0       8     magic 89 53 56 4F 0D 0A 1A 0A ("\x89SVO\r\n\x1a\n")
-//! 8       4     format version, u32 LE (1)
+//! 8       4     format version, u32 LE (2)
 //! 12      4     header length H, u32 LE (at most 65536)
 //! 16      H     header: bincode 2, standard config with fixed-width little-endian integers
 //! ...           zero padding to a multiple of 8
@@ -11,12 +12,13 @@
 //! end-8   8     xxh3-64 of every byte before it, u64 LE
 //! ```
 
+use crate::scene_info::SceneInfo;
 use serde::{Deserialize, Serialize};
 
 /// The file's first 8 bytes.
 pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
-/// The format version this library writes and reads.
-pub const VERSION: u32 = 1;
+/// The format version this library writes (and the newest it reads; it reads version 1 too).
+pub const VERSION: u32 = 2;
 /// The largest header accepted.
 pub const MAX_HEADER_LEN: usize = 1 << 16;
 /// Bytes before the header: magic, version, header length.
@@ -49,8 +51,9 @@ pub struct ChannelEntry {
     pub storage: Storage,
 }
 
-/// What made the file (informative; no timestamps, so output is reproducible).
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// What accompanies the tree in the file: what made it (informative; no timestamps, so
+/// output is reproducible), and the scene's lights and camera views.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BuildInfo {
     /// Generator name and version, e.g. `svo 0.1.0`.
     pub generator: String,
@@ -58,9 +61,63 @@ pub struct BuildInfo {
     pub strategy: String,
     /// Triangles in the source mesh (0 for programmatic trees).
     pub source_triangles: u64,
+    /// Lights and camera views (version 2; empty in version-1 files).
+    pub scene: SceneInfo,
 }
 
-/// The header, version 1.
+/// [`BuildInfo`] as version 1 stored it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BuildInfoV1 {
+    /// See [`BuildInfo::generator`].
+    pub generator: String,
+    /// See [`BuildInfo::strategy`].
+    pub strategy: String,
+    /// See [`BuildInfo::source_triangles`].
+    pub source_triangles: u64,
+}
+
+/// [`Header`] as version 1 stored it: the same fields, without the scene.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HeaderV1 {
+    /// See [`Header::root_origin`].
+    pub root_origin: [f64; 3],
+    /// See [`Header::root_side`].
+    pub root_side: f64,
+    /// See [`Header::depth`].
+    pub depth: u8,
+    /// See [`Header::node_count`].
+    pub node_count: u64,
+    /// See [`Header::leaf_count`].
+    pub leaf_count: u64,
+    /// See [`Header::nodes`].
+    pub nodes: ArrayRef,
+    /// See [`Header::channels`].
+    pub channels: Vec<ChannelEntry>,
+    /// Provenance.
+    pub build: BuildInfoV1,
+}
+
+impl From<HeaderV1> for Header {
+    fn from(h: HeaderV1) -> Self {
+        Self {
+            root_origin: h.root_origin,
+            root_side: h.root_side,
+            depth: h.depth,
+            node_count: h.node_count,
+            leaf_count: h.leaf_count,
+            nodes: h.nodes,
+            channels: h.channels,
+            build: BuildInfo {
+                generator: h.build.generator,
+                strategy: h.build.strategy,
+                source_triangles: h.build.source_triangles,
+                scene: SceneInfo::default(),
+            },
+        }
+    }
+}
+
+/// The header, version 2.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Header {
     /// Root cube minimum corner, scene units.

@@ -5,7 +5,7 @@
 //! allocation larger than the file.
 
 use crate::format_header::{
-    ArrayRef, BuildInfo, Header, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION,
+    ArrayRef, BuildInfo, Header, HeaderV1, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION,
     bincode_config,
 };
 pub use crate::format_write::FormatError;
@@ -70,11 +70,19 @@ pub fn read_header(bytes: &[u8]) -> Result<Header, FormatError> {
     if stored != computed {
         return Err(FormatError::Checksum { stored, computed });
     }
-    let (header, used): (Header, usize) = bincode::serde::decode_from_slice(
-        &bytes[PREAMBLE_LEN..PREAMBLE_LEN + hlen],
-        bincode_config(),
-    )
+    let raw = &bytes[PREAMBLE_LEN..PREAMBLE_LEN + hlen];
+    let (header, used): (Header, usize) = if version == 1 {
+        bincode::serde::decode_from_slice::<HeaderV1, _>(raw, bincode_config())
+            .map(|(h, n)| (h.into(), n))
+    } else {
+        bincode::serde::decode_from_slice(raw, bincode_config())
+    }
     .map_err(|e| corrupt(format!("header: {e}")))?;
+    header
+        .build
+        .scene
+        .validate()
+        .map_err(|e| corrupt(format!("scene: {e}")))?;
     if used != hlen {
         return Err(corrupt(format!(
             "header holds {used} bytes, its length says {hlen}"

@@ -75,6 +75,9 @@ impl Write for Hashing<'_> {
 /// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
 /// not copied into a buffer first) and returns the number of bytes written.
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
+    build.scene.validate().map_err(|e| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
+    })?;
     let a = &tree.attributes;
     let mut arrays: Vec<(Option<u8>, &[u8])> = vec![(None, bytemuck::cast_slice(&tree.nodes))];
     let mut entries: Vec<ChannelEntry> = Vec::new();
@@ -169,10 +172,12 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
     Ok(len + 8)
 }
 
-/// Serializes an octree into the bytes of a `.svo` file.
+/// Serializes an octree into the bytes of a `.svo` file (empty when `build.scene` fails
+/// [`crate::scene_info::SceneInfo::validate`]).
 pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
     let mut v = Vec::new();
-    // Writing to a Vec cannot fail, and the header always encodes.
+    // Writing to a Vec cannot fail, and the header always encodes; an invalid scene is
+    // refused before the first byte, which leaves the vector empty (not a readable file).
     let _ = write_to(tree, build, &mut v);
     v
 }

@@ -67,6 +67,7 @@ pub mod overlap;
 pub mod render;
 #[cfg(all(feature = "image-io", feature = "reference"))]
 pub mod render_job;
+pub mod scene_info;
 #[cfg(feature = "trace")]
 pub mod scene_report2019;
 #[cfg(feature = "trace")]

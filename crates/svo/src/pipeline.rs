@@ -176,6 +176,7 @@ fn run_inner(
             generator: format!("svo {}", env!("CARGO_PKG_VERSION")),
             strategy: job.options.strategy.name().to_string(),
             source_triangles: mesh.triangles.len() as u64,
+            scene: Default::default(),
         };
         (tree, build, Some(stats), load_s)
     };

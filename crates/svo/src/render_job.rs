@@ -17,6 +17,7 @@ use crate::mesh::Texture;
 use crate::mesh_reference::MeshSurfaces;
 use crate::octree::Octree;
 use crate::render::{Frame, RenderStats, render_timed};
+use crate::scene_info::SceneInfo;
 use crate::shading::{Phong, PointLight};
 use crate::sky::{CubeMap, Sky};
 use crate::surfaces::OctreeSurfaces;
@@ -159,8 +160,12 @@ pub struct RenderJob {
     pub fov_deg: f64,
     /// Tracer settings.
     pub trace: TraceOptions,
-    /// Lights; default: one white light above and behind the camera's right shoulder.
+    /// Lights; default: the file's lights, else one white light above and behind the
+    /// camera's right shoulder.
     pub lights: Vec<LightSpec>,
+    /// A camera view stored in the file, by name or index; default: the file's first view
+    /// unless `eye` is given, else framing the model.
+    pub view: Option<String>,
     /// What to write.
     pub aov: Aov,
     /// Render this many timed frames (after one untimed warm-up) and report the median.
@@ -191,6 +196,7 @@ impl Default for RenderJob {
             fov_deg: 40.0,
             trace: TraceOptions::default(),
             lights: Vec::new(),
+            view: None,
             aov: Aov::Colour,
             bench_frames: None,
             threads: None,
@@ -377,13 +383,24 @@ pub fn prepare(job: &RenderJob) -> Result<JobScene, RenderJobError> {
     if let Some(out) = &job.output {
         check_output(out, job.aov)?;
     }
-    let (tree, _build) = read_file(&job.input)?;
-    scene(tree, job)
+    let (tree, build) = read_file(&job.input)?;
+    scene_with(tree, &build.scene, job)
 }
 
 /// The scene of `job` around a tree already in memory: the camera, lights and sky with the
 /// job's defaults filled in (the settings are not checked; [`prepare`] does that).
 pub fn scene(tree: Octree, job: &RenderJob) -> Result<JobScene, RenderJobError> {
+    scene_with(tree, &SceneInfo::default(), job)
+}
+
+/// [`scene`] with the lights and camera views stored beside the tree: the job's own lights
+/// and camera win; else `job.view` (which must exist) or the first stored view, and the
+/// stored lights.
+pub fn scene_with(
+    tree: Octree,
+    stored: &SceneInfo,
+    job: &RenderJob,
+) -> Result<JobScene, RenderJobError> {
     if tree.depth > MAX_TRACE_DEPTH {
         return Err(RenderJobError::Invalid(format!(
             "the tree has depth {}, and the tracer works in 32-bit floats, which resolve cells \
@@ -394,19 +411,50 @@ pub fn scene(tree: Octree, job: &RenderJob) -> Result<JobScene, RenderJobError> 
     }
     let (lo, hi) = occupied_bounds(&tree);
     let framing = Camera::framing(lo, hi, job.width, job.height, job.fov_deg);
-    let mut camera = Camera {
-        eye: job.eye.unwrap_or(framing.eye),
-        target: job.target.unwrap_or(framing.target),
-        up: job.up.unwrap_or(DVec3::Y),
-        ..framing
+    let view = match &job.view {
+        Some(name) => Some(stored.camera(name).ok_or_else(|| {
+            let names: Vec<&str> = stored.cameras.iter().map(|c| c.name.as_str()).collect();
+            RenderJobError::Invalid(if names.is_empty() {
+                format!("no view {name:?}: the file stores no camera views")
+            } else {
+                format!("no view {name:?}; the file has {}", names.join(", "))
+            })
+        })?),
+        None if job.eye.is_none() => stored.cameras.first(),
+        None => None,
     };
-    if job.eye.is_some() && job.target.is_none() {
+    let mut camera = match view {
+        Some(v) => Camera {
+            eye: DVec3::from_array(v.eye),
+            target: DVec3::from_array(v.target),
+            up: DVec3::from_array(v.up),
+            fov_deg: v.fov_deg,
+            ..framing
+        },
+        None => Camera {
+            eye: job.eye.unwrap_or(framing.eye),
+            target: job.target.unwrap_or(framing.target),
+            up: job.up.unwrap_or(DVec3::Y),
+            ..framing
+        },
+    };
+    if view.is_none() && job.eye.is_some() && job.target.is_none() {
         camera.target = (lo + hi) * 0.5;
     }
     let rays = camera.rays()?;
     let centre = (lo + hi) * 0.5;
     let dist = (camera.eye - camera.target).length();
-    let lights: Vec<PointLight> = if job.lights.is_empty() {
+    let lights: Vec<PointLight> = if job.lights.is_empty() && !stored.lights.is_empty() {
+        stored
+            .lights
+            .iter()
+            .map(|l| PointLight {
+                position: DVec3::from_array(l.position),
+                colour: Vec3::from_array(l.colour),
+                intensity: l.intensity,
+            })
+            .collect()
+    } else if job.lights.is_empty() {
         let pos = camera.eye + (rays.up() * 0.8 + rays.right() * 0.5) * dist;
         vec![PointLight {
             position: pos,

@@ -58,6 +58,7 @@ fn info() -> BuildInfo {
         generator: "test".into(),
         strategy: "exact".into(),
         source_triangles: 8,
+        ..Default::default()
     }
 }
 
@@ -203,14 +204,14 @@ fn cycles_backward_pointers_and_overflows_are_rejected() {
 #[test]
 fn newer_version_and_bad_magic_are_named() {
     let mut b = to_bytes(&small_tree(), &info());
-    b[8..12].copy_from_slice(&2u32.to_le_bytes());
+    b[8..12].copy_from_slice(&3u32.to_le_bytes());
     let e = from_bytes(&b).unwrap_err();
     assert!(
         matches!(
             e,
             FormatError::NewerVersion {
-                found: 2,
-                supported: 1
+                found: 3,
+                supported: 2
             }
         ),
         "{e}"
@@ -250,4 +251,96 @@ fn header_lies_about_counts() {
     b.splice(16..16 + enc.len(), enc.iter().copied());
     rechecksum(&mut b);
     assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("depth")));
+}
+
+/// A scene with two lights and the three views of the thesis's pool scene.
+fn scene_info() -> BuildInfo {
+    use svo::scene_info::{SceneInfo, StoredCamera, StoredLight};
+    let view = |name: &str, eye: [f64; 3]| StoredCamera {
+        name: name.into(),
+        eye,
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_deg: 45.0,
+    };
+    BuildInfo {
+        scene: SceneInfo {
+            lights: vec![
+                StoredLight {
+                    position: [1.0, 4.0, 2.0],
+                    colour: [1.0, 0.9, 0.8],
+                    intensity: 20.0,
+                },
+                StoredLight {
+                    position: [12345.678, -3.0, 0.5],
+                    colour: [0.0, 0.0, 1.0],
+                    intensity: 0.0,
+                },
+            ],
+            cameras: vec![
+                view("water", [0.0, 3.0, 5.0]),
+                view("bunny", [1.0, 1.0, 2.0]),
+                view("parallel", [5.0, 0.1, 0.0]),
+            ],
+        },
+        ..info()
+    }
+}
+
+#[test]
+fn lights_and_cameras_round_trip_and_are_checked() {
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &scene_info());
+    let (back, build) = from_bytes(&bytes).unwrap();
+    assert_eq!(back, tree);
+    assert_eq!(build, scene_info());
+    assert_eq!(build.scene.camera("bunny").unwrap().eye, [1.0, 1.0, 2.0]);
+    assert_eq!(build.scene.camera("2").unwrap().name, "parallel");
+    assert!(build.scene.camera("pool").is_none());
+    // A file whose light is not finite (checksum fixed) is corrupt, and says where.
+    let needle = 12345.678f64.to_le_bytes();
+    let at = bytes.windows(8).position(|w| w == needle).unwrap();
+    let mut bad = bytes.clone();
+    bad[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+    rechecksum(&mut bad);
+    let e = from_bytes(&bad).unwrap_err().to_string();
+    assert!(e.contains("light 1: position is not finite"), "{e}");
+    // The writer refuses what the reader would refuse.
+    let mut invalid = scene_info();
+    invalid.scene.cameras[1].target = invalid.scene.cameras[1].eye;
+    let mut sink = Vec::new();
+    let e = svo::format_write::write_to(&tree, &invalid, &mut sink).unwrap_err();
+    assert!(e.to_string().contains("eye and target coincide"), "{e}");
+}
+
+#[test]
+fn version_1_files_still_read() {
+    // Written by svo before version 2 (the torus fixture at depth 4).
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fixtures/format/torus_d4_v1.svo"
+    );
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 1);
+    let (tree, build) = from_bytes(&bytes).unwrap();
+    assert!(build.scene.is_empty());
+    assert_eq!(build.strategy, "exact");
+    // The same tree as a bake today, rewritten as version 2.
+    let mesh = svo::import::load_mesh(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fixtures/torus.obj"
+    )))
+    .unwrap();
+    let opts = BakeOptions {
+        depth: 4,
+        ..BakeOptions::default()
+    };
+    assert_eq!(tree, bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0);
+    let v2 = to_bytes(&tree, &build);
+    assert_eq!(u32::from_le_bytes(v2[8..12].try_into().unwrap()), 2);
+    assert_eq!(from_bytes(&v2).unwrap(), (tree, build));
+    // Truncating the old file anywhere is still an error, never a panic.
+    for n in (0..bytes.len()).step_by(97) {
+        assert!(from_bytes(&bytes[..n]).is_err());
+    }
 }

@@ -20,6 +20,7 @@ pub fn torus_svo(dir: &Path) -> PathBuf {
         generator: "test".into(),
         strategy: "exact".into(),
         source_triangles: mesh.triangles.len() as u64,
+        ..Default::default()
     };
     let path = dir.join("torus.svo");
     svo::format_write::write_file(&tree, &build, &path).unwrap();
