@@ -5,6 +5,7 @@
 use crate::child_classify::child_offset;
 use crate::grid::RootCube;
 use crate::leaf_attributes::{encode_colour, unorm8};
+use crate::material_presets::Preset;
 use crate::normal_encoding;
 use crate::octree::{Channel, LeafAttributes, Octree, ior_encode};
 use crate::octree_layout::{Chunk, LeafStore};
@@ -62,45 +63,35 @@ impl Voxel {
     /// The 2019 report's "void" material: empty (callers simply leave such cells out).
     pub const VOID: Option<Voxel> = None;
 
-    /// The 2019 report's "glass": fully refractive, IOR 1.5, a faint tint.
+    /// The voxel of a preset's material with `colour`, without a normal; `None` for void.
+    pub fn preset(p: Preset, colour: Option<[f32; 4]>) -> Option<Self> {
+        p.material().map(|m| Self {
+            colour: colour.unwrap_or(m.colour),
+            reflectivity: m.reflectivity,
+            refractivity: m.refractivity,
+            ior: m.ior,
+            normal: None,
+        })
+    }
+
+    /// The 2019 report's "glass" ([`Preset::Glass`]).
     pub fn glass() -> Self {
-        Self {
-            colour: [0.9, 0.95, 1.0, 1.0],
-            reflectivity: 0.1,
-            refractivity: 0.9,
-            ior: 1.5,
-            normal: None,
-        }
+        Self::preset(Preset::Glass, None).unwrap_or_default()
     }
 
-    /// The 2019 report's "semi-solid": half transparent.
+    /// The 2019 report's "semi-solid" ([`Preset::SemiSolid`]) in `colour`.
     pub fn semi_solid(colour: [f32; 4]) -> Self {
-        Self {
-            colour,
-            reflectivity: 0.0,
-            refractivity: 0.5,
-            ior: 1.1,
-            normal: None,
-        }
+        Self::preset(Preset::SemiSolid, Some(colour)).unwrap_or_default()
     }
 
-    /// The 2019 report's "solid": opaque and diffuse.
+    /// The 2019 report's "solid" ([`Preset::Solid`]) in `colour`.
     pub fn solid(colour: [f32; 4]) -> Self {
-        Self {
-            colour,
-            ..Self::default()
-        }
+        Self::preset(Preset::Solid, Some(colour)).unwrap_or_default()
     }
 
-    /// Water: refractive and reflective, IOR 1.33.
+    /// Water ([`Preset::Water`]).
     pub fn water() -> Self {
-        Self {
-            colour: [0.6, 0.8, 0.9, 1.0],
-            reflectivity: 0.05,
-            refractivity: 0.95,
-            ior: 1.33,
-            normal: None,
-        }
+        Self::preset(Preset::Water, None).unwrap_or_default()
     }
 }
 

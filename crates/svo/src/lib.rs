@@ -50,6 +50,7 @@ pub mod import;
 pub mod leaf_attributes;
 #[cfg(feature = "trace")]
 pub mod leaf_hit;
+pub mod material_presets;
 pub mod mesh;
 pub mod mesh_closed;
 #[cfg(feature = "reference")]

@@ -14,15 +14,15 @@
 //! * the front face (towards `+z`, the camera) has no pane: only its frame;
 //! * inside, a semi-solid cube of radius 12.5%.
 //!
-//! Materials from the report's table 1, in this tracer's model (local Phong light weighs
-//! `1 - kr - kt`): glass `kr 0.2, kt 0.8, IOR 1.5` (the report's reflectivity 0.3 would make
-//! `kr + kt` exceed one), semi-solid `kr 0.3, kt 0.2, IOR 1.5`, solid `kr 0.2, kt 0`; void is
-//! no voxel. No voxel stores a normal, so glass and semi-solid form volumetric media (the
+//! Materials from the report's table 1 ([`crate::material_presets`]): glass `kr 0.2, kt 0.8,
+//! IOR 1.5`, semi-solid `kr 0.3, kt 0.2, IOR 1.5`, solid `kr 0.2, kt 0`; void is no voxel.
+//! No voxel stores a normal, so glass and semi-solid form volumetric media (the
 //! report's "hit where the material changes") and solid cells show their faces.
 
 use crate::builder::{BuilderError, Voxel, from_fn};
 use crate::camera::Camera;
 use crate::grid::RootCube;
+use crate::material_presets::Preset;
 use crate::octree::Octree;
 use crate::shading::PointLight;
 use glam::{DVec3, UVec3, Vec3};
@@ -51,31 +51,18 @@ pub enum ReportMaterial {
 }
 
 impl ReportMaterial {
-    /// The voxel for this material.
-    pub fn voxel(self) -> Voxel {
+    /// The preset of this material.
+    pub fn preset(self) -> Preset {
         match self {
-            Self::Solid => Voxel {
-                colour: [1.0, 1.0, 1.0, 1.0],
-                reflectivity: 0.2,
-                refractivity: 0.0,
-                ior: 1.0,
-                normal: None,
-            },
-            Self::Glass => Voxel {
-                colour: [1.0, 1.0, 1.0, 1.0],
-                reflectivity: 0.2,
-                refractivity: 0.8,
-                ior: 1.5,
-                normal: None,
-            },
-            Self::SemiSolid => Voxel {
-                colour: [1.0, 1.0, 1.0, 1.0],
-                reflectivity: 0.3,
-                refractivity: 0.2,
-                ior: 1.5,
-                normal: None,
-            },
+            Self::Solid => Preset::Solid,
+            Self::Glass => Preset::Glass,
+            Self::SemiSolid => Preset::SemiSolid,
         }
+    }
+
+    /// The voxel for this material (the preset's, white).
+    pub fn voxel(self) -> Voxel {
+        Voxel::preset(self.preset(), None).unwrap_or_default()
     }
 }
 
