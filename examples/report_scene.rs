@@ -1,7 +1,8 @@
 //! The 2019 report's scene (glass panes in a solid frame, void holes, a semi-solid centre
 //! cube, three coloured point lights), built through the programmatic API
-//! (`svo::scene_report2019`), saved as an `.svo` file and ray traced on the CPU with its
-//! lights at the report's settings (512 x 512, four reflections and four refractions).
+//! (`svo::scene_report2019`), saved as an `.svo` file with its lights and camera, and ray
+//! traced on the CPU at the report's settings (512 x 512, four reflections and four
+//! refractions).
 //!
 //! `cargo run --release -p svo-examples --example report_scene -- report.svo report.png`
 
@@ -9,6 +10,7 @@ use std::path::PathBuf;
 use svo::format_header::BuildInfo;
 use svo::leaf_hit::HitMode;
 use svo::render::render;
+use svo::scene_info::{SceneInfo, StoredCamera, StoredLight};
 use svo::scene_report2019::report_scene;
 use svo::shading::Phong;
 use svo::sky::Sky;
@@ -26,7 +28,32 @@ fn main() -> anyhow::Result<()> {
         scene.tree.nodes.len(),
         scene.lights.len()
     );
-    svo::format_write::write_file(&scene.tree, &BuildInfo::default(), &svo_path)?;
+    // The lights and the camera go into the file, so `svo-view report.svo` shows this view.
+    let c = &scene.camera;
+    let build = BuildInfo {
+        generator: "report_scene example".into(),
+        strategy: "builder".into(),
+        scene: SceneInfo {
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| StoredLight {
+                    position: l.position.to_array(),
+                    colour: l.colour.to_array(),
+                    intensity: l.intensity,
+                })
+                .collect(),
+            cameras: vec![StoredCamera {
+                name: "report".into(),
+                eye: c.eye.to_array(),
+                target: c.target.to_array(),
+                up: c.up.to_array(),
+                fov_deg: c.fov_deg,
+            }],
+        },
+        ..BuildInfo::default()
+    };
+    svo::format_write::write_file(&scene.tree, &build, &svo_path)?;
     let dark = Sky {
         zenith: glam::Vec3::splat(0.02),
         horizon: glam::Vec3::splat(0.05),

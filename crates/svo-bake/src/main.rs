@@ -16,23 +16,24 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use svo::bake::{BakeOptions, Phase, available_memory};
 use svo::leaf_attributes::ChannelSelection;
-use svo::pipeline::{BakeJob, run};
+use svo::pipeline::{BakeJob, GivenOptions, run};
 use svo::solid_mode::SolidMode;
 use svo::strategy::Strategy;
 
-/// Bake a triangle mesh (OBJ, OBJ.GZ, PLY, glTF, GLB) into a sparse voxel octree (.svo), or
-/// export/convert to .binvox or .vox (MagicaVoxel).
+/// Bake a triangle mesh (OBJ, OBJ.GZ, PLY, glTF, GLB) or a scene file (.toml) into a sparse
+/// voxel octree (.svo), or export/convert to .binvox or .vox (MagicaVoxel).
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
-    /// Input mesh (.obj, .obj.gz, .ply, .gltf, .glb) or .svo to convert.
+    /// Input mesh (.obj, .obj.gz, .ply, .gltf, .glb), scene file (.toml; see
+    /// docs/scenes.md) or .svo to convert.
     input: PathBuf,
     /// Output file: .svo, .binvox (depth <= 10) or .vox (depth <= 8). Default: input name with .svo.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Octree depth: the grid has 2^depth cells per axis.
-    #[arg(short, long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(0..=255))]
-    depth: u8,
+    /// Octree depth: the grid has 2^depth cells per axis [default: 8, or the scene file's].
+    #[arg(short, long, value_parser = clap::value_parser!(u8).range(0..=255))]
+    depth: Option<u8>,
     /// Overlap test strategy: exact (default), aabb-plane, aabb-plane-sat, sat-leaf, plane-sat-leaf.
     #[arg(long, default_value = "exact")]
     strategy: Strategy,
@@ -100,7 +101,7 @@ fn real_main() -> anyhow::Result<()> {
         input: args.input.clone(),
         output,
         options: BakeOptions {
-            depth: args.depth,
+            depth: args.depth.unwrap_or(8),
             strategy: args.strategy,
             channels,
             pad: args.pad,
@@ -108,6 +109,10 @@ fn real_main() -> anyhow::Result<()> {
             solid: args.solid,
         },
         threads: args.threads,
+        given: GivenOptions {
+            depth: args.depth.is_some(),
+            solid: args.solid.is_some(),
+        },
     };
     let bar = ProgressBar::with_draw_target(
         Some(1000),

@@ -258,6 +258,7 @@ pub fn pipeline(
             ..Default::default()
         },
         threads: Some(threads),
+        given: Default::default(),
     };
     let mut reports = Vec::new();
     let mut peak = None;

@@ -64,10 +64,13 @@ pub mod octree_scatter;
 pub mod octree_traverse;
 pub mod octree_validate;
 pub mod overlap;
+pub mod primitives;
 #[cfg(feature = "trace")]
 pub mod render;
 #[cfg(all(feature = "image-io", feature = "reference"))]
 pub mod render_job;
+#[cfg(feature = "scene")]
+pub mod scene_file;
 pub mod scene_info;
 #[cfg(feature = "trace")]
 pub mod scene_report2019;

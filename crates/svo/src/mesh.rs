@@ -190,6 +190,57 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// Appends `other`'s triangles with their materials, texture coordinates and textures
+    /// (indices moved; a side without texture coordinates gets a dummy one, a side without
+    /// materials the default material).
+    pub fn append(&mut self, mut other: Mesh) {
+        if self.triangles.is_empty() && self.positions.is_empty() {
+            *self = other;
+            return;
+        }
+        let fill_materials = |m: &mut Mesh| {
+            if m.materials.is_empty() {
+                m.materials.push(Material::default());
+            }
+            if m.triangle_materials.is_empty() {
+                m.triangle_materials = vec![0; m.triangles.len()];
+            }
+        };
+        let fill_uvs = |m: &mut Mesh| {
+            if m.triangle_uvs.is_empty() {
+                let i = m.uvs.len() as u32;
+                m.uvs.push(Vec2::ZERO);
+                m.triangle_uvs = vec![[i; 3]; m.triangles.len()];
+            }
+        };
+        fill_materials(self);
+        fill_materials(&mut other);
+        if !(self.triangle_uvs.is_empty() && other.triangle_uvs.is_empty()) {
+            fill_uvs(self);
+            fill_uvs(&mut other);
+        }
+        let (p0, u0, m0, t0) = (
+            self.positions.len() as u32,
+            self.uvs.len() as u32,
+            self.materials.len() as u32,
+            self.textures.len(),
+        );
+        self.positions.append(&mut other.positions);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + p0)));
+        self.uvs.append(&mut other.uvs);
+        self.triangle_uvs
+            .extend(other.triangle_uvs.iter().map(|t| t.map(|i| i + u0)));
+        self.triangle_materials
+            .extend(other.triangle_materials.iter().map(|&m| m + m0));
+        self.materials
+            .extend(other.materials.into_iter().map(|mut m| {
+                m.texture = m.texture.map(|t| t + t0);
+                m
+            }));
+        self.textures.append(&mut other.textures);
+    }
+
     /// A mesh of plain triangles with the default material.
     pub fn from_triangles(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Self {
         Self {

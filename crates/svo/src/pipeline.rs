@@ -10,6 +10,7 @@ use crate::format_write::{FormatError, write_file};
 use crate::import::{MeshFormat, load_mesh};
 use crate::mesh::MeshError;
 use crate::octree::Octree;
+use crate::scene_info::SceneInfo;
 use crate::thread_pool::{ThreadsError, with_threads};
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -46,6 +47,13 @@ pub enum PipelineError {
     /// The thread pool could not be made.
     #[error(transparent)]
     Threads(#[from] ThreadsError),
+    /// The scene file could not be loaded.
+    #[cfg(feature = "scene")]
+    #[error(transparent)]
+    Scene(#[from] crate::scene_file::SceneError),
+    /// A scene file without svo's `scene` feature.
+    #[error("{0}: scene files need svo's `scene` cargo feature")]
+    SceneUnavailable(String),
 }
 
 /// Output formats.
@@ -81,7 +89,8 @@ impl OutputFormat {
 /// One bake, file to file.
 #[derive(Clone, Debug)]
 pub struct BakeJob {
-    /// The mesh (`.obj`, `.obj.gz`, `.ply`, `.gltf`, `.glb`) or `.svo` to convert.
+    /// The mesh (`.obj`, `.obj.gz`, `.ply`, `.gltf`, `.glb`), scene (`.toml`), or `.svo` to
+    /// convert.
     pub input: PathBuf,
     /// The output (`.svo`, `.binvox`, `.vox`).
     pub output: PathBuf,
@@ -89,6 +98,19 @@ pub struct BakeJob {
     pub options: BakeOptions,
     /// Worker threads (all cores when `None`).
     pub threads: Option<usize>,
+    /// Which of `options` the user set: a scene file's own depth and solid fill are used
+    /// where the user did not.
+    pub given: GivenOptions,
+}
+
+/// Which bake options were given explicitly (on the command line), so a scene file's own
+/// values do not override them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GivenOptions {
+    /// `options.depth`.
+    pub depth: bool,
+    /// `options.solid`.
+    pub solid: bool,
 }
 
 /// What a bake did, for the summary and `--json`.
@@ -140,7 +162,16 @@ pub fn run(
         .input
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("svo"));
-    if !is_svo && MeshFormat::from_path(&job.input).is_none() {
+    let is_scene = job
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_scene && cfg!(not(feature = "scene")) {
+        return Err(PipelineError::SceneUnavailable(
+            job.input.display().to_string(),
+        ));
+    }
+    if !is_svo && !is_scene && MeshFormat::from_path(&job.input).is_none() {
         return Err(MeshError::UnknownFormat {
             path: job.input.display().to_string(),
             extension: job
@@ -169,14 +200,14 @@ fn run_inner(
         let (tree, build) = read_file(&job.input)?;
         (tree, build, None, t.elapsed().as_secs_f64())
     } else {
-        let mesh = load_mesh(&job.input)?;
+        let (mesh, scene, options) = load_input(job)?;
         let load_s = t.elapsed().as_secs_f64();
-        let (tree, stats) = bake_mesh(&mesh, &job.options, progress)?;
+        let (tree, stats) = bake_mesh(&mesh, &options, progress)?;
         let build = BuildInfo {
             generator: format!("svo {}", env!("CARGO_PKG_VERSION")),
-            strategy: job.options.strategy.name().to_string(),
+            strategy: options.strategy.name().to_string(),
             source_triangles: mesh.triangles.len() as u64,
-            scene: Default::default(),
+            scene,
         };
         (tree, build, Some(stats), load_s)
     };
@@ -209,6 +240,34 @@ fn run_inner(
         depth,
         bake: stats,
     })
+}
+
+/// The mesh to bake, the scene's lights and views, and the options with a scene file's own
+/// values where the user gave none.
+fn load_input(job: &BakeJob) -> Result<(crate::Mesh, SceneInfo, BakeOptions), PipelineError> {
+    #[cfg(feature = "scene")]
+    if job
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    {
+        let s = crate::scene_file::load_scene(&job.input)?;
+        let mut options = job.options.clone();
+        if !job.given.depth
+            && let Some(d) = s.depth
+        {
+            options.depth = d;
+        }
+        if !job.given.solid && s.solid.is_some() {
+            options.solid = s.solid;
+        }
+        return Ok((s.mesh, s.info, options));
+    }
+    Ok((
+        load_mesh(&job.input)?,
+        SceneInfo::default(),
+        job.options.clone(),
+    ))
 }
 
 fn ms(s: f64) -> String {

@@ -14,76 +14,8 @@ use std::collections::BTreeSet;
 use svo::bake::{BakeError, BakeOptions, bake_mesh};
 use svo::mesh::Mesh;
 use svo::octree::{NO_NORMAL, Octree};
+use svo::primitives::{cuboid, sphere};
 use svo::solid_mode::SolidMode;
-
-/// A box with outward-facing triangles.
-fn box_mesh(lo: DVec3, hi: DVec3) -> Mesh {
-    let p = |i: u32| {
-        DVec3::new(
-            if i & 4 != 0 { hi.x } else { lo.x },
-            if i & 2 != 0 { hi.y } else { lo.y },
-            if i & 1 != 0 { hi.z } else { lo.z },
-        )
-    };
-    let quads = [
-        [0, 1, 3, 2], // x = lo
-        [4, 6, 7, 5], // x = hi
-        [0, 4, 5, 1], // y = lo
-        [2, 3, 7, 6], // y = hi
-        [0, 2, 6, 4], // z = lo
-        [1, 5, 7, 3], // z = hi
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
-    Mesh::from_triangles((0..8).map(p).collect(), triangles)
-}
-
-/// A sphere from an octahedron whose faces are split into `n^2` triangles; vertices shared
-/// between faces are computed by the same expression (so they match exactly), signed zeros
-/// included.
-fn octasphere(centre: DVec3, r: f64, n: u32) -> Mesh {
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for s in 0..8u32 {
-        let sg = DVec3::new(
-            if s & 4 != 0 { -1.0 } else { 1.0 },
-            if s & 2 != 0 { -1.0 } else { 1.0 },
-            if s & 1 != 0 { -1.0 } else { 1.0 },
-        );
-        let flip = (sg.x * sg.y * sg.z) < 0.0;
-        let base = positions.len() as u32;
-        let idx = |a: u32, b: u32| -> u32 {
-            // Row a (0..=n), position b (0..=a) in the face's triangular grid.
-            base + a * (a + 1) / 2 + b
-        };
-        for a in 0..=n {
-            for b in 0..=a {
-                let (x, y, z) = (f64::from(n - a), f64::from(a - b), f64::from(b));
-                let d = DVec3::new(x, y, z).normalize() * sg;
-                positions.push(centre + d * r);
-            }
-        }
-        for a in 0..n {
-            for b in 0..=a {
-                let mut t = [idx(a, b), idx(a + 1, b), idx(a + 1, b + 1)];
-                if flip {
-                    t.swap(1, 2);
-                }
-                triangles.push(t);
-                if b < a {
-                    let mut u = [idx(a, b), idx(a + 1, b + 1), idx(a, b + 1)];
-                    if flip {
-                        u.swap(1, 2);
-                    }
-                    triangles.push(u);
-                }
-            }
-        }
-    }
-    Mesh::from_triangles(positions, triangles)
-}
 
 fn torus() -> Mesh {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
@@ -211,8 +143,8 @@ fn closed_meshes_in_general_position_fill_exactly() {
     let depth = 5;
     let n = 32.0;
     let shapes = [
-        ("box", box_mesh(DVec3::ZERO, DVec3::new(1.0, 0.7, 0.4))),
-        ("sphere", octasphere(DVec3::ZERO, 1.0, 4)),
+        ("box", cuboid(DVec3::ZERO, DVec3::new(1.0, 0.7, 0.4))),
+        ("sphere", sphere(DVec3::ZERO, 1.0, 4)),
     ];
     for (name, shape) in &shapes {
         for k in 0..4 {
@@ -245,18 +177,18 @@ fn faces_edges_and_vertices_on_column_lines_and_cell_planes() {
         // Faces through the cell centres' planes, edges along column lines.
         (
             "half-integer box",
-            box_mesh(DVec3::splat(2.5), DVec3::new(9.5, 11.5, 7.5)),
+            cuboid(DVec3::splat(2.5), DVec3::new(9.5, 11.5, 7.5)),
         ),
         // Faces on cell planes.
         (
             "integer box",
-            box_mesh(DVec3::splat(3.0), DVec3::new(12.0, 9.0, 13.0)),
+            cuboid(DVec3::splat(3.0), DVec3::new(12.0, 9.0, 13.0)),
         ),
         // A sphere with poles on column lines (centre at a cell centre) and its octant
         // vertices' diagonals through column points.
-        ("centred sphere", octasphere(DVec3::splat(8.5), 5.0, 3)),
+        ("centred sphere", sphere(DVec3::splat(8.5), 5.0, 3)),
         // An octahedron with every vertex at a cell centre.
-        ("octahedron", octasphere(DVec3::new(7.5, 8.5, 6.5), 5.0, 1)),
+        ("octahedron", sphere(DVec3::new(7.5, 8.5, 6.5), 5.0, 1)),
     ];
     for (name, m) in cases {
         let m = pinned(m, n);
@@ -291,7 +223,7 @@ fn a_nonconvex_closed_mesh_fills_exactly() {
 #[test]
 fn open_meshes_are_refused_unless_voted() {
     let closed = pinned(
-        box_mesh(DVec3::new(3.3, 2.6, 4.1), DVec3::new(12.7, 13.2, 11.9)),
+        cuboid(DVec3::new(3.3, 2.6, 4.1), DVec3::new(12.7, 13.2, 11.9)),
         16.0,
     );
     let mut open = closed.clone();
@@ -341,7 +273,7 @@ fn voting_fills_a_torus_with_holes() {
 
 #[test]
 fn interior_leaves_carry_their_material_and_no_normal() {
-    let mut m = pinned(octasphere(DVec3::splat(8.0), 6.0, 4), 16.0);
+    let mut m = pinned(sphere(DVec3::splat(8.0), 6.0, 4), 16.0);
     m.materials = vec![svo::Material {
         name: "glass".into(),
         colour: [0.2, 0.6, 0.9, 1.0],
@@ -374,7 +306,7 @@ fn interior_leaves_carry_their_material_and_no_normal() {
 
 #[test]
 fn fills_that_would_not_fit_are_refused() {
-    let m = box_mesh(DVec3::ZERO, DVec3::ONE);
+    let m = cuboid(DVec3::ZERO, DVec3::ONE);
     let depth = 7;
     let root = svo::RootCube::around(DVec3::ZERO, DVec3::ONE, depth, 0);
     let surface_bytes = svo::estimate::estimate(&m, &root, depth).bytes;
