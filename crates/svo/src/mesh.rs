@@ -4,6 +4,7 @@
 //! Every importer produces a [`Mesh`]; [`Mesh::validate`] is the single place that rejects
 //! bad input (non-finite coordinates, indices out of range, empty meshes) with a clear error.
 
+use crate::scene_info::SceneInfo;
 use glam::{DVec3, Vec2};
 use thiserror::Error;
 
@@ -187,6 +188,9 @@ pub struct Mesh {
     pub materials: Vec<Material>,
     /// Textures referenced by materials.
     pub textures: Vec<Texture>,
+    /// Lights and camera views the file brings (glTF's `KHR_lights_punctual` and cameras),
+    /// in scene units; a bake stores them in the `.svo`.
+    pub scene: SceneInfo,
 }
 
 impl Mesh {
@@ -239,6 +243,8 @@ impl Mesh {
                 m
             }));
         self.textures.append(&mut other.textures);
+        self.scene.lights.append(&mut other.scene.lights);
+        self.scene.cameras.append(&mut other.scene.cameras);
     }
 
     /// A mesh of plain triangles with the default material.

@@ -263,11 +263,9 @@ fn load_input(job: &BakeJob) -> Result<(crate::Mesh, SceneInfo, BakeOptions), Pi
         }
         return Ok((s.mesh, s.info, options));
     }
-    Ok((
-        load_mesh(&job.input)?,
-        SceneInfo::default(),
-        job.options.clone(),
-    ))
+    let mesh = load_mesh(&job.input)?;
+    let scene = mesh.scene.clone();
+    Ok((mesh, scene, job.options.clone()))
 }
 
 fn ms(s: f64) -> String {

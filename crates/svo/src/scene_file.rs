@@ -404,6 +404,8 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
             }
         };
         tr.apply(&mut mesh);
+        // A scene file names its own lights and views; a glTF's are not taken along.
+        mesh.scene = SceneInfo::default();
         out.append(mesh);
         objects += 1;
         Ok(())

@@ -5,9 +5,13 @@
 //! `metallic * (1 - roughness)` (factors); refractivity = `KHR_materials_transmission`'s
 //! factor; IOR = `KHR_materials_ior` (1.5 when absent). Primitive modes other than
 //! triangles, strips and fans are skipped.
+//!
+//! Lights (`KHR_lights_punctual`: point and spot lights, as point lights) and perspective
+//! cameras on the scene's nodes go into [`Mesh::scene`], placed by their nodes' transforms.
 
 use super::parse_error;
 use crate::mesh::{Material, Mesh, MeshError, Texture};
+use crate::scene_info::{SceneInfo, StoredCamera, StoredLight};
 use glam::{DMat4, DVec3, Mat4, Vec2};
 use gltf::mesh::Mode;
 use std::collections::HashMap;
@@ -375,6 +379,71 @@ fn percent_decodes_to_utf8(s: &str) -> bool {
     std::str::from_utf8(&out).is_ok()
 }
 
+/// The light and camera of a glTF node, placed by its transform `xf`, added to `scene`.
+/// Read from the JSON (the gltf crate's accessors unwrap fields that a hostile file may
+/// lack). Point and spot lights become point lights (a spot's cone is not modelled; the
+/// glTF intensity in candela is our intensity at distance 1); directional lights and
+/// orthographic cameras are left out, as is anything not finite.
+fn node_scene(doc: &gltf::Document, node: &gltf::Node<'_>, xf: DMat4, scene: &mut SceneInfo) {
+    use gltf::json::validation::Checked;
+    let root = doc.as_json();
+    let Some(json) = root.nodes.get(node.index()) else {
+        return;
+    };
+    let eye = xf.transform_point3(DVec3::ZERO);
+    let light = json
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .and_then(|l| {
+            root.extensions
+                .as_ref()?
+                .khr_lights_punctual
+                .as_ref()?
+                .lights
+                .get(l.light.value())
+        });
+    if let Some(l) = light {
+        use gltf::json::extensions::scene::khr_lights_punctual::Type;
+        let positional = matches!(l.type_, Checked::Valid(Type::Point | Type::Spot));
+        let stored = StoredLight {
+            position: eye.to_array(),
+            colour: l.color,
+            intensity: l.intensity,
+        };
+        let alone = SceneInfo {
+            lights: vec![stored.clone()],
+            cameras: Vec::new(),
+        };
+        if positional && alone.validate().is_ok() {
+            scene.lights.push(stored);
+        }
+    }
+    let camera = json.camera.and_then(|c| root.cameras.get(c.value()));
+    if let Some(c) = camera
+        && let Some(p) = &c.perspective
+    {
+        let forward = xf.transform_vector3(DVec3::NEG_Z).normalize_or_zero();
+        let stored = StoredCamera {
+            name: c
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("camera {}", scene.cameras.len())),
+            eye: eye.to_array(),
+            target: (eye + forward).to_array(),
+            up: xf.transform_vector3(DVec3::Y).to_array(),
+            fov_deg: f64::from(p.yfov).to_degrees(),
+        };
+        let alone = SceneInfo {
+            lights: Vec::new(),
+            cameras: vec![stored.clone()],
+        };
+        if alone.validate().is_ok() {
+            scene.cameras.push(stored);
+        }
+    }
+}
+
 fn convert(
     path: &Path,
     doc: &gltf::Document,
@@ -390,8 +459,11 @@ fn convert(
     };
     match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => {
+            // Depth first in document order (the stack pops the last pushed first), so the
+            // first camera in the file is the first view.
             let mut stack: Vec<(gltf::Node<'_>, DMat4)> =
                 scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+            stack.reverse();
             let mut visited = 0usize;
             while let Some((node, parent)) = stack.pop() {
                 visited += 1;
@@ -403,7 +475,10 @@ fn convert(
                 if let Some(m) = node.mesh() {
                     l.add_mesh(path, &m, xf)?;
                 }
+                node_scene(doc, &node, xf, &mut l.mesh.scene);
+                let first = stack.len();
                 stack.extend(node.children().map(|c| (c, xf)));
+                stack[first..].reverse();
             }
         }
         None => {

@@ -1,0 +1,149 @@
+//! glTF lights (`KHR_lights_punctual`) and cameras come in with the mesh, placed by their
+//! nodes' transforms; directional lights and orthographic cameras are left out; malformed
+//! ones never panic; a bake stores them in the `.svo`.
+#![cfg(all(feature = "gltf", feature = "io"))]
+
+use serde_json::{Value, json};
+use std::path::Path;
+use svo::import::{MeshFormat, mesh_from_bytes};
+
+fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<svo::Mesh, svo::MeshError> {
+    mesh_from_bytes(bytes, MeshFormat::Gltf, name)
+}
+
+/// `Box-Embedded.gltf` (from `../shared/models`) with lights and cameras added.
+fn box_with(extra: impl FnOnce(&mut Value)) -> Option<Vec<u8>> {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/gltf/Box-Embedded.gltf");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        assert!(std::env::var_os("CI").is_none(), "shared models missing");
+        eprintln!("notice: skipping, {} not found", path.display());
+        return None;
+    };
+    let mut j: Value = serde_json::from_str(&text).unwrap();
+    j["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    j["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 12.0},
+        {"type": "directional", "intensity": 3.0},
+        {"type": "spot", "intensity": 5.0, "spot": {}, "name": "spot"}
+    ]}});
+    j["cameras"] = json!([
+        {"type": "perspective", "name": "front", "perspective": {"yfov": 0.7, "znear": 0.1}},
+        {"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 1.0, "zfar": 10.0, "znear": 0.1}}
+    ]);
+    let nodes = j["nodes"].as_array_mut().unwrap();
+    let base = nodes.len();
+    nodes.extend([
+        // A light under a scaled, moved parent: at (0, 0, 5) + 2 * (1, 0, 0).
+        json!({"translation": [0.0, 0.0, 5.0], "scale": [2.0, 2.0, 2.0], "children": [base + 1]}),
+        json!({"translation": [1.0, 0.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        json!({"extensions": {"KHR_lights_punctual": {"light": 1}}}),
+        // Turned 90 degrees about +y: looking along -x.
+        json!({"camera": 0, "translation": [0.0, 1.0, 4.0],
+               "rotation": [0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0, std::f64::consts::FRAC_1_SQRT_2]}),
+        json!({"camera": 1}),
+        json!({"translation": [0.0, -1.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 2}}}),
+    ]);
+    j["scenes"][0]["nodes"] = json!([0, base, base + 2, base + 3, base + 4, base + 5]);
+    extra(&mut j);
+    Some(serde_json::to_vec(&j).unwrap())
+}
+
+#[test]
+fn lights_and_cameras_are_placed_by_their_nodes() {
+    let Some(bytes) = box_with(|_| {}) else {
+        return;
+    };
+    let mesh = gltf_from_bytes(&bytes, Path::new("box.gltf")).unwrap();
+    let s = &mesh.scene;
+    // The point light and the spot (as a point light); not the directional one.
+    assert_eq!(s.lights.len(), 2, "{s:?}");
+    assert_eq!(s.lights[0].colour, [1.0, 0.5, 0.25]);
+    assert_eq!(s.lights[0].intensity, 12.0);
+    let p = glam::DVec3::from_array(s.lights[0].position);
+    assert!(p.abs_diff_eq(glam::DVec3::new(2.0, 0.0, 5.0), 1e-6), "{p}");
+    assert!(glam::DVec3::from_array(s.lights[1].position).abs_diff_eq(glam::DVec3::NEG_Y, 1e-6));
+    // The perspective camera only.
+    assert_eq!(s.cameras.len(), 1, "{s:?}");
+    let c = &s.cameras[0];
+    assert_eq!(c.name, "front");
+    assert!(
+        (c.fov_deg - 0.7f64.to_degrees()).abs() < 1e-4,
+        "{}",
+        c.fov_deg
+    );
+    let eye = glam::DVec3::from_array(c.eye);
+    let dir = glam::DVec3::from_array(c.target) - eye;
+    assert!(
+        eye.abs_diff_eq(glam::DVec3::new(0.0, 1.0, 4.0), 1e-6),
+        "{eye}"
+    );
+    assert!(
+        dir.normalize().abs_diff_eq(glam::DVec3::NEG_X, 1e-6),
+        "{dir}"
+    );
+    assert!(glam::DVec3::from_array(c.up).abs_diff_eq(glam::DVec3::Y, 1e-6));
+    // A bake keeps them.
+    let (tree, _) = svo::bake_mesh(
+        &mesh,
+        &svo::BakeOptions {
+            depth: 3,
+            ..Default::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    let d = tempfile::tempdir().unwrap();
+    let gltf = d.path().join("box.gltf");
+    std::fs::write(&gltf, &bytes).unwrap();
+    let out = d.path().join("box.svo");
+    let job = svo::pipeline::BakeJob {
+        input: gltf,
+        output: out.clone(),
+        options: svo::BakeOptions {
+            depth: 3,
+            ..Default::default()
+        },
+        threads: Some(1),
+        given: Default::default(),
+    };
+    svo::pipeline::run(&job, &|_, _| {}).unwrap();
+    let (back, build) = svo::format_read::read_file(&out).unwrap();
+    assert_eq!(back, tree);
+    assert_eq!(&build.scene, s);
+}
+
+#[test]
+fn malformed_lights_and_cameras_never_panic() {
+    let cases: Vec<Box<dyn Fn(&mut Value)>> = vec![
+        // A spot light without its spot parameters.
+        Box::new(|j| {
+            j["extensions"]["KHR_lights_punctual"]["lights"][2] =
+                json!({"type": "spot", "intensity": 1.0})
+        }),
+        // A light of unknown type, a light index out of range.
+        Box::new(|j| j["extensions"]["KHR_lights_punctual"]["lights"][0]["type"] = json!("area")),
+        Box::new(|j| j["nodes"][3]["extensions"]["KHR_lights_punctual"]["light"] = json!(99)),
+        // Lights without the extension table.
+        Box::new(|j| j["extensions"] = json!({})),
+        // A perspective camera without its parameters, an orthographic one without its own,
+        // a camera index out of range, a camera of unknown type.
+        Box::new(|j| j["cameras"][0] = json!({"type": "perspective"})),
+        Box::new(|j| j["cameras"][1] = json!({"type": "orthographic"})),
+        Box::new(|j| j["nodes"][5]["camera"] = json!(7)),
+        Box::new(|j| j["cameras"][0]["type"] = json!("fisheye")),
+        // Non-finite or degenerate values.
+        Box::new(|j| {
+            j["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(-1.0)
+        }),
+        Box::new(|j| j["cameras"][0]["perspective"]["yfov"] = json!(0.0)),
+        Box::new(|j| j["nodes"][5]["scale"] = json!([0.0, 0.0, 0.0])),
+    ];
+    for (i, f) in cases.iter().enumerate() {
+        let Some(bytes) = box_with(f) else { return };
+        match gltf_from_bytes(&bytes, Path::new("box.gltf")) {
+            Ok(m) => m.scene.validate().unwrap(),
+            Err(e) => assert!(!e.to_string().is_empty(), "case {i}"),
+        }
+    }
+}
