@@ -38,16 +38,16 @@ enum Expect {
 fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
     let Some(dir) = gltf_dir() else { return };
     let samples = [
-        ("Box.glb", Expect::Plain, 30.0),
-        ("Box_glTF/Box.gltf", Expect::Plain, 30.0),
-        ("MetalRoughSpheresNoTextures.glb", Expect::Metallic, 20.0),
+        ("Box.glb", Expect::Plain, 32.0),
+        ("Box_glTF/Box.gltf", Expect::Plain, 32.0),
+        ("MetalRoughSpheresNoTextures.glb", Expect::Metallic, 25.0),
         ("DamagedHelmet.glb", Expect::Textured, 18.0),
-        ("TransmissionTest.glb", Expect::Transmissive, 18.0),
-        ("TransmissionRoughnessTest.glb", Expect::Transmissive, 18.0),
-        ("AttenuationTest.glb", Expect::Transmissive, 18.0),
-        ("GlassBrokenWindow.glb", Expect::Transmissive, 16.0),
-        ("GlassHurricaneCandleHolder.glb", Expect::Transmissive, 16.0),
-        ("GlassVaseFlowers.glb", Expect::Transmissive, 16.0),
+        ("TransmissionTest.glb", Expect::Transmissive, 23.0),
+        ("TransmissionRoughnessTest.glb", Expect::Transmissive, 17.0),
+        ("AttenuationTest.glb", Expect::Transmissive, 22.0),
+        ("GlassBrokenWindow.glb", Expect::Transmissive, 25.0),
+        ("GlassHurricaneCandleHolder.glb", Expect::Transmissive, 20.0),
+        ("GlassVaseFlowers.glb", Expect::Transmissive, 17.0),
     ];
     let depth = 6;
     for (name, expect, min_psnr) in samples {
@@ -133,7 +133,7 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
             d.psnr_db
         );
         assert!(
-            d.hit_mismatch < 0.06,
+            d.hit_mismatch < 0.03,
             "{name}: hit/miss differ on {}",
             d.hit_mismatch
         );

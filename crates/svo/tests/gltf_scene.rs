@@ -115,7 +115,8 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
 
 #[test]
 fn malformed_lights_and_cameras_never_panic() {
-    let cases: Vec<Box<dyn Fn(&mut Value)>> = vec![
+    type Edit = Box<dyn Fn(&mut Value)>;
+    let cases: Vec<Edit> = vec![
         // A spot light without its spot parameters.
         Box::new(|j| {
             j["extensions"]["KHR_lights_punctual"]["lights"][2] =
