@@ -102,3 +102,31 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
         steps[2]
     );
 }
+
+#[test]
+fn csg_scene_file_bakes_solid_with_its_bowl_hollowed_out() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let scene = svo::scene_file::load_scene(&root.join("examples/scenes/csg.toml")).unwrap();
+    assert_eq!(scene.solid, Some(svo::solid_mode::SolidMode::Closed));
+    // The result and the floor are closed: the solid bake accepts them.
+    assert_eq!(svo::mesh_closed::open_edges(&scene.mesh), 0);
+    let opts = svo::BakeOptions {
+        depth: 6,
+        solid: scene.solid,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, stats) = svo::bake_mesh(&scene.mesh, &opts, &|_, _| {}).unwrap();
+    assert!(stats.interior_leaves > 1000, "{}", stats.interior_leaves);
+    let cell = |p: glam::DVec3| {
+        let g = tree.root.to_grid(p, tree.depth).floor();
+        glam::UVec3::new(g.x as u32, g.y as u32, g.z as u32)
+    };
+    let filled = |p| tree.leaf_at(cell(p)).is_some();
+    // Inside the rounded cube: filled; in the bowl and beyond the rounded corners: empty.
+    assert!(filled(glam::DVec3::new(0.0, -0.3, 0.0)));
+    assert!(filled(glam::DVec3::new(0.7, 0.2, 0.0)));
+    assert!(!filled(glam::DVec3::new(0.0, 0.85, 0.0)));
+    assert!(!filled(glam::DVec3::new(0.95, 0.95, 0.95)));
+    // The floor under it.
+    assert!(filled(glam::DVec3::new(2.0, -1.15, 2.0)));
+}

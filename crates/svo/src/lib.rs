@@ -69,6 +69,8 @@ pub mod primitives;
 pub mod render;
 #[cfg(all(feature = "image-io", feature = "reference"))]
 pub mod render_job;
+#[cfg(feature = "csg")]
+pub mod scene_csg;
 #[cfg(feature = "scene")]
 pub mod scene_file;
 pub mod scene_info;

@@ -4,7 +4,33 @@
 //! voxelization checks it before filling.
 
 use crate::mesh::Mesh;
+use glam::DVec3;
 use std::collections::HashMap;
+
+/// The mesh with vertices at equal positions merged (`-0.0` equals `0.0`): the distinct
+/// positions, and the triangles over them (an index out of range becomes `u32::MAX`).
+pub fn welded(mesh: &Mesh) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+    let mut positions = Vec::new();
+    let mut map = Vec::with_capacity(mesh.positions.len());
+    for p in &mesh.positions {
+        // Adding +0.0 turns -0.0 into +0.0 and leaves everything else alone.
+        let q = *p + DVec3::ZERO;
+        let key = [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()];
+        let next = ids.len() as u32;
+        let id = *ids.entry(key).or_insert(next);
+        if id == next {
+            positions.push(q);
+        }
+        map.push(id);
+    }
+    let triangles = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| map.get(i as usize).copied().unwrap_or(u32::MAX)))
+        .collect();
+    (positions, triangles)
+}
 
 /// The number of open edges: undirected edges (between distinct merged vertices) used by an
 /// odd number of triangles. Zero for a closed mesh.
@@ -14,21 +40,9 @@ use std::collections::HashMap;
 /// surface is. Degenerate triangles count with their edges: one with two equal vertices adds
 /// the same edge twice, which changes nothing.
 pub fn open_edges(mesh: &Mesh) -> usize {
-    let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(mesh.positions.len());
-    let mut welded = Vec::with_capacity(mesh.positions.len());
-    for p in &mesh.positions {
-        // Adding +0.0 turns -0.0 into +0.0 and leaves everything else alone.
-        let key = [
-            (p.x + 0.0).to_bits(),
-            (p.y + 0.0).to_bits(),
-            (p.z + 0.0).to_bits(),
-        ];
-        let next = ids.len() as u32;
-        welded.push(*ids.entry(key).or_insert(next));
-    }
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(mesh.triangles.len() * 3);
-    for t in &mesh.triangles {
-        let w = t.map(|i| welded.get(i as usize).copied().unwrap_or(u32::MAX));
+    let (_, triangles) = welded(mesh);
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 3);
+    for w in &triangles {
         for j in 0..3 {
             let (a, b) = (w[j], w[(j + 1) % 3]);
             if a != b {
@@ -50,7 +64,6 @@ pub fn open_edges(mesh: &Mesh) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DVec3;
 
     fn tetra() -> Mesh {
         Mesh::from_triangles(

@@ -1,6 +1,7 @@
 //! Scene files: a small TOML format that `svo-bake scene.toml -o scene.svo` reads. A scene is
 //! meshes (any supported format, paths relative to the scene file) and primitives (boxes,
-//! spheres, rectangles), each with a transform and a material; materials by preset or by a
+//! spheres, rectangles), each with a transform, a material and optionally a name; boolean
+//! operations between named objects (`[[csg]]`, through `scene_csg.rs`); materials by preset or by a
 //! table of the file; point lights and named camera views (stored in the `.svo`); and bake
 //! defaults (depth, solid fill) that command-line flags override.
 //!
@@ -36,6 +37,12 @@
 //! normal = [0.0, 1.0, 0.0]
 //! size = [8.0, 8.0]
 //! material = "water"
+//!
+//! [[csg]]                        # needs the `csg` feature (the Manifold kernel)
+//! op = "difference"              # union, intersection, difference
+//! a = "tub"                      # objects (or earlier results) by `name`; used up
+//! b = "scoop"
+//! material = "tiles"             # default: a's
 //!
 //! [[light]]
 //! position = [2.0, 8.0, 5.0]
@@ -151,6 +158,7 @@ struct MaterialEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MeshEntry {
+    name: Option<String>,
     file: PathBuf,
     material: Option<String>,
     scale: Option<Scale>,
@@ -161,6 +169,7 @@ struct MeshEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct BoxEntry {
+    name: Option<String>,
     min: [f64; 3],
     max: [f64; 3],
     material: Option<String>,
@@ -172,6 +181,7 @@ struct BoxEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereEntry {
+    name: Option<String>,
     centre: [f64; 3],
     radius: f64,
     detail: Option<u32>,
@@ -184,9 +194,23 @@ struct SphereEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RectangleEntry {
+    name: Option<String>,
     centre: [f64; 3],
     normal: [f64; 3],
     size: [f64; 2],
+    material: Option<String>,
+    scale: Option<Scale>,
+    rotate: Option<[f64; 3]>,
+    translate: Option<[f64; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CsgEntry {
+    name: Option<String>,
+    op: String,
+    a: String,
+    b: String,
     material: Option<String>,
     scale: Option<Scale>,
     rotate: Option<[f64; 3]>,
@@ -226,6 +250,8 @@ struct SceneFile {
     sphere: Vec<SphereEntry>,
     #[serde(default)]
     rectangle: Vec<RectangleEntry>,
+    #[serde(default)]
+    csg: Vec<CsgEntry>,
     #[serde(default)]
     light: Vec<LightEntry>,
     #[serde(default)]
@@ -350,6 +376,98 @@ fn with_material(mut mesh: Mesh, m: Material) -> Mesh {
     mesh
 }
 
+/// An object of the scene before placing: CSG operands are used up, void ones left out.
+struct Object {
+    name: Option<String>,
+    mesh: Mesh,
+    void: bool,
+    used: bool,
+}
+
+/// Evaluates a `[[csg]]` entry over the objects so far (its operands are marked used).
+fn csg(
+    objects: &mut [Object],
+    e: &CsgEntry,
+    table: &BTreeMap<String, MaterialEntry>,
+) -> Result<Object, String> {
+    let find = |objects: &[Object], n: &str| {
+        objects
+            .iter()
+            .position(|o| o.name.as_deref() == Some(n))
+            .ok_or_else(|| format!("no object named {n:?} before it"))
+    };
+    let (ia, ib) = (find(objects, &e.a)?, find(objects, &e.b)?);
+    if ia == ib {
+        return Err(format!("a and b are the same object {:?}", e.a));
+    }
+    let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate)?;
+    let op = CsgOp::parse(&e.op)
+        .ok_or_else(|| format!("unknown op {:?} (union, intersection, difference)", e.op))?;
+    let mut mesh = boolean(&objects[ia].mesh, &objects[ib].mesh, op)?;
+    objects[ia].used = true;
+    objects[ib].used = true;
+    // The result's material: the entry's, else operand a's (one material: the boolean
+    // keeps no per-triangle materials).
+    let (material, void) = match &e.material {
+        Some(n) => match material(n, table)? {
+            Some(m) => (m, false),
+            None => (Material::default(), true),
+        },
+        None => (
+            objects[ia]
+                .mesh
+                .materials
+                .first()
+                .cloned()
+                .unwrap_or_default(),
+            objects[ia].void,
+        ),
+    };
+    mesh = with_material(mesh, material);
+    tr.apply(&mut mesh);
+    Ok(Object {
+        name: e.name.clone(),
+        mesh,
+        void,
+        used: false,
+    })
+}
+
+/// A boolean operation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CsgOp {
+    /// Both.
+    Union,
+    /// What both hold.
+    Intersection,
+    /// The first without the second.
+    Difference,
+}
+
+impl CsgOp {
+    fn parse(s: &str) -> Option<Self> {
+        match s {
+            "union" => Some(Self::Union),
+            "intersection" => Some(Self::Intersection),
+            "difference" => Some(Self::Difference),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(feature = "csg")]
+fn boolean(a: &Mesh, b: &Mesh, op: CsgOp) -> Result<Mesh, String> {
+    crate::scene_csg::boolean(a, b, op)
+}
+
+#[cfg(not(feature = "csg"))]
+fn boolean(_: &Mesh, _: &Mesh, _: CsgOp) -> Result<Mesh, String> {
+    Err(
+        "CSG needs svo's `csg` cargo feature (the Manifold kernel, C++; svo-bake: --features csg)"
+            .into(),
+    )
+}
+
 /// Loads a scene file.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|cause| SceneError::Io {
@@ -385,29 +503,33 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
                 .ok_or_else(|| invalid(format!("unknown solid mode {s:?} (closed, vote)")))?,
         ),
     };
-    let mut out = Mesh::default();
-    let mut objects = 0usize;
-    // Each object: its mesh (already built), its material name, its transform.
+    let mut objects: Vec<Object> = Vec::new();
+    // Each object: its mesh in place with its material (or void), under its name.
     let mut add = |what: String,
+                   name: Option<&String>,
                    mesh: Mesh,
                    mat: Option<&String>,
                    tr: Result<Transform, String>|
      -> Result<(), SceneError> {
         let tr = tr.map_err(|e| invalid(format!("{what}: {e}")))?;
-        let mut mesh = match mat {
-            None => mesh,
+        let (mut mesh, void) = match mat {
+            None => (mesh, false),
             Some(n) => {
                 match material(n, &f.material).map_err(|e| invalid(format!("{what}: {e}")))? {
-                    None => return Ok(()), // void
-                    Some(m) => with_material(mesh, m),
+                    None => (mesh, true),
+                    Some(m) => (with_material(mesh, m), false),
                 }
             }
         };
         tr.apply(&mut mesh);
         // A scene file names its own lights and views; a glTF's are not taken along.
         mesh.scene = SceneInfo::default();
-        out.append(mesh);
-        objects += 1;
+        objects.push(Object {
+            name: name.cloned(),
+            mesh,
+            void,
+            used: false,
+        });
         Ok(())
     };
     for (i, e) in f.mesh.iter().enumerate() {
@@ -420,6 +542,7 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
         let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
         add(
             format!("mesh {i} ({})", e.file.display()),
+            e.name.as_ref(),
             mesh,
             e.material.as_ref(),
             tr,
@@ -434,7 +557,13 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
             )));
         }
         let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
-        add(what, primitives::cuboid(lo, hi), e.material.as_ref(), tr)?;
+        add(
+            what,
+            e.name.as_ref(),
+            primitives::cuboid(lo, hi),
+            e.material.as_ref(),
+            tr,
+        )?;
     }
     for (i, e) in f.sphere.iter().enumerate() {
         let what = format!("sphere {i}");
@@ -451,7 +580,7 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
         }
         let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
         let mesh = primitives::sphere(DVec3::from_array(e.centre), e.radius, detail);
-        add(what, mesh, e.material.as_ref(), tr)?;
+        add(what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
     }
     for (i, e) in f.rectangle.iter().enumerate() {
         let what = format!("rectangle {i}");
@@ -467,9 +596,36 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
         }
         let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
         let mesh = primitives::rectangle(DVec3::from_array(e.centre), n, e.size);
-        add(what, mesh, e.material.as_ref(), tr)?;
+        add(what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
     }
-    if objects == 0 {
+    let duplicate = |objects: &[Object]| {
+        let mut names: Vec<&str> = objects.iter().filter_map(|o| o.name.as_deref()).collect();
+        names.sort_unstable();
+        names
+            .windows(2)
+            .find(|w| w[0] == w[1])
+            .map(|w| format!("two objects are named {:?}", w[0]))
+    };
+    if let Some(e) = duplicate(&objects) {
+        return Err(invalid(e));
+    }
+    for (i, e) in f.csg.iter().enumerate() {
+        let what = format!("csg {i}");
+        let obj = csg(&mut objects, e, &f.material).map_err(|m| invalid(format!("{what}: {m}")))?;
+        objects.push(obj);
+        if let Some(e) = duplicate(&objects) {
+            return Err(invalid(format!("{what}: {e}")));
+        }
+    }
+    let mut out = Mesh::default();
+    let mut placed = 0usize;
+    for o in objects {
+        if !o.used && !o.void {
+            out.append(o.mesh);
+            placed += 1;
+        }
+    }
+    if placed == 0 {
         return Err(SceneError::Empty {
             path: name.to_string(),
         });
@@ -589,6 +745,106 @@ mod tests {
         assert_eq!(s.info.lights[0].colour, [1.0; 3]);
         assert_eq!(s.info.cameras[0].up, [0.0, 1.0, 0.0]);
         assert_eq!(s.info.cameras[0].fov_deg, 40.0);
+    }
+
+    const CSG: &str = r#"
+        [[box]]
+        name = "tub"
+        min = [-1, -1, -1]
+        max = [1, 1, 1]
+        material = "tiles"
+        [[sphere]]
+        name = "scoop"
+        centre = [0, 0, 0]
+        radius = 0.8
+        detail = 24
+        [[csg]]
+        op = "difference"
+        a = "tub"
+        b = "scoop"
+        [material.tiles]
+        colour = [0.2, 0.4, 0.6]
+    "#;
+
+    #[cfg(feature = "csg")]
+    #[test]
+    fn csg_through_manifold() {
+        let s = parse(CSG).unwrap();
+        let m = &s.mesh;
+        // Only the result is placed, closed, with operand a's material.
+        assert_eq!(crate::mesh_closed::open_edges(m), 0);
+        assert_eq!(m.materials.len(), 1);
+        assert_eq!(m.materials[0].name, "tiles");
+        let vol: f64 = m
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum();
+        let want = 8.0 - 4.0 / 3.0 * std::f64::consts::PI * 0.512;
+        assert!((vol - want).abs() < 0.01 * want, "{vol} vs {want}");
+        // The hollow is empty in a solid bake: the centre cell is not a leaf.
+        let opts = crate::BakeOptions {
+            depth: 5,
+            solid: Some(SolidMode::Closed),
+            ..crate::BakeOptions::default()
+        };
+        let (tree, _) = crate::bake_mesh(m, &opts, &|_, _| {}).unwrap();
+        assert!(tree.leaf_at(glam::UVec3::splat(16)).is_none());
+        assert!(tree.leaf_at(glam::UVec3::new(1, 16, 16)).is_some());
+        // Manifold refuses open operands, named.
+        let text = r#"
+            [[box]]
+            name = "a"
+            min = [0, 0, 0]
+            max = [1, 1, 1]
+            [[rectangle]]
+            name = "b"
+            centre = [0.5, 0.5, 0.5]
+            normal = [0, 1, 0]
+            size = [2, 2]
+            [[csg]]
+            op = "union"
+            a = "a"
+            b = "b"
+        "#;
+        let e = parse(text).map(|_| ()).unwrap_err().to_string();
+        assert!(
+            e.contains("operand b is not a closed manifold (4 open edges"),
+            "{e}"
+        );
+    }
+
+    #[cfg(not(feature = "csg"))]
+    #[test]
+    fn csg_without_the_feature_says_so() {
+        let e = parse(CSG).map(|_| ()).unwrap_err().to_string();
+        assert!(
+            e.contains("csg 0: CSG needs svo's `csg` cargo feature"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn csg_mistakes_are_named() {
+        for (edit, needle) in [
+            (
+                ("op = \"difference\"", "op = \"minus\""),
+                "unknown op \"minus\"",
+            ),
+            (
+                ("b = \"scoop\"", "b = \"spoon\""),
+                "no object named \"spoon\"",
+            ),
+            (("b = \"scoop\"", "b = \"tub\""), "the same object"),
+            (("name = \"scoop\"", "name = \"tub\""), "named \"tub\""),
+        ] {
+            let text = CSG.replace(edit.0, edit.1);
+            let e = parse(&text).map(|_| ()).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text}: {e}");
+        }
     }
 
     #[test]
