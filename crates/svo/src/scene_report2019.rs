@@ -24,6 +24,7 @@ use crate::camera::Camera;
 use crate::grid::RootCube;
 use crate::material_presets::Preset;
 use crate::octree::Octree;
+use crate::scene_info::{SceneInfo, StoredCamera, StoredLight};
 use crate::shading::PointLight;
 use glam::{DVec3, UVec3, Vec3};
 
@@ -95,6 +96,32 @@ pub fn report_material(c: UVec3, n: u32) -> Option<ReportMaterial> {
         None
     } else {
         Some(ReportMaterial::Glass)
+    }
+}
+
+impl ReportScene {
+    /// The lights and the camera (as the view `report`) for the `.svo` file, so a viewer
+    /// shows the report's view.
+    pub fn scene_info(&self) -> SceneInfo {
+        let c = &self.camera;
+        SceneInfo {
+            lights: self
+                .lights
+                .iter()
+                .map(|l| StoredLight {
+                    position: l.position.to_array(),
+                    colour: l.colour.to_array(),
+                    intensity: l.intensity,
+                })
+                .collect(),
+            cameras: vec![StoredCamera {
+                name: "report".into(),
+                eye: c.eye.to_array(),
+                target: c.target.to_array(),
+                up: c.up.to_array(),
+                fov_deg: c.fov_deg,
+            }],
+        }
     }
 }
 

@@ -118,3 +118,44 @@ fn report_scene_renders_with_its_three_lights() {
         "{total} vs {sum_alone}"
     );
 }
+
+/// The committed `examples/scenes/report2019.svo` (written by `examples/report_scene.rs`) is
+/// exactly what the library builds today, and renders from its stored view and lights.
+#[cfg(all(feature = "io", feature = "image-io", feature = "reference"))]
+#[test]
+fn committed_report_scene_file_is_current_and_renders_its_view() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/scenes/report2019.svo");
+    let committed = std::fs::read(&path).unwrap();
+    let scene = report_scene(6, 512, 512).unwrap();
+    let build = svo::format_header::BuildInfo {
+        generator: "report_scene example".into(),
+        strategy: "builder".into(),
+        scene: scene.scene_info(),
+        ..Default::default()
+    };
+    assert!(
+        svo::format_write::to_bytes(&scene.tree, &build) == committed,
+        "examples/scenes/report2019.svo is stale: rerun `cargo run --release -p svo-examples \
+         --example report_scene -- examples/scenes/report2019.svo docs/images/report_scene.png`"
+    );
+    let job = svo::render_job::RenderJob {
+        input: path,
+        width: 64,
+        height: 64,
+        ..Default::default()
+    };
+    let s = svo::render_job::prepare(&job).unwrap();
+    assert_eq!(s.camera.eye, scene.camera.eye);
+    assert_eq!(s.camera.fov_deg, scene.camera.fov_deg);
+    assert_eq!(s.lights, scene.lights);
+    let t = Tracer::new(
+        OctreeSurfaces::new(&s.tree, HitMode::Cube),
+        &s.lights,
+        s.sky.clone(),
+        s.phong,
+        TraceOptions::default(),
+    );
+    let f = render(&t, &s.camera).unwrap();
+    assert!(f.stats.primary_hits > 64 * 64 / 3, "{:?}", f.stats);
+}
