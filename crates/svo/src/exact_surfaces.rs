@@ -26,6 +26,9 @@ const CELL_MARGIN: f32 = 1e-4;
 #[derive(Debug)]
 pub struct ExactLeaves {
     lists: LeafTriangles,
+    /// For a solid tree, the list of each leaf (`u32::MAX` for interior leaves, which have
+    /// none); empty when the tree's leaves are the lists' one for one.
+    list_of: Vec<u32>,
     /// Grid-space vertices per triangle.
     tris: Vec<[Vec3; 3]>,
 }
@@ -39,17 +42,43 @@ impl ExactLeaves {
     pub fn new(tree: &Octree, mesh: &Mesh) -> Result<Self, String> {
         mesh.validate().map_err(|e| e.to_string())?;
         let lists = voxelize_mesh_in(mesh, &tree.root, tree.depth, Strategy::Exact);
-        let same = lists.cells.len() == tree.leaf_count as usize
-            && tree
-                .leaves()
+        // A solid tree's surface leaves are the mesh's, in the same (Morton) order, with
+        // interior leaves between them.
+        let a = &tree.attributes;
+        let solid = a.has_interior();
+        let surface = || {
+            tree.leaves()
+                .filter(move |l| !(solid && a.is_interior(l.index as usize)))
+        };
+        let surface_count = if solid {
+            surface().count()
+        } else {
+            tree.leaf_count as usize
+        };
+        let same = lists.cells.len() == surface_count
+            && surface()
                 .zip(&lists.cells)
                 .all(|(l, c)| l.cell == UVec3::from_array(*c));
         if !same {
             return Err(format!(
-                "the mesh gives {} leaves in the tree's grid, the tree has {}: it is not the mesh the tree was baked from",
+                "the mesh gives {} leaves in the tree's grid, the tree has {} surface leaves: it is not the mesh the tree was baked from",
                 lists.cells.len(),
-                tree.leaf_count
+                surface_count
             ));
+        }
+        let mut list_of = Vec::new();
+        if solid {
+            let mut next = 0u32;
+            list_of = (0..tree.leaf_count as usize)
+                .map(|i| {
+                    if a.is_interior(i) {
+                        u32::MAX
+                    } else {
+                        next += 1;
+                        next - 1
+                    }
+                })
+                .collect();
         }
         let root: RootCube = tree.root;
         let tris = mesh
@@ -62,7 +91,11 @@ impl ExactLeaves {
                 })
             })
             .collect();
-        Ok(Self { lists, tris })
+        Ok(Self {
+            lists,
+            list_of,
+            tris,
+        })
     }
 }
 
@@ -80,7 +113,12 @@ impl LeafShape for ExactLeaves {
         let lo = e.cell.as_vec3() - CELL_MARGIN;
         let hi = e.cell.as_vec3() + 1.0 + CELL_MARGIN;
         let mut best: Option<(f32, Vec3)> = None;
-        for &ti in self.lists.triangles(e.leaf as usize) {
+        let list = match self.list_of.get(e.leaf as usize) {
+            None => e.leaf as usize,
+            Some(&u32::MAX) => return None,
+            Some(&i) => i as usize,
+        };
+        for &ti in self.lists.triangles(list) {
             let [a, b, c] = self.tris[ti as usize];
             if let Some(t) = moller_trumbore(ray, a, b, c)
                 && t >= e.t_enter

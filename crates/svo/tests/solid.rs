@@ -368,5 +368,23 @@ fn solid_trees_render_exactly_like_their_surfaces() {
         assert_eq!(a.colour, b.colour, "{mode:?}");
         assert_eq!(a.depth, b.depth, "{mode:?}");
         assert_eq!(a.normal, b.normal, "{mode:?}");
+        // The exact mode (the leaves' triangles) too: interior leaves have none.
+        let exact = |t: &Octree| {
+            let tracer = Tracer::new(
+                svo::exact_surfaces::exact_surfaces(t, &m).unwrap(),
+                &[light],
+                Sky::default(),
+                Phong::default(),
+                TraceOptions {
+                    mode: HitMode::Exact,
+                    ..TraceOptions::default()
+                },
+            );
+            render(&tracer, &cam).unwrap()
+        };
+        let (a, b) = (exact(&surface), exact(&solid));
+        assert!(a.stats.primary_hits > 500);
+        assert_eq!(a.colour, b.colour, "exact");
+        assert_eq!(a.depth, b.depth, "exact");
     }
 }
