@@ -62,6 +62,10 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
             ..RenderJob::default()
         };
         let s = scene_with(tree.clone(), &build.scene, &job).unwrap();
+        // Every stored view is offered (the window steps through them with V).
+        let offered: Vec<&str> = s.views.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(offered, ["water", "bunny", "parallel"]);
+        assert_eq!(s.views.iter().find(|(n, _)| n == view).unwrap().1, s.camera);
         let tracer = Tracer::new(
             OctreeSurfaces::new(&s.tree, job.trace.mode),
             &s.lights,

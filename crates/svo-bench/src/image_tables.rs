@@ -133,6 +133,7 @@ fn gpu_frame(
         lights: vec![light],
         sky: Sky::default(),
         phong: Phong::default(),
+        views: Vec::new(),
     };
     let opts = TraceOptions {
         mode,

@@ -187,6 +187,7 @@ pub fn render_scene(
         lights,
         sky,
         phong,
+        ..
     } = scene;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());

@@ -4,7 +4,8 @@
 //! Mouse: left drag turns (orbit around the target, or look around in fly mode), right or
 //! middle drag pans, the wheel zooms. Keys: `Tab` orbit/fly, `W A S D Q E` fly (`Shift`
 //! faster), `1` cube / `2` contour hits, `[` `]` bounces, `L` lights on/off, `G` shadow
-//! mode, `-` `=` render scale, `P` screenshot, `R` reset the view, `F1` overlay, `Esc` quit.
+//! mode, `-` `=` render scale, `P` screenshot, `R` reset the view, `V` the next camera view
+//! stored in the file, `F1` overlay, `Esc` quit.
 //!
 //! Each change of hit mode, bounces, lights or shadows picks the shader variant the scene
 //! then needs ([`ShaderVariant::for_scene`]); pipelines are compiled once and kept.
@@ -101,6 +102,7 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
         },
         control,
         scene,
+        view: 0,
         opts: opts.clone(),
         start,
         running: None,
@@ -161,6 +163,8 @@ struct App {
     settings: Settings,
     control: CameraControl,
     scene: JobScene,
+    /// Which stored view `V` showed last.
+    view: usize,
     opts: WindowOptions,
     start: Instant,
     running: Option<Running>,
@@ -294,6 +298,15 @@ impl App {
             KeyCode::Escape => el.exit(),
             KeyCode::Tab => self.control.toggle_mode(),
             KeyCode::KeyR => self.control.reset(),
+            KeyCode::KeyV if !self.scene.views.is_empty() => {
+                // The next camera view stored in the file.
+                self.view = (self.view + 1) % self.scene.views.len();
+                let (lo, hi) = occupied_bounds(&self.scene.tree);
+                let mode = self.control.mode;
+                self.control =
+                    CameraControl::from_camera(&self.scene.views[self.view].1, (hi - lo).length());
+                self.control.mode = mode;
+            }
             KeyCode::F1 => self.settings.overlay = !self.settings.overlay,
             KeyCode::Digit1 => t.mode = HitMode::Cube,
             KeyCode::Digit2 => t.mode = HitMode::Contour,

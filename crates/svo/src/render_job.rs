@@ -358,6 +358,9 @@ pub struct JobScene {
     pub sky: Sky,
     /// Phong factors.
     pub phong: Phong,
+    /// The camera views stored with the tree, by name, at the job's image size (the window
+    /// steps through them).
+    pub views: Vec<(String, Camera)>,
 }
 
 /// Checks `job`'s settings and output path, loads its file and sets up its scene.
@@ -484,12 +487,27 @@ pub fn scene_with(
         cube_map,
         ..Sky::default()
     };
+    let views = stored
+        .cameras
+        .iter()
+        .map(|v| {
+            let c = Camera {
+                eye: DVec3::from_array(v.eye),
+                target: DVec3::from_array(v.target),
+                up: DVec3::from_array(v.up),
+                fov_deg: v.fov_deg,
+                ..framing
+            };
+            (v.name.clone(), c)
+        })
+        .collect();
     Ok(JobScene {
         tree,
         camera,
         lights,
         sky,
         phong: Phong::default(),
+        views,
     })
 }
 
@@ -500,6 +518,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         lights,
         sky,
         phong,
+        ..
     } = prepare(job)?;
     let exact_mesh = if job.trace.mode == HitMode::Exact {
         let path = job
