@@ -525,3 +525,66 @@ fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
     ]);
     assert!(out.contains("interior leaves (vote fill"), "{out}");
 }
+
+#[test]
+fn scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line() {
+    let d = tmp();
+    let scene = write(
+        d.path(),
+        "s.toml",
+        r#"
+        depth = 4
+        solid = "closed"
+        [[box]]
+        min = [0, 0, 0]
+        max = [1, 2, 1]
+        material = "glass"
+        [[sphere]]
+        centre = [3, 1, 0.5]
+        radius = 0.7
+        detail = 6
+        material = "water"
+        [[light]]
+        position = [1, 5, 3]
+        intensity = 10
+        [[camera]]
+        name = "front"
+        eye = [1.5, 1, 6]
+        target = [1.5, 1, 0.5]
+        "#,
+    );
+    let out = d.path().join("s.svo");
+    let text = ok(&[s(&scene), "-o", s(&out)]);
+    assert!(text.contains("interior leaves (closed fill"), "{text}");
+    let (tree, build) = svo::format_read::read_file(&out).unwrap();
+    assert_eq!(tree.depth, 4);
+    assert_eq!(build.scene.lights.len(), 1);
+    assert_eq!(build.scene.cameras[0].name, "front");
+    assert!(tree.attributes.refractivity.is_per_leaf());
+    // The command line wins over the file's defaults.
+    ok(&[s(&scene), "--depth", "5", "-o", s(&out), "-q"]);
+    let (tree, _) = svo::format_read::read_file(&out).unwrap();
+    assert_eq!(tree.depth, 5);
+    assert!(tree.attributes.has_interior());
+    // Mistakes: one line naming the file and the entry, no output.
+    let bad = d.path().join("bad.svo");
+    for (text, needle) in [
+        (
+            "[[box]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nmaterial = \"glas\"",
+            "box 0: unknown material \"glas\"",
+        ),
+        (
+            "[[box]]\nmin = [0, 0, 0]\nmaxi = [1, 1, 1]",
+            "unknown field `maxi`",
+        ),
+        ("[[mesh]]\nfile = \"nowhere.obj\"", "mesh 0"),
+        (
+            "depth = 99\n[[box]]\nmin = [0, 0, 0]\nmax = [1, 1, 1]",
+            "depth 99",
+        ),
+    ] {
+        let f = write(d.path(), "bad.toml", text);
+        fails(&[s(&f), "-o", s(&bad)], needle);
+        assert!(!bad.exists());
+    }
+}
