@@ -38,7 +38,7 @@ fn info_describes_a_file_and_errors_are_one_line() {
     for want in [
         "leaves         20",
         "depth          2",
-        "refractivity  constant 0.902",
+        "refractivity  constant 0.800",
         "ior           constant 1.5000",
         "bytes per leaf",
     ] {
