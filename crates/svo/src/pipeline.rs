@@ -183,7 +183,7 @@ pub fn run(
         .into());
     }
     with_threads(job.threads, |threads| {
-        run_inner(job, format, is_svo, threads, progress)
+        run_inner(job, format, is_svo, is_scene, threads, progress)
     })?
 }
 
@@ -191,6 +191,7 @@ fn run_inner(
     job: &BakeJob,
     format: OutputFormat,
     is_svo: bool,
+    is_scene: bool,
     threads: usize,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<BakeReport, PipelineError> {
@@ -200,7 +201,7 @@ fn run_inner(
         let (tree, build) = read_file(&job.input)?;
         (tree, build, None, t.elapsed().as_secs_f64())
     } else {
-        let (mesh, scene, options) = load_input(job)?;
+        let (mesh, scene, options) = load_input(job, is_scene)?;
         let load_s = t.elapsed().as_secs_f64();
         let (tree, stats) = bake_mesh(&mesh, &options, progress)?;
         let build = BuildInfo {
@@ -243,14 +244,14 @@ fn run_inner(
 }
 
 /// The mesh to bake, the scene's lights and views, and the options with a scene file's own
-/// values where the user gave none.
-fn load_input(job: &BakeJob) -> Result<(crate::Mesh, SceneInfo, BakeOptions), PipelineError> {
+/// values where the user gave none. `is_scene`: the input is a scene file (which [`run`]
+/// refuses without the `scene` feature).
+fn load_input(
+    job: &BakeJob,
+    is_scene: bool,
+) -> Result<(crate::Mesh, SceneInfo, BakeOptions), PipelineError> {
     #[cfg(feature = "scene")]
-    if job
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-    {
+    if is_scene {
         let s = crate::scene_file::load_scene(&job.input)?;
         let mut options = job.options.clone();
         if !job.given.depth
@@ -263,6 +264,8 @@ fn load_input(job: &BakeJob) -> Result<(crate::Mesh, SceneInfo, BakeOptions), Pi
         }
         return Ok((s.mesh, s.info, options));
     }
+    #[cfg(not(feature = "scene"))]
+    let _ = is_scene;
     let mesh = load_mesh(&job.input)?;
     let scene = mesh.scene.clone();
     Ok((mesh, scene, job.options.clone()))

@@ -414,6 +414,14 @@ pub fn scene_with(
     }
     let (lo, hi) = occupied_bounds(&tree);
     let framing = Camera::framing(lo, hi, job.width, job.height, job.fov_deg);
+    // A stored view at the job's image size.
+    let as_camera = |v: &crate::scene_info::StoredCamera| Camera {
+        eye: DVec3::from_array(v.eye),
+        target: DVec3::from_array(v.target),
+        up: DVec3::from_array(v.up),
+        fov_deg: v.fov_deg,
+        ..framing
+    };
     let view = match &job.view {
         Some(name) => Some(stored.camera(name).ok_or_else(|| {
             let names: Vec<&str> = stored.cameras.iter().map(|c| c.name.as_str()).collect();
@@ -427,13 +435,7 @@ pub fn scene_with(
         None => None,
     };
     let mut camera = match view {
-        Some(v) => Camera {
-            eye: DVec3::from_array(v.eye),
-            target: DVec3::from_array(v.target),
-            up: DVec3::from_array(v.up),
-            fov_deg: v.fov_deg,
-            ..framing
-        },
+        Some(v) => as_camera(v),
         None => Camera {
             eye: job.eye.unwrap_or(framing.eye),
             target: job.target.unwrap_or(framing.target),
@@ -490,16 +492,7 @@ pub fn scene_with(
     let views = stored
         .cameras
         .iter()
-        .map(|v| {
-            let c = Camera {
-                eye: DVec3::from_array(v.eye),
-                target: DVec3::from_array(v.target),
-                up: DVec3::from_array(v.up),
-                fov_deg: v.fov_deg,
-                ..framing
-            };
-            (v.name.clone(), c)
-        })
+        .map(|v| (v.name.clone(), as_camera(v)))
         .collect();
     Ok(JobScene {
         tree,

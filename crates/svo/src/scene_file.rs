@@ -376,6 +376,13 @@ fn with_material(mut mesh: Mesh, m: Material) -> Mesh {
     mesh
 }
 
+/// A name that occurs more than once, if any.
+fn repeated<'a>(names: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    let mut names: Vec<&str> = names.collect();
+    names.sort_unstable();
+    names.windows(2).find(|w| w[0] == w[1]).map(|w| w[0])
+}
+
 /// An object of the scene before placing: CSG operands are used up, void ones left out.
 struct Object {
     name: Option<String>,
@@ -599,12 +606,8 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
         add(what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
     }
     let duplicate = |objects: &[Object]| {
-        let mut names: Vec<&str> = objects.iter().filter_map(|o| o.name.as_deref()).collect();
-        names.sort_unstable();
-        names
-            .windows(2)
-            .find(|w| w[0] == w[1])
-            .map(|w| format!("two objects are named {:?}", w[0]))
+        repeated(objects.iter().filter_map(|o| o.name.as_deref()))
+            .map(|n| format!("two objects are named {n:?}"))
     };
     if let Some(e) = duplicate(&objects) {
         return Err(invalid(e));
@@ -653,10 +656,8 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
             .collect(),
     };
     info.validate().map_err(invalid)?;
-    let mut names: Vec<&str> = info.cameras.iter().map(|c| c.name.as_str()).collect();
-    names.sort_unstable();
-    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
-        return Err(invalid(format!("two cameras are named {:?}", w[0])));
+    if let Some(n) = repeated(info.cameras.iter().map(|c| c.name.as_str())) {
+        return Err(invalid(format!("two cameras are named {n:?}")));
     }
     Ok(Scene {
         mesh: out,
