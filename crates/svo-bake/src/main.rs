@@ -71,8 +71,23 @@ fn parse_solid(s: &str) -> Result<SolidMode, String> {
     SolidMode::parse(s).ok_or_else(|| format!("unknown solid mode `{s}` (closed, vote)"))
 }
 
+/// `println!` that returns the error instead of panicking, so that a closed pipe
+/// (`svo-bake ... | head`) ends the program quietly.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*)?;
+    }};
+}
+
 fn main() {
     if let Err(e) = real_main() {
+        // The reader of stdout went away (`| head`): nothing is wrong with the work.
+        if e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        {
+            return;
+        }
         eprintln!("svo-bake: error: {e:#}");
         std::process::exit(1);
     }
@@ -143,9 +158,9 @@ fn real_main() -> anyhow::Result<()> {
     let report = run(&job, &progress).with_context(|| format!("baking {}", job.input.display()))?;
     bar.finish_and_clear();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        say!("{}", serde_json::to_string_pretty(&report)?);
     } else if !args.quiet {
-        println!("{report}");
+        say!("{report}");
     }
     Ok(())
 }

@@ -139,7 +139,7 @@ fn gpu_frame(
         mode,
         ..TraceOptions::default()
     };
-    let g = render_scene(ctx, &scene, &opts, false, Some(runs))?;
+    let g = render_scene(ctx, &scene, &opts, &Default::default(), Some(runs))?;
     let d = svo::image_compare::compare(&g.frame, cpu).expect("frames of one camera");
     Ok((median(&g.times), d.psnr_db))
 }

@@ -21,6 +21,33 @@ use svo::render::{Frame, NO_LEAF, RenderStats};
 /// The WGSL source of the tracer.
 pub const TRACE_WGSL: &str = include_str!("shaders/trace.wgsl");
 
+/// The line of [`TRACE_WGSL`] that sizes the traversal's private ancestor stack.
+const MAX_DEPTH_LINE: &str = "const MAX_DEPTH: u32 = 30u;";
+/// The line of [`TRACE_WGSL`] that sizes the private Whitted ray stack.
+const RAY_STACK_LINE: &str = "const RAY_STACK: u32 = 34u;";
+
+/// [`TRACE_WGSL`] with its two private stacks sized for a tree of `depth` levels and
+/// `ray_stack` pending rays ([`ShaderVariant::ray_stack`]) instead of the most the shader
+/// allows (30 levels, 34 rays). WGSL zero-initializes function variables, and the drivers
+/// store every element of an array that is indexed at run time: each traversal (primary,
+/// secondary and shadow rays) pays for its whole ancestor stack (28 bytes an entry) and
+/// each pixel for its whole ray stack (60 bytes an entry). Function arrays cannot be sized
+/// by pipeline constants, so the text is edited before compilation.
+pub fn trace_source(ray_stack: u32, depth: u32) -> String {
+    debug_assert!(TRACE_WGSL.contains(MAX_DEPTH_LINE) && TRACE_WGSL.contains(RAY_STACK_LINE));
+    TRACE_WGSL
+        .replacen(
+            MAX_DEPTH_LINE,
+            &format!("const MAX_DEPTH: u32 = {}u;", depth.clamp(1, 30)),
+            1,
+        )
+        .replacen(
+            RAY_STACK_LINE,
+            &format!("const RAY_STACK: u32 = {}u;", ray_stack.clamp(1, 34)),
+            1,
+        )
+}
+
 /// Threads per workgroup side (`@workgroup_size(8, 8, 1)` in the shader).
 const WORKGROUP: u32 = 8;
 
@@ -149,7 +176,6 @@ pub struct GpuRenderer {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    module: wgpu::ShaderModule,
     /// Bindings 0-4 (uniforms, the arena's chunks), shared by both entry points.
     tree_buffers: Vec<wgpu::Buffer>,
     arena: ArenaLayout,
@@ -262,10 +288,6 @@ impl GpuRenderer {
             tree_buffers.push(unused_chunk.clone());
         }
 
-        let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("trace.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(TRACE_WGSL.into()),
-        });
         let layout = bind_group_layout(dev);
         let pipeline_layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("trace"),
@@ -278,8 +300,7 @@ impl GpuRenderer {
             wg_limit: ctx.limits.max_compute_workgroup_storage_size,
             stacks,
         };
-        let pipeline =
-            compute_pipeline(dev, &pipeline_layout, &module, "main", &variant, &placement);
+        let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
         ctx.check()?;
         let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
         let bind_group = bind_group(
@@ -293,7 +314,6 @@ impl GpuRenderer {
             pipeline,
             layout,
             pipeline_layout,
-            module,
             tree_buffers,
             arena,
             placement,
@@ -358,7 +378,6 @@ impl GpuRenderer {
         let pipeline = compute_pipeline(
             dev,
             &self.pipeline_layout,
-            &self.module,
             "cast_rays",
             &self.variant,
             &self.placement,
@@ -419,7 +438,6 @@ impl GpuRenderer {
                 let p = compute_pipeline(
                     &ctx.device,
                     &self.pipeline_layout,
-                    &self.module,
                     "main",
                     &variant,
                     &self.placement,
@@ -585,21 +603,39 @@ pub enum StackPlacement {
     Workgroup,
 }
 
+impl std::str::FromStr for StackPlacement {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "private" => Ok(Self::Private),
+            "workgroup" => Ok(Self::Workgroup),
+            _ => Err(format!(
+                "unknown stack placement '{s}': auto, private or workgroup"
+            )),
+        }
+    }
+}
+
 /// The pipeline of `entry` for `variant` with the renderer's `placement`.
 fn compute_pipeline(
     dev: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
-    module: &wgpu::ShaderModule,
     entry: &str,
     variant: &ShaderVariant,
     placement: &Placement,
 ) -> wgpu::ComputePipeline {
+    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("trace.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(trace_source(variant.ray_stack, placement.depth).into()),
+    });
     let mut constants = variant.constants();
     constants.extend(placement.constants(variant));
     dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(entry),
         layout: Some(layout),
-        module,
+        module: &module,
         entry_point: Some(entry),
         compilation_options: wgpu::PipelineCompilationOptions {
             constants: &constants,

@@ -5,7 +5,7 @@
 //! With `vs_cpu` the CPU reference renders the same frame and the two are compared.
 
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::GpuRenderer;
+use crate::gpu_render::{GpuRenderer, StackPlacement};
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
 use serde::Serialize;
 use std::fmt;
@@ -131,6 +131,8 @@ pub struct HeadlessOptions {
     /// Compile every shader path in and read every channel per leaf
     /// ([`ShaderVariant::everything`]), to measure what the scene's variant saves.
     pub everything: bool,
+    /// Where the traversal's and the ray tracer's stacks live.
+    pub stacks: StackPlacement,
 }
 
 /// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
@@ -169,16 +171,19 @@ pub struct GpuFrame {
     pub variant: ShaderVariant,
     /// Bytes of tree data uploaded.
     pub tree_bytes: u64,
+    /// Whether (the ancestor stack, the ray stack) were in workgroup memory.
+    pub workgroup_stacks: (bool, bool),
 }
 
 /// Renders `scene` on `ctx` with `trace`'s settings: one untimed frame (pipeline compilation
 /// on some drivers), then `frames` timed ones (one when `None`), and reads the last back.
-/// `everything` compiles every shader path in ([`ShaderVariant::everything`]).
+/// `opts.everything` compiles every shader path in ([`ShaderVariant::everything`]);
+/// `opts.stacks` places the stacks (`vs_cpu` is not used here).
 pub fn render_scene(
     ctx: &GpuContext,
     scene: &JobScene,
     trace: &svo::whitted::TraceOptions,
-    everything: bool,
+    opts: &HeadlessOptions,
     frames: Option<u32>,
 ) -> Result<GpuFrame, HeadlessError> {
     let JobScene {
@@ -191,10 +196,18 @@ pub fn render_scene(
     } = scene;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
-    if everything {
+    if opts.everything {
         variant = variant.everything();
     }
-    let renderer = GpuRenderer::new(ctx, tree, variant, camera.width, camera.height)?;
+    let renderer = GpuRenderer::with_options(
+        ctx,
+        tree,
+        variant,
+        camera.width,
+        camera.height,
+        ctx.binding_limit(),
+        opts.stacks,
+    )?;
     let u = uniforms(tree, camera, lights, sky, phong, trace).map_err(RenderJobError::from)?;
     renderer.render(ctx, &u)?;
     let mut times = Vec::new();
@@ -207,6 +220,7 @@ pub fn render_scene(
         times,
         variant,
         tree_bytes: renderer.tree_bytes,
+        workgroup_stacks: renderer.workgroup_stacks(),
     })
 }
 
@@ -225,7 +239,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     // Checks the settings (bench frames, bounces, bias, output path) before loading.
     let scene = prepare(job)?;
     let ctx = GpuContext::new()?;
-    let r = render_scene(&ctx, &scene, &job.trace, opts.everything, job.bench_frames)?;
+    let r = render_scene(&ctx, &scene, &job.trace, opts, job.bench_frames)?;
     let (frame, times, variant, tree_bytes) = (r.frame, r.times, r.variant, r.tree_bytes);
     let startup_ms = (start.elapsed().as_secs_f64() - times.iter().sum::<f64>()) * 1e3;
     let s = frame.stats;
@@ -267,7 +281,12 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     };
     Ok(HeadlessReport {
         adapter: ctx.adapter_name(),
-        variant: variant.describe(),
+        variant: format!(
+            "{}; stacks: ancestors {}, pending rays {}",
+            variant.describe(),
+            stack_place(r.workgroup_stacks.0, u32::from(scene.tree.depth)),
+            stack_place(r.workgroup_stacks.1, variant.ray_stack)
+        ),
         width: scene.camera.width,
         height: scene.camera.height,
         depth: scene.tree.depth,
@@ -284,4 +303,12 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
 
 fn rayon_threads() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}
+
+/// "N (workgroup)" or "N (private)": a stack's entries and where they live, for the report.
+fn stack_place(workgroup: bool, entries: u32) -> String {
+    format!(
+        "{entries} ({})",
+        if workgroup { "workgroup" } else { "private" }
+    )
 }

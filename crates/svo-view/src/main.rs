@@ -46,6 +46,11 @@ struct Args {
     /// not need; the image is the same, the time shows what leaving out saves.
     #[arg(long, requires = "headless")]
     full_shader: bool,
+    /// With --headless: where the traversal's ancestor stack and the ray stack live: auto
+    /// (measured best: ancestors in workgroup memory without bounces), private or
+    /// workgroup. The image is the same.
+    #[arg(long, requires = "headless", default_value = "auto")]
+    stacks: svo_view::gpu_render::StackPlacement,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
     quit_after: Option<u32>,
@@ -135,8 +140,23 @@ struct Args {
     json: bool,
 }
 
+/// `println!` that returns the error instead of panicking, so that a closed pipe
+/// (`svo-view ... | head`) ends the program quietly.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*)?;
+    }};
+}
+
 fn main() {
     if let Err(e) = real_main() {
+        // The reader of stdout went away (`| head`): nothing is wrong with the work.
+        if e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        {
+            return;
+        }
         eprintln!("svo-view: error: {e:#}");
         std::process::exit(1);
     }
@@ -149,7 +169,7 @@ fn real_main() -> anyhow::Result<()> {
             .with_context(|| format!("cannot read {}", args.file.display()))?;
         let (tree, build) = svo::format_read::from_bytes(&bytes)
             .with_context(|| format!("loading {}", args.file.display()))?;
-        println!(
+        say!(
             "{}\n{}",
             args.file.display(),
             svo::describe::describe(&tree, &build, bytes.len() as u64)
@@ -199,13 +219,14 @@ fn real_main() -> anyhow::Result<()> {
         let opts = svo_view::headless::HeadlessOptions {
             vs_cpu: args.vs_cpu,
             everything: args.full_shader,
+            stacks: args.stacks,
         };
         let report = svo_view::headless::run(&job, &opts)
             .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;
         if args.json {
-            println!("{}", serde_json::to_string_pretty(&report)?);
+            say!("{}", serde_json::to_string_pretty(&report)?);
         } else {
-            println!("{report}");
+            say!("{report}");
         }
         return Ok(());
     }
@@ -214,9 +235,9 @@ fn real_main() -> anyhow::Result<()> {
     }
     let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        say!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        println!("{report}");
+        say!("{report}");
     }
     Ok(())
 }
@@ -230,13 +251,16 @@ fn window(args: &Args, job: &RenderJob) -> anyhow::Result<()> {
     let report = svo_view::window::run(job, &opts)
         .with_context(|| format!("showing {}", args.file.display()))?;
     if report.frames > 0 {
-        println!(
+        say!(
             "{}: {} frames, first after {:.0} ms, median {:.2} ms/frame",
-            report.adapter, report.frames, report.startup_ms, report.median_frame_ms
+            report.adapter,
+            report.frames,
+            report.startup_ms,
+            report.median_frame_ms
         );
     }
     for p in &report.screenshots {
-        println!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     Ok(())
 }

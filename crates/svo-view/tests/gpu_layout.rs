@@ -143,3 +143,39 @@ fn shader_constants_name_real_overrides() {
     assert!(names.iter().any(|n| n == "BOUNCES"));
     assert_eq!(names.len(), constants.len() + 1, "overrides {names:?}");
 }
+
+#[test]
+fn stacks_sized_for_the_scene_still_validate() {
+    // The renderer edits the stack sizes into the text (function arrays cannot be sized by
+    // pipeline constants): each size must land, and the result must still validate.
+    for (rays, depth) in [(1, 1), (4, 8), (8, 10), (34, 30)] {
+        let src = svo_view::gpu_render::trace_source(rays, depth);
+        assert!(
+            src.contains(&format!("const RAY_STACK: u32 = {rays}u;"))
+                && src.contains(&format!("const MAX_DEPTH: u32 = {depth}u;")),
+            "sizes {rays}, {depth} not in the source"
+        );
+        let m = parse(&src, "trace.wgsl (sized)");
+        let len = |ty: naga::Handle<naga::Type>| match &m.types[ty].inner {
+            naga::TypeInner::Array {
+                size: naga::ArraySize::Constant(n),
+                ..
+            } => n.get(),
+            other => panic!("not a sized array: {other:?}"),
+        };
+        let tstack = m.global_variables.iter().map(|(_, g)| g);
+        let tstack = tstack.filter(|g| g.name.as_deref() == Some("tstack"));
+        let tstack: Vec<u32> = tstack.map(|g| len(g.ty)).collect();
+        assert_eq!(tstack, [depth], "the ancestor stack");
+        let main = m.entry_points.iter().find(|e| e.name == "main").unwrap();
+        let locals = main.function.local_variables.iter().map(|(_, l)| l);
+        let rstack: Vec<u32> = locals
+            .filter(|l| l.name.as_deref() == Some("stack"))
+            .map(|l| len(l.ty))
+            .collect();
+        assert_eq!(rstack, [rays], "the ray stack");
+        Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&m)
+            .unwrap_or_else(|e| panic!("sized {rays}, {depth}: {}", e.emit_to_string(&src)));
+    }
+}

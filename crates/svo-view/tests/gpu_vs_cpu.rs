@@ -105,7 +105,7 @@ fn same_image(
     let ctx = gpu()?;
     let j = job(trace);
     let s = scene(tree, &j).unwrap();
-    let g = render_scene(&ctx, &s, &trace, false, None).unwrap();
+    let g = render_scene(&ctx, &s, &trace, &Default::default(), None).unwrap();
     let c = cpu_frame(&s, &trace);
     let diff = svo::image_compare::compare(&g.frame, &c).unwrap();
     let n = c.leaf.len();

@@ -60,3 +60,34 @@ fn info_describes_a_file_and_errors_are_one_line() {
         assert!(!err.contains("panicked"));
     }
 }
+
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    // `svo-view file --info | head -1`: the reader has gone before the report is written.
+    let d = tempfile::tempdir().unwrap();
+    let tree = svo::builder::from_cells(
+        svo::RootCube {
+            origin: glam::DVec3::ZERO,
+            side: 1.0,
+        },
+        1,
+        [(glam::UVec3::ZERO, svo::builder::Voxel::default())],
+    )
+    .unwrap();
+    let path = d.path().join("one.svo");
+    svo::format_write::write_file(&tree, &svo::format_header::BuildInfo::default(), &path).unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let o = Command::new(env!("CARGO_BIN_EXE_svo-view"))
+        .args([path.to_str().unwrap(), "--info"])
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.is_empty(),
+        "{:?}: {err}",
+        o.status
+    );
+}

@@ -50,6 +50,23 @@ pub enum RenderJobError {
     /// The thread pool could not be made.
     #[error(transparent)]
     Threads(#[from] ThreadsError),
+    /// Loading a scene file as the reference failed.
+    #[cfg(feature = "scene")]
+    #[error(transparent)]
+    Scene(#[from] crate::scene_file::SceneError),
+}
+
+/// The triangles of `--reference` or `--mesh`: a mesh file, or every object of a scene file
+/// (`.toml`, with the `scene` feature), which is what `svo-bake` voxelizes from it.
+fn load_reference(path: &std::path::Path) -> Result<crate::Mesh, RenderJobError> {
+    #[cfg(feature = "scene")]
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    {
+        return Ok(crate::scene_file::load_scene(path)?.mesh);
+    }
+    Ok(load_mesh(path)?)
 }
 
 /// The deepest tree the renderers trace. Traversal runs in `f32` grid coordinates: up to
@@ -524,11 +541,15 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
                     .into(),
             )
             })?;
-        Some(load_mesh(path)?)
+        Some(load_reference(path)?)
     } else {
         None
     };
-    let reference = job.reference.as_ref().map(|p| load_mesh(p)).transpose()?;
+    let reference = job
+        .reference
+        .as_ref()
+        .map(|p| load_reference(p))
+        .transpose()?;
     if job.compare && reference.is_none() {
         return Err(RenderJobError::Invalid(
             "--compare needs --reference MESH".into(),

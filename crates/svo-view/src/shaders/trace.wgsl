@@ -453,6 +453,11 @@ struct Saved {
 var<workgroup> wg_tstack: array<Saved, WORKGROUP * TSTACK>;
 // The invocation's index in its workgroup (set by the entry points).
 var<private> lane: u32;
+// The traversal's ancestor stack, where WG_TRAVERSE does not put it in workgroup memory.
+// Private (module scope), not a function variable: WGSL zero-initializes both, a function
+// variable at every call of traverse (primary, secondary and shadow rays alike), a private
+// one once per invocation. Traversals never nest, so they can share it.
+var<private> tstack: array<Saved, MAX_DEPTH>;
 
 // What a traversal is for: the closest surface (kind 0), or the light through a shadow
 // ray (kind 1).
@@ -578,7 +583,6 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     var tm = t_planes(r, vec3<u32>(cur.half));
     cur.next = first_child(tm, enter0);
     cur.enter = enter0;
-    var stack: array<Saved, MAX_DEPTH>;    // unused (and dropped) with WG_TRAVERSE
     let cap = select(MAX_DEPTH, TSTACK, WG_TRAVERSE);
     let base = lane * TSTACK;
     var len = 0u;
@@ -593,7 +597,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             if WG_TRAVERSE {
                 sv = wg_tstack[base + len];
             } else {
-                sv = stack[len];
+                sv = tstack[len];
             }
             cur.node = Node(sv.info, sv.first);
             cur.origin = vec3<u32>(sv.ox, sv.oy, sv.oz);
@@ -702,7 +706,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             if WG_TRAVERSE {
                 wg_tstack[base + len] = saved;
             } else {
-                stack[len] = saved;
+                tstack[len] = saved;
             }
             len += 1u;
             cur.node = node_at(idx);

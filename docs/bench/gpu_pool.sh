@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The 2015 thesis's frame-rate table on a GPU (docs/gpu-benchmarks.md): its pool scene
+# (examples/scenes/pool.toml) baked at depths 3-8 and 10, its three views (water, bunny,
+# parallel) at 640x480 and 1920x1200, rendered by `svo-view --headless`.
+#
+# "thesis" runs use the thesis's settings: contours, one reflection and one refraction, no
+# shadow rays (its section 1.7: "a whitted ray tracer without shadow rays"). "stacks" runs
+# repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
+# svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
+# they also compare the frame with the CPU reference tracer (--vs-cpu).
+#
+# Usage: docs/bench/gpu_pool.sh BIN_DIR POOL.toml [FRAMES]
+#   BIN_DIR holds release builds of svo-bake and svo-view; POOL.toml is the scene file (its
+#   bunny path must resolve from where the file is). Prints each run's report.
+# Vulkan on a container without a loader: see gpu_bench.sh.
+set -euo pipefail
+bin=$1; scene=$2; frames=${3:-50}
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+depths="3 4 5 6 7 8 10"
+for d in $depths; do
+  "$bin/svo-bake" "$scene" --depth $d -o "$work/pool$d.svo" -q
+done
+view() { echo "=== $*"; "$bin/svo-view" "$@" --headless --bench "$frames" | grep -v '^wrote'; }
+for d in $depths; do
+  for v in water bunny parallel; do
+    for size in 640x480 1920x1200; do
+      echo "--- thesis depth $d view $v size $size"
+      view "$work/pool$d.svo" --view $v --size $size --bounces 1 --shadows none
+    done
+  done
+done
+for v in water bunny parallel; do
+  for st in private workgroup; do
+    echo "--- stacks $st depth 8 view $v size 1920x1200"
+    view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none --stacks $st
+  done
+done
+for d in 8 10; do
+  for v in water bunny parallel; do
+    echo "--- full depth $d view $v size 1920x1200"
+    if [ $d = 8 ]; then
+      view "$work/pool$d.svo" --view $v --size 1920x1200 --vs-cpu
+    else
+      view "$work/pool$d.svo" --view $v --size 1920x1200
+    fi
+  done
+done
