@@ -269,10 +269,13 @@ impl<S: Surfaces> Tracer<S> {
     /// its first hit, from the render's prepass; secondary rays are not affected).
     pub fn trace_from(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
         // A depth-first ray stack holds at most one pending ray per bounce plus two; a
-        // stack sized for the limits keeps its initialization small.
-        if usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions) + 2
-            <= SMALL_STACK
-        {
+        // stack sized for the limits keeps its initialization small (without bounces it is
+        // the primary ray alone).
+        let bounces =
+            usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions);
+        if bounces == 0 {
+            self.trace_with::<1>(origin, dir, tmin)
+        } else if bounces + 2 <= SMALL_STACK {
             self.trace_with::<SMALL_STACK>(origin, dir, tmin)
         } else {
             self.trace_with::<STACK>(origin, dir, tmin)
