@@ -18,6 +18,22 @@ fn view(args: &[&str]) -> std::process::Output {
         .expect("run svo-view")
 }
 
+/// The PSNR (dB) of the `--compare` line in a report.
+fn psnr_of(report: &str) -> f64 {
+    let line = report
+        .lines()
+        .find(|l| l.contains("PSNR"))
+        .unwrap_or_else(|| panic!("no PSNR in {report}"));
+    let v = line
+        .split("PSNR ")
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .next()
+        .unwrap();
+    v.parse().unwrap()
+}
+
 fn ok(o: &std::process::Output) -> String {
     assert!(
         o.status.success(),
@@ -156,20 +172,7 @@ fn compare_with_the_triangle_reference_and_bench() {
             "--size",
             "64x48",
         ]));
-        let line = out
-            .lines()
-            .find(|l| l.contains("PSNR"))
-            .unwrap_or_else(|| panic!("{out}"));
-        let v: f64 = line
-            .split("PSNR ")
-            .nth(1)
-            .unwrap()
-            .split(' ')
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        psnr.push(v);
+        psnr.push(psnr_of(&out));
     }
     // Contours beat cubes, exact triangles beat contours.
     assert!(psnr[0] < psnr[1] && psnr[1] < psnr[2], "{psnr:?}");
@@ -417,18 +420,8 @@ fn a_scene_file_is_a_triangle_reference() {
         "--size",
         "64x48",
     ]));
-    let line = out.lines().find(|l| l.contains("PSNR")).unwrap();
-    let psnr: f64 = line
-        .split("PSNR ")
-        .nth(1)
-        .unwrap()
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
     // Measured 38.6 dB at this size; another scene's triangles (the pool) give 6.9 dB.
-    assert!(psnr > 35.0, "{line}");
+    assert!(psnr_of(&out) > 35.0, "{out}");
     // A scene file that does not parse: one line, naming the file.
     let bad = d.path().join("bad.toml");
     std::fs::write(&bad, "[[box]]\nmin = [0.0, 0.0]\n").unwrap();
