@@ -48,8 +48,48 @@ pub fn trace_source(ray_stack: u32, depth: u32) -> String {
         )
 }
 
-/// Threads per workgroup side (`@workgroup_size(8, 8, 1)` in the shader).
-const WORKGROUP: u32 = 8;
+/// How the renderer lays its work out on the device: the defaults suit every adapter; the
+/// others are for tests and measurements.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuLayout {
+    /// The most bytes of one arena chunk (binding); `None`: the adapter's limit.
+    pub chunk_limit: Option<u64>,
+    /// Where the traversal's and the ray tracer's stacks live.
+    pub stacks: StackPlacement,
+    /// The render's workgroup, pixels across and down (`WG_X`, `WG_Y` in the shader);
+    /// `None`: chosen per shader variant (see [`AUTO_WIDE`]).
+    pub workgroup: Option<[u32; 2]>,
+}
+
+/// The workgroup of variants without bounces where the adapter allows 256 invocations:
+/// measured on the H100 (docs/gpu-benchmarks.md), 16x16 with private ancestor stacks
+/// renders the bunny 1.2-1.4x faster than 8x8 with the ancestors in workgroup memory (the
+/// best before the private stacks were sized and moved to module scope), while bouncing
+/// variants are fastest at 8x8 ([`AUTO_NARROW`]).
+pub const AUTO_WIDE: [u32; 2] = [16, 16];
+/// The workgroup of every other variant.
+pub const AUTO_NARROW: [u32; 2] = [8, 8];
+
+impl Default for GpuLayout {
+    fn default() -> Self {
+        Self {
+            chunk_limit: None,
+            stacks: StackPlacement::Auto,
+            workgroup: None,
+        }
+    }
+}
+
+/// Parses a workgroup shape `XxY` (at most 256 invocations, at least 1 a side).
+pub fn parse_workgroup(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("workgroup '{s}': expected WIDTHxHEIGHT, at most 256 invocations");
+    let (x, y) = s.split_once('x').ok_or_else(bad)?;
+    let (x, y): (u32, u32) = (x.parse().map_err(|_| bad())?, y.parse().map_err(|_| bad())?);
+    if x == 0 || y == 0 || x.saturating_mul(y) > 256 {
+        return Err(bad());
+    }
+    Ok([x, y])
+}
 
 /// The most bindings the arena is split over (`arena0` to `arena3` in the shader).
 pub const MAX_ARENA_CHUNKS: usize = 4;
@@ -231,29 +271,24 @@ impl GpuRenderer {
         width: u32,
         height: u32,
     ) -> Result<Self, GpuError> {
-        Self::with_options(
-            ctx,
-            tree,
-            variant,
-            width,
-            height,
-            ctx.binding_limit(),
-            StackPlacement::Auto,
-        )
+        Self::with_options(ctx, tree, variant, width, height, &GpuLayout::default())
     }
 
-    /// [`Self::new`] with arena chunks of at most `chunk_limit` bytes (the adapter's limit,
-    /// or less to test the split) and the stacks placed as `stacks` says.
+    /// [`Self::new`] laid out as `gpu_layout` says: arena chunks of at most its `chunk_limit`
+    /// bytes (the adapter's limit, or less to test the split), the stacks placed as its
+    /// `stacks` says, its workgroup shape.
     pub fn with_options(
         ctx: &GpuContext,
         tree: &Octree,
         variant: ShaderVariant,
         width: u32,
         height: u32,
-        chunk_limit: u64,
-        stacks: StackPlacement,
+        gpu_layout: &GpuLayout,
     ) -> Result<Self, GpuError> {
         let dev = &ctx.device;
+        let chunk_limit = gpu_layout
+            .chunk_limit
+            .unwrap_or_else(|| ctx.binding_limit());
         if tree.nodes.is_empty() {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
         }
@@ -297,8 +332,14 @@ impl GpuRenderer {
         let placement = Placement {
             chunks: arena.chunks,
             depth: u32::from(tree.depth),
-            wg_limit: ctx.limits.max_compute_workgroup_storage_size,
-            stacks,
+            wide_allowed: {
+                let l = &ctx.limits;
+                l.max_compute_invocations_per_workgroup >= AUTO_WIDE[0] * AUTO_WIDE[1]
+                    && l.max_compute_workgroup_size_x >= AUTO_WIDE[0]
+                    && l.max_compute_workgroup_size_y >= AUTO_WIDE[1]
+            },
+            stacks: gpu_layout.stacks,
+            workgroup: gpu_layout.workgroup,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
         ctx.check()?;
@@ -339,6 +380,11 @@ impl GpuRenderer {
     /// memory.
     pub fn workgroup_stacks(&self) -> (bool, bool) {
         self.placement.decide(&self.variant)
+    }
+
+    /// The current variant's workgroup, pixels across and down.
+    pub fn workgroup(&self) -> [u32; 2] {
+        self.placement.workgroup(&self.variant)
     }
 
     /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
@@ -490,11 +536,8 @@ impl GpuRenderer {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.dispatch_workgroups(
-            self.width.div_ceil(WORKGROUP),
-            self.height.div_ceil(WORKGROUP),
-            1,
-        );
+        let [wx, wy] = self.placement.workgroup(&self.variant);
+        pass.dispatch_workgroups(self.width.div_ceil(wx), self.height.div_ceil(wy), 1);
     }
 
     /// Writes the uniforms of the next frame (with the arena's offsets, which only the
@@ -547,28 +590,36 @@ impl GpuRenderer {
 struct Placement {
     chunks: u32,
     depth: u32,
-    /// The adapter's workgroup memory, bytes.
-    wg_limit: u32,
+    /// Whether the adapter allows [`AUTO_WIDE`] workgroups.
+    wide_allowed: bool,
     stacks: StackPlacement,
+    /// The render's workgroup shape, if given.
+    workgroup: Option<[u32; 2]>,
 }
 
-/// Bytes of workgroup memory per invocation and ancestor entry.
-const SAVED_BYTES: u32 = 28;
-/// Invocations per workgroup.
-const WORKGROUP_INVOCATIONS: u32 = 64;
-
 impl Placement {
+    /// The render's workgroup for `variant`: the given one, or [`AUTO_WIDE`] for variants
+    /// without bounces where the adapter allows it, else [`AUTO_NARROW`].
+    fn workgroup(&self, variant: &ShaderVariant) -> [u32; 2] {
+        if let Some(w) = self.workgroup {
+            return w;
+        }
+        if !variant.reflections && self.wide_allowed {
+            AUTO_WIDE
+        } else {
+            AUTO_NARROW
+        }
+    }
+
     /// `(ancestors in workgroup memory, pending rays in workgroup memory)` for `variant`.
     fn decide(&self, variant: &ShaderVariant) -> (bool, bool) {
-        let t = WORKGROUP_INVOCATIONS * self.depth.max(1) * SAVED_BYTES;
         match self.stacks {
-            StackPlacement::Private => (false, false),
+            // Measured on the H100 (docs/gpu-benchmarks.md): with the private stacks sized
+            // for the scene and the ancestors zeroed once per pixel, private beats workgroup
+            // memory everywhere (1.2-1.4x without bounces, at the wider workgroup; 2.7-4.3x
+            // with bounces, where the shared memory lets fewer workgroups run at once).
+            StackPlacement::Auto | StackPlacement::Private => (false, false),
             StackPlacement::Workgroup => (true, variant.reflections),
-            // Measured on the H100 (docs/gpu-benchmarks.md): the ancestor stack in
-            // workgroup memory makes frames without bounces up to 1.7x faster, but costs
-            // bouncing (glass) frames 1.5x, and the ray stack there 2.7x: the shared memory
-            // they take lets fewer of those heavier workgroups run at once.
-            StackPlacement::Auto => (t <= self.wg_limit && !variant.reflections, false),
         }
     }
 
@@ -583,6 +634,8 @@ impl Placement {
             ("TSTACK", entries(wt, self.depth)),
             ("WG_RAYS", flag(wr)),
             ("RSTACK", entries(wr, variant.ray_stack)),
+            ("WG_X", f64::from(self.workgroup(variant)[0])),
+            ("WG_Y", f64::from(self.workgroup(variant)[1])),
         ]
     }
 }
@@ -593,8 +646,8 @@ impl Placement {
 /// tree's depth and the bounce limits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StackPlacement {
-    /// The ancestor stack in workgroup memory for variants without bounces where the
-    /// adapter's limit allows; everything else private.
+    /// What measured fastest (docs/gpu-benchmarks.md): private, now that the private
+    /// stacks are sized for the scene.
     #[default]
     Auto,
     /// Private (function) memory.

@@ -5,7 +5,7 @@
 //! With `vs_cpu` the CPU reference renders the same frame and the two are compared.
 
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::{GpuRenderer, StackPlacement};
+use crate::gpu_render::{GpuLayout, GpuRenderer};
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
 use serde::Serialize;
 use std::fmt;
@@ -131,8 +131,8 @@ pub struct HeadlessOptions {
     /// Compile every shader path in and read every channel per leaf
     /// ([`ShaderVariant::everything`]), to measure what the scene's variant saves.
     pub everything: bool,
-    /// Where the traversal's and the ray tracer's stacks live.
-    pub stacks: StackPlacement,
+    /// Where the stacks live and the workgroup shape (the chunk limit is the adapter's).
+    pub layout: GpuLayout,
 }
 
 /// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
@@ -173,12 +173,14 @@ pub struct GpuFrame {
     pub tree_bytes: u64,
     /// Whether (the ancestor stack, the ray stack) were in workgroup memory.
     pub workgroup_stacks: (bool, bool),
+    /// The workgroup, pixels across and down.
+    pub workgroup: [u32; 2],
 }
 
 /// Renders `scene` on `ctx` with `trace`'s settings: one untimed frame (pipeline compilation
 /// on some drivers), then `frames` timed ones (one when `None`), and reads the last back.
 /// `opts.everything` compiles every shader path in ([`ShaderVariant::everything`]);
-/// `opts.stacks` places the stacks (`vs_cpu` is not used here).
+/// `opts.layout` lays the work out (`vs_cpu` is not used here).
 pub fn render_scene(
     ctx: &GpuContext,
     scene: &JobScene,
@@ -205,8 +207,7 @@ pub fn render_scene(
         variant,
         camera.width,
         camera.height,
-        ctx.binding_limit(),
-        opts.stacks,
+        &opts.layout,
     )?;
     let u = uniforms(tree, camera, lights, sky, phong, trace).map_err(RenderJobError::from)?;
     renderer.render(ctx, &u)?;
@@ -221,6 +222,7 @@ pub fn render_scene(
         variant,
         tree_bytes: renderer.tree_bytes,
         workgroup_stacks: renderer.workgroup_stacks(),
+        workgroup: renderer.workgroup(),
     })
 }
 
@@ -282,10 +284,12 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     Ok(HeadlessReport {
         adapter: ctx.adapter_name(),
         variant: format!(
-            "{}; stacks: ancestors {}, pending rays {}",
+            "{}; stacks: ancestors {}, pending rays {}; workgroup {}x{}",
             variant.describe(),
             stack_place(r.workgroup_stacks.0, u32::from(scene.tree.depth)),
-            stack_place(r.workgroup_stacks.1, variant.ray_stack)
+            stack_place(r.workgroup_stacks.1, variant.ray_stack),
+            r.workgroup[0],
+            r.workgroup[1]
         ),
         width: scene.camera.width,
         height: scene.camera.height,

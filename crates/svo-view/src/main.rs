@@ -47,10 +47,14 @@ struct Args {
     #[arg(long, requires = "headless")]
     full_shader: bool,
     /// With --headless: where the traversal's ancestor stack and the ray stack live: auto
-    /// (measured best: ancestors in workgroup memory without bounces), private or
-    /// workgroup. The image is the same.
+    /// (what measured best: private), private or workgroup. The image is the same.
     #[arg(long, requires = "headless", default_value = "auto")]
     stacks: svo_view::gpu_render::StackPlacement,
+    /// With --headless: the workgroup shape, WIDTHxHEIGHT pixels (at most 256), for
+    /// measuring; the image is the same. Default: 16x16 for shaders without bounces (where
+    /// the adapter allows 256 invocations), else 8x8.
+    #[arg(long, requires = "headless", value_parser = svo_view::gpu_render::parse_workgroup)]
+    workgroup: Option<[u32; 2]>,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
     quit_after: Option<u32>,
@@ -219,7 +223,11 @@ fn real_main() -> anyhow::Result<()> {
         let opts = svo_view::headless::HeadlessOptions {
             vs_cpu: args.vs_cpu,
             everything: args.full_shader,
-            stacks: args.stacks,
+            layout: svo_view::gpu_render::GpuLayout {
+                stacks: args.stacks,
+                workgroup: args.workgroup,
+                ..Default::default()
+            },
         };
         let report = svo_view::headless::run(&job, &opts)
             .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;

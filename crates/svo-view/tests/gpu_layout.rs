@@ -129,9 +129,18 @@ fn shader_constants_name_real_overrides() {
             1,
         ),
     );
-    // The renderer adds the arena's chunk count; BOUNCES is derived in the shader.
+    // The renderer adds the arena's chunk count, the stacks' placement and the workgroup
+    // shape; BOUNCES and WORKGROUP are derived in the shader.
     let mut constants = v.constants();
-    for c in ["ARENA_CHUNKS", "WG_TRAVERSE", "TSTACK", "WG_RAYS", "RSTACK"] {
+    for c in [
+        "ARENA_CHUNKS",
+        "WG_TRAVERSE",
+        "TSTACK",
+        "WG_RAYS",
+        "RSTACK",
+        "WG_X",
+        "WG_Y",
+    ] {
         constants.push((c, 1.0));
     }
     for (c, _) in &constants {
@@ -140,8 +149,8 @@ fn shader_constants_name_real_overrides() {
             "{c} is not an override in trace.wgsl"
         );
     }
-    assert!(names.iter().any(|n| n == "BOUNCES"));
-    assert_eq!(names.len(), constants.len() + 1, "overrides {names:?}");
+    assert!(names.iter().any(|n| n == "BOUNCES") && names.iter().any(|n| n == "WORKGROUP"));
+    assert_eq!(names.len(), constants.len() + 2, "overrides {names:?}");
 }
 
 #[test]

@@ -22,7 +22,7 @@ use svo::render_job::{JobScene, RenderJob, scene};
 use svo::surfaces::OctreeSurfaces;
 use svo::whitted::{ShadowMode, TraceOptions, Tracer};
 use svo_view::gpu_context::GpuContext;
-use svo_view::gpu_render::{GpuRenderer, StackPlacement};
+use svo_view::gpu_render::{GpuLayout, GpuRenderer, StackPlacement};
 use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
 use svo_view::headless::render_scene;
 
@@ -502,8 +502,10 @@ fn a_tree_split_over_bindings_renders_the_same() {
         variant,
         s.camera.width,
         s.camera.height,
-        bytes / 3,
-        StackPlacement::Auto,
+        &GpuLayout {
+            chunk_limit: Some(bytes / 3),
+            ..GpuLayout::default()
+        },
     )
     .unwrap();
     assert!(split.arena_chunks() >= 3, "{} chunks", split.arena_chunks());
@@ -521,8 +523,10 @@ fn a_tree_split_over_bindings_renders_the_same() {
         variant,
         8,
         8,
-        bytes / 8,
-        StackPlacement::Auto,
+        &GpuLayout {
+            chunk_limit: Some(bytes / 8),
+            ..GpuLayout::default()
+        },
     )
     .err()
     .expect("refused");
@@ -538,7 +542,7 @@ fn render_with(ctx: &GpuContext, s: &JobScene, trace: &TraceOptions, r: &GpuRend
 }
 
 #[test]
-fn stacks_in_private_or_workgroup_memory_render_the_same() {
+fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() {
     let Some(ctx) = gpu() else {
         return;
     };
@@ -552,15 +556,28 @@ fn stacks_in_private_or_workgroup_memory_render_the_same() {
     let c = cpu_frame(&s, &trace);
     let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
     assert_eq!(variant.ray_stack, 5);
-    for stacks in [StackPlacement::Private, StackPlacement::Workgroup] {
+    // Workgroups smaller and larger than the default 8x8 (the workgroup stacks are sized
+    // for the larger of the render's and the batch entry's 64 invocations), and ones that
+    // do not divide the image.
+    for (stacks, workgroup) in [
+        (StackPlacement::Private, [8, 8]),
+        (StackPlacement::Workgroup, [8, 8]),
+        (StackPlacement::Workgroup, [4, 4]),
+        (StackPlacement::Workgroup, [16, 8]),
+        (StackPlacement::Private, [32, 2]),
+        (StackPlacement::Private, [5, 3]),
+    ] {
         let r = GpuRenderer::with_options(
             &ctx,
             &s.tree,
             variant,
             s.camera.width,
             s.camera.height,
-            u64::MAX,
-            stacks,
+            &GpuLayout {
+                chunk_limit: Some(u64::MAX),
+                stacks,
+                workgroup: Some(workgroup),
+            },
         )
         .unwrap();
         let expect = if stacks == StackPlacement::Private {
@@ -571,7 +588,10 @@ fn stacks_in_private_or_workgroup_memory_render_the_same() {
         assert_eq!(r.workgroup_stacks(), expect);
         let g = render_with(&ctx, &s, &trace, &r);
         let diff = svo::image_compare::compare(&g, &c).unwrap();
-        eprintln!("{stacks:?}: RMSE {:.3}, max {}", diff.rmse, diff.max_abs);
+        eprintln!(
+            "{stacks:?} {workgroup:?}: RMSE {:.3}, max {}",
+            diff.rmse, diff.max_abs
+        );
         assert_eq!(diff.hit_mismatch, 0.0);
         assert!(diff.rmse <= 2.0, "{stacks:?}: RMSE {}", diff.rmse);
         assert!(g.stats.secondary_rays > 0);

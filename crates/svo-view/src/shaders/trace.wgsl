@@ -42,7 +42,11 @@ override ARENA_CHUNKS: u32 = 1u;
 const MAX_LIGHTS: u32 = 16u;
 const MAX_DEPTH: u32 = 30u;
 const RAY_STACK: u32 = 34u;           // 2 * MAX_BOUNCES + 2, as whitted.rs
-const WORKGROUP: u32 = 64u;
+// The render's workgroup shape (pixels), and the invocations of the largest workgroup (the
+// render's or cast_rays's 64), which size the workgroup stacks.
+override WG_X: u32 = 8u;
+override WG_Y: u32 = 8u;
+override WORKGROUP: u32 = max(WG_X * WG_Y, 64u);
 const TINY: f32 = 8.673617e-19;       // 2^-60, grid_ray::TINY
 const DONE: u32 = 8u;
 const NO_SKIP: u32 = 0xffffffffu;
@@ -878,7 +882,7 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, b
     return normalize(eta * d + (eta * cos_i - sqrt(k)) * n);
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(WG_X, WG_Y, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         @builtin(local_invocation_index) lidx: u32) {
     lane = lidx;
