@@ -20,10 +20,10 @@ override MEDIA: bool = false;         // transparent leaves without normals (vol
 override INTERIOR: bool = false;      // interior leaves of a solid bake (passed through)
 // Whether rays spawn rays: without, the ray stack is never touched and compiles away.
 override BOUNCES: bool = REFLECTIONS || REFRACTIONS;
-// Where the stacks live. WGSL zero-initializes function variables, so a private stack costs
-// its whole size in stores for every ray; workgroup memory is not initialized (the pipeline
-// turns that off) and is sized here for the tree and the bounce limits: each of the 64
-// invocations of a workgroup owns TSTACK ancestor entries and RSTACK pending rays.
+// Where the stacks live. WGSL zero-initializes private stacks (the renderer sizes them for
+// the scene, see MAX_DEPTH and RAY_STACK); workgroup memory is not initialized (the pipeline
+// turns that off) and is sized here for the tree and the bounce limits: each of the
+// WORKGROUP invocations of a workgroup owns TSTACK ancestor entries and RSTACK pending rays.
 override WG_TRAVERSE: bool = false;
 override TSTACK: u32 = 1u;
 override WG_RAYS: bool = false;
@@ -40,8 +40,11 @@ override IOR_CH: u32 = 1u;
 override ARENA_CHUNKS: u32 = 1u;
 
 const MAX_LIGHTS: u32 = 16u;
+// The private stacks' sizes: the most the shader allows (RAY_STACK: 2 * MAX_BOUNCES + 2, as
+// whitted.rs). The renderer edits both lines to the scene's sizes before compiling
+// (gpu_render::trace_source), since function arrays cannot be sized by pipeline constants.
 const MAX_DEPTH: u32 = 30u;
-const RAY_STACK: u32 = 34u;           // 2 * MAX_BOUNCES + 2, as whitted.rs
+const RAY_STACK: u32 = 34u;
 // The render's workgroup shape (pixels), and the invocations of the largest workgroup (the
 // render's or cast_rays's 64), which size the workgroup stacks.
 override WG_X: u32 = 8u;
