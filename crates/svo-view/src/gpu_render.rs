@@ -625,6 +625,7 @@ impl Placement {
 
     fn constants(&self, variant: &ShaderVariant) -> Vec<(&'static str, f64)> {
         let (wt, wr) = self.decide(variant);
+        let [wx, wy] = self.workgroup(variant);
         // Flags, and entries per invocation (one where the stack is not there).
         let flag = |on: bool| f64::from(u8::from(on));
         let entries = |on: bool, n: u32| if on { f64::from(n.max(1)) } else { 1.0 };
@@ -634,8 +635,8 @@ impl Placement {
             ("TSTACK", entries(wt, self.depth)),
             ("WG_RAYS", flag(wr)),
             ("RSTACK", entries(wr, variant.ray_stack)),
-            ("WG_X", f64::from(self.workgroup(variant)[0])),
-            ("WG_Y", f64::from(self.workgroup(variant)[1])),
+            ("WG_X", f64::from(wx)),
+            ("WG_Y", f64::from(wy)),
         ]
     }
 }

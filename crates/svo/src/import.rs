@@ -26,6 +26,13 @@ pub enum MeshFormat {
     Gltf,
 }
 
+/// Whether `path` names a scene file (`.toml`, read by [`crate::scene_file`] with the
+/// `scene` feature) rather than a mesh.
+pub fn is_scene_file(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+}
+
 impl MeshFormat {
     /// The format a file name's extension names, if any.
     pub fn from_path(path: &Path) -> Option<Self> {

@@ -7,7 +7,7 @@ use crate::export_binvox::{ExportError, write_binvox};
 use crate::format_header::BuildInfo;
 use crate::format_read::read_file;
 use crate::format_write::{FormatError, write_file};
-use crate::import::{MeshFormat, load_mesh};
+use crate::import::{MeshFormat, is_scene_file, load_mesh};
 use crate::mesh::MeshError;
 use crate::octree::Octree;
 use crate::scene_info::SceneInfo;
@@ -162,10 +162,7 @@ pub fn run(
         .input
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("svo"));
-    let is_scene = job
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let is_scene = is_scene_file(&job.input);
     if is_scene && cfg!(not(feature = "scene")) {
         return Err(PipelineError::SceneUnavailable(
             job.input.display().to_string(),

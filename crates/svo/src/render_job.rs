@@ -60,10 +60,7 @@ pub enum RenderJobError {
 /// (`.toml`, with the `scene` feature), which is what `svo-bake` voxelizes from it.
 fn load_reference(path: &std::path::Path) -> Result<crate::Mesh, RenderJobError> {
     #[cfg(feature = "scene")]
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-    {
+    if crate::import::is_scene_file(path) {
         return Ok(crate::scene_file::load_scene(path)?.mesh);
     }
     Ok(load_mesh(path)?)
