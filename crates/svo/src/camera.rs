@@ -142,6 +142,17 @@ impl CameraRays {
         self.eye
     }
 
+    /// The image plane's half extent at distance 1 along the view direction: `tan(fov / 2)`
+    /// times the aspect ratio, and `tan(fov / 2)`.
+    pub fn half_extent(&self) -> glam::DVec2 {
+        glam::DVec2::new(self.tan_half * self.aspect, self.tan_half)
+    }
+
+    /// The image size, width and height in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
     /// The unit view direction.
     pub fn forward(&self) -> DVec3 {
         self.forward

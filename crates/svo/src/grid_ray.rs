@@ -117,11 +117,24 @@ impl MirroredRay {
     /// empty or NaN).
     #[inline]
     pub fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
+        self.node_entry(UVec3::ZERO, self.n, tmin, tmax)
+    }
+
+    /// [`Self::root_entry`] for the node whose mirrored minimum cell is `origin` and whose
+    /// side is `side` cells.
+    #[inline]
+    pub fn node_entry(
+        &self,
+        origin: UVec3,
+        side: u32,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(Vec3A, Vec3A, f32)> {
         if !(tmin <= tmax) {
             return None;
         }
-        let t0 = self.t_planes(UVec3::ZERO);
-        let t1 = self.t_planes(UVec3::splat(self.n));
+        let t0 = self.t_planes(origin);
+        let t1 = self.t_planes(origin + UVec3::splat(side));
         let enter = t0.max_element().max(tmin);
         (enter <= t1.min_element().min(tmax)).then_some((t0, t1, enter))
     }

@@ -64,6 +64,10 @@ pub mod octree_scatter;
 pub mod octree_traverse;
 pub mod octree_validate;
 pub mod overlap;
+#[cfg(feature = "trace")]
+pub mod primary_cast;
+#[cfg(feature = "trace")]
+mod primary_prepass;
 pub mod primitives;
 #[cfg(feature = "trace")]
 pub mod render;

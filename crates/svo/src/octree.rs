@@ -332,40 +332,48 @@ impl Octree {
         }
     }
 
-    /// The occupied nodes at `level` (0 = the root; at most the depth, where they are the
-    /// leaves), as `(minimum cell, side in cells)` at leaf resolution.
-    pub fn occupied_nodes(&self, level: u8) -> Vec<(UVec3, u32)> {
-        let level = level.min(self.depth);
-        let side = |l: u8| 1u32 << (self.depth - l);
+    /// The nodes at `level` (0 = the root; below the depth, where the leaves are), as
+    /// `(node index, minimum cell, side in cells)` at leaf resolution, in depth-first order;
+    /// `None` when there are more than `cap`.
+    pub fn nodes_at_level(&self, level: u8, cap: usize) -> Option<Vec<(u32, UVec3, u32)>> {
         let mut out = Vec::new();
+        if level >= self.depth {
+            return Some(out);
+        }
+        let side = |l: u8| 1u32 << (self.depth - l);
         let Some(root) = self.nodes.first() else {
-            return out;
+            return Some(out);
         };
         if root.child_mask() == 0 {
-            return out;
-        }
-        if level == 0 {
-            out.push((UVec3::ZERO, side(0)));
-            return out;
+            return Some(out);
         }
         let mut stack = vec![(0u32, 0u8, UVec3::ZERO)];
         while let Some((idx, l, origin)) = stack.pop() {
+            if l == level {
+                if out.len() == cap {
+                    return None;
+                }
+                out.push((idx, origin, side(l)));
+                continue;
+            }
             let Some(&node) = self.nodes.get(idx as usize) else {
                 continue;
             };
+            if node.is_leaf_parent() {
+                continue;
+            }
             let child_side = side(l + 1);
             let mask = node.child_mask();
+            // Pushed last child first, so they come off the stack in order.
+            let at = stack.len();
             for (rank, i) in (0u32..).zip((0..8u8).filter(|i| mask >> i & 1 == 1)) {
                 let o =
                     origin + UVec3::from_array(crate::child_classify::child_offset(i)) * child_side;
-                if l + 1 == level {
-                    out.push((o, child_side));
-                } else if !node.is_leaf_parent() {
-                    stack.push((node.first + rank, l + 1, o));
-                }
+                stack.push((node.first + rank, l + 1, o));
             }
+            stack[at..].reverse();
         }
-        out
+        Some(out)
     }
 
     /// The leaf at integer cell `cell`, if there is one.

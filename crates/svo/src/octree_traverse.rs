@@ -150,48 +150,141 @@ pub fn traverse<T>(
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Traversal<T> {
+    // Only a walk from a node can be refused.
+    traverse_from(tree, ray, None, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
+        hit: None,
+        steps: 0,
+        capped: false,
+    })
+}
+
+/// An inner node to start a traversal at: its index in the node array, its minimum cell
+/// and its side in cells (a power of two, at least 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StartNode {
+    /// Index into the node array.
+    pub index: u32,
+    /// Minimum cell (real, not mirrored).
+    pub origin: UVec3,
+    /// Side in cells.
+    pub side: u32,
+}
+
+/// [`traverse`] within one inner node's cube: the leaves of `start`'s subtree that the ray
+/// passes through, front to back, with the same entries (parameters, cells, normals) as a
+/// traversal from the root would give them for the same `tmin`. A node that does not fit
+/// the tree is not traversed (no leaves). `None` when the ray only touches the node's cube
+/// at a point (an edge or a corner): a walk from the root crosses such points into the
+/// diagonal neighbour without handing over the cells it touches, except where it starts
+/// (at `tmin`, or where it only touches the root), so only that walk knows.
+pub fn traverse_node<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    start: StartNode,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Option<Traversal<T>> {
+    traverse_from(tree, ray, Some(start), tmin, tmax, max_steps, on_leaf)
+}
+
+fn traverse_from<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    start: Option<StartNode>,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Option<Traversal<T>> {
     // The stack holds one frame per level above the leaves; a stack sized for the tree
     // keeps its initialization (a `memset` per ray) small.
-    if tree.depth <= 12 {
-        traverse_with::<12, T>(tree, ray, tmin, tmax, max_steps, on_leaf)
+    let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
+    if levels <= 4 {
+        traverse_with::<4, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    } else if levels <= 12 {
+        traverse_with::<12, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     } else {
-        traverse_with::<32, T>(tree, ray, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<32, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     }
 }
 
 fn traverse_with<const STACK: usize, T>(
     tree: &Octree,
     ray: &GridRay,
+    start: Option<StartNode>,
     tmin: f32,
     tmax: f32,
     max_steps: u32,
     mut on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
-) -> Traversal<T> {
+) -> Option<Traversal<T>> {
     let mut out = Traversal {
         hit: None,
         steps: 0,
         capped: false,
     };
     let depth = usize::from(tree.depth);
-    let Some(root) = tree.nodes.first().copied() else {
-        return out;
-    };
-    if root.child_mask() == 0 || depth == 0 || depth > 31 {
-        return out;
+    if depth == 0 || depth > 31 {
+        return Some(out);
     }
     let n = 1u32 << depth;
+    let (node, origin, side) = match start {
+        None => match tree.nodes.first() {
+            Some(&root) => (root, UVec3::ZERO, n),
+            None => return Some(out),
+        },
+        Some(s) => {
+            let fits = s.side >= 2
+                && s.side.is_power_of_two()
+                && s.side <= n
+                && (s.origin % s.side) == UVec3::ZERO
+                && s.origin.max_element() < n;
+            match tree.nodes.get(s.index as usize) {
+                Some(&node) if fits && node.is_leaf_parent() == (s.side == 2) => {
+                    (node, s.origin, s.side)
+                }
+                _ => return Some(out),
+            }
+        }
+    };
+    if node.child_mask() == 0 {
+        return Some(out);
+    }
     let Some(r) = MirroredRay::new(ray, n) else {
-        return out;
+        return Some(out);
     };
-    let Some((t0, t1, enter)) = r.root_entry(tmin, tmax) else {
-        return out;
+    // The node's minimum corner in mirrored cells.
+    let origin = UVec3::new(
+        if r.mask & 4 != 0 {
+            n - origin.x - side
+        } else {
+            origin.x
+        },
+        if r.mask & 2 != 0 {
+            n - origin.y - side
+        } else {
+            origin.y
+        },
+        if r.mask & 1 != 0 {
+            n - origin.z - side
+        } else {
+            origin.z
+        },
+    );
+    let Some((t0, t1, enter)) = r.node_entry(origin, side, tmin, tmax) else {
+        return Some(out);
     };
-    let half = n / 2;
-    let tm = r.t_planes(UVec3::splat(half));
+    if start.is_some() && enter >= t1.min_element() {
+        // The ray only touches the node's cube.
+        return None;
+    }
+    let half = side / 2;
+    let tm = r.t_planes(origin + UVec3::splat(half));
     // The current node lives in locals (registers); the stack holds its ancestors.
     let mut cur = Frame {
-        node: root,
-        origin: UVec3::ZERO,
+        node,
+        origin,
         half,
         t0,
         tm,
@@ -222,7 +315,7 @@ fn traverse_with<const STACK: usize, T>(
         out.steps += 1;
         if out.steps > max_steps {
             out.capped = true;
-            return out;
+            return Some(out);
         }
         // Most children of a sparse tree are absent: test that before anything else.
         let real = c ^ mask;
@@ -232,7 +325,7 @@ fn traverse_with<const STACK: usize, T>(
         }
         if t_enter > tmax {
             // Front to back: everything after this child is further still.
-            return out;
+            return Some(out);
         }
         let t_exit = if m < tmax { m } else { tmax };
         if t_exit < t_enter {
@@ -251,7 +344,7 @@ fn traverse_with<const STACK: usize, T>(
             };
             if let Some(h) = on_leaf(&entry) {
                 out.hit = Some(h);
-                return out;
+                return Some(out);
             }
         } else {
             // A malformed tree deeper than its depth cannot overflow the stack.
@@ -278,5 +371,5 @@ fn traverse_with<const STACK: usize, T>(
             };
         }
     }
-    out
+    Some(out)
 }

@@ -7,8 +7,9 @@
 //! normal, the leaf index and the traversal steps (the cost heat map).
 
 use crate::camera::{Camera, CameraError};
+use crate::primary_prepass::PrimaryPrepass;
 use crate::surfaces::Surfaces;
-use crate::whitted::{SampleStats, Tracer};
+use crate::whitted::{PrimaryStart, SampleStats, Tracer};
 use glam::Vec3;
 use std::time::{Duration, Instant};
 
@@ -99,76 +100,6 @@ pub struct Frame {
     pub elapsed: Duration,
 }
 
-/// The primary-ray prepass: per pixel, a lower bound of the first hit's parameter
-/// (`+inf` where nothing can be hit). Each coarse box around the surfaces is projected; its
-/// pixel rectangle (grown by a pixel) gets the box's distance from the eye, a lower bound of
-/// where any ray through it meets it, so a ray's first hit, which lies in some box whose
-/// rectangle holds the ray's pixel, is never before its bound. `None` (no prepass) when the
-/// eye is in a box or a box reaches behind it, or when the rectangles would cost more than
-/// they save.
-fn primary_starts<S: Surfaces>(
-    tracer: &Tracer<S>,
-    camera: &Camera,
-    rays: &crate::camera::CameraRays,
-) -> Option<Vec<f32>> {
-    let boxes = tracer.surfaces().coarse_boxes()?;
-    let (w, h) = (i64::from(camera.width), i64::from(camera.height));
-    let eye = camera.eye;
-    let mut rects = Vec::with_capacity(boxes.len());
-    let mut area = 0i64;
-    for (lo_g, hi_g) in boxes {
-        let lo = tracer.to_scene(lo_g);
-        let hi = tracer.to_scene(hi_g);
-        let gap = (lo - eye).max(eye - hi).max(glam::DVec3::ZERO);
-        let dist = gap.length();
-        if !(dist > 0.0) {
-            return None;
-        }
-        let (mut x0, mut y0, mut x1, mut y1) = (
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        );
-        for i in 0..8 {
-            let c = glam::DVec3::new(
-                if i & 4 != 0 { hi.x } else { lo.x },
-                if i & 2 != 0 { hi.y } else { lo.y },
-                if i & 1 != 0 { hi.z } else { lo.z },
-            );
-            let (px, py) = rays.project(c)?;
-            x0 = x0.min(px);
-            y0 = y0.min(py);
-            x1 = x1.max(px);
-            y1 = y1.max(py);
-        }
-        let rx0 = ((x0.floor() as i64) - 1).max(0);
-        let ry0 = ((y0.floor() as i64) - 1).max(0);
-        let rx1 = ((x1.ceil() as i64) + 1).min(w - 1);
-        let ry1 = ((y1.ceil() as i64) + 1).min(h - 1);
-        if rx0 > rx1 || ry0 > ry1 {
-            continue;
-        }
-        area += (rx1 - rx0 + 1) * (ry1 - ry0 + 1);
-        // A margin for the f32 ray parameters of the traversal.
-        rects.push((rx0, ry0, rx1, ry1, (dist * (1.0 - 1e-4)) as f32));
-    }
-    // Filling a pixel costs about a hundredth of tracing one: 32 layers still pay.
-    if area > 32 * w * h {
-        return None;
-    }
-    let mut starts = vec![f32::INFINITY; (w * h) as usize];
-    for (rx0, ry0, rx1, ry1, t) in rects {
-        for y in ry0..=ry1 {
-            let row = &mut starts[(y * w) as usize..][..w as usize];
-            for v in &mut row[rx0 as usize..=rx1 as usize] {
-                *v = v.min(t);
-            }
-        }
-    }
-    Some(starts)
-}
-
 /// Renders `camera`'s view through `tracer` into a new frame.
 pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame, CameraError> {
     let mut f = Frame {
@@ -226,12 +157,12 @@ pub fn render_into<S: Surfaces>(
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
     let eye = tracer.to_grid(camera.eye);
-    let starts = if tracer.options().prepass {
-        primary_starts(tracer, camera, &rays)
+    let prepass = if tracer.options().prepass {
+        PrimaryPrepass::new(tracer, &rays)
     } else {
         None
     };
-    let starts = starts.as_deref();
+    let prepass = prepass.as_ref();
     let row = |y: u32,
                colour: &mut [Vec3],
                depth: &mut [f32],
@@ -240,12 +171,31 @@ pub fn render_into<S: Surfaces>(
                cost: &mut [u32]|
      -> RenderStats {
         let mut stats = RenderStats::default();
+        let mut starts = Vec::new();
+        if let Some(p) = prepass {
+            starts.resize(w as usize, PrimaryStart::from(0.0));
+            p.row(&rays, y, &mut starts, &mut Vec::new());
+        }
         for x in 0..w {
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-            let tmin = starts.map_or(0.0, |m| m[y as usize * w as usize + x as usize]);
-            let s = tracer.trace_from(eye, rays.dir_f32(x, y), tmin);
+            let start = starts
+                .get(x as usize)
+                .copied()
+                .unwrap_or(PrimaryStart::from(0.0));
+            let dir = rays.dir_f32(x, y);
             let i = x as usize;
+            if start.tmin == f32::INFINITY {
+                // The prepass proved the ray hits nothing: the sky, without casting it.
+                colour[i] = tracer.miss_colour(dir);
+                depth[i] = f32::INFINITY;
+                normal[i] = Vec3::ZERO;
+                leaf[i] = NO_LEAF;
+                cost[i] = 0;
+                stats.primary_rays += 1;
+                continue;
+            }
+            let s = tracer.trace_primary(eye, dir, start);
             colour[i] = s.colour;
             depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
             normal[i] = s.normal;

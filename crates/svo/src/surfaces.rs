@@ -8,7 +8,8 @@ use crate::grid_ray::GridRay;
 use crate::leaf_hit::{HitMode, leaf_hit};
 use crate::mesh::srgb_to_linear;
 use crate::octree::{Octree, ior_decode};
-use crate::octree_traverse::{LeafEntry, traverse};
+use crate::octree_traverse::{LeafEntry, StartNode, traverse, traverse_node};
+use crate::whitted::{NO_BOX, PrimaryStart};
 use glam::{UVec3, Vec3};
 
 /// The material at a hit.
@@ -107,10 +108,22 @@ pub trait Surfaces: Sync {
     /// The closest hit (a boundary of the query's medium, when it has one).
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
 
-    /// Boxes (grid space, `(min, max)`) that together contain every surface, for the
-    /// primary-ray prepass of [`crate::render`]; `None` when there are none to offer.
-    fn coarse_boxes(&self) -> Option<Vec<(Vec3, Vec3)>> {
+    /// Boxes that together contain every surface, for the primary-ray prepass of
+    /// [`crate::render`]: `(id, min, max)` in grid space, the id naming the box to
+    /// [`Self::closest_primary`]. The finest set the surfaces offer, or with `coarser`
+    /// above 0, a set that many steps coarser (fewer, larger boxes); `None` when there is
+    /// no such set.
+    fn coarse_boxes(&self, coarser: u8) -> Option<Vec<(u32, Vec3, Vec3)>> {
+        let _ = coarser;
         None
+    }
+
+    /// The closest hit of a primary ray with what the render's prepass knows of it
+    /// (`start`, whose boxes are those of [`Self::coarse_boxes`]): the same as
+    /// [`Self::closest`] from `start.tmin` (which this does by default).
+    fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
+        let _ = start;
+        self.closest(ray, q)
     }
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
@@ -154,7 +167,18 @@ pub struct OctreeSurfaces<'a, L = HitMode> {
     srgb: [f32; 256],
     /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
     interior: bool,
+    /// The boxes of the primary-ray prepass, made on first use.
+    start_nodes: std::sync::OnceLock<StartNodes>,
 }
+
+/// The nodes of the primary-ray prepass, finest level first, and each level's range.
+type StartNodes = (Vec<StartNode>, Vec<(usize, usize)>);
+
+/// Levels of nodes the primary-ray prepass may choose from.
+const START_LEVELS: usize = 5;
+
+/// The most nodes the primary-ray prepass projects per frame.
+const MAX_START_NODES: usize = 16384;
 
 impl<'a> OctreeSurfaces<'a> {
     /// `tree` hit in `mode`.
@@ -171,12 +195,42 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             shape,
             srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
             interior: tree.attributes.has_interior(),
+            start_nodes: std::sync::OnceLock::new(),
         }
     }
 
     /// The tree.
     pub fn tree(&self) -> &'a Octree {
         self.tree
+    }
+
+    /// The nodes the primary-ray prepass projects (made on first use): those of the finest
+    /// level above the leaves that has at most [`MAX_START_NODES`], then those of the
+    /// levels above it, down to a sixteenth as many cells per side; all in one list, with
+    /// each level's range in it (finest first).
+    fn start_nodes(&self) -> (&[StartNode], &[(usize, usize)]) {
+        let (nodes, sets) = self.start_nodes.get_or_init(|| {
+            let mut levels = Vec::new();
+            for level in 1..self.tree.depth {
+                match self.tree.nodes_at_level(level, MAX_START_NODES) {
+                    Some(v) => levels.push(v),
+                    None => break,
+                }
+            }
+            let mut nodes = Vec::new();
+            let mut sets = Vec::new();
+            for level in levels.iter().rev().take(START_LEVELS) {
+                let a = nodes.len();
+                nodes.extend(level.iter().map(|&(index, origin, side)| StartNode {
+                    index,
+                    origin,
+                    side,
+                }));
+                sets.push((a, nodes.len()));
+            }
+            (nodes, sets)
+        });
+        (nodes, sets)
     }
 
     /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
@@ -243,16 +297,89 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         (self.tree.root, self.tree.depth)
     }
 
-    fn coarse_boxes(&self) -> Option<Vec<(Vec3, Vec3)>> {
-        // Level 4 (at most 4,096 boxes) is fine enough to leave most empty pixels out and
-        // coarse enough to be cheap to project.
-        let nodes = self.tree.occupied_nodes(4);
+    fn coarse_boxes(&self, coarser: u8) -> Option<Vec<(u32, Vec3, Vec3)>> {
+        let (nodes, sets) = self.start_nodes();
+        let &(a, b) = sets.get(usize::from(coarser))?;
         Some(
-            nodes
-                .into_iter()
-                .map(|(c, s)| (c.as_vec3(), (c + UVec3::splat(s)).as_vec3()))
+            (a as u32..)
+                .zip(&nodes[a..b])
+                .map(|(id, s)| {
+                    (
+                        id,
+                        s.origin.as_vec3(),
+                        (s.origin + UVec3::splat(s.side)).as_vec3(),
+                    )
+                })
                 .collect(),
         )
+    }
+
+    fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
+        // The boxes in order of entry, each alone: every leaf lies in some box and a box's
+        // leaves are entered no earlier than the box, so once the best hit so far comes
+        // before the next box's entry it is the closest of all. Ties between boxes, and
+        // anything not settled by the listed boxes, go to the whole traversal.
+        if q.medium.is_some() || q.skip.is_some() || start.boxes[0].0 == NO_BOX {
+            return self.closest(ray, q);
+        }
+        let (nodes, _) = self.start_nodes();
+        let mut best: Option<SurfaceHit> = None;
+        let mut steps = 0u32;
+        let whole = |steps: u32, tmin: f32| {
+            let mut r = self.closest(ray, &Query { tmin, ..*q });
+            r.steps += steps;
+            r
+        };
+        for &(b, entry) in &start.boxes {
+            if b == NO_BOX {
+                break;
+            }
+            if let Some(h) = best
+                && h.t < entry
+            {
+                return Traced {
+                    hit: best,
+                    steps,
+                    capped: false,
+                };
+            }
+            let Some(&node) = nodes.get(b as usize) else {
+                return whole(steps, q.tmin);
+            };
+            let Some(r) = traverse_node(self.tree, ray, node, q.tmin, q.tmax, q.max_steps, |e| {
+                self.surface_hit(ray, e)
+            }) else {
+                // The ray only touches the box: only the whole walk knows what it sees there.
+                return whole(steps, q.tmin);
+            };
+            steps += r.steps;
+            if r.capped {
+                return whole(steps, q.tmin);
+            }
+            if let Some(h) = r.hit {
+                match best {
+                    Some(x) if x.t == h.t => return whole(steps, q.tmin),
+                    Some(x) if x.t < h.t => {}
+                    _ => best = Some(h),
+                }
+            }
+        }
+        match best {
+            Some(h) if h.t < start.beyond => Traced {
+                hit: best,
+                steps,
+                capped: false,
+            },
+            Some(_) => whole(steps, q.tmin),
+            // No box beyond the listed ones: nothing to hit.
+            None if start.beyond == f32::INFINITY => Traced {
+                hit: None,
+                steps,
+                capped: false,
+            },
+            // The listed boxes hold nothing on the ray: the hit is in a later box.
+            None => whole(steps, q.tmin.max(start.beyond)),
+        }
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {

@@ -155,6 +155,36 @@ pub struct SampleStats {
     pub capped: u32,
 }
 
+/// Boxes a [`PrimaryStart`] lists, at most.
+pub const START_BOXES: usize = 4;
+
+/// No box ([`PrimaryStart::boxes`]).
+pub const NO_BOX: u32 = u32::MAX;
+
+/// What the render's prepass knows of a primary ray ([`Tracer::trace_primary`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimaryStart {
+    /// A lower bound of the first hit's parameter (scene units).
+    pub tmin: f32,
+    /// The first boxes of the surfaces' coarse boxes
+    /// ([`crate::surfaces::Surfaces::coarse_boxes`]) that the ray meets, as (box, a lower
+    /// bound of where it meets it), in order of that bound; [`NO_BOX`] after the last.
+    pub boxes: [(u32, f32); START_BOXES],
+    /// A lower bound of where the ray meets any box not listed (`+inf`: none).
+    pub beyond: f32,
+}
+
+impl PrimaryStart {
+    /// Nothing known but a lower bound of the first hit.
+    pub fn from(tmin: f32) -> Self {
+        Self {
+            tmin,
+            boxes: [(NO_BOX, f32::INFINITY); START_BOXES],
+            beyond: 0.0,
+        }
+    }
+}
+
 /// What tracing one primary ray gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -255,6 +285,12 @@ impl<S: Surfaces> Tracer<S> {
         self.root.to_scene(g.as_dvec3(), self.depth)
     }
 
+    /// The colour of a primary ray in unit direction `dir` that is known to hit nothing
+    /// (what [`Self::trace`] returns for it, without casting it).
+    pub fn miss_colour(&self, dir: Vec3) -> Vec3 {
+        self.sky.colour(dir)
+    }
+
     /// The grid point of scene point `p`.
     pub fn to_grid(&self, p: glam::DVec3) -> Vec3 {
         self.root.to_grid(p, self.depth).as_vec3()
@@ -268,21 +304,32 @@ impl<S: Surfaces> Tracer<S> {
     /// [`Self::trace`] with the primary ray starting at parameter `tmin` (a lower bound of
     /// its first hit, from the render's prepass; secondary rays are not affected).
     pub fn trace_from(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
+        self.trace_primary(origin, dir, PrimaryStart::from(tmin))
+    }
+
+    /// [`Self::trace`] with what the render's prepass knows of the primary ray (secondary
+    /// rays are not affected).
+    pub fn trace_primary(&self, origin: Vec3, dir: Vec3, start: PrimaryStart) -> Sample {
         // A depth-first ray stack holds at most one pending ray per bounce plus two; a
         // stack sized for the limits keeps its initialization small (without bounces it is
         // the primary ray alone).
         let bounces =
             usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions);
         if bounces == 0 {
-            self.trace_with::<1>(origin, dir, tmin)
+            self.trace_with::<1>(origin, dir, start)
         } else if bounces + 2 <= SMALL_STACK {
-            self.trace_with::<SMALL_STACK>(origin, dir, tmin)
+            self.trace_with::<SMALL_STACK>(origin, dir, start)
         } else {
-            self.trace_with::<STACK>(origin, dir, tmin)
+            self.trace_with::<STACK>(origin, dir, start)
         }
     }
 
-    fn trace_with<const STACK: usize>(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
+    fn trace_with<const STACK: usize>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        start: PrimaryStart,
+    ) -> Sample {
         let mut sample = Sample {
             colour: Vec3::ZERO,
             hit: None,
@@ -311,16 +358,18 @@ impl<S: Surfaces> Tracer<S> {
                 origin: task.origin,
                 dir: task.dir * self.scale,
             };
-            let r = self.surfaces.closest(
-                &ray,
-                &Query {
-                    tmin: if first { tmin } else { 0.0 },
-                    tmax: f32::INFINITY,
-                    skip: (task.skip != NO_SKIP).then_some(task.skip),
-                    medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
-                    max_steps: self.opts.max_steps,
-                },
-            );
+            let q = Query {
+                tmin: if first { start.tmin } else { 0.0 },
+                tmax: f32::INFINITY,
+                skip: (task.skip != NO_SKIP).then_some(task.skip),
+                medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
+                max_steps: self.opts.max_steps,
+            };
+            let r = if first {
+                self.surfaces.closest_primary(&ray, &q, &start)
+            } else {
+                self.surfaces.closest(&ray, &q)
+            };
             sample.stats.rays += 1;
             sample.stats.steps += r.steps;
             sample.stats.capped += u32::from(r.capped);

@@ -482,10 +482,14 @@ fn primary_prepass_changes_nothing_but_the_steps() {
     let (lo, hi) = svo::render_job::occupied_bounds(&tree);
     let base = Camera::framing(lo, hi, 120, 90, 40.0);
     let c = (lo + hi) * 0.5;
+    // The centre of a leaf: every box around it holds the eye.
+    let leaf = tree.leaves().next().unwrap().cell.as_dvec3() + 0.5;
+    let in_leaf = tree.root.to_scene(leaf, tree.depth);
     let cams = [
         base,
-        // Close up (boxes cover much of the screen), from below, and from inside the tube
-        // (no prepass: the eye is in a box).
+        // Close up (boxes cover much of the screen), from below, from inside the tube (the
+        // boxes around the eye reach behind it at coarse levels but not at the finest),
+        // and from inside a leaf (no prepass: a box holds the eye).
         Camera {
             eye: c + (base.eye - c) * 0.35,
             ..base
@@ -499,35 +503,17 @@ fn primary_prepass_changes_nothing_but_the_steps() {
             target: c + DVec3::new((hi.x - lo.x) * 0.375, 0.0, 1.0),
             ..base
         },
+        Camera {
+            eye: in_leaf,
+            target: c,
+            ..base
+        },
     ];
     for mode in [HitMode::Cube, HitMode::Contour] {
         for (k, cam) in cams.iter().enumerate() {
-            let frame = |prepass: bool| {
-                let t = Tracer::new(
-                    OctreeSurfaces::new(&tree, mode),
-                    &[PointLight {
-                        position: cam.eye + DVec3::Y,
-                        colour: Vec3::ONE,
-                        intensity: 1.0,
-                    }],
-                    Sky::default(),
-                    Phong::default(),
-                    TraceOptions {
-                        mode,
-                        prepass,
-                        ..TraceOptions::default()
-                    },
-                );
-                render(&t, cam).unwrap()
-            };
-            let (a, b) = (frame(true), frame(false));
+            let (a, b) = with_and_without_prepass(&tree, mode, cam, &format!("camera {k}"));
             assert!(b.stats.primary_hits > 0);
-            assert_eq!(a.colour, b.colour, "{mode:?} {cam:?}");
-            assert_eq!(a.depth, b.depth);
-            assert_eq!(a.normal, b.normal);
-            assert_eq!(a.leaf, b.leaf);
-            assert!(a.stats.primary_steps <= b.stats.primary_steps);
-            if k < 3 {
+            if k < 4 {
                 // The prepass ran (the eye is outside every box) and saved steps.
                 assert!(
                     a.stats.primary_steps < b.stats.primary_steps,
@@ -538,11 +524,185 @@ fn primary_prepass_changes_nothing_but_the_steps() {
             } else {
                 assert_eq!(
                     a.stats.primary_steps, b.stats.primary_steps,
-                    "eye inside a box"
+                    "eye inside a leaf"
                 );
             }
         }
     }
+}
+
+/// Renders `cam`'s view of `tree` with and without the primary-ray prepass and checks that
+/// the images and AOVs are the same bit for bit and that the prepass took no more steps.
+fn with_and_without_prepass(
+    tree: &Octree,
+    mode: HitMode,
+    cam: &Camera,
+    what: &str,
+) -> (svo::render::Frame, svo::render::Frame) {
+    let frame = |prepass: bool| {
+        let t = Tracer::new(
+            OctreeSurfaces::new(tree, mode),
+            &[PointLight {
+                position: cam.eye + DVec3::Y,
+                colour: Vec3::ONE,
+                intensity: 1.0,
+            }],
+            Sky::default(),
+            Phong::default(),
+            TraceOptions {
+                mode,
+                prepass,
+                ..TraceOptions::default()
+            },
+        );
+        render(&t, cam).unwrap()
+    };
+    let (a, b) = (frame(true), frame(false));
+    // Casting the primary rays alone finds the same hits, with the prepass and without.
+    for prepass in [true, false] {
+        let t = Tracer::new(
+            OctreeSurfaces::new(tree, mode),
+            &[],
+            Sky::default(),
+            Phong::default(),
+            TraceOptions {
+                mode,
+                prepass,
+                ..TraceOptions::default()
+            },
+        );
+        let mut hits = svo::primary_cast::Hits::default();
+        svo::primary_cast::cast_primary(&t, cam, &mut hits).unwrap();
+        assert_eq!(hits.leaf, a.leaf, "{what}: cast leaves, prepass {prepass}");
+        assert!(
+            hits.depth
+                .iter()
+                .zip(&a.depth)
+                .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{what}: cast depths, prepass {prepass}"
+        );
+        assert_eq!(hits.hits, a.stats.primary_hits);
+        if prepass {
+            assert_eq!(hits.steps, a.stats.primary_steps);
+        }
+    }
+    // The first pixel that differs, with what each render saw there.
+    let differs = (0..a.colour.len()).find(|&i| {
+        a.colour[i] != b.colour[i]
+            || a.depth[i].to_bits() != b.depth[i].to_bits()
+            || a.normal[i] != b.normal[i]
+            || a.leaf[i] != b.leaf[i]
+    });
+    if let Some(i) = differs {
+        panic!(
+            "{mode:?}, {what}, {cam:?}: pixel ({}, {}) differs: with the prepass leaf {} at {}, \
+             without leaf {} at {}",
+            i % cam.width as usize,
+            i / cam.width as usize,
+            a.leaf[i],
+            a.depth[i],
+            b.leaf[i],
+            b.depth[i]
+        );
+    }
+    assert!(a.stats.primary_steps <= b.stats.primary_steps, "{what}");
+    (a, b)
+}
+
+/// The prepass against tracing every ray from the eye on seeded random sparse trees and the
+/// torus at several depths, from random eyes around and inside them and from eyes on the
+/// lattice looking along an axis or a lattice diagonal (rays along cell faces and through
+/// edges and corners): the same image every time.
+#[test]
+fn primary_prepass_changes_nothing_on_random_views() {
+    let mut rng = common::rng(0x9E7A55);
+    let mut ran = 0;
+    let mut views = 0;
+    for depth in [3u8, 5, 7] {
+        let n = 1u32 << depth;
+        // Clusters of cells, so boxes at every level are partly empty.
+        let mut cells = Vec::new();
+        for _ in 0..6 {
+            let c = UVec3::new(
+                rng.random_range(0..n),
+                rng.random_range(0..n),
+                rng.random_range(0..n),
+            );
+            for _ in 0..(n * 6) {
+                let j = UVec3::new(
+                    rng.random_range(0..=n / 4),
+                    rng.random_range(0..=n / 4),
+                    rng.random_range(0..=n / 4),
+                );
+                cells.push(((c + j).min(UVec3::splat(n - 1)), grey(0.7)));
+            }
+        }
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: f64::from(n),
+        };
+        let random = from_cells(root, depth, cells).unwrap();
+        let torus = torus_tree(depth);
+        for (name, tree, modes) in [
+            ("random cells", &random, &[HitMode::Cube][..]),
+            ("torus", &torus, &[HitMode::Cube, HitMode::Contour][..]),
+        ] {
+            let (lo, hi) = svo::render_job::occupied_bounds(tree);
+            let c = (lo + hi) * 0.5;
+            let r = (hi - lo).length();
+            // Scene units per cell.
+            let cell = tree.root.side / f64::from(n);
+            let lattice =
+                |v: DVec3| tree.root.origin + (((v - tree.root.origin) / cell).round()) * cell;
+            for k in 0..12 {
+                let base = Camera::framing(lo, hi, 64, 48, 40.0);
+                let cam = match k % 3 {
+                    // Around, at random distances, some close enough to be inside.
+                    0 => {
+                        let dir = DVec3::new(
+                            rng.random_range(-1.0..1.0),
+                            rng.random_range(-1.0..1.0),
+                            rng.random_range(-1.0..1.0),
+                        )
+                        .normalize_or(DVec3::X);
+                        Camera {
+                            eye: c + dir * r * rng.random_range(0.3..1.5),
+                            target: c,
+                            fov_deg: rng.random_range(20.0..90.0),
+                            ..base
+                        }
+                    }
+                    // On the lattice, looking along an axis.
+                    1 => {
+                        let eye = lattice(c + DVec3::new(0.0, 0.0, r * 0.9));
+                        Camera {
+                            eye,
+                            target: eye - DVec3::Z,
+                            ..base
+                        }
+                    }
+                    // On the lattice, looking along a lattice diagonal.
+                    _ => {
+                        let eye = lattice(c + DVec3::new(r, r, r) * 0.6);
+                        Camera {
+                            eye,
+                            target: eye - DVec3::new(1.0, 1.0, 1.0),
+                            up: DVec3::new(0.0, 1.0, 0.0),
+                            ..base
+                        }
+                    }
+                };
+                for &mode in modes {
+                    let what = format!("{name} depth {depth} view {k}");
+                    let (a, b) = with_and_without_prepass(tree, mode, &cam, &what);
+                    views += 1;
+                    ran += usize::from(a.stats.primary_steps < b.stats.primary_steps);
+                }
+            }
+        }
+    }
+    // Most views have a prepass (the eye outside every box).
+    assert!(ran * 2 > views, "the prepass ran on {ran} of {views} views");
 }
 
 /// Two facing mirrors (a hall of mirrors): a ray between them bounces until the reflection

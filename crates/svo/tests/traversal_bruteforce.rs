@@ -555,3 +555,70 @@ fn step_cap_is_reported() {
     let capped = svo::octree_traverse::traverse(&tree, &ray, 0.0, f32::INFINITY, 5, |_| None::<()>);
     assert!(capped.capped && capped.steps == 6);
 }
+
+/// A walk started at an inner node (what the primary-ray prepass does) hands over exactly the
+/// leaves of that node that the walk from the root hands over, with the same entries, for
+/// every node of every level, unless the ray only touches the node's cube at a point, which
+/// the walk from the node reports as such (the walk from the root hands over touched leaves
+/// where it starts, and crosses them elsewhere).
+#[test]
+fn a_walk_from_a_node_sees_what_the_root_walk_sees_there() {
+    use svo::octree_traverse::{LeafEntry, StartNode, traverse, traverse_node};
+    let mut rng = common::rng(0x57A27);
+    let mut compared = 0usize;
+    let mut touched = 0usize;
+    for depth in 2..=5u8 {
+        for &density in &[0.05, 0.3, 0.9] {
+            let cells = random_cells(&mut rng, depth, density);
+            if cells.is_empty() {
+                continue;
+            }
+            let tree = tree_of(depth, &cells);
+            let n = (1u32 << depth) as f32;
+            let nodes: Vec<StartNode> = (1..depth)
+                .flat_map(|l| tree.nodes_at_level(l, usize::MAX).unwrap())
+                .map(|(index, origin, side)| StartNode {
+                    index,
+                    origin,
+                    side,
+                })
+                .collect();
+            for _ in 0..200 {
+                let (ray, tmin) = random_ray(&mut rng, n);
+                let mut all: Vec<LeafEntry> = Vec::new();
+                traverse(&tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                    all.push(*e);
+                    None::<()>
+                });
+                for s in &nodes {
+                    let inside = |c: UVec3| {
+                        c.cmpge(s.origin).all() && c.cmplt(s.origin + UVec3::splat(s.side)).all()
+                    };
+                    let want: Vec<LeafEntry> =
+                        all.iter().copied().filter(|e| inside(e.cell)).collect();
+                    let mut got: Vec<LeafEntry> = Vec::new();
+                    let walked =
+                        traverse_node(&tree, &ray, *s, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                            got.push(*e);
+                            None::<()>
+                        });
+                    if walked.is_none() {
+                        // Touched at one parameter: whatever the root walk handed over there
+                        // it entered and left at once.
+                        assert!(got.is_empty());
+                        assert!(
+                            want.iter().all(|e| e.t_enter == e.t_exit),
+                            "{ray:?} from {tmin}: node {s:?}: {want:?}"
+                        );
+                        touched += 1;
+                    } else {
+                        assert_eq!(got, want, "{ray:?} from {tmin}: node {s:?}");
+                        compared += usize::from(!want.is_empty());
+                    }
+                }
+            }
+        }
+    }
+    assert!(compared > 10_000, "{compared} nodes with leaves compared");
+    assert!(touched > 0, "no ray only touched a node");
+}

@@ -1,0 +1,118 @@
+//! Primary hits alone: per pixel, the first surface the camera ray meets and its distance,
+//! without shading, secondary rays or the other AOVs. This is what picking needs, and what a
+//! ray-casting library returns for a batch of camera rays (Embree's `rtcIntersect` gives the
+//! hit primitive and distance), so it is the figure to set beside such libraries.
+//!
+//! It casts exactly the primary rays of [`crate::render`] (the same directions, the same
+//! prepass, the same first hits): its leaves and distances equal a render's leaf and depth
+//! AOVs.
+
+use crate::camera::{Camera, CameraError};
+use crate::grid_ray::GridRay;
+use crate::primary_prepass::PrimaryPrepass;
+use crate::render::NO_LEAF;
+use crate::surfaces::{Query, Surfaces};
+use crate::whitted::{PrimaryStart, Tracer};
+use std::time::{Duration, Instant};
+
+/// The primary hits of a view, row-major from the top-left pixel.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Hits {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The leaf (or triangle) hit, [`NO_LEAF`] on a miss.
+    pub leaf: Vec<u32>,
+    /// Hit distance in scene units along the unit ray, `+inf` on a miss.
+    pub depth: Vec<f32>,
+    /// Rays that hit.
+    pub hits: u64,
+    /// Traversal steps of all rays.
+    pub steps: u64,
+    /// Rays stopped by the step cap.
+    pub capped: u64,
+    /// Wall time of the cast.
+    pub elapsed: Duration,
+}
+
+/// Casts `camera`'s primary rays through `tracer`'s surfaces into `out` (reusing its
+/// buffers), rows in parallel.
+pub fn cast_primary<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    out: &mut Hits,
+) -> Result<(), CameraError> {
+    let rays = camera.rays()?;
+    let start = Instant::now();
+    let (w, h) = (camera.width, camera.height);
+    let px = (w as usize) * (h as usize);
+    out.width = w;
+    out.height = h;
+    out.leaf.resize(px, NO_LEAF);
+    out.depth.resize(px, f32::INFINITY);
+    let eye = tracer.to_grid(camera.eye);
+    let prepass = if tracer.options().prepass {
+        PrimaryPrepass::new(tracer, &rays)
+    } else {
+        None
+    };
+    let prepass = prepass.as_ref();
+    let scale = tracer.scale();
+    let max_steps = tracer.options().max_steps;
+    let row = |y: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 3] {
+        let mut counts = [0u64; 3];
+        let mut starts = vec![PrimaryStart::from(0.0); w as usize];
+        if let Some(p) = prepass {
+            p.row(&rays, y, &mut starts, &mut Vec::new());
+        }
+        for (x, start) in (0..w).zip(&starts) {
+            let i = x as usize;
+            if start.tmin == f32::INFINITY {
+                leaf[i] = NO_LEAF;
+                depth[i] = f32::INFINITY;
+                continue;
+            }
+            let ray = GridRay {
+                origin: eye,
+                dir: rays.dir_f32(x, y) * scale,
+            };
+            let q = Query {
+                tmin: start.tmin,
+                ..Query::all(max_steps)
+            };
+            let r = tracer.surfaces().closest_primary(&ray, &q, start);
+            leaf[i] = r.hit.map_or(NO_LEAF, |h| h.id);
+            depth[i] = r.hit.map_or(f32::INFINITY, |h| h.t);
+            counts[0] += u64::from(r.hit.is_some());
+            counts[1] += u64::from(r.steps);
+            counts[2] += u64::from(r.capped);
+        }
+        counts
+    };
+    let wu = w as usize;
+    let add = |a: [u64; 3], b: [u64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+    #[cfg(feature = "parallel")]
+    let counts = {
+        use rayon::prelude::*;
+        out.leaf
+            .par_chunks_mut(wu)
+            .zip(out.depth.par_chunks_mut(wu))
+            .enumerate()
+            .map(|(y, (l, d))| row(y as u32, l, d))
+            .reduce(|| [0; 3], add)
+    };
+    #[cfg(not(feature = "parallel"))]
+    let counts = out
+        .leaf
+        .chunks_mut(wu)
+        .zip(out.depth.chunks_mut(wu))
+        .enumerate()
+        .map(|(y, (l, d))| row(y as u32, l, d))
+        .fold([0; 3], add);
+    out.hits = counts[0];
+    out.steps = counts[1];
+    out.capped = counts[2];
+    out.elapsed = start.elapsed();
+    Ok(())
+}

@@ -1,0 +1,262 @@
+//! The primary-ray prepass of [`crate::render`]: per pixel, a lower bound of the parameter
+//! of the primary ray's first hit, `+inf` where the ray can hit nothing, so a render starts
+//! each ray near its hit and skips the rays that miss.
+//!
+//! The surfaces offer boxes that together hold every surface
+//! ([`crate::surfaces::Surfaces::coarse_boxes`]: for an octree, its occupied nodes a few
+//! levels above the leaves). Each box is projected to a pixel rectangle (grown by a pixel)
+//! and filed under the bands of rows it covers. A row then tests each pixel's ray against
+//! the boxes whose rectangles hold it (a slab test on the box grown by a margin that covers
+//! the `f32` rounding of the traversal's own planes). A ray's first hit lies in some box the
+//! ray meets, and it meets that box no later than the hit, so the smallest entry over the
+//! boxes it meets is a lower bound of the hit; a ray that meets none hits nothing.
+//!
+//! There is no prepass (every ray starts at the eye) when a box reaches behind the image
+//! plane through the eye (its projection is not a rectangle) or when the rectangles would
+//! cost more slab tests than they save rays.
+
+use crate::camera::CameraRays;
+use crate::surfaces::Surfaces;
+use crate::whitted::{NO_BOX, PrimaryStart, START_BOXES, Tracer};
+use glam::{DVec3, Vec3A};
+
+/// Rows per band of the box lists.
+const BAND: u32 = 8;
+
+/// The most slab tests per pixel (a test costs a few percent of tracing a ray from the eye).
+const MAX_TESTS_PER_PIXEL: u64 = 16;
+
+/// One box: its pixel rectangle (inclusive) and its corners relative to the eye, in grid
+/// units, grown by the margin.
+#[derive(Clone, Copy, Debug)]
+struct Rect {
+    /// Index into the coarse boxes.
+    id: u32,
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+/// The boxes of one view, filed by bands of rows, ready to give each row its ray starts.
+#[derive(Debug)]
+pub(crate) struct PrimaryPrepass {
+    rects: Vec<Rect>,
+    /// Per band of [`BAND`] rows, the indices of the rectangles that reach into it.
+    bands: Vec<Vec<u32>>,
+    /// The tracer's grid units per scene unit (ray parameters are in scene units).
+    scale: f32,
+}
+
+impl PrimaryPrepass {
+    /// The prepass of `rays` (the tracer's camera) over `tracer`'s surfaces, or `None` when
+    /// there is none to make (see the module notes).
+    pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
+        let (w, h) = rays.size();
+        let eye = tracer.to_grid(rays.eye());
+        let (_, depth) = tracer.surfaces().grid();
+        // Grid units: the margin covers the f32 rounding of the traversal's rays and planes
+        // (relative 1e-7 of the coordinates and of the distance from the eye).
+        let side = f64::from(1u32 << depth.min(31));
+        let pad = 1e-3 + 1e-5 * side.max(f64::from(eye.abs().max_element()));
+        let eye_d = eye.as_dvec3();
+        let (root, _) = tracer.surfaces().grid();
+        let eye_s = rays.eye();
+        let forward = rays.forward();
+        // Points nearer the eye's image plane than `clip` times their distance from the eye
+        // are off the screen (the larger half extent of the image plane is `reach`).
+        let reach = rays.half_extent().max_element();
+        let clip = 1.0 / (4.0 * reach + 2.0);
+        let project = |&(id, lo, hi): &(u32, glam::Vec3, glam::Vec3)| -> Result<Option<Rect>, ()> {
+            let lo = lo.as_dvec3() - pad;
+            let hi = hi.as_dvec3() + pad;
+            let lo_s = root.to_scene(lo, depth);
+            let hi_s = root.to_scene(hi, depth);
+            // The box's distance from the eye: a box that holds the eye or touches it has no
+            // rectangle.
+            let gap = (lo_s - eye_s).max(eye_s - hi_s).max(DVec3::ZERO).length();
+            if !(gap > 0.0) {
+                return Err(());
+            }
+            // The box in front of the plane at `zc` before the eye: its corners there and
+            // where its edges cross the plane. The rest of it is off the screen or behind.
+            let zc = gap * clip;
+            let corner = |i: usize| {
+                DVec3::new(
+                    if i & 4 != 0 { hi_s.x } else { lo_s.x },
+                    if i & 2 != 0 { hi_s.y } else { lo_s.y },
+                    if i & 1 != 0 { hi_s.z } else { lo_s.z },
+                )
+            };
+            let z = |p: DVec3| (p - eye_s).dot(forward);
+            let (mut x0, mut y0, mut x1, mut y1) = (
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            );
+            let mut any = false;
+            let mut add = |p: DVec3| -> Result<(), ()> {
+                let (px, py) = rays.project(p).ok_or(())?;
+                x0 = x0.min(px);
+                y0 = y0.min(py);
+                x1 = x1.max(px);
+                y1 = y1.max(py);
+                any = true;
+                Ok(())
+            };
+            for i in 0..8 {
+                let a = corner(i);
+                let za = z(a);
+                if za >= zc {
+                    add(a)?;
+                }
+                // The edges from this corner to those with one more bit set.
+                for bit in [4, 2, 1] {
+                    if i & bit == 0 {
+                        let b = corner(i | bit);
+                        let zb = z(b);
+                        if (za < zc) != (zb < zc) {
+                            add(a + (b - a) * ((zc - za) / (zb - za)))?;
+                        }
+                    }
+                }
+            }
+            if !any {
+                // Wholly behind the plane: off the screen or behind the eye.
+                return Ok(None);
+            }
+            let rx0 = ((x0.floor() as i64) - 1).max(0);
+            let ry0 = ((y0.floor() as i64) - 1).max(0);
+            let rx1 = ((x1.ceil() as i64) + 1).min(i64::from(w) - 1);
+            let ry1 = ((y1.ceil() as i64) + 1).min(i64::from(h) - 1);
+            if rx0 > rx1 || ry0 > ry1 {
+                return Ok(None);
+            }
+            // Relative to the eye; a corner exactly at the eye's coordinate moves out by the
+            // margin again, so no slab test multiplies 0 by an infinite inverse.
+            let rel = |v: DVec3, out: f64| {
+                let r = v - eye_d;
+                let fix = |c: f64| if c == 0.0 { out } else { c };
+                Vec3A::new(fix(r.x) as f32, fix(r.y) as f32, fix(r.z) as f32)
+            };
+            Ok(Some(Rect {
+                id,
+                x0: rx0 as u32,
+                y0: ry0 as u32,
+                x1: rx1 as u32,
+                y1: ry1 as u32,
+                lo: rel(lo, -pad),
+                hi: rel(hi, pad),
+            }))
+        };
+        // The finest set of boxes whose rectangles are not too many tests; a box that
+        // reaches behind the eye does so in every coarser set too.
+        let mut coarser = 0;
+        let rects = loop {
+            let boxes = tracer.surfaces().coarse_boxes(coarser)?;
+            #[cfg(feature = "parallel")]
+            let rects: Result<Vec<Option<Rect>>, ()> = {
+                use rayon::prelude::*;
+                boxes.par_iter().map(project).collect()
+            };
+            #[cfg(not(feature = "parallel"))]
+            let rects: Result<Vec<Option<Rect>>, ()> = boxes.iter().map(project).collect();
+            let rects: Vec<Rect> = rects.ok()?.into_iter().flatten().collect();
+            let area: u64 = rects
+                .iter()
+                .map(|r| u64::from(r.x1 - r.x0 + 1) * u64::from(r.y1 - r.y0 + 1))
+                .sum();
+            if area <= MAX_TESTS_PER_PIXEL * u64::from(w) * u64::from(h) {
+                break rects;
+            }
+            coarser += 1;
+        };
+        let mut bands = vec![Vec::new(); h.div_ceil(BAND) as usize];
+        for (i, r) in (0u32..).zip(&rects) {
+            for b in r.y0 / BAND..=r.y1 / BAND {
+                bands[b as usize].push(i);
+            }
+        }
+        Some(Self {
+            rects,
+            bands,
+            scale: tracer.scale(),
+        })
+    }
+
+    /// The starts of row `y`, one per pixel of `out` (the row's width long): where each
+    /// pixel's ray may first hit and the box it meets first, or `+inf` where it hits
+    /// nothing. `dirs` is scratch space.
+    pub(crate) fn row(
+        &self,
+        rays: &CameraRays,
+        y: u32,
+        out: &mut [PrimaryStart],
+        dirs: &mut Vec<Vec3A>,
+    ) {
+        // Nothing met yet: nothing to hit (the boxes fill in what they meet).
+        out.fill(PrimaryStart {
+            tmin: f32::INFINITY,
+            boxes: [(NO_BOX, f32::INFINITY); START_BOXES],
+            beyond: f32::INFINITY,
+        });
+        let Some(band) = self.bands.get((y / BAND) as usize) else {
+            return;
+        };
+        let mut span = (u32::MAX, 0u32);
+        for &i in band {
+            let r = &self.rects[i as usize];
+            if r.y0 <= y && y <= r.y1 {
+                span = (span.0.min(r.x0), span.1.max(r.x1));
+            }
+        }
+        if span.0 <= span.1 {
+            // The inverse grid directions of the row's rays, as the traversal makes them.
+            dirs.clear();
+            dirs.extend(
+                (span.0..=span.1).map(|x| (Vec3A::from(rays.dir_f32(x, y)) * self.scale).recip()),
+            );
+            for &i in band {
+                let r = &self.rects[i as usize];
+                if r.y0 > y || y > r.y1 {
+                    continue;
+                }
+                let inv = &dirs[(r.x0 - span.0) as usize..=(r.x1 - span.0) as usize];
+                let starts = &mut out[r.x0 as usize..=r.x1 as usize];
+                for (v, &inv) in starts.iter_mut().zip(inv) {
+                    let a = r.lo * inv;
+                    let b = r.hi * inv;
+                    let near = a.min(b).max_element();
+                    let far = a.max(b).min_element();
+                    if near <= far && far >= 0.0 {
+                        // A margin for the f32 ray parameters of the traversal.
+                        let t = near.max(0.0) * (1.0 - 1e-4);
+                        insert(v, r.id, t);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Files box `id`, met at `t`, among `v`'s first boxes (in order of entry); the entry of a
+/// box that falls off the list lowers `beyond`.
+#[inline]
+fn insert(v: &mut PrimaryStart, id: u32, t: f32) {
+    let last = v.boxes[START_BOXES - 1].1;
+    if t >= last {
+        v.beyond = v.beyond.min(t);
+        return;
+    }
+    v.beyond = v.beyond.min(last);
+    let mut k = START_BOXES - 1;
+    while k > 0 && v.boxes[k - 1].1 > t {
+        v.boxes[k] = v.boxes[k - 1];
+        k -= 1;
+    }
+    v.boxes[k] = (id, t);
+    v.tmin = v.boxes[0].1;
+}
