@@ -17,6 +17,7 @@ use svo::leaf_hit::{HitMode, cast, leaf_hit};
 use svo::mesh::Mesh;
 use svo::mesh_reference::MeshSurfaces;
 use svo::octree_traverse::MAX_STEPS;
+use svo::primary_cast::cast_timed;
 use svo::render::{Frame, render_timed};
 use svo::render_job::JobScene;
 use svo::shading::{Phong, PointLight};
@@ -211,6 +212,9 @@ pub struct Throughput {
     pub depth: u8,
     /// Hit mode, or `triangles`.
     pub mode: &'static str,
+    /// Whether the frame was the first hits alone ([`svo::primary_cast`]: what a ray-casting
+    /// library returns) rather than a shaded image with its AOVs.
+    pub cast: bool,
     /// Median seconds per frame.
     pub seconds: f64,
     /// Millions of primary rays per second.
@@ -238,23 +242,23 @@ pub fn throughput(
     };
     let n = f64::from(width) * f64::from(height);
     let mut out = Vec::new();
-    let mut push = |mode: &'static str, f: &Frame, s: f64| {
+    let mut push = |mode: &'static str, cast: bool, hits: u64, s: f64| {
         out.push(Throughput {
             depth: tree.depth,
             mode,
+            cast,
             seconds: s,
             mrays: n / s / 1e6,
-            hit: f.stats.primary_hits as f64 / n,
+            hit: hits as f64 / n,
         });
     };
     for mode in [HitMode::Cube, HitMode::Contour] {
         let o = TraceOptions { mode, ..opts };
-        let (f, s) = timed(
-            &tracer(OctreeSurfaces::new(tree, mode), light, o),
-            &cam,
-            runs,
-        )?;
-        push(mode.name(), &f, s);
+        let t = tracer(OctreeSurfaces::new(tree, mode), light, o);
+        let (f, s) = timed(&t, &cam, runs)?;
+        push(mode.name(), false, f.stats.primary_hits, s);
+        let (st, times) = cast_timed(&t, &cam, Some(runs))?;
+        push(mode.name(), true, st.primary_hits, median(&times));
     }
     let reference = tracer(
         MeshSurfaces::new(mesh.clone(), tree.root, tree.depth),
@@ -262,7 +266,9 @@ pub fn throughput(
         opts,
     );
     let (f, s) = timed(&reference, &cam, runs)?;
-    push("triangles", &f, s);
+    push("triangles", false, f.stats.primary_hits, s);
+    let (st, times) = cast_timed(&reference, &cam, Some(runs))?;
+    push("triangles", true, st.primary_hits, median(&times));
     Ok(out)
 }
 

@@ -121,6 +121,10 @@ struct Args {
     /// Render this many timed frames after a warm-up and print the median.
     #[arg(long, num_args = 0..=1, default_missing_value = "10")]
     bench: Option<u32>,
+    /// With --bench: cast the primary rays alone (the first hit and its distance per pixel;
+    /// no shading and no image), as a ray-casting library such as Embree returns them.
+    #[arg(long, requires = "bench", requires = "cpu")]
+    cast: bool,
     /// Render this triangle mesh (the reference) instead of the octree; with --compare,
     /// render both and print RMSE, PSNR and the hit/miss disagreement (the reference and a
     /// diff image are written beside the output as NAME.reference.png and NAME.diff.png).
@@ -210,12 +214,16 @@ fn real_main() -> anyhow::Result<()> {
         view: args.view.clone(),
         aov,
         bench_frames: args.bench,
+        cast: args.cast,
         threads: args.threads,
         reference: args.reference.clone(),
         compare: args.compare,
         mesh: args.mesh.clone(),
         sky_cube_map: args.sky.clone(),
     };
+    if args.cast && !args.cpu {
+        anyhow::bail!("--cast times the CPU tracer's primary rays: it goes with --cpu --bench");
+    }
     if (args.vs_cpu || args.full_shader) && !args.headless {
         anyhow::bail!("--vs-cpu and --full-shader go with --headless");
     }

@@ -10,7 +10,7 @@
 use crate::camera::{Camera, CameraError};
 use crate::grid_ray::GridRay;
 use crate::primary_prepass::PrimaryPrepass;
-use crate::render::NO_LEAF;
+use crate::render::{NO_LEAF, RenderStats};
 use crate::surfaces::{Query, Surfaces};
 use crate::whitted::{PrimaryStart, Tracer};
 use std::time::{Duration, Instant};
@@ -32,6 +32,8 @@ pub struct Hits {
     pub steps: u64,
     /// Rays stopped by the step cap.
     pub capped: u64,
+    /// The most steps of one ray.
+    pub max_steps: u32,
     /// Wall time of the cast.
     pub elapsed: Duration,
 }
@@ -60,11 +62,11 @@ pub fn cast_primary<S: Surfaces>(
     let prepass = prepass.as_ref();
     let scale = tracer.scale();
     let max_steps = tracer.options().max_steps;
-    let row = |y: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 3] {
-        let mut counts = [0u64; 3];
+    let row = |y: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
+        let mut counts = [0u64; 4];
         let mut starts = vec![PrimaryStart::from(0.0); w as usize];
         if let Some(p) = prepass {
-            p.row(&rays, y, &mut starts, &mut Vec::new());
+            p.row(&rays, y, &mut starts);
         }
         for (x, start) in (0..w).zip(&starts) {
             let i = x as usize;
@@ -87,11 +89,12 @@ pub fn cast_primary<S: Surfaces>(
             counts[0] += u64::from(r.hit.is_some());
             counts[1] += u64::from(r.steps);
             counts[2] += u64::from(r.capped);
+            counts[3] = counts[3].max(u64::from(r.steps));
         }
         counts
     };
     let wu = w as usize;
-    let add = |a: [u64; 3], b: [u64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+    let add = |a: [u64; 4], b: [u64; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3].max(b[3])];
     #[cfg(feature = "parallel")]
     let counts = {
         use rayon::prelude::*;
@@ -100,7 +103,7 @@ pub fn cast_primary<S: Surfaces>(
             .zip(out.depth.par_chunks_mut(wu))
             .enumerate()
             .map(|(y, (l, d))| row(y as u32, l, d))
-            .reduce(|| [0; 3], add)
+            .reduce(|| [0; 4], add)
     };
     #[cfg(not(feature = "parallel"))]
     let counts = out
@@ -109,10 +112,43 @@ pub fn cast_primary<S: Surfaces>(
         .zip(out.depth.chunks_mut(wu))
         .enumerate()
         .map(|(y, (l, d))| row(y as u32, l, d))
-        .fold([0; 3], add);
+        .fold([0; 4], add);
     out.hits = counts[0];
     out.steps = counts[1];
     out.capped = counts[2];
+    out.max_steps = counts[3] as u32;
     out.elapsed = start.elapsed();
     Ok(())
+}
+
+/// Casts once, or, with `frames`, once untimed and then that many timed casts into the same
+/// buffers: the counters of a cast as [`RenderStats`] (primary rays only) and the seconds
+/// of each counted cast.
+pub fn cast_timed<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    frames: Option<u32>,
+) -> Result<(RenderStats, Vec<f64>), CameraError> {
+    let mut hits = Hits::default();
+    cast_primary(tracer, camera, &mut hits)?;
+    let mut times = Vec::new();
+    match frames {
+        Some(n) => {
+            for _ in 0..n.max(1) {
+                cast_primary(tracer, camera, &mut hits)?;
+                times.push(hits.elapsed.as_secs_f64());
+            }
+        }
+        None => times.push(hits.elapsed.as_secs_f64()),
+    }
+    let stats = RenderStats {
+        primary_rays: u64::from(hits.width) * u64::from(hits.height),
+        primary_hits: hits.hits,
+        steps: hits.steps,
+        primary_steps: hits.steps,
+        capped: hits.capped,
+        max_primary_steps: hits.max_steps,
+        ..RenderStats::default()
+    };
+    Ok((stats, times))
 }

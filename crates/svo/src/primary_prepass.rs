@@ -188,15 +188,9 @@ impl PrimaryPrepass {
     }
 
     /// The starts of row `y`, one per pixel of `out` (the row's width long): where each
-    /// pixel's ray may first hit and the box it meets first, or `+inf` where it hits
-    /// nothing. `dirs` is scratch space.
-    pub(crate) fn row(
-        &self,
-        rays: &CameraRays,
-        y: u32,
-        out: &mut [PrimaryStart],
-        dirs: &mut Vec<Vec3A>,
-    ) {
+    /// pixel's ray may first hit and the boxes it meets first, or `+inf` where it hits
+    /// nothing.
+    pub(crate) fn row(&self, rays: &CameraRays, y: u32, out: &mut [PrimaryStart]) {
         // Nothing met yet: nothing to hit (the boxes fill in what they meet).
         out.fill(PrimaryStart {
             tmin: f32::INFINITY,
@@ -213,29 +207,59 @@ impl PrimaryPrepass {
                 span = (span.0.min(r.x0), span.1.max(r.x1));
             }
         }
-        if span.0 <= span.1 {
-            // The inverse grid directions of the row's rays, as the traversal makes them.
-            dirs.clear();
-            dirs.extend(
-                (span.0..=span.1).map(|x| (Vec3A::from(rays.dir_f32(x, y)) * self.scale).recip()),
-            );
-            for &i in band {
-                let r = &self.rects[i as usize];
-                if r.y0 > y || y > r.y1 {
-                    continue;
-                }
-                let inv = &dirs[(r.x0 - span.0) as usize..=(r.x1 - span.0) as usize];
-                let starts = &mut out[r.x0 as usize..=r.x1 as usize];
-                for (v, &inv) in starts.iter_mut().zip(inv) {
-                    let a = r.lo * inv;
-                    let b = r.hi * inv;
-                    let near = a.min(b).max_element();
-                    let far = a.max(b).min_element();
-                    if near <= far && far >= 0.0 {
-                        // A margin for the f32 ray parameters of the traversal.
-                        let t = near.max(0.0) * (1.0 - 1e-4);
-                        insert(v, r.id, t);
-                    }
+        if span.0 > span.1 {
+            return;
+        }
+        // The inverse grid directions of the row's rays, as the traversal makes them, one
+        // array per axis so the slab tests below run over several pixels at once.
+        let len = (span.1 - span.0 + 1) as usize;
+        let (mut ix, mut iy, mut iz) = (
+            Vec::with_capacity(len),
+            Vec::with_capacity(len),
+            Vec::with_capacity(len),
+        );
+        for x in span.0..=span.1 {
+            let inv = (rays.dir_f32(x, y) * self.scale).recip();
+            ix.push(inv.x);
+            iy.push(inv.y);
+            iz.push(inv.z);
+        }
+        let mut near = vec![0.0f32; len];
+        // No NaN can arise (no corner is at the eye's coordinate, and an infinite inverse
+        // times a non-zero corner is infinite), so plain comparisons make min and max.
+        let min = |a: f32, b: f32| if a < b { a } else { b };
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        for &i in band {
+            let r = &self.rects[i as usize];
+            if r.y0 > y || y > r.y1 {
+                continue;
+            }
+            let (a, b) = ((r.x0 - span.0) as usize, (r.x1 - span.0) as usize + 1);
+            let (lo, hi) = (r.lo, r.hi);
+            for (((t, &ix), &iy), &iz) in near[a..b]
+                .iter_mut()
+                .zip(&ix[a..b])
+                .zip(&iy[a..b])
+                .zip(&iz[a..b])
+            {
+                let (x0, x1) = (lo.x * ix, hi.x * ix);
+                let (y0, y1) = (lo.y * iy, hi.y * iy);
+                let (z0, z1) = (lo.z * iz, hi.z * iz);
+                let n = max(max(min(x0, x1), min(y0, y1)), min(z0, z1));
+                let f = min(min(max(x0, x1), max(y0, y1)), max(z0, z1));
+                // A margin for the f32 ray parameters of the traversal; +inf: missed.
+                *t = if n <= f && f >= 0.0 {
+                    max(n, 0.0) * (1.0 - 1e-4)
+                } else {
+                    f32::INFINITY
+                };
+            }
+            for (v, &t) in out[r.x0 as usize..=r.x1 as usize]
+                .iter_mut()
+                .zip(&near[a..b])
+            {
+                if t < f32::INFINITY {
+                    insert(v, r.id, t);
                 }
             }
         }

@@ -174,7 +174,7 @@ pub fn render_into<S: Surfaces>(
         let mut starts = Vec::new();
         if let Some(p) = prepass {
             starts.resize(w as usize, PrimaryStart::from(0.0));
-            p.row(&rays, y, &mut starts, &mut Vec::new());
+            p.row(&rays, y, &mut starts);
         }
         for x in 0..w {
             // The grid direction of a unit scene direction is the same unit vector (the

@@ -16,6 +16,7 @@ use crate::mesh::MeshError;
 use crate::mesh::Texture;
 use crate::mesh_reference::MeshSurfaces;
 use crate::octree::Octree;
+use crate::primary_cast::cast_timed;
 use crate::render::{Frame, RenderStats, render_timed};
 use crate::scene_info::SceneInfo;
 use crate::shading::{Phong, PointLight};
@@ -184,6 +185,10 @@ pub struct RenderJob {
     pub aov: Aov,
     /// Render this many timed frames (after one untimed warm-up) and report the median.
     pub bench_frames: Option<u32>,
+    /// With `bench_frames`: cast the primary rays alone (the first hit and its distance per
+    /// pixel, no shading, no image: [`crate::primary_cast`]), as a ray-casting library
+    /// returns them.
+    pub cast: bool,
     /// Worker threads (default all cores).
     pub threads: Option<usize>,
     /// A triangle mesh to render instead (the reference), or beside the octree with
@@ -213,6 +218,7 @@ impl Default for RenderJob {
             view: None,
             aov: Aov::Colour,
             bench_frames: None,
+            cast: false,
             threads: None,
             reference: None,
             compare: false,
@@ -392,6 +398,12 @@ pub fn prepare(job: &RenderJob) -> Result<JobScene, RenderJobError> {
             "--bench takes 1..={MAX_BENCH_FRAMES} frames"
         )));
     }
+    if job.cast && (job.bench_frames.is_none() || job.output.is_some() || job.reference.is_some()) {
+        return Err(RenderJobError::Invalid(
+            "--cast times the primary rays alone: it goes with --bench, without -o or --reference"
+                .into(),
+        ));
+    }
     if !(job.trace.bias_cells.is_finite() && job.trace.bias_cells >= 0.0) {
         return Err(RenderJobError::Invalid(
             "the bias must be a non-negative number".into(),
@@ -553,6 +565,40 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         ));
     }
     let frames = job.bench_frames;
+    if job.cast {
+        let (stats, times) = match &exact_mesh {
+            Some(mesh) => {
+                let s = exact_surfaces(&tree, mesh).map_err(RenderJobError::Invalid)?;
+                cast_timed(
+                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &camera,
+                    frames,
+                )?
+            }
+            None => {
+                let s = OctreeSurfaces::new(&tree, job.trace.mode);
+                cast_timed(
+                    &Tracer::new(s, &lights, sky, phong, job.trace),
+                    &camera,
+                    frames,
+                )?
+            }
+        };
+        return Ok(RenderReport {
+            width: camera.width,
+            height: camera.height,
+            depth: tree.depth,
+            leaves: tree.leaf_count,
+            hit: job.trace.mode.name(),
+            threads,
+            timing: FrameTiming::new(&times, &stats),
+            stats,
+            cost_scale: 1,
+            output: None,
+            compare: None,
+            camera: CameraReport::of(&camera),
+        });
+    }
     // The octree image (unless only the reference is wanted).
     let svo = if reference.is_none() || job.compare {
         Some(match &exact_mesh {
@@ -643,13 +689,19 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         cost_scale,
         output,
         compare,
-        camera: CameraReport {
+        camera: CameraReport::of(&camera),
+    })
+}
+
+impl CameraReport {
+    fn of(camera: &Camera) -> Self {
+        Self {
             eye: camera.eye.to_array(),
             target: camera.target.to_array(),
             up: camera.up.to_array(),
             fov_deg: camera.fov_deg,
-        },
-    })
+        }
+    }
 }
 
 /// The timing of a benchmark's frames, with the throughput it gives.

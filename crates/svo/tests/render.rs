@@ -584,6 +584,7 @@ fn with_and_without_prepass(
         assert_eq!(hits.hits, a.stats.primary_hits);
         if prepass {
             assert_eq!(hits.steps, a.stats.primary_steps);
+            assert_eq!(hits.max_steps, a.stats.max_primary_steps);
         }
     }
     // The first pixel that differs, with what each render saw there.
