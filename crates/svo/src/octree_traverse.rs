@@ -201,7 +201,9 @@ fn traverse_from<T>(
     // The stack holds one frame per level above the leaves; a stack sized for the tree
     // keeps its initialization (a `memset` per ray) small.
     let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
-    if levels <= 4 {
+    if levels <= 2 {
+        traverse_with::<2, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    } else if levels <= 4 {
         traverse_with::<4, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 12 {
         traverse_with::<12, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
