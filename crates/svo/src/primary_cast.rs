@@ -83,9 +83,9 @@ pub fn cast_primary<S: Surfaces>(
                 tmin: start.tmin,
                 ..Query::all(max_steps)
             };
-            let r = tracer.surfaces().closest_primary(&ray, &q, start);
-            leaf[i] = r.hit.map_or(NO_LEAF, |h| h.id);
-            depth[i] = r.hit.map_or(f32::INFINITY, |h| h.t);
+            let r = tracer.surfaces().first_hit(&ray, &q, start);
+            leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
+            depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
             counts[0] += u64::from(r.hit.is_some());
             counts[1] += u64::from(r.steps);
             counts[2] += u64::from(r.capped);

@@ -69,6 +69,35 @@ impl PrimaryPrepass {
         // are off the screen (the larger half extent of the image plane is `reach`).
         let reach = rays.half_extent().max_element();
         let clip = 1.0 / (4.0 * reach + 2.0);
+        let (right, up) = (rays.right(), rays.up());
+        let half = rays.half_extent();
+        // The rectangle (grown by a pixel, within the image) of the projection bounds, with
+        // the box relative to the eye; `None` off the image.
+        let rect = |id: u32, [x0, y0, x1, y1]: [f64; 4], lo: DVec3, hi: DVec3| {
+            let rx0 = ((x0.floor() as i64) - 1).max(0);
+            let ry0 = ((y0.floor() as i64) - 1).max(0);
+            let rx1 = ((x1.ceil() as i64) + 1).min(i64::from(w) - 1);
+            let ry1 = ((y1.ceil() as i64) + 1).min(i64::from(h) - 1);
+            if rx0 > rx1 || ry0 > ry1 {
+                return None;
+            }
+            // Relative to the eye; a corner exactly at the eye's coordinate moves out by the
+            // margin again, so no slab test multiplies 0 by an infinite inverse.
+            let rel = |v: DVec3, out: f64| {
+                let r = v - eye_d;
+                let fix = |c: f64| if c == 0.0 { out } else { c };
+                Vec3A::new(fix(r.x) as f32, fix(r.y) as f32, fix(r.z) as f32)
+            };
+            Some(Rect {
+                id,
+                x0: rx0 as u32,
+                y0: ry0 as u32,
+                x1: rx1 as u32,
+                y1: ry1 as u32,
+                lo: rel(lo, -pad),
+                hi: rel(hi, pad),
+            })
+        };
         let project = |&(id, lo, hi): &(u32, glam::Vec3, glam::Vec3)| -> Result<Option<Rect>, ()> {
             let lo = lo.as_dvec3() - pad;
             let hi = hi.as_dvec3() + pad;
@@ -83,6 +112,39 @@ impl PrimaryPrepass {
             // The box in front of the plane at `zc` before the eye: its corners there and
             // where its edges cross the plane. The rest of it is off the screen or behind.
             let zc = gap * clip;
+            // The corners in view space (along right, up, forward), from the low corner and
+            // the three edge vectors.
+            let v0 = lo_s - eye_s;
+            let view = |v: DVec3| DVec3::new(v.dot(right), v.dot(up), v.dot(forward));
+            let c0 = view(v0);
+            let d = hi_s - lo_s;
+            let ex = DVec3::new(right.x, up.x, forward.x) * d.x;
+            let ey = DVec3::new(right.y, up.y, forward.y) * d.y;
+            let ez = DVec3::new(right.z, up.z, forward.z) * d.z;
+            let corners: [DVec3; 8] = std::array::from_fn(|i| {
+                c0 + if i & 4 != 0 { ex } else { DVec3::ZERO }
+                    + if i & 2 != 0 { ey } else { DVec3::ZERO }
+                    + if i & 1 != 0 { ez } else { DVec3::ZERO }
+            });
+            let (mut x0, mut y0, mut x1, mut y1) = (
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            );
+            if corners.iter().all(|c| c.z >= zc) {
+                // Wholly in front: the rectangle of the corners' projections (as
+                // `CameraRays::project` makes them).
+                for c in corners {
+                    let px = (c.x / (c.z * half.x) + 1.0) * 0.5 * f64::from(w) - 0.5;
+                    let py = (1.0 - c.y / (c.z * half.y)) * 0.5 * f64::from(h) - 0.5;
+                    x0 = x0.min(px);
+                    y0 = y0.min(py);
+                    x1 = x1.max(px);
+                    y1 = y1.max(py);
+                }
+                return Ok(rect(id, [x0, y0, x1, y1], lo, hi));
+            }
             let corner = |i: usize| {
                 DVec3::new(
                     if i & 4 != 0 { hi_s.x } else { lo_s.x },
@@ -91,12 +153,6 @@ impl PrimaryPrepass {
                 )
             };
             let z = |p: DVec3| (p - eye_s).dot(forward);
-            let (mut x0, mut y0, mut x1, mut y1) = (
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            );
             let mut any = false;
             let mut add = |p: DVec3| -> Result<(), ()> {
                 let (px, py) = rays.project(p).ok_or(())?;
@@ -128,29 +184,7 @@ impl PrimaryPrepass {
                 // Wholly behind the plane: off the screen or behind the eye.
                 return Ok(None);
             }
-            let rx0 = ((x0.floor() as i64) - 1).max(0);
-            let ry0 = ((y0.floor() as i64) - 1).max(0);
-            let rx1 = ((x1.ceil() as i64) + 1).min(i64::from(w) - 1);
-            let ry1 = ((y1.ceil() as i64) + 1).min(i64::from(h) - 1);
-            if rx0 > rx1 || ry0 > ry1 {
-                return Ok(None);
-            }
-            // Relative to the eye; a corner exactly at the eye's coordinate moves out by the
-            // margin again, so no slab test multiplies 0 by an infinite inverse.
-            let rel = |v: DVec3, out: f64| {
-                let r = v - eye_d;
-                let fix = |c: f64| if c == 0.0 { out } else { c };
-                Vec3A::new(fix(r.x) as f32, fix(r.y) as f32, fix(r.z) as f32)
-            };
-            Ok(Some(Rect {
-                id,
-                x0: rx0 as u32,
-                y0: ry0 as u32,
-                x1: rx1 as u32,
-                y1: ry1 as u32,
-                lo: rel(lo, -pad),
-                hi: rel(hi, pad),
-            }))
+            Ok(rect(id, [x0, y0, x1, y1], lo, hi))
         };
         // The finest set of boxes whose rectangles are not too many tests; a box that
         // reaches behind the eye does so in every coarser set too.

@@ -5,10 +5,11 @@
 
 use crate::grid::RootCube;
 use crate::grid_ray::GridRay;
+use crate::grid_ray::MirroredRay;
 use crate::leaf_hit::{HitMode, leaf_hit};
 use crate::mesh::srgb_to_linear;
 use crate::octree::{Octree, ior_decode};
-use crate::octree_traverse::{LeafEntry, StartNode, traverse, traverse_node};
+use crate::octree_traverse::{LeafEntry, StartNode, traverse, traverse_node_mirrored};
 use crate::whitted::{NO_BOX, PrimaryStart};
 use glam::{UVec3, Vec3};
 
@@ -89,6 +90,17 @@ pub struct Traced {
     pub capped: bool,
 }
 
+/// The outcome of a ray cast ([`Surfaces::first_hit`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstHit {
+    /// The primitive (leaf or triangle) hit and the hit's parameter.
+    pub hit: Option<(u32, f32)>,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
 /// The outcome of a shadow walk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Walked {
@@ -126,6 +138,18 @@ pub trait Surfaces: Sync {
         self.closest(ray, q)
     }
 
+    /// [`Self::closest_primary`] reduced to what a ray cast returns: the primitive hit and
+    /// its parameter (the same as `closest_primary` gives; surfaces may skip the normal and
+    /// material).
+    fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
+        let r = self.closest_primary(ray, q, start);
+        FirstHit {
+            hit: r.hit.map(|h| (h.id, h.t)),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
     /// returns `true`.
     fn walk(
@@ -144,6 +168,11 @@ pub trait LeafShape: Sync {
     /// The hit of `ray` inside leaf entry `e`: its parameter and unit shading normal (for a
     /// mode without its own, the leaf's stored normal, else the geometric one).
     fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)>;
+
+    /// The parameter of [`Self::hit`] alone.
+    fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
+        self.hit(tree, ray, e).map(|h| h.0)
+    }
 }
 
 impl LeafShape for HitMode {
@@ -156,6 +185,11 @@ impl LeafShape for HitMode {
             .get(e.leaf as usize)
             .map_or(h.normal, crate::normal_encoding::decode);
         Some((h.t, n))
+    }
+
+    #[inline]
+    fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
+        leaf_hit(tree, ray, e, *self).map(|h| h.t)
     }
 }
 
@@ -231,6 +265,87 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             (nodes, sets)
         });
         (nodes, sets)
+    }
+
+    /// The first hit of a primary ray in the open (nothing skipped) with what the prepass
+    /// knows of it, as `visit` decides hits per leaf (`t_of` gives a hit's parameter), with
+    /// the steps taken and whether the cap stopped it.
+    ///
+    /// The boxes in order of entry, each alone: every leaf lies in some box and a box's
+    /// leaves are entered no earlier than the box, so once the best hit so far comes before
+    /// the next box's entry it is the closest of all. Ties between boxes, and anything not
+    /// settled by the listed boxes, go to the whole traversal.
+    fn primary_walk<T: Copy>(
+        &self,
+        ray: &GridRay,
+        q: &Query,
+        start: &PrimaryStart,
+        visit: impl Fn(&LeafEntry) -> Option<T> + Copy,
+        t_of: impl Fn(&T) -> f32,
+    ) -> (Option<T>, u32, bool) {
+        let whole = |steps: u32, tmin: f32| {
+            let r = traverse(self.tree, ray, tmin, q.tmax, q.max_steps, visit);
+            (r.hit, r.steps + steps, r.capped)
+        };
+        if start.boxes[0].0 == NO_BOX {
+            return whole(0, q.tmin);
+        }
+        let (nodes, _) = self.start_nodes();
+        let depth = self.tree.depth;
+        let Some(mirrored) = (1..=31)
+            .contains(&depth)
+            .then(|| MirroredRay::new(ray, 1u32 << depth))
+            .flatten()
+        else {
+            return whole(0, q.tmin);
+        };
+        let mut best: Option<T> = None;
+        let mut steps = 0u32;
+        for &(b, entry) in &start.boxes {
+            if b == NO_BOX {
+                break;
+            }
+            if let Some(h) = best
+                && t_of(&h) < entry
+            {
+                return (best, steps, false);
+            }
+            let Some(&node) = nodes.get(b as usize) else {
+                return whole(steps, q.tmin);
+            };
+            let Some(r) = traverse_node_mirrored(
+                self.tree,
+                ray,
+                &mirrored,
+                node,
+                q.tmin,
+                q.tmax,
+                q.max_steps,
+                visit,
+            ) else {
+                // The ray only touches the box: only the whole walk knows what it sees there.
+                return whole(steps, q.tmin);
+            };
+            steps += r.steps;
+            if r.capped {
+                return whole(steps, q.tmin);
+            }
+            if let Some(h) = r.hit {
+                match best {
+                    Some(x) if t_of(&x) == t_of(&h) => return whole(steps, q.tmin),
+                    Some(x) if t_of(&x) < t_of(&h) => {}
+                    _ => best = Some(h),
+                }
+            }
+        }
+        match best {
+            Some(h) if t_of(&h) < start.beyond => (best, steps, false),
+            Some(_) => whole(steps, q.tmin),
+            // No box beyond the listed ones: nothing to hit.
+            None if start.beyond == f32::INFINITY => (None, steps, false),
+            // The listed boxes hold nothing on the ray: the hit is in a later box.
+            None => whole(steps, q.tmin.max(start.beyond)),
+        }
     }
 
     /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
@@ -315,71 +430,37 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
-        // The boxes in order of entry, each alone: every leaf lies in some box and a box's
-        // leaves are entered no earlier than the box, so once the best hit so far comes
-        // before the next box's entry it is the closest of all. Ties between boxes, and
-        // anything not settled by the listed boxes, go to the whole traversal.
-        if q.medium.is_some() || q.skip.is_some() || start.boxes[0].0 == NO_BOX {
+        if q.medium.is_some() || q.skip.is_some() {
             return self.closest(ray, q);
         }
-        let (nodes, _) = self.start_nodes();
-        let mut best: Option<SurfaceHit> = None;
-        let mut steps = 0u32;
-        let whole = |steps: u32, tmin: f32| {
-            let mut r = self.closest(ray, &Query { tmin, ..*q });
-            r.steps += steps;
-            r
-        };
-        for &(b, entry) in &start.boxes {
-            if b == NO_BOX {
-                break;
-            }
-            if let Some(h) = best
-                && h.t < entry
-            {
-                return Traced {
-                    hit: best,
-                    steps,
-                    capped: false,
-                };
-            }
-            let Some(&node) = nodes.get(b as usize) else {
-                return whole(steps, q.tmin);
+        let (hit, steps, capped) =
+            self.primary_walk(ray, q, start, |e| self.surface_hit(ray, e), |h| h.t);
+        Traced { hit, steps, capped }
+    }
+
+    fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
+        if q.medium.is_some() || q.skip.is_some() {
+            let r = self.closest(ray, q);
+            return FirstHit {
+                hit: r.hit.map(|h| (h.id, h.t)),
+                steps: r.steps,
+                capped: r.capped,
             };
-            let Some(r) = traverse_node(self.tree, ray, node, q.tmin, q.tmax, q.max_steps, |e| {
-                self.surface_hit(ray, e)
-            }) else {
-                // The ray only touches the box: only the whole walk knows what it sees there.
-                return whole(steps, q.tmin);
-            };
-            steps += r.steps;
-            if r.capped {
-                return whole(steps, q.tmin);
-            }
-            if let Some(h) = r.hit {
-                match best {
-                    Some(x) if x.t == h.t => return whole(steps, q.tmin),
-                    Some(x) if x.t < h.t => {}
-                    _ => best = Some(h),
+        }
+        // What `surface_hit` decides, without the normal and material.
+        let (hit, steps, capped) = self.primary_walk(
+            ray,
+            q,
+            start,
+            |e| {
+                if self.interior && self.tree.attributes.is_interior(e.leaf as usize) {
+                    return None;
                 }
-            }
-        }
-        match best {
-            Some(h) if h.t < start.beyond => Traced {
-                hit: best,
-                steps,
-                capped: false,
+                Some((e.leaf, self.shape.hit_t(self.tree, ray, e)?))
             },
-            Some(_) => whole(steps, q.tmin),
-            // No box beyond the listed ones: nothing to hit.
-            None if start.beyond == f32::INFINITY => Traced {
-                hit: None,
-                steps,
-                capped: false,
-            },
-            // The listed boxes hold nothing on the ray: the hit is in a later box.
-            None => whole(steps, q.tmin.max(start.beyond)),
-        }
+            |h| h.1,
+        );
+        FirstHit { hit, steps, capped }
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
