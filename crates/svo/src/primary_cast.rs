@@ -12,7 +12,7 @@ use crate::grid_ray::GridRay;
 use crate::primary_prepass::PrimaryPrepass;
 use crate::render::{NO_LEAF, RenderStats};
 use crate::surfaces::{Query, Surfaces};
-use crate::whitted::{PrimaryStart, Tracer};
+use crate::whitted::Tracer;
 use std::time::{Duration, Instant};
 
 /// The primary hits of a view, row-major from the top-left pixel.
@@ -54,20 +54,13 @@ pub fn cast_primary<S: Surfaces>(
     out.leaf.resize(px, NO_LEAF);
     out.depth.resize(px, f32::INFINITY);
     let eye = tracer.to_grid(camera.eye);
-    let prepass = if tracer.options().prepass {
-        PrimaryPrepass::new(tracer, &rays)
-    } else {
-        None
-    };
+    let prepass = PrimaryPrepass::of_view(tracer, &rays);
     let prepass = prepass.as_ref();
     let scale = tracer.scale();
     let max_steps = tracer.options().max_steps;
     let row = |y: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
         let mut counts = [0u64; 4];
-        let mut starts = vec![PrimaryStart::from(0.0); w as usize];
-        if let Some(p) = prepass {
-            p.row(&rays, y, &mut starts);
-        }
+        let starts = PrimaryPrepass::starts(prepass, &rays, y, w);
         for (x, start) in (0..w).zip(&starts) {
             let i = x as usize;
             if start.tmin == f32::INFINITY {

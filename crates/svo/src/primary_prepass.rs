@@ -51,6 +51,30 @@ pub(crate) struct PrimaryPrepass {
 }
 
 impl PrimaryPrepass {
+    /// The prepass of a view, when the tracer's options ask for one ([`Self::new`]).
+    pub(crate) fn of_view<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
+        if tracer.options().prepass {
+            Self::new(tracer, rays)
+        } else {
+            None
+        }
+    }
+
+    /// The starts of row `y` of a `width`-pixel image: from `prepass` ([`Self::row`]), or
+    /// from the eye without one.
+    pub(crate) fn starts(
+        prepass: Option<&Self>,
+        rays: &CameraRays,
+        y: u32,
+        width: u32,
+    ) -> Vec<PrimaryStart> {
+        let mut starts = vec![PrimaryStart::from(0.0); width as usize];
+        if let Some(p) = prepass {
+            p.row(rays, y, &mut starts);
+        }
+        starts
+    }
+
     /// The prepass of `rays` (the tracer's camera) over `tracer`'s surfaces, or `None` when
     /// there is none to make (see the module notes).
     pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {

@@ -9,7 +9,7 @@
 use crate::camera::{Camera, CameraError};
 use crate::primary_prepass::PrimaryPrepass;
 use crate::surfaces::Surfaces;
-use crate::whitted::{PrimaryStart, SampleStats, Tracer};
+use crate::whitted::{SampleStats, Tracer};
 use glam::Vec3;
 use std::time::{Duration, Instant};
 
@@ -157,11 +157,7 @@ pub fn render_into<S: Surfaces>(
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
     let eye = tracer.to_grid(camera.eye);
-    let prepass = if tracer.options().prepass {
-        PrimaryPrepass::new(tracer, &rays)
-    } else {
-        None
-    };
+    let prepass = PrimaryPrepass::of_view(tracer, &rays);
     let prepass = prepass.as_ref();
     let row = |y: u32,
                colour: &mut [Vec3],
@@ -171,18 +167,10 @@ pub fn render_into<S: Surfaces>(
                cost: &mut [u32]|
      -> RenderStats {
         let mut stats = RenderStats::default();
-        let mut starts = Vec::new();
-        if let Some(p) = prepass {
-            starts.resize(w as usize, PrimaryStart::from(0.0));
-            p.row(&rays, y, &mut starts);
-        }
-        for x in 0..w {
+        let starts = PrimaryPrepass::starts(prepass, &rays, y, w);
+        for (x, &start) in (0..w).zip(&starts) {
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-            let start = starts
-                .get(x as usize)
-                .copied()
-                .unwrap_or(PrimaryStart::from(0.0));
             let dir = rays.dir_f32(x, y);
             let i = x as usize;
             if start.tmin == f32::INFINITY {

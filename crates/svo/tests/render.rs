@@ -539,8 +539,8 @@ fn with_and_without_prepass(
     cam: &Camera,
     what: &str,
 ) -> (svo::render::Frame, svo::render::Frame) {
-    let frame = |prepass: bool| {
-        let t = Tracer::new(
+    let tracer = |prepass: bool| {
+        Tracer::new(
             OctreeSurfaces::new(tree, mode),
             &[PointLight {
                 position: cam.eye + DVec3::Y,
@@ -554,23 +554,15 @@ fn with_and_without_prepass(
                 prepass,
                 ..TraceOptions::default()
             },
-        );
-        render(&t, cam).unwrap()
+        )
     };
-    let (a, b) = (frame(true), frame(false));
+    let (a, b) = (
+        render(&tracer(true), cam).unwrap(),
+        render(&tracer(false), cam).unwrap(),
+    );
     // Casting the primary rays alone finds the same hits, with the prepass and without.
     for prepass in [true, false] {
-        let t = Tracer::new(
-            OctreeSurfaces::new(tree, mode),
-            &[],
-            Sky::default(),
-            Phong::default(),
-            TraceOptions {
-                mode,
-                prepass,
-                ..TraceOptions::default()
-            },
-        );
+        let t = tracer(prepass);
         let mut hits = svo::primary_cast::Hits::default();
         svo::primary_cast::cast_primary(&t, cam, &mut hits).unwrap();
         assert_eq!(hits.leaf, a.leaf, "{what}: cast leaves, prepass {prepass}");
