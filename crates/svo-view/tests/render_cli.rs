@@ -196,6 +196,21 @@ fn compare_with_the_triangle_reference_and_bench() {
     );
     // --bench writes nothing unless asked.
     assert!(!svo.with_extension("png").exists());
+    // --cast times the first hits alone: the same hits as the shaded frames.
+    let hits = |extra: &[&str]| {
+        let mut args = vec![
+            s, "--bench", "2", "--size", "32x24", "--hit", "cube", "--json",
+        ];
+        args.extend_from_slice(extra);
+        let j: serde_json::Value = serde_json::from_str(&ok(&view(&args))).unwrap();
+        assert_eq!(j["stats"]["primary_rays"], 32 * 24);
+        assert!(j["primary_mrays_per_s"].as_f64().unwrap() > 0.0);
+        j["stats"]["primary_hits"].as_u64().unwrap()
+    };
+    let cast = hits(&["--cast"]);
+    assert!(cast > 0);
+    assert_eq!(cast, hits(&["--bounces", "0", "--shadows", "none"]));
+    assert!(!svo.with_extension("png").exists());
 
     // JSON report.
     let out = ok(&view(&[
@@ -225,6 +240,8 @@ fn bad_input_gives_one_line_and_no_output() {
         (vec![s, "-o", o, "--size", "20000x10"], "size"),
         (vec![s, "-o", o, "--size", "16384x16384"], "pixels"),
         (vec![s, "--bench", "0"], "--bench takes"),
+        (vec![s, "--cast"], "--bench"),
+        (vec![s, "--cast", "--bench", "2", "-o", o], "without -o"),
         (vec![s, "--bench", "99999999"], "--bench takes"),
         (vec![s, "-o", o, "--threads", "0"], "threads"),
         (vec![s, "-o", o, "--threads", "100000"], "threads"),

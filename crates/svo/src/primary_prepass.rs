@@ -23,6 +23,10 @@ use glam::{DVec3, Vec3A};
 /// Rows per band of the box lists.
 const BAND: u32 = 8;
 
+/// The fewest pixels per box projected (a set with more boxes is passed over for a
+/// coarser one, where there is one).
+const PIXELS_PER_BOX: u64 = 8;
+
 /// The most slab tests per pixel (a test costs a few percent of tracing a ray from the eye).
 const MAX_TESTS_PER_PIXEL: u64 = 16;
 
@@ -213,8 +217,17 @@ impl PrimaryPrepass {
         // The finest set of boxes whose rectangles are not too many tests; a box that
         // reaches behind the eye does so in every coarser set too.
         let mut coarser = 0;
+        let pixels = u64::from(w) * u64::from(h);
         let rects = loop {
             let boxes = tracer.surfaces().coarse_boxes(coarser)?;
+            // Projecting a box costs about as much as tracing a few rays: a small image
+            // takes a coarser set.
+            if boxes.len() as u64 * PIXELS_PER_BOX > pixels
+                && tracer.surfaces().coarse_boxes(coarser + 1).is_some()
+            {
+                coarser += 1;
+                continue;
+            }
             #[cfg(feature = "parallel")]
             let rects: Result<Vec<Option<Rect>>, ()> = {
                 use rayon::prelude::*;
