@@ -93,8 +93,12 @@ impl PrimaryPrepass {
         let (root, _) = tracer.surfaces().grid();
         let eye_s = rays.eye();
         let forward = rays.forward();
-        // Points nearer the eye's image plane than `clip` times their distance from the eye
-        // are off the screen (the larger half extent of the image plane is `reach`).
+        // Points of a box at distance `g` from the eye that lie nearer the eye's image plane
+        // than `zc = g * clip` are off the screen: such a point has depth `z < zc` and lies
+        // at least `g` from the eye, so its distance from the view axis is at least
+        // `g * sqrt(1 - clip^2) >= 0.86 g`, while a point on the screen at depth `z` is within
+        // `z * sqrt(2) * reach < 0.36 g` of the axis (`reach`: the larger half extent of the
+        // image plane at depth 1; `clip <= 1 / (4 reach)`).
         let reach = rays.half_extent().max_element();
         let clip = 1.0 / (4.0 * reach + 2.0);
         let (right, up) = (rays.right(), rays.up());
