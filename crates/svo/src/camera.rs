@@ -177,12 +177,18 @@ impl CameraRays {
         if !(z > 1e-9 * v.length()) || !(z > 0.0) {
             return None;
         }
-        let sx = v.dot(self.right) / (z * self.tan_half * self.aspect);
-        let sy = v.dot(self.up) / (z * self.tan_half);
-        Some((
+        Some(self.pixel_of_view(DVec3::new(v.dot(self.right), v.dot(self.up), z)))
+    }
+
+    /// [`Self::project`] for a point given in view space relative to the eye (along right,
+    /// up and the view direction; the last positive), without the margin check.
+    pub fn pixel_of_view(&self, v: DVec3) -> (f64, f64) {
+        let sx = v.x / (v.z * self.tan_half * self.aspect);
+        let sy = v.y / (v.z * self.tan_half);
+        (
             (sx + 1.0) * 0.5 * f64::from(self.width) - 0.5,
             (1.0 - sy) * 0.5 * f64::from(self.height) - 0.5,
-        ))
+        )
     }
 
     /// The `f32` values [`Self::dir_f32`] makes directions from: the basis (forward, right,

@@ -142,14 +142,21 @@ impl MirroredRay {
     /// Maps a mirrored leaf cell back to the real cell.
     #[inline]
     pub fn unmirror_cell(&self, m: UVec3) -> UVec3 {
-        let flip = |axis: usize, v: u32| {
+        self.flip(m, 1)
+    }
+
+    /// The minimum corner, on the other side of the mirror, of the cube of `side` cells
+    /// whose minimum corner is `c` (real to mirrored or back: the map is its own inverse).
+    #[inline]
+    pub fn flip(&self, c: UVec3, side: u32) -> UVec3 {
+        let f = |axis: usize, v: u32| {
             if self.mask & (4 >> axis) != 0 {
-                self.n - 1 - v
+                self.n - side - v
             } else {
                 v
             }
         };
-        UVec3::new(flip(0, m.x), flip(1, m.y), flip(2, m.z))
+        UVec3::new(f(0, c.x), f(1, c.y), f(2, c.z))
     }
 
     /// The real-space unit normal of the face through which the ray enters a cell whose

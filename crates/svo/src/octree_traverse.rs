@@ -291,23 +291,7 @@ fn traverse_with<const STACK: usize, T>(
         },
     };
     // The node's minimum corner in mirrored cells.
-    let origin = UVec3::new(
-        if r.mask & 4 != 0 {
-            n - origin.x - side
-        } else {
-            origin.x
-        },
-        if r.mask & 2 != 0 {
-            n - origin.y - side
-        } else {
-            origin.y
-        },
-        if r.mask & 1 != 0 {
-            n - origin.z - side
-        } else {
-            origin.z
-        },
-    );
+    let origin = r.flip(origin, side);
     let Some((t0, t1, enter)) = r.node_entry(origin, side, tmin, tmax) else {
         return Some(out);
     };

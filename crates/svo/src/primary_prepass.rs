@@ -84,13 +84,12 @@ impl PrimaryPrepass {
     pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
         let (w, h) = rays.size();
         let eye = tracer.to_grid(rays.eye());
-        let (_, depth) = tracer.surfaces().grid();
+        let (root, depth) = tracer.surfaces().grid();
         // Grid units: the margin covers the f32 rounding of the traversal's rays and planes
         // (relative 1e-7 of the coordinates and of the distance from the eye).
         let side = f64::from(1u32 << depth.min(31));
         let pad = 1e-3 + 1e-5 * side.max(f64::from(eye.abs().max_element()));
         let eye_d = eye.as_dvec3();
-        let (root, _) = tracer.surfaces().grid();
         let eye_s = rays.eye();
         let forward = rays.forward();
         // Points of a box at distance `g` from the eye that lie nearer the eye's image plane
@@ -102,7 +101,6 @@ impl PrimaryPrepass {
         let reach = rays.half_extent().max_element();
         let clip = 1.0 / (4.0 * reach + 2.0);
         let (right, up) = (rays.right(), rays.up());
-        let half = rays.half_extent();
         // The rectangle (grown by a pixel, within the image) of the projection bounds, with
         // the box relative to the eye; `None` off the image.
         let rect = |id: u32, [x0, y0, x1, y1]: [f64; 4], lo: DVec3, hi: DVec3| {
@@ -165,11 +163,9 @@ impl PrimaryPrepass {
                 f64::NEG_INFINITY,
             );
             if corners.iter().all(|c| c.z >= zc) {
-                // Wholly in front: the rectangle of the corners' projections (as
-                // `CameraRays::project` makes them).
+                // Wholly in front: the rectangle of the corners' projections.
                 for c in corners {
-                    let px = (c.x / (c.z * half.x) + 1.0) * 0.5 * f64::from(w) - 0.5;
-                    let py = (1.0 - c.y / (c.z * half.y)) * 0.5 * f64::from(h) - 0.5;
+                    let (px, py) = rays.pixel_of_view(c);
                     x0 = x0.min(px);
                     y0 = y0.min(py);
                     x1 = x1.max(px);

@@ -101,6 +101,16 @@ pub struct FirstHit {
     pub capped: bool,
 }
 
+impl From<Traced> for FirstHit {
+    fn from(r: Traced) -> Self {
+        Self {
+            hit: r.hit.map(|h| (h.id, h.t)),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+}
+
 /// The outcome of a shadow walk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Walked {
@@ -142,12 +152,7 @@ pub trait Surfaces: Sync {
     /// its parameter (the same as `closest_primary` gives; surfaces may skip the normal and
     /// material).
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
-        let r = self.closest_primary(ray, q, start);
-        FirstHit {
-            hit: r.hit.map(|h| (h.id, h.t)),
-            steps: r.steps,
-            capped: r.capped,
-        }
+        self.closest_primary(ray, q, start).into()
     }
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
@@ -370,11 +375,17 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         }
     }
 
+    /// Whether rays pass through leaf `i`: an interior cell of a solid (the surface leaves
+    /// around it are the interfaces).
+    #[inline]
+    fn passes_through(&self, i: u32) -> bool {
+        self.interior && self.tree.attributes.is_interior(i as usize)
+    }
+
     /// The surface hit of leaf entry `e`, if the shape is hit.
     #[inline]
     fn surface_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
-        if self.interior && self.tree.attributes.is_interior(e.leaf as usize) {
-            // Inside a solid: the surface leaves around it are the interfaces.
+        if self.passes_through(e.leaf) {
             return None;
         }
         let (t, normal) = self.shape.hit(self.tree, ray, e)?;
@@ -440,12 +451,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
         if q.medium.is_some() || q.skip.is_some() {
-            let r = self.closest(ray, q);
-            return FirstHit {
-                hit: r.hit.map(|h| (h.id, h.t)),
-                steps: r.steps,
-                capped: r.capped,
-            };
+            return self.closest(ray, q).into();
         }
         // What `surface_hit` decides, without the normal and material.
         let (hit, steps, capped) = self.primary_walk(
@@ -453,7 +459,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             q,
             start,
             |e| {
-                if self.interior && self.tree.attributes.is_interior(e.leaf as usize) {
+                if self.passes_through(e.leaf) {
                     return None;
                 }
                 Some((e.leaf, self.shape.hit_t(self.tree, ray, e)?))
