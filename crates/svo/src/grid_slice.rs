@@ -62,6 +62,21 @@ impl Poly {
     pub fn area(&self) -> f64 {
         polygon_area(self.points())
     }
+
+    /// The area of the polygon, which lies in a plane with unit normal `unit`: without a
+    /// square root (the fan's vector area is parallel to `unit`).
+    #[inline]
+    pub fn area_in_plane(&self, unit: DVec3) -> f64 {
+        let p = self.points();
+        if p.len() < 3 {
+            return 0.0;
+        }
+        let mut s = DVec3::ZERO;
+        for i in 1..p.len() - 1 {
+            s += (p[i] - p[0]).cross(p[i + 1] - p[0]);
+        }
+        0.5 * s.dot(unit).abs()
+    }
 }
 
 /// The area of a planar convex polygon.
@@ -81,9 +96,12 @@ pub fn polygon_area(p: &[DVec3]) -> f64 {
 /// each edge that crosses from more than `eps` below to more than `eps` above adds its
 /// intersection, with the coordinate on `axis` set to exactly `c`, to both.
 #[inline]
-fn cut(src: &Poly, axis: usize, c: f64, eps: f64, lo: &mut Poly, hi: &mut Poly) {
+fn cut<const AXIS: usize>(src: &Poly, c: f64, eps: f64, lo: &mut Poly, hi: &mut Poly) {
+    let axis = AXIS;
     lo.n = 0;
     hi.n = 0;
+    lo.overflow = false;
+    hi.overflow = false;
     let n = src.n;
     for i in 0..n {
         let p = src.v[i];
@@ -124,14 +142,14 @@ fn floor_i64(x: f64) -> i64 {
 /// test), and points made later by cuts on other axes lie within the polygon's extent, so
 /// they cannot come near another slab unseen.
 #[inline]
-fn slabs(
+fn slabs<const AXIS: usize>(
     poly: &Poly,
-    axis: usize,
     n: u32,
     eps: f64,
     buf: &mut [Poly; 3],
     f: &mut impl FnMut(u32, &Poly),
 ) {
+    let axis = AXIS;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in poly.points() {
         lo = lo.min(p[axis]);
@@ -150,7 +168,7 @@ fn slabs(
     // Ping-pong between two buffers for what is left above each cut.
     let [below, x, y] = buf;
     let (mut rest, mut above) = (x, y);
-    cut(poly, axis, (a + 1) as f64, eps, below, rest);
+    cut::<AXIS>(poly, (a + 1) as f64, eps, below, rest);
     if below.n > 0 {
         f(a as u32, below);
     }
@@ -158,7 +176,7 @@ fn slabs(
         if rest.n == 0 {
             return;
         }
-        cut(rest, axis, (i + 1) as f64, eps, below, above);
+        cut::<AXIS>(rest, (i + 1) as f64, eps, below, above);
         if below.n > 0 {
             f(i as u32, below);
         }
@@ -201,16 +219,9 @@ impl Slicer {
         let lo = v[0].min(v[1]).min(v[2]);
         let hi = v[0].max(v[1]).max(v[2]);
         let side = f64::from(n);
-        for axis in 0..3 {
-            if lo[axis] < 0.0 {
-                cut(poly, axis, 0.0, eps, a, b);
-                std::mem::swap(poly, b);
-            }
-            if hi[axis] > side {
-                cut(poly, axis, side, eps, a, b);
-                std::mem::swap(poly, a);
-            }
-        }
+        clip_axis::<0>(poly, lo.x, hi.x, side, eps, a, b);
+        clip_axis::<1>(poly, lo.y, hi.y, side, eps, a, b);
+        clip_axis::<2>(poly, lo.z, hi.z, side, eps, a, b);
         if poly.n == 0 || poly.overflow {
             return false;
         }
@@ -227,18 +238,60 @@ impl Slicer {
                 return false;
             }
         }
-        let mut overflow = false;
-        let [bx, by, bz] = &mut self.bufs;
-        slabs(poly, 0, n, eps, bx, &mut |x, slab| {
-            slabs(slab, 1, n, eps, by, &mut |y, column| {
-                slabs(column, 2, n, eps, bz, &mut |z, part| {
-                    overflow |= part.overflow;
-                    f([x, y, z], part);
-                });
+        slice_in_order::<0, 1, 2>(poly, n, eps, &mut self.bufs, f)
+    }
+}
+
+/// Clips `poly` to `0 <= p[AXIS] <= side` where its extent `lo..hi` on that axis passes a
+/// bound (`a` and `b` are scratch).
+#[inline]
+fn clip_axis<const AXIS: usize>(
+    poly: &mut Poly,
+    lo: f64,
+    hi: f64,
+    side: f64,
+    eps: f64,
+    a: &mut Poly,
+    b: &mut Poly,
+) {
+    if lo < 0.0 {
+        cut::<AXIS>(poly, 0.0, eps, a, b);
+        std::mem::swap(poly, b);
+    }
+    if hi > side {
+        cut::<AXIS>(poly, side, eps, a, b);
+        std::mem::swap(poly, a);
+    }
+}
+
+/// Slices `poly` into slabs along axis `A`, each slab into columns along `B` and each
+/// column into cells along `C`, calling `f(cell, part)`; `false` when a polygon overflowed.
+/// (Putting the triangle normal's dominant axis last, where a column holds the fewest
+/// cells, was measured slower than this fixed order on the bunny: 117 against 113 ms for a
+/// depth-8 bake on one thread.)
+#[inline]
+fn slice_in_order<const A: usize, const B: usize, const C: usize>(
+    poly: &Poly,
+    n: u32,
+    eps: f64,
+    bufs: &mut [[Poly; 3]; 3],
+    f: &mut impl FnMut([u32; 3], &Poly),
+) -> bool {
+    let mut overflow = false;
+    let [ba, bb, bc] = bufs;
+    slabs::<A>(poly, n, eps, ba, &mut |a, slab| {
+        slabs::<B>(slab, n, eps, bb, &mut |b, column| {
+            slabs::<C>(column, n, eps, bc, &mut |c, part| {
+                overflow |= part.overflow;
+                let mut cell = [0; 3];
+                cell[A] = a;
+                cell[B] = b;
+                cell[C] = c;
+                f(cell, part);
             });
         });
-        !overflow
-    }
+    });
+    !overflow
 }
 
 /// [`Slicer::slice`] with buffers of its own.

@@ -274,15 +274,14 @@ pub fn scatter_sliced(
                 .iter()
                 .fold(n as f64, |a, v| a.max(v.abs().max_element()));
             let eps = SLICE_MARGIN * reach;
+            // The unit normal for the parts' areas (None where the length underflows).
+            let unit = t.n.try_normalize();
             verify.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
                 let start = pts.len() as u32;
-                let mut sum = DVec3::ZERO;
-                for &p in part.points() {
-                    sum += p;
-                    pts.push((p - m).as_vec3());
-                }
+                let sum = part.points().iter().fold(DVec3::ZERO, |a, &p| a + p);
+                pts.extend(part.points().iter().map(|&p| (p - m).as_vec3()));
                 // A centroid well inside the cell is within rounding of a point of the
                 // triangle: the contact is proven. Other parts take the exact test.
                 let centroid = sum / part.points().len() as f64;
@@ -292,7 +291,7 @@ pub fn scatter_sliced(
                 contacts.push(Contact {
                     key: key_of(c.map(i64::from)),
                     tri: ti,
-                    area: part.area(),
+                    area: unit.map_or_else(|| part.area(), |u| part.area_in_plane(u)),
                     start,
                     len: part.points().len() as u32,
                 });
@@ -473,13 +472,22 @@ fn floor_i64(x: f64) -> i64 {
 }
 
 /// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
+/// The coordinates are below `2^k` (`k <= SCATTER_LEVELS`), so the index does not depend
+/// on `k` beyond that: bit `b` of x goes to bit `3b + 2`, of y to `3b + 1`, of z to `3b`.
 #[inline]
 fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
-    let mut m = 0u32;
-    for b in (0..u32::from(k)).rev() {
-        m = m << 3 | ((x >> b) & 1) << 2 | ((y >> b) & 1) << 1 | ((z >> b) & 1);
-    }
-    m as u16
+    /// Bit `b` of a 4-bit value spread to bit `3b`.
+    const SPREAD: [u16; 16] = {
+        let mut t = [0u16; 16];
+        let mut i = 0;
+        while i < 16 {
+            t[i] = (i & 1 | (i & 2) << 2 | (i & 4) << 4 | (i & 8) << 6) as u16;
+            i += 1;
+        }
+        t
+    };
+    debug_assert!(k <= SCATTER_LEVELS && (x | y | z) >> k == 0);
+    SPREAD[x as usize & 15] << 2 | SPREAD[y as usize & 15] << 1 | SPREAD[z as usize & 15]
 }
 
 /// Emits the subtree of `items` sorted by their Morton `key`, for a node `k` levels above
