@@ -393,6 +393,35 @@ mod tests {
     }
 
     #[test]
+    fn an_overflow_flags_its_own_cut_only() {
+        // Twelve vertices alternating across the plane x = 0.5: every edge crosses it, so
+        // each side gets 6 vertices and 12 crossings, more than a polygon holds. A triangle
+        // cut with the same buffers afterwards must not inherit the flag (it once did,
+        // sending every later triangle of a task to the cell tests).
+        let mut zigzag = Poly::default();
+        for i in 0..CAP {
+            let a = std::f64::consts::TAU * i as f64 / CAP as f64;
+            let x = if i % 2 == 0 { 0.2 } else { 0.8 };
+            zigzag.push(DVec3::new(x, 0.5 + 0.4 * a.cos(), 0.5 + 0.4 * a.sin()));
+        }
+        assert!(!zigzag.overflow);
+        let (mut lo, mut hi) = (Poly::default(), Poly::default());
+        cut::<0>(&zigzag, 0.5, 0.0, &mut lo, &mut hi);
+        assert!(lo.overflow && hi.overflow);
+        let mut tri = Poly::default();
+        for p in [
+            DVec3::new(0.1, 0.1, 0.1),
+            DVec3::new(0.9, 0.1, 0.1),
+            DVec3::new(0.1, 0.9, 0.1),
+        ] {
+            tri.push(p);
+        }
+        cut::<0>(&tri, 0.5, 0.0, &mut lo, &mut hi);
+        assert!(!lo.overflow && !hi.overflow);
+        assert_eq!((lo.n, hi.n), (4, 3));
+    }
+
+    #[test]
     fn well_inside_means_off_every_face() {
         assert!(well_inside(DVec3::splat(0.5), 1e-9));
         assert!(!well_inside(DVec3::new(0.5, 0.0, 0.5), 1e-9));
@@ -421,3 +450,4 @@ mod tests {
         }
     }
 }
+
