@@ -7,9 +7,10 @@
 //! (the bake) computes the leaf's attributes and contour from its triangles' parts the moment
 //! it is made and keeps no list.
 //!
-//! The top levels build their children in parallel (rayon, feature `parallel`); the subtrees'
-//! places in the final arrays are planned in child order and each is copied there in
-//! parallel, so the output is identical whatever the thread count. Below those levels a task
+//! The top levels split long triangle lists in parallel pieces (joined in order) and build
+//! their children in parallel (rayon, feature `parallel`); the subtrees' places in the final
+//! arrays are planned in child order and each is copied there in parallel, so the output is
+//! identical whatever the thread count. Below those levels a task
 //! recurses sequentially, reusing one scratch list per level, so memory stays proportional to
 //! the triangles on the current path plus the output. In the default strategy the last four
 //! levels are built in one go per 16^3 block instead of recursing ([`crate::octree_scatter`],
@@ -33,6 +34,10 @@ use std::time::Instant;
 const PARALLEL_LEVELS: u8 = 3;
 /// A node needs at least this many triangles for its children to be built in parallel.
 const PARALLEL_MIN_TRIANGLES: usize = 64;
+/// Triangles per parallel piece of a top-level split ([`split_parallel`]); lists shorter
+/// than two pieces are split on one thread.
+#[cfg(feature = "parallel")]
+const SPLIT_CHUNK: usize = 8192;
 /// Progress is counted in units of the volume of a node at this level.
 const PROGRESS_LEVEL: u8 = 3;
 
@@ -290,6 +295,45 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
     tests
 }
 
+/// [`split`] for the long lists of the top levels: chunks of the list split in parallel and
+/// each child's lists joined in chunk order, so the lists are those of [`split`] (the root's
+/// split of the dragon's 871k triangles would otherwise run on one thread while the others
+/// wait).
+fn split_parallel(
+    ctx: &Ctx<'_>,
+    level: u8,
+    m: DVec3,
+    s: f64,
+    list: &[u32],
+    out: &mut [Vec<u32>; 8],
+) -> u64 {
+    #[cfg(feature = "parallel")]
+    if list.len() >= 2 * SPLIT_CHUNK {
+        use rayon::prelude::*;
+        let parts: Vec<([Vec<u32>; 8], u64)> = list
+            .par_chunks(SPLIT_CHUNK)
+            .map(|chunk| {
+                let mut lists = <[Vec<u32>; 8]>::default();
+                let tests = split(ctx, level, m, s, chunk, &mut lists);
+                (lists, tests)
+            })
+            .collect();
+        let mut tests = 0;
+        for (i, l) in out.iter_mut().enumerate() {
+            l.clear();
+            l.reserve(parts.iter().map(|p| p.0[i].len()).sum());
+            for p in &parts {
+                l.extend_from_slice(&p.0[i]);
+            }
+        }
+        for p in &parts {
+            tests += p.1;
+        }
+        return tests;
+    }
+    split(ctx, level, m, s, list, out)
+}
+
 /// Builds the subtree of the node at `level` with integer min corner `cell` (in units of
 /// leaf cells) sequentially into `chunk`, returning its record, or `None` if it holds no leaf.
 fn build_seq<L: LeafSink>(
@@ -485,7 +529,7 @@ fn build_node<L: LeafSink>(
     let s = f64::from(1u32 << (ctx.depth - level));
     let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
     let mut lists = <[Vec<u32>; 8]>::default();
-    let mut tests = split(ctx, level, m, s, list, &mut lists);
+    let mut tests = split_parallel(ctx, level, m, s, list, &mut lists);
     let half = 1u32 << (ctx.depth - level - 1);
     for l in &lists {
         if l.is_empty() && ctx.units(level + 1) > 0 {
