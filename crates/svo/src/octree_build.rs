@@ -318,7 +318,6 @@ fn split_parallel(
                 (lists, tests)
             })
             .collect();
-        let mut tests = 0;
         for (i, l) in out.iter_mut().enumerate() {
             l.clear();
             l.reserve(parts.iter().map(|p| p.0[i].len()).sum());
@@ -326,10 +325,7 @@ fn split_parallel(
                 l.extend_from_slice(&p.0[i]);
             }
         }
-        for p in &parts {
-            tests += p.1;
-        }
-        return tests;
+        return parts.iter().map(|p| p.1).sum();
     }
     split(ctx, level, m, s, list, out)
 }

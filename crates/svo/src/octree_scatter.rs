@@ -26,7 +26,7 @@ use crate::octree::Node;
 use crate::octree_build::{Ctx, LeafTriangles};
 use crate::octree_layout::{Chunk, LeafStore};
 use crate::overlap::{edge_interval, plane_tolerance, vertex_inside};
-use crate::triangle_setup::GridTriangle;
+use crate::triangle_setup::{GridTriangle, spread3};
 use glam::{DVec3, Vec3};
 use std::time::Instant;
 
@@ -471,23 +471,14 @@ fn floor_i64(x: f64) -> i64 {
     t - i64::from((t as f64) > x)
 }
 
-/// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest).
-/// The coordinates are below `2^k` (`k <= SCATTER_LEVELS`), so the index does not depend
-/// on `k` beyond that: bit `b` of x goes to bit `3b + 2`, of y to `3b + 1`, of z to `3b`.
+/// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest):
+/// bit `b` of x goes to bit `3b + 2`, of y to `3b + 1`, of z to `3b` (the coordinates are
+/// below `2^k`, `k <= SCATTER_LEVELS`, so the index fits 12 bits).
 #[inline]
 fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
-    /// Bit `b` of a 4-bit value spread to bit `3b`.
-    const SPREAD: [u16; 16] = {
-        let mut t = [0u16; 16];
-        let mut i = 0;
-        while i < 16 {
-            t[i] = (i & 1 | (i & 2) << 2 | (i & 4) << 4 | (i & 8) << 6) as u16;
-            i += 1;
-        }
-        t
-    };
     debug_assert!(k <= SCATTER_LEVELS && (x | y | z) >> k == 0);
-    SPREAD[x as usize & 15] << 2 | SPREAD[y as usize & 15] << 1 | SPREAD[z as usize & 15]
+    let s = |v: u32| spread3(u64::from(v));
+    (s(x) << 2 | s(y) << 1 | s(z)) as u16
 }
 
 /// Emits the subtree of `items` sorted by their Morton `key`, for a node `k` levels above

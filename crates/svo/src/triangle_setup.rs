@@ -81,8 +81,9 @@ pub fn setup_triangles_in_order(
     order.iter().map(make).collect()
 }
 
-/// Spreads the low 21 bits of `v` to every third bit.
-fn spread3(v: u64) -> u64 {
+/// Spreads the low 21 bits of `v` to every third bit (bit `b` to bit `3b`).
+#[inline]
+pub(crate) fn spread3(v: u64) -> u64 {
     let mut x = v & 0x1F_FFFF;
     x = (x | x << 32) & 0x1F_0000_0000_FFFF;
     x = (x | x << 16) & 0x1F_0000_FF00_00FF;
