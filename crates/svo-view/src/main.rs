@@ -111,8 +111,8 @@ struct Args {
     /// leaf, cost (traversal steps heat map).
     #[arg(long, value_parser = |s: &str| Aov::parse(s).ok_or_else(|| format!("unknown AOV {s:?} (expected colour, depth, normal, leaf or cost)")))]
     aov: Option<Aov>,
-    /// Trace every primary ray from the eye (no prepass that starts rays at a lower bound of
-    /// their hit and skips pixels nothing can be seen in; the image is the same).
+    /// Trace every primary ray from the eye (no prepass that projects the octree front to
+    /// back to decide the primary rays of a band of rows at once; the image is the same).
     #[arg(long)]
     no_prepass: bool,
     /// Offset of secondary and shadow rays from the surface, in cells.

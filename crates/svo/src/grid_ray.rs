@@ -54,6 +54,21 @@ impl GridRay {
     }
 }
 
+/// `1 / d` per axis with each component of `d` first moved away from zero to at least
+/// [`TINY`] in magnitude, keeping its sign bit (`-0.0` becomes `-TINY`): finite and non-zero
+/// for every finite `d`. Every traversal's plane parameters are `(p - o) * safe_inverse(d)`.
+#[inline]
+pub(crate) fn safe_inverse(d: Vec3) -> Vec3A {
+    let raise = |c: f32| {
+        if c.is_sign_negative() {
+            c.min(-TINY)
+        } else {
+            c.max(TINY)
+        }
+    };
+    Vec3A::new(raise(d.x), raise(d.y), raise(d.z)).recip()
+}
+
 /// A ray mirrored into the positive octant of a root of `n` cells per axis.
 ///
 /// The origin itself is not mirrored (that would round it to the precision of the root's far
@@ -82,20 +97,16 @@ impl MirroredRay {
         if !ray.is_valid() {
             return None;
         }
-        let mut d = ray.dir;
         let mut mask = 0u8;
         for axis in 0..3 {
-            if d[axis].is_sign_negative() {
+            if ray.dir[axis].is_sign_negative() {
                 mask |= 4 >> axis;
-                d[axis] = d[axis].min(-TINY);
-            } else {
-                d[axis] = d[axis].max(TINY);
             }
         }
         let m = BVec3A::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
         Some(Self {
             o: ray.origin.into(),
-            inv: Vec3A::from(d).recip(),
+            inv: safe_inverse(ray.dir),
             mask,
             n,
             sign: Vec3A::select(m, Vec3A::NEG_ONE, Vec3A::ONE),

@@ -67,7 +67,7 @@ pub mod overlap;
 #[cfg(feature = "trace")]
 pub mod primary_cast;
 #[cfg(feature = "trace")]
-mod primary_prepass;
+pub mod primary_prepass;
 pub mod primitives;
 #[cfg(feature = "trace")]
 pub mod render;

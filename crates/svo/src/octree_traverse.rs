@@ -151,7 +151,7 @@ pub fn traverse<T>(
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Traversal<T> {
     // Only a walk from a node can be refused.
-    traverse_from(tree, ray, None, None, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
+    traverse_from(tree, ray, None, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
         hit: None,
         steps: 0,
         capped: false,
@@ -186,40 +186,13 @@ pub fn traverse_node<T>(
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Option<Traversal<T>> {
-    traverse_from(tree, ray, None, Some(start), tmin, tmax, max_steps, on_leaf)
-}
-
-/// [`traverse_node`] for a ray already mirrored for the tree (`r`, made from `ray` with
-/// [`MirroredRay::new`] and the tree's cells per axis), so walks from several nodes mirror
-/// the ray once.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn traverse_node_mirrored<T>(
-    tree: &Octree,
-    ray: &GridRay,
-    r: &MirroredRay,
-    start: StartNode,
-    tmin: f32,
-    tmax: f32,
-    max_steps: u32,
-    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
-) -> Option<Traversal<T>> {
-    traverse_from(
-        tree,
-        ray,
-        Some(r),
-        Some(start),
-        tmin,
-        tmax,
-        max_steps,
-        on_leaf,
-    )
+    traverse_from(tree, ray, Some(start), tmin, tmax, max_steps, on_leaf)
 }
 
 #[allow(clippy::too_many_arguments)]
 fn traverse_from<T>(
     tree: &Octree,
     ray: &GridRay,
-    pre: Option<&MirroredRay>,
     start: Option<StartNode>,
     tmin: f32,
     tmax: f32,
@@ -230,13 +203,13 @@ fn traverse_from<T>(
     // keeps its initialization (a `memset` per ray) small.
     let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
     if levels <= 2 {
-        traverse_with::<2, T>(tree, ray, pre, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<2, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 4 {
-        traverse_with::<4, T>(tree, ray, pre, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<4, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 12 {
-        traverse_with::<12, T>(tree, ray, pre, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<12, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     } else {
-        traverse_with::<32, T>(tree, ray, pre, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<32, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
     }
 }
 
@@ -244,7 +217,6 @@ fn traverse_from<T>(
 fn traverse_with<const STACK: usize, T>(
     tree: &Octree,
     ray: &GridRay,
-    pre: Option<&MirroredRay>,
     start: Option<StartNode>,
     tmin: f32,
     tmax: f32,
@@ -283,12 +255,8 @@ fn traverse_with<const STACK: usize, T>(
     if node.child_mask() == 0 {
         return Some(out);
     }
-    let r = match pre {
-        Some(r) if r.n == n => *r,
-        _ => match MirroredRay::new(ray, n) {
-            Some(r) => r,
-            None => return Some(out),
-        },
+    let Some(r) = MirroredRay::new(ray, n) else {
+        return Some(out);
     };
     // The node's minimum corner in mirrored cells.
     let origin = r.flip(origin, side);

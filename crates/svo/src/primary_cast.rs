@@ -9,10 +9,10 @@
 
 use crate::camera::{Camera, CameraError};
 use crate::grid_ray::GridRay;
-use crate::primary_prepass::PrimaryPrepass;
+use crate::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::{NO_LEAF, RenderStats};
-use crate::surfaces::{Query, Surfaces};
-use crate::whitted::Tracer;
+use crate::surfaces::{FirstHit, Query, Surfaces};
+use crate::whitted::{PrimaryStart, Tracer};
 use std::time::{Duration, Instant};
 
 /// The primary hits of a view, row-major from the top-left pixel.
@@ -53,59 +53,79 @@ pub fn cast_primary<S: Surfaces>(
     out.height = h;
     out.leaf.resize(px, NO_LEAF);
     out.depth.resize(px, f32::INFINITY);
+    let view = PrimaryView::new(tracer, &rays);
     let eye = tracer.to_grid(camera.eye);
-    let prepass = PrimaryPrepass::of_view(tracer, &rays);
-    let prepass = prepass.as_ref();
     let scale = tracer.scale();
     let max_steps = tracer.options().max_steps;
-    let row = |y: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
-        let mut counts = [0u64; 4];
-        let starts = PrimaryPrepass::starts(prepass, &rays, y, w);
-        for (x, start) in (0..w).zip(&starts) {
-            let i = x as usize;
-            if start.tmin == f32::INFINITY {
-                leaf[i] = NO_LEAF;
-                depth[i] = f32::INFINITY;
-                continue;
+    let band =
+        |scratch: &mut PrimaryScratch, y0: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
+            let mut counts = [0u64; 4];
+            let decided = view.as_ref().map(|v| {
+                let mut band = PrimaryBand::new(v, y0, (leaf.len() / w as usize) as u32, scratch);
+                tracer.surfaces().primary_band(&mut band);
+                band
+            });
+            for i in 0..leaf.len() {
+                let start = decided
+                    .as_ref()
+                    .map_or(PrimaryStart::From(0.0), |b| b.start(i));
+                let r = match start {
+                    PrimaryStart::Miss { tests } => FirstHit {
+                        hit: None,
+                        steps: tests,
+                        capped: false,
+                    },
+                    PrimaryStart::Leaf { leaf, t, tests, .. } => FirstHit {
+                        hit: Some((leaf, t)),
+                        steps: tests,
+                        capped: false,
+                    },
+                    PrimaryStart::From(tmin) => {
+                        let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
+                        let ray = GridRay {
+                            origin: eye,
+                            dir: rays.dir_f32(x, y) * scale,
+                        };
+                        let q = Query {
+                            tmin,
+                            ..Query::all(max_steps)
+                        };
+                        tracer.surfaces().first_hit(&ray, &q, &start)
+                    }
+                };
+                leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
+                depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
+                counts[0] += u64::from(r.hit.is_some());
+                counts[1] += u64::from(r.steps);
+                counts[2] += u64::from(r.capped);
+                counts[3] = counts[3].max(u64::from(r.steps));
             }
-            let ray = GridRay {
-                origin: eye,
-                dir: rays.dir_f32(x, y) * scale,
-            };
-            let q = Query {
-                tmin: start.tmin,
-                ..Query::all(max_steps)
-            };
-            let r = tracer.surfaces().first_hit(&ray, &q, start);
-            leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
-            depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
-            counts[0] += u64::from(r.hit.is_some());
-            counts[1] += u64::from(r.steps);
-            counts[2] += u64::from(r.capped);
-            counts[3] = counts[3].max(u64::from(r.steps));
-        }
-        counts
-    };
-    let wu = w as usize;
+            counts
+        };
+    let chunk = w as usize * BAND as usize;
     let add = |a: [u64; 4], b: [u64; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3].max(b[3])];
     #[cfg(feature = "parallel")]
     let counts = {
         use rayon::prelude::*;
         out.leaf
-            .par_chunks_mut(wu)
-            .zip(out.depth.par_chunks_mut(wu))
+            .par_chunks_mut(chunk)
+            .zip(out.depth.par_chunks_mut(chunk))
             .enumerate()
-            .map(|(y, (l, d))| row(y as u32, l, d))
+            .map_init(Default::default, |scratch, (b, (l, d))| {
+                band(scratch, b as u32 * BAND, l, d)
+            })
             .reduce(|| [0; 4], add)
     };
     #[cfg(not(feature = "parallel"))]
-    let counts = out
-        .leaf
-        .chunks_mut(wu)
-        .zip(out.depth.chunks_mut(wu))
-        .enumerate()
-        .map(|(y, (l, d))| row(y as u32, l, d))
-        .fold([0; 4], add);
+    let counts = {
+        let mut scratch = Default::default();
+        out.leaf
+            .chunks_mut(chunk)
+            .zip(out.depth.chunks_mut(chunk))
+            .enumerate()
+            .map(|(b, (l, d))| band(&mut scratch, b as u32 * BAND, l, d))
+            .fold([0; 4], add)
+    };
     out.hits = counts[0];
     out.steps = counts[1];
     out.capped = counts[2];

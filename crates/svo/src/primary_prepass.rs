@@ -1,357 +1,715 @@
-//! The primary-ray prepass of [`crate::render`]: per pixel, a lower bound of the parameter
-//! of the primary ray's first hit, `+inf` where the ray can hit nothing, so a render starts
-//! each ray near its hit and skips the rays that miss.
+//! The primary-ray prepass of [`crate::render`] and [`crate::primary_cast`]: the first hits
+//! of a band of camera rays, found by projecting the octree front to back onto the screen
+//! instead of walking it once per pixel.
 //!
-//! The surfaces offer boxes that together hold every surface
-//! ([`crate::surfaces::Surfaces::coarse_boxes`]: for an octree, its occupied nodes a few
-//! levels above the leaves). Each box is projected to a pixel rectangle (grown by a pixel)
-//! and filed under the bands of rows it covers. A row then tests each pixel's ray against
-//! the boxes whose rectangles hold it (a slab test on the box grown by a margin that covers
-//! the `f32` rounding of the traversal's own planes). A ray's first hit lies in some box the
-//! ray meets, and it meets that box no later than the hit, so the smallest entry over the
-//! boxes it meets is a lower bound of the hit; a ray that meets none hits nothing.
+//! All primary rays start at the eye, so one order of the octree's cells is front to back
+//! for every one of them: at each node, the children on the eye's side of each mid-plane
+//! first (the child index `k ^ eye_octant` for `k = 0..8`; a ray from the eye crosses each
+//! mid-plane at most once, away from the eye, so the children it passes through come in that
+//! order). A band of [`BAND`] image rows is decided in one depth-first walk of the tree in
+//! that order. Each node is projected to a pixel rectangle (its cube grown by a margin that
+//! covers the `f32` rounding of the rays, then the bounds of its corners' projections) and
+//! skipped when no pixel of the rectangle is still open (every ray there has its hit already:
+//! the node is hidden) or when the rectangle misses the band. At a leaf, each open pixel of
+//! its rectangle gets the traversal's own plane test: the parameters `(p - o) * (1 / d)` of
+//! the cell's six planes, the very values [`crate::octree_traverse`] computes for that cell,
+//! so `enter < exit` holds exactly when the traversal would hand this leaf to its callback.
+//! The pixel's ray then gets the leaf's [`LeafEntry`], built as the traversal builds it, and
+//! the surfaces' hit test: the first leaf in this order that the ray enters and hits is the
+//! traversal's first hit, bit for bit.
 //!
-//! There is no prepass (every ray starts at the eye) when a box reaches behind the image
-//! plane through the eye (its projection is not a rectangle) or when the rectangles would
-//! cost more slab tests than they save rays.
+//! Where a node's rectangle holds few open pixels (eight or fewer), projecting its children
+//! would cull little: each of those rays walks the node's subtree instead
+//! ([`traverse_node`], which hands over the same leaves and entries as the walk from the
+//! root), and a hit there is its first hit for the same reason.
+//!
+//! A ray that only touches a cell or a walked node (`enter == exit`: through an edge or a
+//! corner, which the traversal skips except where a ray starts) is left to the ordinary
+//! traversal from the eye ([`PrimaryStart::From`]). Open pixels left when the walk ends hit
+//! nothing ([`PrimaryStart::Miss`]). Nodes that hold or touch the eye have no rectangle: they
+//! are opened for the whole band.
 
 use crate::camera::CameraRays;
+use crate::grid_ray::{GridRay, MirroredRay, safe_inverse};
+use crate::octree::Octree;
+use crate::octree_traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
 use crate::surfaces::Surfaces;
-use crate::whitted::{NO_BOX, PrimaryStart, START_BOXES, Tracer};
-use glam::{DVec3, Vec3A};
+use crate::whitted::{PrimaryStart, Tracer};
+use glam::{DVec3, UVec3, Vec3, Vec3A};
 
-/// Rows per band of the box lists.
-const BAND: u32 = 8;
+/// Rows per band: the unit of parallel work, and of the per-pixel state kept at once.
+pub const BAND: u32 = 8;
 
-/// The fewest pixels per box projected (a set with more boxes is passed over for a
-/// coarser one, where there is one).
-const PIXELS_PER_BOX: u64 = 8;
+/// How far outside its exact bounds a projected corner may land, in pixels (the rounding of
+/// the `f64` projection; the `f32` rounding of the rays is covered by the cube's margin).
+const PIXEL_SLACK: f64 = 1e-3;
 
-/// The most slab tests per pixel (a test costs a few percent of tracing a ray from the eye).
-const MAX_TESTS_PER_PIXEL: u64 = 16;
-
-/// One box: its pixel rectangle (inclusive) and its corners relative to the eye, in grid
-/// units, grown by the margin.
-#[derive(Clone, Copy, Debug)]
-struct Rect {
-    /// Index into the coarse boxes.
-    id: u32,
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-    lo: Vec3A,
-    hi: Vec3A,
-}
-
-/// The boxes of one view, filed by bands of rows, ready to give each row its ray starts.
-#[derive(Debug)]
-pub(crate) struct PrimaryPrepass {
-    rects: Vec<Rect>,
-    /// Per band of [`BAND`] rows, the indices of the rectangles that reach into it.
-    bands: Vec<Vec<u32>>,
-    /// The tracer's grid units per scene unit (ray parameters are in scene units).
+/// What the prepass of one view needs for every band: the camera, the eye in grid space and
+/// the projection. Made once per frame ([`PrimaryView::new`]).
+#[derive(Clone, Debug)]
+pub struct PrimaryView {
+    rays: CameraRays,
+    /// The rays' origin in grid units, as the traversal has it.
+    eye: Vec3,
+    eye_d: DVec3,
+    /// Grid units per scene unit.
     scale: f32,
+    /// Margin around each cube, grid units.
+    pad: f64,
+    /// Points of a box nearer the eye's image plane than `gap * clip` are off the screen.
+    clip: f64,
+    /// Per grid axis, its unit vector in view space (right, up, forward components).
+    cols: [DVec3; 3],
+    /// Pixel coordinates from view space: `px = x / z * kx + bx`, `py = -y / z * ky + by`.
+    kx: f64,
+    bx: f64,
+    ky: f64,
+    by: f64,
+    width: u32,
+    height: u32,
 }
 
-impl PrimaryPrepass {
-    /// The prepass of a view, when the tracer's options ask for one ([`Self::new`]).
-    pub(crate) fn of_view<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
-        if tracer.options().prepass {
-            Self::new(tracer, rays)
-        } else {
-            None
-        }
-    }
-
-    /// The starts of row `y` of a `width`-pixel image: from `prepass` ([`Self::row`]), or
-    /// from the eye without one.
-    pub(crate) fn starts(
-        prepass: Option<&Self>,
-        rays: &CameraRays,
-        y: u32,
-        width: u32,
-    ) -> Vec<PrimaryStart> {
-        let mut starts = vec![PrimaryStart::from(0.0); width as usize];
-        if let Some(p) = prepass {
-            p.row(rays, y, &mut starts);
-        }
-        starts
-    }
-
-    /// The prepass of `rays` (the tracer's camera) over `tracer`'s surfaces, or `None` when
-    /// there is none to make (see the module notes).
+impl PrimaryView {
+    /// The prepass of `rays` (the tracer's camera), when the tracer's options ask for one.
     pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
+        if !tracer.options().prepass {
+            return None;
+        }
         let (w, h) = rays.size();
         let eye = tracer.to_grid(rays.eye());
-        let (root, depth) = tracer.surfaces().grid();
-        // Grid units: the margin covers the f32 rounding of the traversal's rays and planes
-        // (relative 1e-7 of the coordinates and of the distance from the eye).
-        let side = f64::from(1u32 << depth.min(31));
-        let pad = 1e-3 + 1e-5 * side.max(f64::from(eye.abs().max_element()));
+        let (_, depth) = tracer.surfaces().grid();
+        if !eye.is_finite() || !(1..=24).contains(&depth) {
+            return None;
+        }
+        // The margin covers the f32 rounding of the rays (direction and origin, relative
+        // 1e-7 of the coordinates and of the distance from the eye) with a wide berth.
+        let side = f64::from(1u32 << depth);
         let eye_d = eye.as_dvec3();
-        let eye_s = rays.eye();
-        let forward = rays.forward();
-        // Points of a box at distance `g` from the eye that lie nearer the eye's image plane
-        // than `zc = g * clip` are off the screen: such a point has depth `z < zc` and lies
-        // at least `g` from the eye, so its distance from the view axis is at least
-        // `g * sqrt(1 - clip^2) >= 0.86 g`, while a point on the screen at depth `z` is within
-        // `z * sqrt(2) * reach < 0.36 g` of the axis (`reach`: the larger half extent of the
-        // image plane at depth 1; `clip <= 1 / (4 reach)`).
-        let reach = rays.half_extent().max_element();
-        let clip = 1.0 / (4.0 * reach + 2.0);
-        let (right, up) = (rays.right(), rays.up());
-        // The rectangle (grown by a pixel, within the image) of the projection bounds, with
-        // the box relative to the eye; `None` off the image.
-        let rect = |id: u32, [x0, y0, x1, y1]: [f64; 4], lo: DVec3, hi: DVec3| {
-            let rx0 = ((x0.floor() as i64) - 1).max(0);
-            let ry0 = ((y0.floor() as i64) - 1).max(0);
-            let rx1 = ((x1.ceil() as i64) + 1).min(i64::from(w) - 1);
-            let ry1 = ((y1.ceil() as i64) + 1).min(i64::from(h) - 1);
-            if rx0 > rx1 || ry0 > ry1 {
-                return None;
+        let pad = 1e-3 + 1e-5 * side.max(eye_d.abs().max_element());
+        // Points of a box at distance `g` from the eye nearer its image plane than
+        // `zc = g * clip` are off the screen: such a point lies at least `g` from the eye, so
+        // its distance from the view axis is at least `g * sqrt(1 - clip^2) >= 0.86 g`,
+        // while a point on the screen at depth `z` is within `z * sqrt(2) * reach < 0.36 g`
+        // of the axis (`reach`: the larger half extent of the image plane at depth 1).
+        let half = rays.half_extent();
+        let clip = 1.0 / (4.0 * half.max_element() + 2.0);
+        let (right, up, fwd) = (rays.right(), rays.up(), rays.forward());
+        let cols = [
+            DVec3::new(right.x, up.x, fwd.x),
+            DVec3::new(right.y, up.y, fwd.y),
+            DVec3::new(right.z, up.z, fwd.z),
+        ];
+        Some(Self {
+            rays: *rays,
+            eye,
+            eye_d,
+            scale: tracer.scale(),
+            pad,
+            clip,
+            cols,
+            kx: 0.5 * f64::from(w) / half.x,
+            bx: 0.5 * f64::from(w) - 0.5,
+            ky: 0.5 * f64::from(h) / half.y,
+            by: 0.5 * f64::from(h) - 0.5,
+            width: w,
+            height: h,
+        })
+    }
+
+    /// The grid ray of pixel `(x, y)`, as the tracer makes it.
+    #[inline]
+    pub(crate) fn ray(&self, x: u32, y: u32) -> GridRay {
+        GridRay {
+            origin: self.eye,
+            dir: self.rays.dir_f32(x, y) * self.scale,
+        }
+    }
+
+    /// The pixel bounds `[x0, y0, x1, y1]` of the cube at `origin` with `side` cells, grown
+    /// by the margin: `Whole` when it holds or touches the eye, `Off` when it lies off the
+    /// screen or behind the eye.
+    fn project(&self, origin: UVec3, side: u32) -> Projection {
+        let lo = origin.as_dvec3() - self.pad;
+        let s = f64::from(side) + 2.0 * self.pad;
+        let v0 = lo - self.eye_d;
+        let c0 = self.cols[0] * v0.x + self.cols[1] * v0.y + self.cols[2] * v0.z;
+        let (ex, ey, ez) = (self.cols[0] * s, self.cols[1] * s, self.cols[2] * s);
+        // The corners in view space, one array per coordinate (corner `i` adds the edges of
+        // its bits: x = 4, y = 2, z = 1).
+        let mut cx = [c0.x; 8];
+        let mut cy = [c0.y; 8];
+        let mut cz = [c0.z; 8];
+        for (bit, e) in [(1, ez), (2, ey), (4, ex)] {
+            for i in 0..bit {
+                cx[i + bit] = cx[i] + e.x;
+                cy[i + bit] = cy[i] + e.y;
+                cz[i + bit] = cz[i] + e.z;
             }
-            // Relative to the eye; a corner exactly at the eye's coordinate moves out by the
-            // margin again, so no slab test multiplies 0 by an infinite inverse.
-            let rel = |v: DVec3, out: f64| {
-                let r = v - eye_d;
-                let fix = |c: f64| if c == 0.0 { out } else { c };
-                Vec3A::new(fix(r.x) as f32, fix(r.y) as f32, fix(r.z) as f32)
-            };
-            Some(Rect {
-                id,
-                x0: rx0 as u32,
-                y0: ry0 as u32,
-                x1: rx1 as u32,
-                y1: ry1 as u32,
-                lo: rel(lo, -pad),
-                hi: rel(hi, pad),
-            })
-        };
-        let project = |&(id, lo, hi): &(u32, glam::Vec3, glam::Vec3)| -> Result<Option<Rect>, ()> {
-            let lo = lo.as_dvec3() - pad;
-            let hi = hi.as_dvec3() + pad;
-            let lo_s = root.to_scene(lo, depth);
-            let hi_s = root.to_scene(hi, depth);
-            // The box's distance from the eye: a box that holds the eye or touches it has no
-            // rectangle.
-            let gap = (lo_s - eye_s).max(eye_s - hi_s).max(DVec3::ZERO).length();
-            if !(gap > 0.0) {
-                return Err(());
-            }
-            // The box in front of the plane at `zc` before the eye: its corners there and
-            // where its edges cross the plane. The rest of it is off the screen or behind.
-            let zc = gap * clip;
-            // The corners in view space (along right, up, forward), from the low corner and
-            // the three edge vectors.
-            let v0 = lo_s - eye_s;
-            let view = |v: DVec3| DVec3::new(v.dot(right), v.dot(up), v.dot(forward));
-            let c0 = view(v0);
-            let d = hi_s - lo_s;
-            let ex = DVec3::new(right.x, up.x, forward.x) * d.x;
-            let ey = DVec3::new(right.y, up.y, forward.y) * d.y;
-            let ez = DVec3::new(right.z, up.z, forward.z) * d.z;
-            let corners: [DVec3; 8] = std::array::from_fn(|i| {
-                c0 + if i & 4 != 0 { ex } else { DVec3::ZERO }
-                    + if i & 2 != 0 { ey } else { DVec3::ZERO }
-                    + if i & 1 != 0 { ez } else { DVec3::ZERO }
-            });
+        }
+        // Plain comparisons: no NaN arises here (finite inputs), and `f64::min` would pay
+        // for NaN handling.
+        let lt = |a: f64, b: f64| if a < b { a } else { b };
+        let gt = |a: f64, b: f64| if a > b { a } else { b };
+        let zmin = cz.iter().fold(f64::INFINITY, |m, &z| lt(m, z));
+        // Every corner well in front of the eye (by far more than the rounding of these
+        // sums): the bounds of the corners' projections bound the box's.
+        let size = v0.x.abs() + v0.y.abs() + v0.z.abs() + 3.0 * s;
+        if zmin > 1e-9 * size {
             let (mut x0, mut y0, mut x1, mut y1) = (
                 f64::INFINITY,
                 f64::INFINITY,
                 f64::NEG_INFINITY,
                 f64::NEG_INFINITY,
             );
-            if corners.iter().all(|c| c.z >= zc) {
-                // Wholly in front: the rectangle of the corners' projections.
-                for c in corners {
-                    let (px, py) = rays.pixel_of_view(c);
-                    x0 = x0.min(px);
-                    y0 = y0.min(py);
-                    x1 = x1.max(px);
-                    y1 = y1.max(py);
-                }
-                return Ok(rect(id, [x0, y0, x1, y1], lo, hi));
-            }
-            let corner = |i: usize| {
-                DVec3::new(
-                    if i & 4 != 0 { hi_s.x } else { lo_s.x },
-                    if i & 2 != 0 { hi_s.y } else { lo_s.y },
-                    if i & 1 != 0 { hi_s.z } else { lo_s.z },
-                )
-            };
-            let z = |p: DVec3| (p - eye_s).dot(forward);
-            let mut any = false;
-            let mut add = |p: DVec3| -> Result<(), ()> {
-                let (px, py) = rays.project(p).ok_or(())?;
-                x0 = x0.min(px);
-                y0 = y0.min(py);
-                x1 = x1.max(px);
-                y1 = y1.max(py);
-                any = true;
-                Ok(())
-            };
             for i in 0..8 {
-                let a = corner(i);
-                let za = z(a);
-                if za >= zc {
-                    add(a)?;
-                }
-                // The edges from this corner to those with one more bit set.
-                for bit in [4, 2, 1] {
-                    if i & bit == 0 {
-                        let b = corner(i | bit);
-                        let zb = z(b);
-                        if (za < zc) != (zb < zc) {
-                            add(a + (b - a) * ((zc - za) / (zb - za)))?;
-                        }
+                let r = 1.0 / cz[i];
+                let (px, py) = (cx[i] * r, cy[i] * r);
+                (x0, y0, x1, y1) = (lt(x0, px), lt(y0, py), gt(x1, px), gt(y1, py));
+            }
+            return Projection::Bounds([
+                x0 * self.kx + self.bx,
+                -y1 * self.ky + self.by,
+                x1 * self.kx + self.bx,
+                -y0 * self.ky + self.by,
+            ]);
+        }
+        self.project_near(lo, s, [cx, cy, cz])
+    }
+
+    /// [`Self::project`] for a box (low corner `lo`, side `s`, corners in view space `c`)
+    /// that reaches near or behind the eye's image plane.
+    fn project_near(&self, lo: DVec3, s: f64, c: [[f64; 8]; 3]) -> Projection {
+        let hi = lo + s;
+        // The box's distance from the eye: a box that holds the eye or touches it has no
+        // rectangle.
+        let gap = (lo - self.eye_d)
+            .max(self.eye_d - hi)
+            .max(DVec3::ZERO)
+            .length();
+        if !(gap > 0.0) {
+            return Projection::Whole;
+        }
+        let zc = gap * self.clip;
+        let corners: [DVec3; 8] = std::array::from_fn(|i| DVec3::new(c[0][i], c[1][i], c[2][i]));
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut add = |c: DVec3| {
+            let px = c.x / c.z * self.kx + self.bx;
+            let py = -c.y / c.z * self.ky + self.by;
+            b = [b[0].min(px), b[1].min(py), b[2].max(px), b[3].max(py)];
+        };
+        // The part in front of the plane at `zc`: its corners there and where its edges
+        // cross the plane. The rest of the box is off the screen or behind the eye.
+        let mut any = false;
+        for (i, &a) in corners.iter().enumerate() {
+            if a.z >= zc {
+                add(a);
+                any = true;
+            }
+            for bit in [4, 2, 1] {
+                if i & bit == 0 {
+                    let c = corners[i | bit];
+                    if (a.z < zc) != (c.z < zc) {
+                        add(a + (c - a) * ((zc - a.z) / (c.z - a.z)));
+                        any = true;
                     }
                 }
             }
-            if !any {
-                // Wholly behind the plane: off the screen or behind the eye.
-                return Ok(None);
-            }
-            Ok(rect(id, [x0, y0, x1, y1], lo, hi))
-        };
-        // The finest set of boxes whose rectangles are not too many tests; a box that
-        // reaches behind the eye does so in every coarser set too.
-        let mut coarser = 0;
-        let pixels = u64::from(w) * u64::from(h);
-        let rects = loop {
-            let boxes = tracer.surfaces().coarse_boxes(coarser)?;
-            // Projecting a box costs about as much as tracing a few rays: a small image
-            // takes a coarser set.
-            if boxes.len() as u64 * PIXELS_PER_BOX > pixels
-                && tracer.surfaces().coarse_boxes(coarser + 1).is_some()
-            {
-                coarser += 1;
-                continue;
-            }
-            #[cfg(feature = "parallel")]
-            let rects: Result<Vec<Option<Rect>>, ()> = {
-                use rayon::prelude::*;
-                boxes.par_iter().map(project).collect()
-            };
-            #[cfg(not(feature = "parallel"))]
-            let rects: Result<Vec<Option<Rect>>, ()> = boxes.iter().map(project).collect();
-            let rects: Vec<Rect> = rects.ok()?.into_iter().flatten().collect();
-            let area: u64 = rects
-                .iter()
-                .map(|r| u64::from(r.x1 - r.x0 + 1) * u64::from(r.y1 - r.y0 + 1))
-                .sum();
-            if area <= MAX_TESTS_PER_PIXEL * u64::from(w) * u64::from(h) {
-                break rects;
-            }
-            coarser += 1;
-        };
-        let mut bands = vec![Vec::new(); h.div_ceil(BAND) as usize];
-        for (i, r) in (0u32..).zip(&rects) {
-            for b in r.y0 / BAND..=r.y1 / BAND {
-                bands[b as usize].push(i);
-            }
         }
-        Some(Self {
-            rects,
-            bands,
-            scale: tracer.scale(),
-        })
+        if !any {
+            return Projection::Off;
+        }
+        if b.iter().any(|v| v.is_nan()) {
+            return Projection::Whole;
+        }
+        Projection::Bounds(b)
+    }
+}
+
+/// A cube's place on the screen.
+enum Projection {
+    /// Off the screen or behind the eye.
+    Off,
+    /// Holds or touches the eye: every pixel may see it.
+    Whole,
+    /// Pixel bounds `[x0, y0, x1, y1]` (pixel centres are at integers).
+    Bounds([f64; 4]),
+}
+
+/// Pixels of a band: columns `x0..=x1`, band rows `r0..=r1`.
+#[derive(Clone, Copy, Debug)]
+struct Rect {
+    x0: u32,
+    x1: u32,
+    r0: u32,
+    r1: u32,
+}
+
+/// A node waiting on the walk's stack.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    index: u32,
+    origin: UVec3,
+    side: u32,
+}
+
+/// The slot of a pixel whose ray is still open (at the end: hits nothing).
+const OPEN: u32 = u32::MAX;
+
+/// The slot of a pixel left to the traversal from the eye.
+const DEFER: u32 = u32::MAX - 1;
+
+/// Open pixels of a node's rectangle at or below which their rays walk the node's subtree
+/// ([`traverse_node`]) rather than the node's children being projected: projecting pays
+/// while it culls many pixels at once.
+const WALK_PIXELS: u32 = 8;
+
+/// Per-band buffers, reused from band to band by one worker.
+#[derive(Debug, Default)]
+pub struct PrimaryScratch {
+    /// Per pixel, `1 / d` of its grid ray as the traversal makes it (per axis).
+    ix: Vec<f32>,
+    iy: Vec<f32>,
+    iz: Vec<f32>,
+    /// Per pixel, one bit: the inverse above is made.
+    ready: Vec<u64>,
+    /// Per pixel, one bit: the ray has no decided hit yet.
+    open: Vec<u64>,
+    /// Per pixel, [`OPEN`], [`DEFER`] or the index of its hit in `hits`.
+    slot: Vec<u32>,
+    /// Per pixel, leaf tests and walk steps made.
+    tests: Vec<u32>,
+    /// The decided hits: leaf, cell, parameter.
+    hits: Vec<(u32, UVec3, f32)>,
+    stack: Vec<Pending>,
+}
+
+/// How a pixel's ray meets a box whose planes are the grid's.
+enum Pass {
+    /// It misses it, or meets it only behind the eye.
+    Misses,
+    /// It only touches it (an edge, a corner, or a face it runs along).
+    Touches,
+    /// It passes through it with positive length.
+    Enters,
+}
+
+impl PrimaryScratch {
+    /// The plane test of pixel `(x, y)` (band index `i`, bit `b` of word `at`) against the
+    /// box whose low and high planes, relative to the eye, are `lo` and `hi`: the
+    /// traversal's `(p - o) * (1 / d)` for each plane, so the traversal sees the same.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn planes(
+        &mut self,
+        view: &PrimaryView,
+        at: usize,
+        b: usize,
+        i: usize,
+        x: u32,
+        y: u32,
+        lo: Vec3A,
+        hi: Vec3A,
+    ) -> Pass {
+        if self.ready[at] >> b & 1 == 0 {
+            let inv = safe_inverse(view.ray(x, y).dir);
+            self.ix[i] = inv.x;
+            self.iy[i] = inv.y;
+            self.iz[i] = inv.z;
+            self.ready[at] |= 1 << b;
+        }
+        let (ix, iy, iz) = (self.ix[i], self.iy[i], self.iz[i]);
+        let (x0, x1) = (lo.x * ix, hi.x * ix);
+        let (y0, y1) = (lo.y * iy, hi.y * iy);
+        let (z0, z1) = (lo.z * iz, hi.z * iz);
+        let enter = max(max(max(min(x0, x1), min(y0, y1)), min(z0, z1)), 0.0);
+        let exit = min(min(max(x0, x1), max(y0, y1)), max(z0, z1));
+        if enter > exit {
+            Pass::Misses
+        } else if enter == exit {
+            Pass::Touches
+        } else {
+            Pass::Enters
+        }
     }
 
-    /// The starts of row `y`, one per pixel of `out` (the row's width long): where each
-    /// pixel's ray may first hit and the boxes it meets first, or `+inf` where it hits
-    /// nothing.
-    pub(crate) fn row(&self, rays: &CameraRays, y: u32, out: &mut [PrimaryStart]) {
-        // Nothing met yet: nothing to hit (the boxes fill in what they meet).
-        out.fill(PrimaryStart {
-            tmin: f32::INFINITY,
-            boxes: [(NO_BOX, f32::INFINITY); START_BOXES],
-            beyond: f32::INFINITY,
-        });
-        let Some(band) = self.bands.get((y / BAND) as usize) else {
-            return;
-        };
-        let mut span = (u32::MAX, 0u32);
-        for &i in band {
-            let r = &self.rects[i as usize];
-            if r.y0 <= y && y <= r.y1 {
-                span = (span.0.min(r.x0), span.1.max(r.x1));
-            }
+    /// Closes pixel `i` (bit `b` of word `at`) with slot `slot`.
+    #[inline]
+    fn close(&mut self, at: usize, b: usize, i: usize, slot: u32) {
+        self.slot[i] = slot;
+        self.open[at] &= !(1u64 << b);
+    }
+
+    /// Closes pixel `i` with the hit of `leaf` at `cell`, parameter `t`.
+    #[inline]
+    fn close_hit(&mut self, at: usize, b: usize, i: usize, hit: (u32, UVec3, f32)) {
+        let k = self.hits.len() as u32;
+        self.hits.push(hit);
+        self.close(at, b, i, k);
+    }
+}
+
+/// One band of image rows: the view, the band's first row and row count, and the buffers
+/// where the surfaces decide its primary rays ([`Surfaces::primary_band`]).
+pub struct PrimaryBand<'a> {
+    view: &'a PrimaryView,
+    y0: u32,
+    rows: u32,
+    /// Whether the surfaces decided the band (else every ray is traced from the eye).
+    decided: bool,
+    s: &'a mut PrimaryScratch,
+}
+
+impl<'a> PrimaryBand<'a> {
+    /// The band of `rows` rows from row `y0`, nothing decided yet.
+    pub(crate) fn new(
+        view: &'a PrimaryView,
+        y0: u32,
+        rows: u32,
+        s: &'a mut PrimaryScratch,
+    ) -> Self {
+        Self {
+            view,
+            y0,
+            rows,
+            decided: false,
+            s,
         }
-        if span.0 > span.1 {
-            return;
+    }
+
+    /// What the prepass knows of pixel `i` of the band (row-major from the band's first
+    /// row): a decided hit or miss, or tracing from the eye.
+    #[inline]
+    pub(crate) fn start(&self, i: usize) -> PrimaryStart {
+        if !self.decided {
+            return PrimaryStart::From(0.0);
         }
-        // The inverse grid directions of the row's rays, as the traversal makes them, one
-        // array per axis so the slab tests below run over several pixels at once.
-        let len = (span.1 - span.0 + 1) as usize;
-        let (mut ix, mut iy, mut iz) = (
-            Vec::with_capacity(len),
-            Vec::with_capacity(len),
-            Vec::with_capacity(len),
-        );
-        for x in span.0..=span.1 {
-            let inv = (rays.dir_f32(x, y) * self.scale).recip();
-            ix.push(inv.x);
-            iy.push(inv.y);
-            iz.push(inv.z);
-        }
-        let mut near = vec![0.0f32; len];
-        // No NaN can arise (no corner is at the eye's coordinate, and an infinite inverse
-        // times a non-zero corner is infinite), so plain comparisons make min and max.
-        let min = |a: f32, b: f32| if a < b { a } else { b };
-        let max = |a: f32, b: f32| if a > b { a } else { b };
-        for &i in band {
-            let r = &self.rects[i as usize];
-            if r.y0 > y || y > r.y1 {
-                continue;
-            }
-            let (a, b) = ((r.x0 - span.0) as usize, (r.x1 - span.0) as usize + 1);
-            let (lo, hi) = (r.lo, r.hi);
-            for (((t, &ix), &iy), &iz) in near[a..b]
-                .iter_mut()
-                .zip(&ix[a..b])
-                .zip(&iy[a..b])
-                .zip(&iz[a..b])
-            {
-                let (x0, x1) = (lo.x * ix, hi.x * ix);
-                let (y0, y1) = (lo.y * iy, hi.y * iy);
-                let (z0, z1) = (lo.z * iz, hi.z * iz);
-                let n = max(max(min(x0, x1), min(y0, y1)), min(z0, z1));
-                let f = min(min(max(x0, x1), max(y0, y1)), max(z0, z1));
-                // A margin for the f32 ray parameters of the traversal; +inf: missed.
-                *t = if n <= f && f >= 0.0 {
-                    max(n, 0.0) * (1.0 - 1e-4)
-                } else {
-                    f32::INFINITY
-                };
-            }
-            for (v, &t) in out[r.x0 as usize..=r.x1 as usize]
-                .iter_mut()
-                .zip(&near[a..b])
-            {
-                if t < f32::INFINITY {
-                    insert(v, r.id, t);
+        match self.s.slot[i] {
+            OPEN => PrimaryStart::Miss {
+                tests: self.s.tests[i],
+            },
+            DEFER => PrimaryStart::From(0.0),
+            k => {
+                let (leaf, cell, t) = self.s.hits[k as usize];
+                PrimaryStart::Leaf {
+                    leaf,
+                    cell,
+                    t,
+                    tests: self.s.tests[i],
                 }
             }
         }
     }
+
+    /// Words of open (and ready) bits per row.
+    fn words(&self) -> usize {
+        (self.view.width as usize).div_ceil(64)
+    }
+
+    /// Decides the band's rays on `tree`, with `hit_t` the surfaces' hit test of a leaf
+    /// entry (the parameter of the hit, or `None` where the ray goes on through the leaf).
+    pub(crate) fn decide(
+        &mut self,
+        tree: &Octree,
+        hit_t: impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        let depth = tree.depth;
+        if !(1..=24).contains(&depth) {
+            return;
+        }
+        let n = 1u32 << depth;
+        let w = self.view.width as usize;
+        let px = w * self.rows as usize;
+        let words = self.words();
+        let s = &mut *self.s;
+        s.ix.resize(px, 0.0);
+        s.iy.resize(px, 0.0);
+        s.iz.resize(px, 0.0);
+        s.tests.clear();
+        s.tests.resize(px, 0);
+        s.slot.clear();
+        s.slot.resize(px, OPEN);
+        s.hits.clear();
+        s.ready.clear();
+        s.ready.resize(self.rows as usize * words, 0);
+        s.open.clear();
+        s.open.resize(self.rows as usize * words, u64::MAX);
+        if !w.is_multiple_of(64) {
+            let last = u64::MAX >> (64 - w % 64);
+            for r in 0..self.rows as usize {
+                s.open[r * words + words - 1] = last;
+            }
+        }
+        self.decided = true;
+        let mut stack = std::mem::take(&mut s.stack);
+        stack.clear();
+        if tree.nodes.first().is_some_and(|r| r.child_mask() != 0) {
+            stack.push(Pending {
+                index: 0,
+                origin: UVec3::ZERO,
+                side: n,
+            });
+        }
+        let eye = self.view.eye;
+        while let Some(p) = stack.pop() {
+            let Some(rect) = self.rect(p.origin, p.side) else {
+                continue;
+            };
+            let open = self.open_count(rect, WALK_PIXELS);
+            if open == 0 {
+                continue;
+            }
+            let Some(&node) = tree.nodes.get(p.index as usize) else {
+                continue;
+            };
+            if open <= WALK_PIXELS {
+                self.walk_node(tree, p, rect, &hit_t);
+                continue;
+            }
+            let mask = node.child_mask();
+            let half = p.side / 2;
+            let mid = (p.origin + UVec3::splat(half)).as_vec3();
+            // The children on the eye's side of each mid-plane first.
+            let near = (u8::from(eye.x >= mid.x) << 2)
+                | (u8::from(eye.y >= mid.y) << 1)
+                | u8::from(eye.z >= mid.z);
+            let child = |c: u8| p.origin + UVec3::from_array(child_offset(c)) * half;
+            let rank = |c: u8| (mask & ((1u16 << c) - 1) as u8).count_ones();
+            if let Some(base) = node.leaf_base() {
+                if half != 1 {
+                    // Not a valid tree (leaves one cell wide only).
+                    continue;
+                }
+                for k in 0..8u8 {
+                    let c = k ^ near;
+                    if mask >> c & 1 == 0 {
+                        continue;
+                    }
+                    let cell = child(c);
+                    if let Some(r) = self.rect(cell, 1) {
+                        self.test_leaf(base + rank(c), cell, r, n, &hit_t);
+                    }
+                }
+            } else if half >= 2 {
+                // Pushed far to near, so the nearest comes off the stack first.
+                for k in (0..8u8).rev() {
+                    let c = k ^ near;
+                    if mask >> c & 1 == 1 {
+                        stack.push(Pending {
+                            index: node.first + rank(c),
+                            origin: child(c),
+                            side: half,
+                        });
+                    }
+                }
+            }
+        }
+        self.s.stack = stack;
+    }
+
+    /// The band's pixels that may see the cube at `origin` with `side` cells, `None` if
+    /// none.
+    fn rect(&self, origin: UVec3, side: u32) -> Option<Rect> {
+        let (w, rows) = (self.view.width, self.rows);
+        match self.view.project(origin, side) {
+            Projection::Off => None,
+            Projection::Whole => Some(Rect {
+                x0: 0,
+                x1: w - 1,
+                r0: 0,
+                r1: rows - 1,
+            }),
+            Projection::Bounds([x0, y0, x1, y1]) => {
+                // Pixel centres are at integers: the pixels whose centres lie in the bounds.
+                let x0 = ceil_within(x0 - PIXEL_SLACK, w).max(0);
+                let x1 = floor_within(x1 + PIXEL_SLACK, w).min(i64::from(w) - 1);
+                let y0 = ceil_within(y0 - PIXEL_SLACK, self.view.height);
+                let y1 = floor_within(y1 + PIXEL_SLACK, self.view.height);
+                let r0 = (y0 - i64::from(self.y0)).max(0);
+                let r1 = (y1 - i64::from(self.y0)).min(i64::from(rows) - 1);
+                (x0 <= x1 && r0 <= r1).then_some(Rect {
+                    x0: x0 as u32,
+                    x1: x1 as u32,
+                    r0: r0 as u32,
+                    r1: r1 as u32,
+                })
+            }
+        }
+    }
+
+    /// How many pixels of `r` are still open, counting no further than past `limit`.
+    fn open_count(&self, r: Rect, limit: u32) -> u32 {
+        let words = self.words();
+        let (w0, w1) = (r.x0 as usize / 64, r.x1 as usize / 64);
+        let mut count = 0;
+        for row in r.r0..=r.r1 {
+            let line = &self.s.open[row as usize * words + w0..=row as usize * words + w1];
+            for (k, word) in (w0..).zip(line) {
+                count += (word & span_mask(k, r.x0, r.x1)).count_ones();
+            }
+            if count > limit {
+                break;
+            }
+        }
+        count
+    }
+
+    /// Calls `f(at, b, i, x, y)` for each open pixel of `r`: its word and bit in the open
+    /// bits, its band index and its image coordinates. `f` may close the pixel it is given.
+    #[inline]
+    fn each_open(&mut self, r: Rect, mut f: impl FnMut(&mut Self, usize, usize, usize, u32, u32)) {
+        let words = self.words();
+        let w = self.view.width as usize;
+        let (w0, w1) = (r.x0 as usize / 64, r.x1 as usize / 64);
+        for row in r.r0..=r.r1 {
+            let y = self.y0 + row;
+            for k in w0..=w1 {
+                let at = row as usize * words + k;
+                let mut bits = self.s.open[at] & span_mask(k, r.x0, r.x1);
+                while bits != 0 {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let x = k * 64 + b;
+                    f(self, at, b, row as usize * w + x, x as u32, y);
+                }
+            }
+        }
+    }
+
+    /// Decides the open pixels of `r` by walking node `p`'s subtree along each one's ray
+    /// ([`traverse_node`]: the leaves and entries of the walk from the root, within it).
+    fn walk_node(
+        &mut self,
+        tree: &Octree,
+        p: Pending,
+        r: Rect,
+        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        let start = StartNode {
+            index: p.index,
+            origin: p.origin,
+            side: p.side,
+        };
+        self.each_open(r, |band, at, b, i, x, y| {
+            let ray = band.view.ray(x, y);
+            let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                hit_t(&ray, e).map(|t| (e.leaf, e.cell, t))
+            });
+            let s = &mut *band.s;
+            match walk {
+                Some(tr) => {
+                    s.tests[i] += tr.steps;
+                    if tr.capped {
+                        s.close(at, b, i, DEFER);
+                    } else if let Some(hit) = tr.hit {
+                        s.close_hit(at, b, i, hit);
+                    }
+                }
+                // The ray only touches the node: the traversal from the eye decides.
+                None => s.close(at, b, i, DEFER),
+            }
+        });
+    }
+
+    /// Tests leaf `leaf` at `cell` against the open pixels of `r`.
+    fn test_leaf(
+        &mut self,
+        leaf: u32,
+        cell: UVec3,
+        r: Rect,
+        n: u32,
+        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        // The cell's planes relative to the eye, as the traversal has them.
+        let eye = Vec3A::from(self.view.eye);
+        let lo = Vec3A::from(cell.as_vec3()) - eye;
+        let hi = Vec3A::from((cell + UVec3::ONE).as_vec3()) - eye;
+        self.each_open(r, |band, at, b, i, x, y| {
+            let view = band.view;
+            let s = &mut *band.s;
+            let pass = s.planes(view, at, b, i, x, y, lo, hi);
+            s.tests[i] += 1;
+            match pass {
+                Pass::Misses => {}
+                // It only touches the cell: the traversal from the eye decides.
+                Pass::Touches => s.close(at, b, i, DEFER),
+                Pass::Enters => {
+                    // The ray passes through the cell: the traversal's entry for it.
+                    let ray = view.ray(x, y);
+                    match leaf_entry(&ray, n, leaf, cell) {
+                        Some(e) => {
+                            if let Some(t) = hit_t(&ray, &e) {
+                                s.close_hit(at, b, i, (leaf, cell, t));
+                            }
+                        }
+                        None => s.close(at, b, i, DEFER),
+                    }
+                }
+            }
+        });
+    }
 }
 
-/// Files box `id`, met at `t`, among `v`'s first boxes (in order of entry); the entry of a
-/// box that falls off the list lowers `beyond`.
+/// `ceil(v)` for `v` within `[-2, hi + 2]`, else the nearer end (NaN: `-2`).
 #[inline]
-fn insert(v: &mut PrimaryStart, id: u32, t: f32) {
-    let last = v.boxes[START_BOXES - 1].1;
-    if t >= last {
-        v.beyond = v.beyond.min(t);
-        return;
-    }
-    v.beyond = v.beyond.min(last);
-    let mut k = START_BOXES - 1;
-    while k > 0 && v.boxes[k - 1].1 > t {
-        v.boxes[k] = v.boxes[k - 1];
-        k -= 1;
-    }
-    v.boxes[k] = (id, t);
-    v.tmin = v.boxes[0].1;
+fn ceil_within(v: f64, hi: u32) -> i64 {
+    let v = v.clamp(-2.0, f64::from(hi) + 2.0);
+    let i = v as i64;
+    if (i as f64) < v { i + 1 } else { i }
+}
+
+/// `floor(v)` for `v` within `[-2, hi + 2]`, else the nearer end (NaN: `-2`).
+#[inline]
+fn floor_within(v: f64, hi: u32) -> i64 {
+    let v = v.clamp(-2.0, f64::from(hi) + 2.0);
+    let i = v as i64;
+    if (i as f64) > v { i - 1 } else { i }
+}
+
+/// The bits of word `k` (pixels `64 k ..`) that lie in `x0..=x1`.
+#[inline]
+fn span_mask(k: usize, x0: u32, x1: u32) -> u64 {
+    let base = k as u32 * 64;
+    let lo = x0.saturating_sub(base);
+    let hi = (x1 - base).min(63);
+    (u64::MAX << lo) & (u64::MAX >> (63 - hi))
+}
+
+/// The traversal's [`LeafEntry`] for `ray` (from parameter 0, unbounded) in the leaf at
+/// `cell` of a tree of `n` cells per axis, when the ray passes through the cell with
+/// positive length.
+pub(crate) fn leaf_entry(ray: &GridRay, n: u32, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
+    let r = MirroredRay::new(ray, n)?;
+    let m = r.flip(cell, 1);
+    let t0 = r.t_planes(m);
+    let t1 = r.t_planes(m + UVec3::ONE);
+    let t_enter = max(t0.max_element(), 0.0);
+    let t_exit = t1.min_element();
+    (t_enter < t_exit).then(|| LeafEntry {
+        leaf,
+        cell,
+        t_enter,
+        t_exit,
+        entry_normal: r.entry_normal_of(t0, 0.0),
+        exit_normal: r.exit_normal_of(t1),
+    })
+}
+
+#[inline]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+#[inline]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+#[inline]
+fn child_offset(c: u8) -> [u32; 3] {
+    crate::child_classify::child_offset(c)
 }

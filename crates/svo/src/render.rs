@@ -1,5 +1,6 @@
 //! Rendering an image: one primary ray per pixel through a [`Tracer`], in parallel over
-//! rows (rayon, with the `parallel` feature). Every pixel depends only on its own rays, so
+//! bands of rows (rayon, with the `parallel` feature), each band's primary rays first decided
+//! together by the prepass ([`crate::primary_prepass`]). Every pixel depends only on its own rays, so
 //! the image is the same whatever the thread count.
 //!
 //! Besides the colour, a render keeps the per-pixel outputs (AOVs) of the primary ray: the
@@ -7,9 +8,9 @@
 //! normal, the leaf index and the traversal steps (the cost heat map).
 
 use crate::camera::{Camera, CameraError};
-use crate::primary_prepass::PrimaryPrepass;
+use crate::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::surfaces::Surfaces;
-use crate::whitted::{SampleStats, Tracer};
+use crate::whitted::{PrimaryStart, SampleStats, Tracer};
 use glam::Vec3;
 use std::time::{Duration, Instant};
 
@@ -157,30 +158,41 @@ pub fn render_into<S: Surfaces>(
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
     let eye = tracer.to_grid(camera.eye);
-    let prepass = PrimaryPrepass::of_view(tracer, &rays);
-    let prepass = prepass.as_ref();
-    let row = |y: u32,
-               colour: &mut [Vec3],
-               depth: &mut [f32],
-               normal: &mut [Vec3],
-               leaf: &mut [u32],
-               cost: &mut [u32]|
+    let view = PrimaryView::new(tracer, &rays);
+    // One band of rows: its primary rays decided together, then each pixel shaded.
+    let band = |scratch: &mut PrimaryScratch,
+                y0: u32,
+                colour: &mut [Vec3],
+                depth: &mut [f32],
+                normal: &mut [Vec3],
+                leaf: &mut [u32],
+                cost: &mut [u32]|
      -> RenderStats {
         let mut stats = RenderStats::default();
-        let starts = PrimaryPrepass::starts(prepass, &rays, y, w);
-        for (x, &start) in (0..w).zip(&starts) {
+        let decided = view.as_ref().map(|v| {
+            let mut band = PrimaryBand::new(v, y0, (colour.len() / w as usize) as u32, scratch);
+            tracer.surfaces().primary_band(&mut band);
+            band
+        });
+        for i in 0..colour.len() {
+            let start = decided
+                .as_ref()
+                .map_or(PrimaryStart::From(0.0), |b| b.start(i));
+            let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
             let dir = rays.dir_f32(x, y);
-            let i = x as usize;
-            if start.tmin == f32::INFINITY {
+            if let PrimaryStart::Miss { tests } = start {
                 // The prepass proved the ray hits nothing: the sky, without casting it.
                 colour[i] = tracer.miss_colour(dir);
                 depth[i] = f32::INFINITY;
                 normal[i] = Vec3::ZERO;
                 leaf[i] = NO_LEAF;
-                cost[i] = 0;
+                cost[i] = tests;
                 stats.primary_rays += 1;
+                stats.primary_steps += u64::from(tests);
+                stats.steps += u64::from(tests);
+                stats.max_primary_steps = stats.max_primary_steps.max(tests);
                 continue;
             }
             let s = tracer.trace_primary(eye, dir, start);
@@ -193,18 +205,20 @@ pub fn render_into<S: Surfaces>(
         }
         stats
     };
-    let wu = w as usize;
+    let chunk = w as usize * BAND as usize;
     #[cfg(feature = "parallel")]
     let stats = {
         use rayon::prelude::*;
         f.colour
-            .par_chunks_mut(wu)
-            .zip(f.depth.par_chunks_mut(wu))
-            .zip(f.normal.par_chunks_mut(wu))
-            .zip(f.leaf.par_chunks_mut(wu))
-            .zip(f.cost.par_chunks_mut(wu))
+            .par_chunks_mut(chunk)
+            .zip(f.depth.par_chunks_mut(chunk))
+            .zip(f.normal.par_chunks_mut(chunk))
+            .zip(f.leaf.par_chunks_mut(chunk))
+            .zip(f.cost.par_chunks_mut(chunk))
             .enumerate()
-            .map(|(y, ((((c, d), n), l), k))| row(y as u32, c, d, n, l, k))
+            .map_init(Default::default, |scratch, (b, ((((c, d), n), l), k))| {
+                band(scratch, b as u32 * BAND, c, d, n, l, k)
+            })
             .reduce(RenderStats::default, |mut a, b| {
                 a.merge(&b);
                 a
@@ -213,15 +227,16 @@ pub fn render_into<S: Surfaces>(
     #[cfg(not(feature = "parallel"))]
     let stats = {
         let mut st = RenderStats::default();
-        for ((((y, c), d), n), (l, k)) in f
+        let mut scratch = Default::default();
+        for ((((b, c), d), n), (l, k)) in f
             .colour
-            .chunks_mut(wu)
+            .chunks_mut(chunk)
             .enumerate()
-            .zip(f.depth.chunks_mut(wu))
-            .zip(f.normal.chunks_mut(wu))
-            .zip(f.leaf.chunks_mut(wu).zip(f.cost.chunks_mut(wu)))
+            .zip(f.depth.chunks_mut(chunk))
+            .zip(f.normal.chunks_mut(chunk))
+            .zip(f.leaf.chunks_mut(chunk).zip(f.cost.chunks_mut(chunk)))
         {
-            st.merge(&row(y as u32, c, d, n, l, k));
+            st.merge(&band(&mut scratch, b as u32 * BAND, c, d, n, l, k));
         }
         st
     };

@@ -5,12 +5,12 @@
 
 use crate::grid::RootCube;
 use crate::grid_ray::GridRay;
-use crate::grid_ray::MirroredRay;
 use crate::leaf_hit::{HitMode, leaf_hit};
 use crate::mesh::srgb_to_linear;
 use crate::octree::{Octree, ior_decode};
-use crate::octree_traverse::{LeafEntry, StartNode, traverse, traverse_node_mirrored};
-use crate::whitted::{NO_BOX, PrimaryStart};
+use crate::octree_traverse::{LeafEntry, traverse};
+use crate::primary_prepass::PrimaryBand;
+use crate::whitted::PrimaryStart;
 use glam::{UVec3, Vec3};
 
 /// The material at a hit.
@@ -130,19 +130,16 @@ pub trait Surfaces: Sync {
     /// The closest hit (a boundary of the query's medium, when it has one).
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
 
-    /// Boxes that together contain every surface, for the primary-ray prepass of
-    /// [`crate::render`]: `(id, min, max)` in grid space, the id naming the box to
-    /// [`Self::closest_primary`]. The finest set the surfaces offer, or with `coarser`
-    /// above 0, a set that many steps coarser (fewer, larger boxes); `None` when there is
-    /// no such set.
-    fn coarse_boxes(&self, coarser: u8) -> Option<Vec<(u32, Vec3, Vec3)>> {
-        let _ = coarser;
-        None
+    /// Decides the primary rays of a band of image rows at once, where the surfaces know
+    /// how (the octree: [`crate::primary_prepass`]); others leave the band's starts as they
+    /// are (every ray traced from the eye).
+    fn primary_band(&self, band: &mut PrimaryBand<'_>) {
+        let _ = band;
     }
 
     /// The closest hit of a primary ray with what the render's prepass knows of it
-    /// (`start`, whose boxes are those of [`Self::coarse_boxes`]): the same as
-    /// [`Self::closest`] from `start.tmin` (which this does by default).
+    /// (`start`): the same as [`Self::closest`] from the start's lower bound (which this
+    /// does by default: only surfaces that decide bands get decided starts).
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
         let _ = start;
         self.closest(ray, q)
@@ -206,18 +203,7 @@ pub struct OctreeSurfaces<'a, L = HitMode> {
     srgb: [f32; 256],
     /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
     interior: bool,
-    /// The boxes of the primary-ray prepass, made on first use.
-    start_nodes: std::sync::OnceLock<StartNodes>,
 }
-
-/// The nodes of the primary-ray prepass, finest level first, and each level's range.
-type StartNodes = (Vec<StartNode>, Vec<(usize, usize)>);
-
-/// Levels of nodes the primary-ray prepass may choose from.
-const START_LEVELS: usize = 5;
-
-/// The most nodes the primary-ray prepass projects per frame.
-const MAX_START_NODES: usize = 16384;
 
 impl<'a> OctreeSurfaces<'a> {
     /// `tree` hit in `mode`.
@@ -234,7 +220,6 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             shape,
             srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
             interior: tree.attributes.has_interior(),
-            start_nodes: std::sync::OnceLock::new(),
         }
     }
 
@@ -243,114 +228,11 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         self.tree
     }
 
-    /// The nodes the primary-ray prepass projects (made on first use): those of the finest
-    /// level above the leaves that has at most [`MAX_START_NODES`], then those of the
-    /// levels above it, down to a sixteenth as many cells per side; all in one list, with
-    /// each level's range in it (finest first).
-    fn start_nodes(&self) -> (&[StartNode], &[(usize, usize)]) {
-        let (nodes, sets) = self.start_nodes.get_or_init(|| {
-            let mut levels = Vec::new();
-            for level in 1..self.tree.depth {
-                match self.tree.nodes_at_level(level, MAX_START_NODES) {
-                    Some(v) => levels.push(v),
-                    None => break,
-                }
-            }
-            let mut nodes = Vec::new();
-            let mut sets = Vec::new();
-            for level in levels.iter().rev().take(START_LEVELS) {
-                let a = nodes.len();
-                nodes.extend(level.iter().map(|&(index, origin, side)| StartNode {
-                    index,
-                    origin,
-                    side,
-                }));
-                sets.push((a, nodes.len()));
-            }
-            (nodes, sets)
-        });
-        (nodes, sets)
-    }
-
-    /// The first hit of a primary ray in the open (nothing skipped) with what the prepass
-    /// knows of it, as `visit` decides hits per leaf (`t_of` gives a hit's parameter), with
-    /// the steps taken and whether the cap stopped it.
-    ///
-    /// The boxes in order of entry, each alone: every leaf lies in some box and a box's
-    /// leaves are entered no earlier than the box, so once the best hit so far comes before
-    /// the next box's entry it is the closest of all. Ties between boxes, and anything not
-    /// settled by the listed boxes, go to the whole traversal.
-    fn primary_walk<T: Copy>(
-        &self,
-        ray: &GridRay,
-        q: &Query,
-        start: &PrimaryStart,
-        visit: impl Fn(&LeafEntry) -> Option<T> + Copy,
-        t_of: impl Fn(&T) -> f32,
-    ) -> (Option<T>, u32, bool) {
-        let whole = |steps: u32, tmin: f32| {
-            let r = traverse(self.tree, ray, tmin, q.tmax, q.max_steps, visit);
-            (r.hit, r.steps + steps, r.capped)
-        };
-        if start.boxes[0].0 == NO_BOX {
-            return whole(0, q.tmin);
-        }
-        let (nodes, _) = self.start_nodes();
-        let depth = self.tree.depth;
-        let Some(mirrored) = (1..=31)
-            .contains(&depth)
-            .then(|| MirroredRay::new(ray, 1u32 << depth))
-            .flatten()
-        else {
-            return whole(0, q.tmin);
-        };
-        let mut best: Option<T> = None;
-        let mut steps = 0u32;
-        for &(b, entry) in &start.boxes {
-            if b == NO_BOX {
-                break;
-            }
-            if let Some(h) = best
-                && t_of(&h) < entry
-            {
-                return (best, steps, false);
-            }
-            let Some(&node) = nodes.get(b as usize) else {
-                return whole(steps, q.tmin);
-            };
-            let Some(r) = traverse_node_mirrored(
-                self.tree,
-                ray,
-                &mirrored,
-                node,
-                q.tmin,
-                q.tmax,
-                q.max_steps,
-                visit,
-            ) else {
-                // The ray only touches the box: only the whole walk knows what it sees there.
-                return whole(steps, q.tmin);
-            };
-            steps += r.steps;
-            if r.capped {
-                return whole(steps, q.tmin);
-            }
-            if let Some(h) = r.hit {
-                match best {
-                    Some(x) if t_of(&x) == t_of(&h) => return whole(steps, q.tmin),
-                    Some(x) if t_of(&x) < t_of(&h) => {}
-                    _ => best = Some(h),
-                }
-            }
-        }
-        match best {
-            Some(h) if t_of(&h) < start.beyond => (best, steps, false),
-            Some(_) => whole(steps, q.tmin),
-            // No box beyond the listed ones: nothing to hit.
-            None if start.beyond == f32::INFINITY => (None, steps, false),
-            // The listed boxes hold nothing on the ray: the hit is in a later box.
-            None => whole(steps, q.tmin.max(start.beyond)),
-        }
+    /// The hit of a primary ray whose first leaf the prepass decided: that leaf's entry
+    /// rebuilt as the traversal makes it, hit again for the normal and material.
+    fn decided_hit(&self, ray: &GridRay, leaf: u32, cell: UVec3) -> Option<SurfaceHit> {
+        let e = crate::primary_prepass::leaf_entry(ray, 1u32 << self.tree.depth, leaf, cell)?;
+        self.surface_hit(ray, &e)
     }
 
     /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
@@ -423,50 +305,57 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         (self.tree.root, self.tree.depth)
     }
 
-    fn coarse_boxes(&self, coarser: u8) -> Option<Vec<(u32, Vec3, Vec3)>> {
-        let (nodes, sets) = self.start_nodes();
-        let &(a, b) = sets.get(usize::from(coarser))?;
-        Some(
-            (a as u32..)
-                .zip(&nodes[a..b])
-                .map(|(id, s)| {
-                    (
-                        id,
-                        s.origin.as_vec3(),
-                        (s.origin + UVec3::splat(s.side)).as_vec3(),
-                    )
-                })
-                .collect(),
-        )
+    fn primary_band(&self, band: &mut PrimaryBand<'_>) {
+        band.decide(self.tree, |ray, e| {
+            if self.passes_through(e.leaf) {
+                return None;
+            }
+            self.shape.hit_t(self.tree, ray, e)
+        });
     }
 
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
         if q.medium.is_some() || q.skip.is_some() {
             return self.closest(ray, q);
         }
-        let (hit, steps, capped) =
-            self.primary_walk(ray, q, start, |e| self.surface_hit(ray, e), |h| h.t);
-        Traced { hit, steps, capped }
+        match *start {
+            PrimaryStart::From(_) => self.closest(ray, q),
+            PrimaryStart::Miss { tests } => Traced {
+                hit: None,
+                steps: tests,
+                capped: false,
+            },
+            PrimaryStart::Leaf {
+                leaf, cell, tests, ..
+            } => match self.decided_hit(ray, leaf, cell) {
+                Some(h) => Traced {
+                    hit: Some(h),
+                    steps: tests,
+                    capped: false,
+                },
+                // Not reached: the prepass made the same entry and hit.
+                None => self.closest(ray, q),
+            },
+        }
     }
 
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
         if q.medium.is_some() || q.skip.is_some() {
             return self.closest(ray, q).into();
         }
-        // What `surface_hit` decides, without the normal and material.
-        let (hit, steps, capped) = self.primary_walk(
-            ray,
-            q,
-            start,
-            |e| {
-                if self.passes_through(e.leaf) {
-                    return None;
-                }
-                Some((e.leaf, self.shape.hit_t(self.tree, ray, e)?))
+        match *start {
+            PrimaryStart::From(_) => self.closest(ray, q).into(),
+            PrimaryStart::Miss { tests } => FirstHit {
+                hit: None,
+                steps: tests,
+                capped: false,
             },
-            |h| h.1,
-        );
-        FirstHit { hit, steps, capped }
+            PrimaryStart::Leaf { leaf, t, tests, .. } => FirstHit {
+                hit: Some((leaf, t)),
+                steps: tests,
+                capped: false,
+            },
+        }
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {

@@ -105,9 +105,9 @@ pub struct TraceOptions {
     pub bias_cells: f32,
     /// Traversal step cap per ray.
     pub max_steps: u32,
-    /// Let renders start primary rays at a lower bound of their first hit, found by
-    /// projecting coarse boxes around the surfaces (and skip pixels no box covers). The
-    /// image is the same either way; only the traversal steps differ.
+    /// Let renders decide primary rays a band of rows at a time by projecting the octree
+    /// front to back ([`crate::primary_prepass`]) instead of walking it once per pixel. The
+    /// image is the same either way; only the work (and the steps counted) differ.
     pub prepass: bool,
 }
 
@@ -155,33 +155,40 @@ pub struct SampleStats {
     pub capped: u32,
 }
 
-/// Boxes a [`PrimaryStart`] lists, at most.
-pub const START_BOXES: usize = 4;
-
-/// No box ([`PrimaryStart::boxes`]).
-pub const NO_BOX: u32 = u32::MAX;
-
 /// What the render's prepass knows of a primary ray ([`Tracer::trace_primary`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PrimaryStart {
-    /// A lower bound of the first hit's parameter (scene units).
-    pub tmin: f32,
-    /// The first boxes of the surfaces' coarse boxes
-    /// ([`crate::surfaces::Surfaces::coarse_boxes`]) that the ray meets, as (box, a lower
-    /// bound of where it meets it), in order of that bound; [`NO_BOX`] after the last.
-    pub boxes: [(u32, f32); START_BOXES],
-    /// A lower bound of where the ray meets any box not listed (`+inf`: none).
-    pub beyond: f32,
+pub enum PrimaryStart {
+    /// A lower bound of the first hit's parameter (scene units): the ray is traced from
+    /// there.
+    From(f32),
+    /// The first hit, decided by the prepass: the leaf, its cell, the hit's parameter and
+    /// the leaf tests the prepass made for this pixel.
+    Leaf {
+        /// The leaf index.
+        leaf: u32,
+        /// Its cell.
+        cell: glam::UVec3,
+        /// The hit's parameter (scene units).
+        t: f32,
+        /// Leaf tests made for this pixel.
+        tests: u32,
+    },
+    /// The ray hits nothing, decided by the prepass after this many leaf tests.
+    Miss {
+        /// Leaf tests made for this pixel.
+        tests: u32,
+    },
 }
 
 impl PrimaryStart {
     /// Nothing known but a lower bound of the first hit.
     pub fn from(tmin: f32) -> Self {
-        Self {
-            tmin,
-            boxes: [(NO_BOX, f32::INFINITY); START_BOXES],
-            beyond: 0.0,
-        }
+        Self::From(tmin)
+    }
+
+    /// Whether the prepass proved that the ray hits nothing.
+    pub fn is_miss(&self) -> bool {
+        matches!(self, Self::Miss { .. })
     }
 }
 
@@ -359,7 +366,11 @@ impl<S: Surfaces> Tracer<S> {
                 dir: task.dir * self.scale,
             };
             let q = Query {
-                tmin: if first { start.tmin } else { 0.0 },
+                // A decided hit is rebuilt with the traversal's own entry from 0.
+                tmin: match start {
+                    PrimaryStart::From(t) if first => t,
+                    _ => 0.0,
+                },
                 tmax: f32::INFINITY,
                 skip: (task.skip != NO_SKIP).then_some(task.skip),
                 medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
