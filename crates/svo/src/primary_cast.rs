@@ -75,8 +75,8 @@ pub fn cast_primary<S: Surfaces>(
                         steps: tests,
                         capped: false,
                     },
-                    PrimaryStart::Leaf { leaf, t, tests, .. } => FirstHit {
-                        hit: Some((leaf, t)),
+                    PrimaryStart::Leaf { entry, t, tests } => FirstHit {
+                        hit: Some((entry.leaf, t)),
                         steps: tests,
                         capped: false,
                     },

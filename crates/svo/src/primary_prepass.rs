@@ -38,7 +38,7 @@ use crate::whitted::{PrimaryStart, Tracer};
 use glam::{DVec3, UVec3, Vec3, Vec3A};
 
 /// Rows per band: the unit of parallel work, and of the per-pixel state kept at once.
-pub const BAND: u32 = 8;
+pub const BAND: u32 = 32;
 
 /// How far outside its exact bounds a projected corner may land, in pixels (the rounding of
 /// the `f64` projection; the `f32` rounding of the rays is covered by the cube's margin).
@@ -283,8 +283,8 @@ pub struct PrimaryScratch {
     slot: Vec<u32>,
     /// Per pixel, leaf tests and walk steps made.
     tests: Vec<u32>,
-    /// The decided hits: leaf, cell, parameter.
-    hits: Vec<(u32, UVec3, f32)>,
+    /// The decided hits: the leaf's entry and the hit's parameter.
+    hits: Vec<(LeafEntry, f32)>,
     stack: Vec<Pending>,
 }
 
@@ -344,9 +344,9 @@ impl PrimaryScratch {
         self.open[at] &= !(1u64 << b);
     }
 
-    /// Closes pixel `i` with the hit of `leaf` at `cell`, parameter `t`.
+    /// Closes pixel `i` with a hit: the leaf's entry and the hit's parameter.
     #[inline]
-    fn close_hit(&mut self, at: usize, b: usize, i: usize, hit: (u32, UVec3, f32)) {
+    fn close_hit(&mut self, at: usize, b: usize, i: usize, hit: (LeafEntry, f32)) {
         let k = self.hits.len() as u32;
         self.hits.push(hit);
         self.close(at, b, i, k);
@@ -394,10 +394,9 @@ impl<'a> PrimaryBand<'a> {
             },
             DEFER => PrimaryStart::From(0.0),
             k => {
-                let (leaf, cell, t) = self.s.hits[k as usize];
+                let (entry, t) = self.s.hits[k as usize];
                 PrimaryStart::Leaf {
-                    leaf,
-                    cell,
+                    entry,
                     t,
                     tests: self.s.tests[i],
                 }
@@ -597,7 +596,7 @@ impl<'a> PrimaryBand<'a> {
         self.each_open(r, |band, at, b, i, x, y| {
             let ray = band.view.ray(x, y);
             let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                hit_t(&ray, e).map(|t| (e.leaf, e.cell, t))
+                hit_t(&ray, e).map(|t| (*e, t))
             });
             let s = &mut *band.s;
             match walk {
@@ -643,7 +642,7 @@ impl<'a> PrimaryBand<'a> {
                     match leaf_entry(&ray, n, leaf, cell) {
                         Some(e) => {
                             if let Some(t) = hit_t(&ray, &e) {
-                                s.close_hit(at, b, i, (leaf, cell, t));
+                                s.close_hit(at, b, i, (e, t));
                             }
                         }
                         None => s.close(at, b, i, DEFER),

@@ -174,11 +174,11 @@ pub fn render_into<S: Surfaces>(
             tracer.surfaces().primary_band(&mut band);
             band
         });
-        for i in 0..colour.len() {
+        let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
+        for (i, (x, y)) in pixels.enumerate() {
             let start = decided
                 .as_ref()
                 .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-            let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
             let dir = rays.dir_f32(x, y);

@@ -11,7 +11,7 @@ use crate::octree::{Octree, ior_decode};
 use crate::octree_traverse::{LeafEntry, traverse};
 use crate::primary_prepass::PrimaryBand;
 use crate::whitted::PrimaryStart;
-use glam::{UVec3, Vec3};
+use glam::Vec3;
 
 /// The material at a hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -228,13 +228,6 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         self.tree
     }
 
-    /// The hit of a primary ray whose first leaf the prepass decided: that leaf's entry
-    /// rebuilt as the traversal makes it, hit again for the normal and material.
-    fn decided_hit(&self, ray: &GridRay, leaf: u32, cell: UVec3) -> Option<SurfaceHit> {
-        let e = crate::primary_prepass::leaf_entry(ray, 1u32 << self.tree.depth, leaf, cell)?;
-        self.surface_hit(ray, &e)
-    }
-
     /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
     /// reflective, opaque, IOR 1.5).
     #[inline]
@@ -325,15 +318,13 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
                 steps: tests,
                 capped: false,
             },
-            PrimaryStart::Leaf {
-                leaf, cell, tests, ..
-            } => match self.decided_hit(ray, leaf, cell) {
+            PrimaryStart::Leaf { entry, tests, .. } => match self.surface_hit(ray, &entry) {
                 Some(h) => Traced {
                     hit: Some(h),
                     steps: tests,
                     capped: false,
                 },
-                // Not reached: the prepass made the same entry and hit.
+                // Not reached: the prepass hit the same entry.
                 None => self.closest(ray, q),
             },
         }
@@ -350,8 +341,8 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
                 steps: tests,
                 capped: false,
             },
-            PrimaryStart::Leaf { leaf, t, tests, .. } => FirstHit {
-                hit: Some((leaf, t)),
+            PrimaryStart::Leaf { entry, t, tests } => FirstHit {
+                hit: Some((entry.leaf, t)),
                 steps: tests,
                 capped: false,
             },

@@ -161,16 +161,14 @@ pub enum PrimaryStart {
     /// A lower bound of the first hit's parameter (scene units): the ray is traced from
     /// there.
     From(f32),
-    /// The first hit, decided by the prepass: the leaf, its cell, the hit's parameter and
-    /// the leaf tests the prepass made for this pixel.
+    /// The first hit, decided by the prepass: the traversal's entry of the leaf hit, the
+    /// hit's parameter and the leaf tests and walk steps the prepass spent on this pixel.
     Leaf {
-        /// The leaf index.
-        leaf: u32,
-        /// Its cell.
-        cell: glam::UVec3,
+        /// The leaf as the traversal hands it to the leaf's hit test.
+        entry: crate::octree_traverse::LeafEntry,
         /// The hit's parameter (scene units).
         t: f32,
-        /// Leaf tests made for this pixel.
+        /// Leaf tests and walk steps made for this pixel.
         tests: u32,
     },
     /// The ray hits nothing, decided by the prepass after this many leaf tests.
