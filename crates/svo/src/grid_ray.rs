@@ -175,17 +175,7 @@ impl MirroredRay {
     /// facing the ray; zero when the ray starts inside (`max(c0) < tmin`).
     #[inline]
     pub fn entry_normal_of(&self, c0: Vec3A, tmin: f32) -> Vec3 {
-        if c0.max_element() < tmin {
-            return Vec3::ZERO;
-        }
-        let axis = if c0.x >= c0.y && c0.x >= c0.z {
-            0
-        } else if c0.y >= c0.z {
-            1
-        } else {
-            2
-        };
-        self.entry_normal(axis)
+        entry_normal_of(self.mask, c0, tmin)
     }
 
     /// The real-space outward unit normal of the face through which the ray leaves a cell
@@ -193,28 +183,46 @@ impl MirroredRay {
     /// y): it points along the ray.
     #[inline]
     pub fn exit_normal_of(&self, c1: Vec3A) -> Vec3 {
-        let axis = if c1.x <= c1.y && c1.x <= c1.z {
-            0
-        } else if c1.y <= c1.z {
-            1
-        } else {
-            2
-        };
-        -self.entry_normal(axis)
+        exit_normal_of(self.mask, c1)
     }
+}
 
-    /// The real-space unit normal of the face the ray enters through on `axis` (it faces
-    /// the ray).
-    #[inline]
-    pub fn entry_normal(&self, axis: usize) -> Vec3 {
-        let mut n = Vec3::ZERO;
-        n[axis] = if self.mask & (4 >> axis) != 0 {
-            1.0
-        } else {
-            -1.0
-        };
-        n
+/// [`MirroredRay::entry_normal_of`] for a ray whose mirrored axes are `mask`.
+#[inline]
+pub(crate) fn entry_normal_of(mask: u8, c0: Vec3A, tmin: f32) -> Vec3 {
+    if c0.max_element() < tmin {
+        return Vec3::ZERO;
     }
+    let axis = if c0.x >= c0.y && c0.x >= c0.z {
+        0
+    } else if c0.y >= c0.z {
+        1
+    } else {
+        2
+    };
+    entry_normal(mask, axis)
+}
+
+/// [`MirroredRay::exit_normal_of`] for a ray whose mirrored axes are `mask`.
+#[inline]
+pub(crate) fn exit_normal_of(mask: u8, c1: Vec3A) -> Vec3 {
+    let axis = if c1.x <= c1.y && c1.x <= c1.z {
+        0
+    } else if c1.y <= c1.z {
+        1
+    } else {
+        2
+    };
+    -entry_normal(mask, axis)
+}
+
+/// The real-space unit normal of the face through which a ray whose mirrored axes are
+/// `mask` enters on `axis` (it faces the ray).
+#[inline]
+fn entry_normal(mask: u8, axis: usize) -> Vec3 {
+    let mut n = Vec3::ZERO;
+    n[axis] = if mask & (4 >> axis) != 0 { 1.0 } else { -1.0 };
+    n
 }
 
 #[cfg(test)]

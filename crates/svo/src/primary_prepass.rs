@@ -30,7 +30,7 @@
 //! are opened for the whole band.
 
 use crate::camera::CameraRays;
-use crate::grid_ray::{GridRay, MirroredRay, safe_inverse};
+use crate::grid_ray::{GridRay, entry_normal_of, exit_normal_of, safe_inverse};
 use crate::octree::Octree;
 use crate::octree_traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
 use crate::surfaces::Surfaces;
@@ -294,8 +294,9 @@ enum Pass {
     Misses,
     /// It only touches it (an edge, a corner, or a face it runs along).
     Touches,
-    /// It passes through it with positive length.
-    Enters,
+    /// It passes through it with positive length: the parameters at its entry planes and
+    /// at its exit planes, and the ray's mirrored axes (x = 4, y = 2, z = 1).
+    Enters(Vec3A, Vec3A, u8),
 }
 
 impl PrimaryScratch {
@@ -333,7 +334,12 @@ impl PrimaryScratch {
         } else if enter == exit {
             Pass::Touches
         } else {
-            Pass::Enters
+            // The entry plane of an axis is the low one where the direction is positive
+            // (the inverse keeps the direction's sign): the smaller parameter either way.
+            let t0 = Vec3A::new(min(x0, x1), min(y0, y1), min(z0, z1));
+            let t1 = Vec3A::new(max(x0, x1), max(y0, y1), max(z0, z1));
+            let mask = (u8::from(ix < 0.0) << 2) | (u8::from(iy < 0.0) << 1) | u8::from(iz < 0.0);
+            Pass::Enters(t0, t1, mask)
         }
     }
 
@@ -490,7 +496,7 @@ impl<'a> PrimaryBand<'a> {
                     }
                     let cell = child(c);
                     if let Some(r) = self.rect(cell, 1) {
-                        self.test_leaf(base + rank(c), cell, r, n, &hit_t);
+                        self.test_leaf(base + rank(c), cell, r, &hit_t);
                     }
                 }
             } else if half >= 2 {
@@ -620,7 +626,6 @@ impl<'a> PrimaryBand<'a> {
         leaf: u32,
         cell: UVec3,
         r: Rect,
-        n: u32,
         hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
     ) {
         // The cell's planes relative to the eye, as the traversal has them.
@@ -636,10 +641,10 @@ impl<'a> PrimaryBand<'a> {
                 Pass::Misses => {}
                 // It only touches the cell: the traversal from the eye decides.
                 Pass::Touches => s.close(at, b, i, DEFER),
-                Pass::Enters => {
+                Pass::Enters(t0, t1, mask) => {
                     // The ray passes through the cell: the traversal's entry for it.
                     let ray = view.ray(x, y);
-                    match leaf_entry(&ray, n, leaf, cell) {
+                    match leaf_entry(t0, t1, mask, leaf, cell) {
                         Some(e) => {
                             if let Some(t) = hit_t(&ray, &e) {
                                 s.close_hit(at, b, i, (e, t));
@@ -678,14 +683,11 @@ fn span_mask(k: usize, x0: u32, x1: u32) -> u64 {
     (u64::MAX << lo) & (u64::MAX >> (63 - hi))
 }
 
-/// The traversal's [`LeafEntry`] for `ray` (from parameter 0, unbounded) in the leaf at
-/// `cell` of a tree of `n` cells per axis, when the ray passes through the cell with
-/// positive length.
-pub(crate) fn leaf_entry(ray: &GridRay, n: u32, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
-    let r = MirroredRay::new(ray, n)?;
-    let m = r.flip(cell, 1);
-    let t0 = r.t_planes(m);
-    let t1 = r.t_planes(m + UVec3::ONE);
+/// The traversal's [`LeafEntry`] (from parameter 0, unbounded) of leaf `leaf` at `cell`
+/// for a ray whose parameters at the cell's entry planes are `t0` and at its exit planes
+/// `t1` (the traversal's `(p - o) * (1 / d)`), and whose mirrored axes (negative direction
+/// components) are `mask`, when the ray passes through the cell with positive length.
+fn leaf_entry(t0: Vec3A, t1: Vec3A, mask: u8, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
     let t_enter = max(t0.max_element(), 0.0);
     let t_exit = t1.min_element();
     (t_enter < t_exit).then(|| LeafEntry {
@@ -693,8 +695,8 @@ pub(crate) fn leaf_entry(ray: &GridRay, n: u32, leaf: u32, cell: UVec3) -> Optio
         cell,
         t_enter,
         t_exit,
-        entry_normal: r.entry_normal_of(t0, 0.0),
-        exit_normal: r.exit_normal_of(t1),
+        entry_normal: entry_normal_of(mask, t0, 0.0),
+        exit_normal: exit_normal_of(mask, t1),
     })
 }
 
