@@ -45,7 +45,7 @@ pub const BAND: u32 = 32;
 const PIXEL_SLACK: f64 = 1e-3;
 
 /// What the prepass of one view needs for every band: the camera, the eye in grid space and
-/// the projection. Made once per frame ([`PrimaryView::new`]).
+/// the projection. Made once per frame by the renderers.
 #[derive(Clone, Debug)]
 pub struct PrimaryView {
     rays: CameraRays,
