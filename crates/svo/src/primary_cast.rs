@@ -69,30 +69,23 @@ pub fn cast_primary<S: Surfaces>(
                 let start = decided
                     .as_ref()
                     .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-                let r = match start {
-                    PrimaryStart::Miss { tests } => FirstHit {
-                        hit: None,
-                        steps: tests,
-                        capped: false,
-                    },
-                    PrimaryStart::Leaf { entry, t, tests } => FirstHit {
-                        hit: Some((entry.leaf, t)),
-                        steps: tests,
-                        capped: false,
-                    },
-                    PrimaryStart::From(tmin) => {
-                        let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
-                        let ray = GridRay {
-                            origin: eye,
-                            dir: rays.dir_f32(x, y) * scale,
-                        };
-                        let q = Query {
-                            tmin,
-                            ..Query::all(max_steps)
-                        };
-                        tracer.surfaces().first_hit(&ray, &q, &start)
-                    }
-                };
+                let r = FirstHit::decided(&start).unwrap_or_else(|| {
+                    // Left to the traversal, from the start's lower bound.
+                    let tmin = match start {
+                        PrimaryStart::From(t) => t,
+                        _ => 0.0,
+                    };
+                    let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
+                    let ray = GridRay {
+                        origin: eye,
+                        dir: rays.dir_f32(x, y) * scale,
+                    };
+                    let q = Query {
+                        tmin,
+                        ..Query::all(max_steps)
+                    };
+                    tracer.surfaces().first_hit(&ray, &q, &start)
+                });
                 leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
                 depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
                 counts[0] += u64::from(r.hit.is_some());

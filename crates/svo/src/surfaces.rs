@@ -101,6 +101,26 @@ pub struct FirstHit {
     pub capped: bool,
 }
 
+impl FirstHit {
+    /// What a ray cast returns for a ray the prepass decided (its hit or its miss), `None`
+    /// for one it left to the traversal.
+    pub fn decided(start: &PrimaryStart) -> Option<Self> {
+        match *start {
+            PrimaryStart::From(_) => None,
+            PrimaryStart::Miss { tests } => Some(Self {
+                hit: None,
+                steps: tests,
+                capped: false,
+            }),
+            PrimaryStart::Leaf { entry, t, tests } => Some(Self {
+                hit: Some((entry.leaf, t)),
+                steps: tests,
+                capped: false,
+            }),
+        }
+    }
+}
+
 impl From<Traced> for FirstHit {
     fn from(r: Traced) -> Self {
         Self {
@@ -334,19 +354,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         if q.medium.is_some() || q.skip.is_some() {
             return self.closest(ray, q).into();
         }
-        match *start {
-            PrimaryStart::From(_) => self.closest(ray, q).into(),
-            PrimaryStart::Miss { tests } => FirstHit {
-                hit: None,
-                steps: tests,
-                capped: false,
-            },
-            PrimaryStart::Leaf { entry, t, tests } => FirstHit {
-                hit: Some((entry.leaf, t)),
-                steps: tests,
-                capped: false,
-            },
-        }
+        FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
