@@ -30,6 +30,7 @@
 //! are opened for the whole band.
 
 use crate::camera::CameraRays;
+use crate::child_classify::child_offset;
 use crate::grid_ray::{GridRay, entry_normal_of, exit_normal_of, safe_inverse};
 use crate::octree::Octree;
 use crate::octree_traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
@@ -475,7 +476,6 @@ impl<'a> PrimaryBand<'a> {
                 self.walk_node(tree, p, rect, &hit_t);
                 continue;
             }
-            let mask = node.child_mask();
             let half = p.side / 2;
             let mid = (p.origin + UVec3::splat(half)).as_vec3();
             // The children on the eye's side of each mid-plane first.
@@ -483,7 +483,6 @@ impl<'a> PrimaryBand<'a> {
                 | (u8::from(eye.y >= mid.y) << 1)
                 | u8::from(eye.z >= mid.z);
             let child = |c: u8| p.origin + UVec3::from_array(child_offset(c)) * half;
-            let rank = |c: u8| (mask & ((1u16 << c) - 1) as u8).count_ones();
             if let Some(base) = node.leaf_base() {
                 if half != 1 {
                     // Not a valid tree (leaves one cell wide only).
@@ -491,21 +490,21 @@ impl<'a> PrimaryBand<'a> {
                 }
                 for k in 0..8u8 {
                     let c = k ^ near;
-                    if mask >> c & 1 == 0 {
+                    let Some(rank) = node.child_rank(c) else {
                         continue;
-                    }
+                    };
                     let cell = child(c);
                     if let Some(r) = self.rect(cell, 1) {
-                        self.test_leaf(base + rank(c), cell, r, &hit_t);
+                        self.test_leaf(base + rank, cell, r, &hit_t);
                     }
                 }
             } else if half >= 2 {
                 // Pushed far to near, so the nearest comes off the stack first.
                 for k in (0..8u8).rev() {
                     let c = k ^ near;
-                    if mask >> c & 1 == 1 {
+                    if let Some(rank) = node.child_rank(c) {
                         stack.push(Pending {
-                            index: node.first + rank(c),
+                            index: node.first + rank,
                             origin: child(c),
                             side: half,
                         });
@@ -708,9 +707,4 @@ fn min(a: f32, b: f32) -> f32 {
 #[inline]
 fn max(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
-}
-
-#[inline]
-fn child_offset(c: u8) -> [u32; 3] {
-    crate::child_classify::child_offset(c)
 }
