@@ -27,7 +27,7 @@ const CAP: usize = 12;
 /// A convex polygon of at most 12 vertices.
 #[derive(Clone, Copy, Debug)]
 pub struct Poly {
-    v: [DVec3; CAP],
+    v: [DVec3; 2 * CAP],
     n: usize,
     overflow: bool,
 }
@@ -35,7 +35,7 @@ pub struct Poly {
 impl Default for Poly {
     fn default() -> Self {
         Self {
-            v: [DVec3::ZERO; CAP],
+            v: [DVec3::ZERO; 2 * CAP],
             n: 0,
             overflow: false,
         }
@@ -91,37 +91,49 @@ pub fn polygon_area(p: &[DVec3]) -> f64 {
 /// within `eps` of the plane counts as on it: it goes to both sides, moved onto the plane;
 /// each edge that crosses from more than `eps` below to more than `eps` above adds its
 /// intersection, with the coordinate on `axis` set to exactly `c`, to both.
+///
+/// Each side gets at most one point per vertex and one per edge, so no push is checked
+/// against the capacity (`2 * CAP`); a side longer than `CAP` is cut back and flagged as
+/// overflowed, so that every polygon fed to a cut has at most `CAP` vertices.
 #[inline]
 fn cut<const AXIS: usize>(src: &Poly, c: f64, eps: f64, lo: &mut Poly, hi: &mut Poly) {
     let axis = AXIS;
-    lo.n = 0;
-    hi.n = 0;
-    lo.overflow = false;
-    hi.overflow = false;
     let n = src.n;
-    for i in 0..n {
-        let p = src.v[i];
-        let q = src.v[if i + 1 == n { 0 } else { i + 1 }];
-        let (dp, dq) = (p[axis] - c, q[axis] - c);
+    let v = &src.v[..n];
+    let (mut nl, mut nh) = (0, 0);
+    let mut dp = v.first().map_or(0.0, |p| p[axis] - c);
+    for (i, &p) in v.iter().enumerate() {
+        let j = if i + 1 == n { 0 } else { i + 1 };
+        let dq = v[j][axis] - c;
         if dp < -eps {
-            lo.push(p);
+            lo.v[nl] = p;
+            nl += 1;
         } else if dp > eps {
-            hi.push(p);
+            hi.v[nh] = p;
+            nh += 1;
         } else {
             let mut on = p;
             on[axis] = c;
-            lo.push(on);
-            hi.push(on);
+            lo.v[nl] = on;
+            hi.v[nh] = on;
+            nl += 1;
+            nh += 1;
         }
         if (dp < -eps && dq > eps) || (dp > eps && dq < -eps) {
+            let q = v[j];
             let mut x = p + (q - p) * (dp / (dp - dq));
             x[axis] = c;
-            lo.push(x);
-            hi.push(x);
+            lo.v[nl] = x;
+            hi.v[nh] = x;
+            nl += 1;
+            nh += 1;
         }
+        dp = dq;
     }
-    lo.overflow |= src.overflow;
-    hi.overflow |= src.overflow;
+    lo.overflow = src.overflow || nl > CAP;
+    hi.overflow = src.overflow || nh > CAP;
+    lo.n = nl.min(CAP);
+    hi.n = nh.min(CAP);
 }
 
 /// `floor` as an integer for a finite value of moderate size (no libm call).

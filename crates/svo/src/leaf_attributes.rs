@@ -232,8 +232,14 @@ impl<'a> AttributeInputs<'a> {
         let material = |ti: u32| self.mesh.material_of(self.order[ti as usize] as usize);
         if self.want_normal {
             let mut s = DVec3::ZERO;
-            for c in contacts {
-                s += self.normals[c.tri as usize] * weight(c);
+            if wsum > 0.0 {
+                for c in contacts {
+                    s += self.normals[c.tri as usize] * c.area;
+                }
+            } else {
+                for c in contacts {
+                    s += self.normals[c.tri as usize];
+                }
             }
             if !(s.length() > 1e-12 * wsum.max(1e-300)) {
                 // Opposite sheets cancel: take the heaviest triangle's normal.
@@ -437,8 +443,10 @@ impl LeafValues {
             for c in &contacts[p.contacts.start as usize..p.contacts.end as usize] {
                 for &q in out_points(pts, c) {
                     let d = p.normal.dot(q - Vec3::splat(0.5));
-                    lo = lo.min(d);
-                    hi = hi.max(d);
+                    // `f32::min`/`max` without their NaN handling (the points are finite):
+                    // one instruction each.
+                    lo = if d < lo { d } else { lo };
+                    hi = if d > hi { d } else { hi };
                 }
             }
             let (lo, hi) = (f64::from(lo), f64::from(hi));
@@ -479,18 +487,21 @@ fn thickness_stats(v: &mut [f32]) -> ContourStats {
     let max = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
     let rank = |f: f64| ((v.len() - 1) as f64 * f).round() as usize;
     let (k50, k95) = (rank(0.5), rank(0.95));
+    // Thicknesses are not negative (nor NaN), so their bit patterns sort as they do (`+ 0.0`
+    // turns a -0.0 into 0.0): the selections compare integers.
+    let mut bits: Vec<u32> = v.iter().map(|x| (x + 0.0).to_bits()).collect();
     // Select the 95th percentile, then the median among the values below it.
-    let (below, p95, _) = v.select_nth_unstable_by(k95, f32::total_cmp);
-    let p95 = f64::from(*p95);
+    let (below, p95, _) = bits.select_nth_unstable(k95);
+    let p95 = *p95;
     let p50 = if k50 < k95 {
-        f64::from(*below.select_nth_unstable_by(k50, f32::total_cmp).1)
+        *below.select_nth_unstable(k50).1
     } else {
         p95
     };
     ContourStats {
         mean,
-        p50,
-        p95,
+        p50: f64::from(f32::from_bits(p50)),
+        p95: f64::from(f32::from_bits(p95)),
         max: f64::from(max),
     }
 }

@@ -178,10 +178,62 @@ struct Scratch {
     scatter: ScatterScratch,
 }
 
+/// Where a triangle's bounds sit in the tree, for [`split`]'s shortcut: the lowest cell of
+/// its closed bounds (`[a, b]` per axis: the cells `i` with `i <= hi` and `i + 1 >= lo`)
+/// and `limit`, the number of levels from the root at which `a` and `b` fall in the same
+/// child. At a level above `limit` the bounds lie strictly inside one child (they do not
+/// reach its faces: a bound on a face would put a cell of the neighbour in `[a, b]`), which
+/// is the child that the bounds classification ([`classify_children`]) names; the triangle
+/// then lies in that child.
+#[derive(Clone, Copy, Debug, Default)]
+struct Home {
+    a: [u32; 3],
+    limit: u8,
+}
+
+impl Home {
+    /// The home of triangle `t` in a tree of `depth` levels (`limit` 0, no shortcut, for
+    /// bounds that leave the root or are not finite).
+    fn of(t: &GridTriangle, depth: u8) -> Self {
+        let n = 1u64 << depth;
+        let mut a = [0u32; 3];
+        let mut diff = 0u64;
+        for (axis, a) in a.iter_mut().enumerate() {
+            let (lo, hi) = (t.lo[axis], t.hi[axis]);
+            // `lo > 0` and `hi < n` (false for NaN): the closed range stays in the root.
+            if !(lo > 0.0 && hi < n as f64 && lo <= hi) {
+                return Self::default();
+            }
+            let fl = lo as u64; // floor: lo is positive
+            let first = if fl as f64 == lo { fl - 1 } else { fl };
+            let last = hi as u64;
+            *a = first as u32;
+            diff |= first ^ last;
+        }
+        // `a` and `b` share the bits above their highest difference: the children at
+        // levels `0..depth - bits` agree.
+        let bits = 64 - diff.leading_zeros() as u8;
+        Self {
+            a,
+            limit: depth - bits,
+        }
+    }
+
+    /// The child (at the level where `bit` of the cell coordinates decides) holding the
+    /// triangle; the same numbering as [`child_offset`].
+    #[inline]
+    fn child(self, bit: u8) -> u8 {
+        let b = |v: u32| ((v >> bit) & 1) as u8;
+        b(self.a[0]) << 2 | b(self.a[1]) << 1 | b(self.a[2])
+    }
+}
+
 /// What every step of one voxelization reads.
 pub struct Ctx<'a> {
     /// Grid-space triangles.
     pub tris: &'a [GridTriangle],
+    /// Per triangle, where its bounds sit (for [`split`]).
+    homes: Vec<Home>,
     /// Tree depth.
     pub depth: u8,
     strategy: Strategy,
@@ -256,7 +308,18 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
     let c = m + DVec3::splat(h);
     let hi = m + DVec3::splat(s);
     let mut tests = 0u64;
+    // The bit of the cell coordinates that names the child at this level.
+    let bit = ctx.depth - level - 1;
     for &ti in list {
+        // Bounds in one child only (see [`Home`]): the triangle lies inside that child, so
+        // it touches it and every strategy keeps it (a vertex is inside, and its plane
+        // meets it); no test is run, and the triangle itself is not read. Most triangles of
+        // the top levels take this path.
+        let home = ctx.homes[ti as usize];
+        if level < home.limit {
+            out[usize::from(home.child(bit))].push(ti);
+            continue;
+        }
         let t = &ctx.tris[ti as usize];
         let mut mask = classify_children(t.lo, t.hi, c);
         // Children holding a vertex (closed cells): each vertex inside the node is in the
@@ -573,8 +636,17 @@ fn build<L: LeafSink>(
         "depth {depth} out of range"
     );
     let progress_level = PROGRESS_LEVEL.min(depth - 1);
+    let home = |t: &GridTriangle| Home::of(t, depth);
+    #[cfg(feature = "parallel")]
+    let homes = {
+        use rayon::prelude::*;
+        tris.par_iter().map(home).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let homes = tris.iter().map(home).collect();
     let ctx = Ctx {
         tris,
+        homes,
         depth,
         strategy,
         attributes,
@@ -627,4 +699,76 @@ pub fn voxelize_with_attributes(
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Vec<Node>, LeafValues, u64) {
     build::<LeafValues>(inputs.triangles(), depth, strategy, Some(inputs), progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `Home`'s shortcut holds exactly where the bounds lie strictly inside one child: on
+    /// random triangles whose coordinates are often grid values (bounds on node faces) or
+    /// within a hair of them.
+    #[test]
+    fn home_names_the_only_child_the_bounds_reach() {
+        const D: u8 = 5;
+        let side = f64::from(1u32 << D);
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        // A coordinate near `base` from the random word `r`.
+        let coord = |r: u64, base: f64| -> f64 {
+            let k = (r >> 8) % 4;
+            let v = match r % 5 {
+                0 => base.floor(),
+                1 => base.floor() + 0.5,
+                2 => base.floor() + [1e-12, -1e-12, 1e-9, -1e-9][k as usize],
+                _ => base + ((r >> 16) % 1000) as f64 / 1000.0 * 3.0 - 1.5,
+            };
+            v.clamp(0.0, side)
+        };
+        let (mut shortcuts, mut tight) = (0, 0);
+        for _ in 0..20_000 {
+            let c = [0, 1, 2].map(|_| (rnd() % 33) as f64);
+            let v = [0, 1, 2]
+                .map(|_| DVec3::new(coord(rnd(), c[0]), coord(rnd(), c[1]), coord(rnd(), c[2])));
+            let t = GridTriangle::new(v[0], v[1], v[2]);
+            let home = Home::of(&t, D);
+            for level in 0..D {
+                let s = 1u32 << (D - level);
+                let node = home.a.map(|x| x / s * s);
+                let m = DVec3::new(f64::from(node[0]), f64::from(node[1]), f64::from(node[2]));
+                let h = f64::from(s / 2);
+                if level < home.limit {
+                    shortcuts += 1;
+                    let i = home.child(D - level - 1);
+                    assert_eq!(classify_children(t.lo, t.hi, m + DVec3::splat(h)), 1 << i);
+                    // Strictly inside the child: no other node at that level is reached.
+                    let o = child_offset(i);
+                    let cm = m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
+                    assert!(t.lo.cmpgt(cm).all() && t.hi.cmplt(cm + DVec3::splat(h)).all());
+                } else if level == home.limit && home.limit > 0 {
+                    // The first level without the shortcut: the bounds reach two children
+                    // of this node, or a child's face.
+                    tight += 1;
+                    let c = m + DVec3::splat(h);
+                    let mask = classify_children(t.lo, t.hi, c);
+                    let one = mask.is_power_of_two() && {
+                        let o = child_offset(mask.trailing_zeros() as u8);
+                        let cm =
+                            m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
+                        t.lo.cmpgt(cm).all() && t.hi.cmplt(cm + DVec3::splat(h)).all()
+                    };
+                    assert!(
+                        !one,
+                        "the shortcut stops too early for {t:?} at level {level}"
+                    );
+                }
+            }
+        }
+        assert!(shortcuts > 10_000 && tight > 1_000, "{shortcuts} {tight}");
+    }
 }

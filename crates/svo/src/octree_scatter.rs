@@ -349,13 +349,16 @@ pub fn scatter_sliced(
             });
         }
     }
-    // Triangles stay in list order within a cell: a stable counting sort by cell.
+    // Triangles stay in list order within a cell: a stable counting sort by cell (the
+    // prefix sum runs up to the largest key only).
     counts.clear();
     counts.resize((1usize << (3 * k)) + 1, 0);
+    let mut top = 0;
     for c in contacts.iter() {
         counts[usize::from(c.key) + 1] += 1;
+        top = top.max(usize::from(c.key) + 1);
     }
-    for i in 1..counts.len() {
+    for i in 1..=top {
         counts[i] += counts[i - 1];
     }
     sorted.clear();
@@ -477,8 +480,18 @@ fn floor_i64(x: f64) -> i64 {
 #[inline]
 fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
     debug_assert!(k <= SCATTER_LEVELS && (x | y | z) >> k == 0);
-    let s = |v: u32| spread3(u64::from(v));
-    (s(x) << 2 | s(y) << 1 | s(z)) as u16
+    // The bits of a coordinate below 16 spread three apart, by table.
+    const SPREAD: [u16; 16] = {
+        let mut t = [0u16; 16];
+        let mut v = 0;
+        while v < 16 {
+            t[v] = spread3(v as u64) as u16;
+            v += 1;
+        }
+        t
+    };
+    let s = |v: u32| SPREAD[(v & 15) as usize];
+    s(x) << 2 | s(y) << 1 | s(z)
 }
 
 /// Emits the subtree of `items` sorted by their Morton `key`, for a node `k` levels above

@@ -83,7 +83,7 @@ pub fn setup_triangles_in_order(
 
 /// Spreads the low 21 bits of `v` to every third bit (bit `b` to bit `3b`).
 #[inline]
-pub(crate) fn spread3(v: u64) -> u64 {
+pub(crate) const fn spread3(v: u64) -> u64 {
     let mut x = v & 0x1F_FFFF;
     x = (x | x << 32) & 0x1F_0000_0000_FFFF;
     x = (x | x << 16) & 0x1F_0000_FF00_00FF;
