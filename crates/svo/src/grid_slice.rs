@@ -17,7 +17,7 @@
 //! rounding of a point of the triangle); any other piece is decided by the exact overlap
 //! test.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// The most vertices a polygon may have while slicing. A triangle intersected with a box
 /// has at most 9; rounding in degenerate cases could add a few, so there is room for more,
@@ -62,13 +62,29 @@ impl Poly {
     pub fn area(&self) -> f64 {
         polygon_area(self.points())
     }
+}
 
-    /// The area of the polygon, which lies in a plane with unit normal `unit`: without a
-    /// square root (the fan's vector area is parallel to `unit`).
-    #[inline]
-    pub fn area_in_plane(&self, unit: DVec3) -> f64 {
-        0.5 * fan_vector(self.points()).dot(unit).abs()
+/// What the voxelizer takes from a part, in one pass over its points: appends them to
+/// `out` relative to the cell corner `m` in `f32`, and returns their sum and twice their
+/// fan's vector area (the same sums, in the same order, as [`polygon_area`] takes).
+#[inline]
+pub fn digest_part(part: &Poly, m: DVec3, out: &mut Vec<Vec3>) -> (DVec3, DVec3) {
+    let p = part.points();
+    out.reserve(p.len());
+    let (mut sum, mut fan) = (DVec3::ZERO, DVec3::ZERO);
+    let (p0, mut prev) = (p.first().copied().unwrap_or_default(), DVec3::ZERO);
+    for (i, &q) in p.iter().enumerate() {
+        sum += q;
+        out.push((q - m).as_vec3());
+        if i > 0 {
+            let d = q - p0;
+            if i > 1 {
+                fan += prev.cross(d);
+            }
+            prev = d;
+        }
     }
+    (sum, fan)
 }
 
 /// Twice the vector area of a planar polygon, summed over the fan from its first vertex
@@ -303,6 +319,29 @@ mod tests {
 
     fn tri_area(v: [DVec3; 3]) -> f64 {
         0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length()
+    }
+
+    #[test]
+    fn a_digest_repeats_the_area_and_points_exactly() {
+        let mut slicer = Slicer::default();
+        let v = [
+            DVec3::new(0.3, 0.2, 0.1),
+            DVec3::new(3.7, 1.1, 2.9),
+            DVec3::new(1.2, 3.8, 0.4),
+        ];
+        let mut parts = 0;
+        assert!(slicer.slice(v, 4, 1e-12, &mut |c, part| {
+            let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+            let mut out = vec![Vec3::ONE];
+            let (sum, fan) = digest_part(part, m, &mut out);
+            assert_eq!((0.5 * fan.length()).to_bits(), part.area().to_bits());
+            let want = part.points().iter().fold(DVec3::ZERO, |a, &p| a + p);
+            assert_eq!(sum, want);
+            let pts: Vec<Vec3> = part.points().iter().map(|&p| (p - m).as_vec3()).collect();
+            assert_eq!(out[1..], pts[..]);
+            parts += 1;
+        }));
+        assert!(parts > 10, "{parts}");
     }
 
     #[test]

@@ -20,7 +20,7 @@
 
 use crate::child_classify::child_cell;
 use crate::clip::clip_to_unit_cube;
-use crate::grid_slice::{Slicer, polygon_area, well_inside};
+use crate::grid_slice::{Slicer, digest_part, polygon_area, well_inside};
 use crate::leaf_attributes::{Contact, LeafValues};
 use crate::octree::Node;
 use crate::octree_build::{Ctx, LeafTriangles};
@@ -280,18 +280,20 @@ pub fn scatter_sliced(
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
                 let start = pts.len() as u32;
-                let sum = part.points().iter().fold(DVec3::ZERO, |a, &p| a + p);
-                pts.extend(part.points().iter().map(|&p| (p - m).as_vec3()));
+                let (sum, fan) = digest_part(part, m, pts);
                 // A centroid well inside the cell is within rounding of a point of the
                 // triangle: the contact is proven. Other parts take the exact test.
                 let centroid = sum / part.points().len() as f64;
                 if !well_inside(centroid - m, eps) {
                     verify.push(contacts.len());
                 }
+                // The part lies in the triangle's plane: its area is its fan's vector area
+                // along the unit normal (where the normal's length underflows, the length).
+                let area = 0.5 * unit.map_or_else(|| fan.length(), |u| fan.dot(u).abs());
                 contacts.push(Contact {
                     key: key_of(c.map(i64::from)),
                     tri: ti,
-                    area: unit.map_or_else(|| part.area(), |u| part.area_in_plane(u)),
+                    area,
                     start,
                     len: part.points().len() as u32,
                 });
