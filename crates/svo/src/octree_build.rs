@@ -198,8 +198,9 @@ impl Home {
         let n = 1u64 << depth;
         let mut a = [0u32; 3];
         let mut diff = 0u64;
+        let (t_lo, t_hi) = (t.lo(), t.hi());
         for (axis, a) in a.iter_mut().enumerate() {
-            let (lo, hi) = (t.lo[axis], t.hi[axis]);
+            let (lo, hi) = (t_lo[axis], t_hi[axis]);
             // `lo > 0` and `hi < n` (false for NaN): the closed range stays in the root.
             if !(lo > 0.0 && hi < n as f64 && lo <= hi) {
                 return Self::default();
@@ -321,7 +322,7 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
             continue;
         }
         let t = &ctx.tris[ti as usize];
-        let mut mask = classify_children(t.lo, t.hi, c);
+        let mut mask = classify_children(t.lo(), t.hi(), c);
         // Children holding a vertex (closed cells): each vertex inside the node is in the
         // children its own point-box classification names.
         let mut vmask = 0u8;
@@ -660,7 +661,7 @@ fn build<L: LeafSink>(
     let all: Vec<u32> = (0..tris.len() as u32)
         .filter(|&i| {
             let t = &tris[i as usize];
-            t.lo.cmple(DVec3::splat(side)).all() && t.hi.cmpge(DVec3::ZERO).all()
+            t.lo().cmple(DVec3::splat(side)).all() && t.hi().cmpge(DVec3::ZERO).all()
         })
         .collect();
     let (part, tests) = build_node::<L>(&ctx, 0, [0, 0, 0], &all);
@@ -745,22 +746,25 @@ mod tests {
                 if level < home.limit {
                     shortcuts += 1;
                     let i = home.child(D - level - 1);
-                    assert_eq!(classify_children(t.lo, t.hi, m + DVec3::splat(h)), 1 << i);
+                    assert_eq!(
+                        classify_children(t.lo(), t.hi(), m + DVec3::splat(h)),
+                        1 << i
+                    );
                     // Strictly inside the child: no other node at that level is reached.
                     let o = child_offset(i);
                     let cm = m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
-                    assert!(t.lo.cmpgt(cm).all() && t.hi.cmplt(cm + DVec3::splat(h)).all());
+                    assert!(t.lo().cmpgt(cm).all() && t.hi().cmplt(cm + DVec3::splat(h)).all());
                 } else if level == home.limit && home.limit > 0 {
                     // The first level without the shortcut: the bounds reach two children
                     // of this node, or a child's face.
                     tight += 1;
                     let c = m + DVec3::splat(h);
-                    let mask = classify_children(t.lo, t.hi, c);
+                    let mask = classify_children(t.lo(), t.hi(), c);
                     let one = mask.is_power_of_two() && {
                         let o = child_offset(mask.trailing_zeros() as u8);
                         let cm =
                             m + DVec3::new(f64::from(o[0]), f64::from(o[1]), f64::from(o[2])) * h;
-                        t.lo.cmpgt(cm).all() && t.hi.cmplt(cm + DVec3::splat(h)).all()
+                        t.lo().cmpgt(cm).all() && t.hi().cmplt(cm + DVec3::splat(h)).all()
                     };
                     assert!(
                         !one,

@@ -124,11 +124,12 @@ fn touched_cells(
     f: &mut impl FnMut([i64; 3]),
 ) {
     // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
+    let (t_lo, t_hi) = (t.lo(), t.hi());
     let range = |a: usize| -> (i64, i64) {
-        let fl = floor_i64(t.lo[a]);
-        let ceil_minus_1 = if fl as f64 == t.lo[a] { fl - 1 } else { fl };
+        let fl = floor_i64(t_lo[a]);
+        let ceil_minus_1 = if fl as f64 == t_lo[a] { fl - 1 } else { fl };
         let lo = (ceil_minus_1 - base[a]).max(0);
-        let hi = (floor_i64(t.hi[a]) - base[a]).min(n - 1);
+        let hi = (floor_i64(t_hi[a]) - base[a]).min(n - 1);
         (lo, hi)
     };
     let ranges = [range(0), range(1), range(2)];

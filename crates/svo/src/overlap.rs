@@ -35,7 +35,7 @@ fn l1(d: DVec3) -> f64 {
 #[inline]
 pub fn aabb_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
     let hi = m + DVec3::splat(s);
-    t.lo.cmple(hi).all() && t.hi.cmpge(m).all()
+    t.lo().cmple(hi).all() && t.hi().cmpge(m).all()
 }
 
 /// Whether any vertex lies in the closed cell `[m, m + s]` (proves overlap).

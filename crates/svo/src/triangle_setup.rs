@@ -5,16 +5,13 @@ use crate::grid::RootCube;
 use crate::mesh::Mesh;
 use glam::DVec3;
 
-/// A triangle in grid space with what the overlap tests precompute (160 bytes: the bake
-/// allocates one per input triangle, so it is kept small).
+/// A triangle in grid space with what the overlap tests precompute (112 bytes: the bake
+/// allocates one per input triangle, so it is kept small; the bounds are recomputed from the
+/// vertices where needed, [`GridTriangle::lo`], which is exact).
 #[derive(Clone, Copy, Debug)]
 pub struct GridTriangle {
     /// The three vertices.
     pub v: [DVec3; 3],
-    /// Bounds minimum.
-    pub lo: DVec3,
-    /// Bounds maximum.
-    pub hi: DVec3,
     /// Unnormalized normal `(v1 - v0) x (v2 - v0)`; zero (or rounding-small) for degenerate
     /// triangles.
     pub n: DVec3,
@@ -44,12 +41,22 @@ impl GridTriangle {
         let m = v0.abs().max(v1.abs()).max(v2.abs()).max_element().max(1.0);
         Self {
             v: [v0, v1, v2],
-            lo: v0.min(v1).min(v2),
-            hi: v0.max(v1).max(v2),
             n: e0.cross(a),
             n_scale: l1(e0) * l1(a),
             edge_tol: crate::overlap::TOLERANCE * (4.0 * m + 2.0),
         }
+    }
+
+    /// Bounds minimum.
+    #[inline]
+    pub fn lo(&self) -> DVec3 {
+        self.v[0].min(self.v[1]).min(self.v[2])
+    }
+
+    /// Bounds maximum.
+    #[inline]
+    pub fn hi(&self) -> DVec3 {
+        self.v[0].max(self.v[1]).max(self.v[2])
     }
 
     /// Edge `j`: `v[j+1] - v[j]` (cyclic).
