@@ -440,13 +440,15 @@ impl LeafValues {
     pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[Vec3]) {
         for p in self.pending.drain(..) {
             let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            let n = p.normal;
             for c in &contacts[p.contacts.start as usize..p.contacts.end as usize] {
                 for &q in out_points(pts, c) {
-                    let d = p.normal.dot(q - Vec3::splat(0.5));
+                    // `n . (q - 0.5)`, summed as `Vec3::dot` does.
+                    let d = (q.x - 0.5) * n.x + (q.y - 0.5) * n.y + (q.z - 0.5) * n.z;
                     // `f32::min`/`max` without their NaN handling (the points are finite):
                     // one instruction each.
-                    lo = if d < lo { d } else { lo };
-                    hi = if d > hi { d } else { hi };
+                    lo = if lo < d { lo } else { d };
+                    hi = if hi > d { hi } else { d };
                 }
             }
             let (lo, hi) = (f64::from(lo), f64::from(hi));
