@@ -7,6 +7,23 @@
 
 use glam::DVec3;
 
+/// `floor` as an integer without a libm call (baseline x86-64 has no rounding
+/// instruction); `x` is finite and far below `2^62` in magnitude.
+#[inline]
+pub(crate) fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// The unit cells `i` that the closed interval `[lo, hi]` reaches (`i <= hi` and
+/// `i + 1 >= lo`: a bound on a cell face reaches the cells on both sides), as the first and
+/// last index; empty (first > last) when `lo > hi`.
+#[inline]
+pub(crate) fn closed_cells(lo: f64, hi: f64) -> (i64, i64) {
+    let fl = floor_i64(lo);
+    (fl - i64::from(fl as f64 == lo), floor_i64(hi))
+}
+
 /// The cube that the octree's root covers, in scene units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RootCube {

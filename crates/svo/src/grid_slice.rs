@@ -17,6 +17,7 @@
 //! rounding of a point of the triangle); any other piece is decided by the exact overlap
 //! test.
 
+use crate::grid::closed_cells;
 use glam::{DVec3, Vec3};
 
 /// The most vertices a polygon may have while slicing. A triangle intersected with a box
@@ -152,13 +153,6 @@ fn cut<const AXIS: usize>(src: &Poly, c: f64, eps: f64, lo: &mut Poly, hi: &mut 
     hi.n = nh.min(CAP);
 }
 
-/// `floor` as an integer for a finite value of moderate size (no libm call).
-#[inline]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - i64::from((t as f64) > x)
-}
-
 /// Calls `f(i, slab)` for every unit slab `[i, i + 1]` along `axis` (within `0..n`) that
 /// the polygon reaches or comes within `eps` of, with its part there (see [`cut`]). So a
 /// cell that the triangle touches only with a face, an edge or a corner, or misses by no
@@ -181,10 +175,9 @@ fn slabs<const AXIS: usize>(
     }
     let last = i64::from(n) - 1;
     // Closed slabs: a polygon reaching down to a plane also reaches the slab below it.
-    let reach = lo - eps;
-    let fl = floor_i64(reach);
-    let a = (fl - i64::from(fl as f64 == reach)).clamp(0, last);
-    let b = floor_i64(hi + eps).clamp(a, last);
+    let (first, end) = closed_cells(lo - eps, hi + eps);
+    let a = first.clamp(0, last);
+    let b = end.clamp(a, last);
     if a == b {
         f(a as u32, poly);
         return;

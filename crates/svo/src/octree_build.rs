@@ -17,6 +17,7 @@
 //! `docs/algorithms.md`).
 
 use crate::child_classify::{child_cell, child_offset, classify_children};
+use crate::grid::closed_cells;
 use crate::leaf_attributes::{AttributeInputs, LeafValues};
 use crate::octree::Node;
 use crate::octree_layout::{Chunk, LeafStore};
@@ -181,7 +182,7 @@ struct Scratch {
 /// Where a triangle's bounds sit in the tree, for [`split`]'s shortcut: the lowest cell of
 /// its closed bounds (`[a, b]` per axis: the cells `i` with `i <= hi` and `i + 1 >= lo`)
 /// and `limit`, the number of levels from the root at which `a` and `b` fall in the same
-/// child. At a level above `limit` the bounds lie strictly inside one child (they do not
+/// child. At the levels `0..limit` the bounds lie strictly inside one child (they do not
 /// reach its faces: a bound on a face would put a cell of the neighbour in `[a, b]`), which
 /// is the child that the bounds classification ([`classify_children`]) names; the triangle
 /// then lies in that child.
@@ -205,11 +206,10 @@ impl Home {
             if !(lo > 0.0 && hi < n as f64 && lo <= hi) {
                 return Self::default();
             }
-            let fl = lo as u64; // floor: lo is positive
-            let first = if fl as f64 == lo { fl - 1 } else { fl };
-            let last = hi as u64;
+            // Both in `0..n`: `lo > 0` and `hi < n`.
+            let (first, last) = closed_cells(lo, hi);
             *a = first as u32;
-            diff |= first ^ last;
+            diff |= (first ^ last) as u64;
         }
         // `a` and `b` share the bits above their highest difference: the children at
         // levels `0..depth - bits` agree.

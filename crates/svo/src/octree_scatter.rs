@@ -20,6 +20,7 @@
 
 use crate::child_classify::child_cell;
 use crate::clip::clip_to_unit_cube;
+use crate::grid::{closed_cells, floor_i64};
 use crate::grid_slice::{Slicer, digest_part, polygon_area, well_inside};
 use crate::leaf_attributes::{Contact, LeafValues};
 use crate::octree::Node;
@@ -126,11 +127,8 @@ fn touched_cells(
     // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
     let (t_lo, t_hi) = (t.lo(), t.hi());
     let range = |a: usize| -> (i64, i64) {
-        let fl = floor_i64(t_lo[a]);
-        let ceil_minus_1 = if fl as f64 == t_lo[a] { fl - 1 } else { fl };
-        let lo = (ceil_minus_1 - base[a]).max(0);
-        let hi = (floor_i64(t_hi[a]) - base[a]).min(n - 1);
-        (lo, hi)
+        let (first, last) = closed_cells(t_lo[a], t_hi[a]);
+        ((first - base[a]).max(0), (last - base[a]).min(n - 1))
     };
     let ranges = [range(0), range(1), range(2)];
     if ranges.iter().any(|r| r.0 > r.1) {
@@ -467,14 +465,6 @@ fn local_cell(key: u16, k: u8) -> [i64; 3] {
         c[2] |= i64::from(key >> (3 * b) & 1) << b;
     }
     c
-}
-
-/// `floor` as an integer without a libm call (baseline x86-64 has no rounding
-/// instruction); `x` is a finite grid coordinate far below `2^62`.
-#[inline]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - i64::from((t as f64) > x)
 }
 
 /// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest):
