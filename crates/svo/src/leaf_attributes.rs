@@ -439,19 +439,20 @@ impl LeafValues {
     /// calls to [`AttributeInputs::push_leaf`].
     pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[Vec3]) {
         for p in self.pending.drain(..) {
-            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            // The minimum of the offsets and of their negations (the maximum, negated): two
+            // minima, which the compiler keeps as one packed minimum per point.
+            let (mut lo, mut neg_hi) = (f32::INFINITY, f32::INFINITY);
             let n = p.normal;
             for c in &contacts[p.contacts.start as usize..p.contacts.end as usize] {
                 for &q in out_points(pts, c) {
                     // `n . (q - 0.5)`, summed as `Vec3::dot` does.
                     let d = (q.x - 0.5) * n.x + (q.y - 0.5) * n.y + (q.z - 0.5) * n.z;
-                    // `f32::min`/`max` without their NaN handling (the points are finite):
-                    // one instruction each.
+                    // `f32::min` without its NaN handling (the points are finite).
                     lo = if lo < d { lo } else { d };
-                    hi = if hi > d { hi } else { d };
+                    neg_hi = if neg_hi < -d { neg_hi } else { -d };
                 }
             }
-            let (lo, hi) = (f64::from(lo), f64::from(hi));
+            let (lo, hi) = (f64::from(lo), -f64::from(neg_hi));
             let (c, thickness) = if lo <= hi {
                 contour::pack_with_thickness(lo, hi, p.normal)
             } else {

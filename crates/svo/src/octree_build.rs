@@ -28,6 +28,7 @@ use crate::overlap::{edges_overlap, plane_tolerance, triangle_box_overlap};
 use crate::strategy::Strategy;
 use crate::triangle_setup::GridTriangle;
 use glam::DVec3;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -244,6 +245,9 @@ pub struct Ctx<'a> {
     done: AtomicU64,
     total: u64,
     progress_level: u8,
+    /// Buffers that finished sequential tasks hand to later ones, so that a task does not
+    /// grow (and fault in) its buffers from empty again.
+    spare: Mutex<Vec<Scratch>>,
 }
 
 impl Ctx<'_> {
@@ -578,12 +582,16 @@ fn build_node<L: LeafSink>(
         && list.len() >= PARALLEL_MIN_TRIANGLES;
     if !parallel {
         let mut chunk = Chunk::new();
-        let mut scratch = Scratch {
+        let spare = ctx.spare.lock().ok().and_then(|mut s| s.pop());
+        let mut scratch = spare.unwrap_or_else(|| Scratch {
             lists: vec![<[Vec<u32>; 8]>::default(); usize::from(ctx.depth)],
             scatter: ScatterScratch::default(),
-        };
+        });
         let mut tests = 0;
         let rec = build_seq(ctx, level, cell, list, &mut chunk, &mut scratch, &mut tests);
+        if let Ok(mut s) = ctx.spare.lock() {
+            s.push(scratch);
+        }
         return (Part::Seq(chunk, rec), tests);
     }
     let s = f64::from(1u32 << (ctx.depth - level));
@@ -655,6 +663,7 @@ fn build<L: LeafSink>(
         done: AtomicU64::new(0),
         total: 8u64.pow(u32::from(progress_level)),
         progress_level,
+        spare: Mutex::new(Vec::new()),
     };
     // Only triangles whose bounds touch the root take part (all do for a mesh's own root).
     let side = f64::from(1u32 << depth);

@@ -359,8 +359,12 @@ pub fn scatter_sliced(
         counts[usize::from(c.key) + 1] += 1;
         top = top.max(usize::from(c.key) + 1);
     }
-    for i in 1..=top {
-        counts[i] += counts[i - 1];
+    // The running sum stays in a register (`counts[i] += counts[i - 1]` waits on the
+    // previous store at every step).
+    let mut run = 0;
+    for c in &mut counts[..=top] {
+        run += *c;
+        *c = run;
     }
     sorted.clear();
     sorted.resize(contacts.len(), Contact::default());
