@@ -17,7 +17,6 @@
 //! rounding of a point of the triangle); any other piece is decided by the exact overlap
 //! test.
 
-use crate::grid::closed_cells;
 use glam::{DVec3, Vec3};
 
 /// The most vertices a polygon may have while slicing. A triangle intersected with a box
@@ -170,18 +169,26 @@ fn slabs<const AXIS: usize>(
     let axis = AXIS;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in poly.points() {
-        lo = lo.min(p[axis]);
-        hi = hi.max(p[axis]);
+        // `f64::min`/`max` without their NaN handling (the points are finite).
+        let x = p[axis];
+        lo = if x < lo { x } else { lo };
+        hi = if x > hi { x } else { hi };
     }
-    let last = i64::from(n) - 1;
-    // Closed slabs: a polygon reaching down to a plane also reaches the slab below it.
-    let (first, end) = closed_cells(lo - eps, hi + eps);
-    let a = first.clamp(0, last);
-    let b = end.clamp(a, last);
+    // Closed slabs (a polygon reaching down to a plane also reaches the slab below it),
+    // as `grid::closed_cells` counts them, in floating point: the local coordinates are
+    // small, so the integers are exact, and the one-slab case is decided before any
+    // conversion to an integer.
+    let last = f64::from(n - 1);
+    let (lo, hi) = (lo - eps, hi + eps);
+    let fl = floor_small(lo);
+    let first = if fl == lo { fl - 1.0 } else { fl };
+    let a = first.max(0.0).min(last);
+    let b = floor_small(hi).max(a).min(last);
     if a == b {
         f(a as u32, poly);
         return;
     }
+    let (a, b) = (a as i64, b as i64);
     // Ping-pong between two buffers for what is left above each cut.
     let [below, x, y] = buf;
     let (mut rest, mut above) = (x, y);
@@ -202,6 +209,17 @@ fn slabs<const AXIS: usize>(
     if rest.n > 0 {
         f(b as u32, rest);
     }
+}
+
+/// `floor(x)` for `|x| < 2^51`, in floating point: adding and subtracting `1.5 * 2^52`
+/// rounds `x` to an integer (exactly, in that range), which is then stepped down if it
+/// rounded up. (Baseline x86-64 has no rounding instruction, and a round trip through an
+/// integer register is a long chain of conversions.)
+#[inline]
+fn floor_small(x: f64) -> f64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let r = (x + MAGIC) - MAGIC;
+    if r > x { r - 1.0 } else { r }
 }
 
 /// Reusable polygon buffers for [`Slicer::slice`]: three per axis.
@@ -442,6 +460,29 @@ mod tests {
         cut::<0>(&tri, 0.5, 0.0, &mut lo, &mut hi);
         assert!(!lo.overflow && !hi.overflow);
         assert_eq!((lo.n, hi.n), (4, 3));
+    }
+
+    #[test]
+    fn floor_small_is_floor() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            -0.5,
+            2.5,
+            -2.5,
+            15.999_999_999_999_998,
+        ];
+        for k in -20..=20 {
+            let k = f64::from(k);
+            xs.extend([k, k.next_up(), k.next_down(), k + 1e-10, k - 1e-10, k + 0.5]);
+        }
+        xs.extend([2f64.powi(50) + 0.5, -(2f64.powi(50)) - 0.5, 1e-300, -1e-300]);
+        for x in xs {
+            assert_eq!(floor_small(x), x.floor(), "{x:e}");
+        }
     }
 
     #[test]
