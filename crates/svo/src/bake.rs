@@ -162,7 +162,7 @@ pub fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeE
     if opts.channels.has(ChannelKind::Contour) && !opts.channels.has(ChannelKind::Normal) {
         return Err(BakeError::ContourWithoutNormal);
     }
-    mesh.validate()?;
+    let (lo, hi) = mesh.validated_bounds()?;
     match opts.solid {
         Some(_) if cfg!(not(feature = "solid")) => return Err(BakeError::SolidUnavailable),
         Some(SolidMode::Closed) => {
@@ -173,7 +173,6 @@ pub fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeE
         }
         _ => {}
     }
-    let (lo, hi) = mesh.bounds().ok_or(MeshError::Empty)?;
     let root = RootCube::around(lo, hi, opts.depth, opts.pad);
     let est = estimate(mesh, &root, opts.depth);
     if let Some(limit) = opts.max_memory

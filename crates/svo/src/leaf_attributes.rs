@@ -176,17 +176,23 @@ impl<'a> AttributeInputs<'a> {
         };
         // Unit normals of the grid-space triangles (zero for degenerate ones).
         if inputs.needs_geometry() {
-            inputs.normals = tris
-                .iter()
-                .map(|t| {
-                    let len = t.n.length();
-                    if len > 0.0 && len.is_finite() {
-                        t.n / len
-                    } else {
-                        DVec3::ZERO
-                    }
-                })
-                .collect();
+            let unit = |t: &GridTriangle| {
+                let len = t.n.length();
+                if len > 0.0 && len.is_finite() {
+                    t.n / len
+                } else {
+                    DVec3::ZERO
+                }
+            };
+            #[cfg(feature = "parallel")]
+            {
+                use rayon::prelude::*;
+                inputs.normals = tris.par_iter().with_min_len(4096).map(unit).collect();
+            }
+            #[cfg(not(feature = "parallel"))]
+            {
+                inputs.normals = tris.iter().map(unit).collect();
+            }
         }
         inputs
     }

@@ -282,29 +282,45 @@ impl Mesh {
     /// Checks everything the voxelizer relies on: at least one triangle, every index in
     /// range, every used coordinate finite, material/UV/texture references valid.
     pub fn validate(&self) -> Result<(), MeshError> {
+        self.validated_bounds().map(|_| ())
+    }
+
+    /// [`Self::validate`], returning the bounds of the used vertices ([`Self::bounds`]):
+    /// one pass over the triangles and one over the vertices.
+    pub fn validated_bounds(&self) -> Result<(DVec3, DVec3), MeshError> {
         if self.triangles.is_empty() {
             return Err(MeshError::Empty);
         }
         let n = self.positions.len();
+        let mut used = vec![false; n];
         for (t, tri) in self.triangles.iter().enumerate() {
             for &i in tri {
-                if i as usize >= n {
+                let Some(u) = used.get_mut(i as usize) else {
                     return Err(MeshError::IndexOutOfRange {
                         triangle: t,
                         index: u64::from(i),
                         vertex_count: n,
                     });
-                }
+                };
+                *u = true;
             }
         }
-        let mut used = vec![false; n];
-        for tri in &self.triangles {
-            for &i in tri {
-                used[i as usize] = true;
-            }
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut finite = true;
+        for (p, _) in self.positions.iter().zip(&used).filter(|(_, u)| **u) {
+            finite &= p.is_finite();
+            lo = lo.min(*p);
+            hi = hi.max(*p);
         }
-        for (v, p) in self.positions.iter().enumerate() {
-            if used[v] && !p.is_finite() {
+        if !finite {
+            // Name the first used vertex that is not finite.
+            if let Some((v, p)) = self
+                .positions
+                .iter()
+                .enumerate()
+                .find(|(v, p)| used[*v] && !p.is_finite())
+            {
                 return Err(MeshError::NonFinite {
                     vertex: v,
                     x: p.x,
@@ -371,11 +387,10 @@ impl Mesh {
                 });
             }
         }
-        let (lo, hi) = self.bounds().ok_or(MeshError::Empty)?;
         let extent = (hi - lo).max_element();
         if !extent.is_finite() {
             return Err(MeshError::BadExtent { extent });
         }
-        Ok(())
+        Ok((lo, hi))
     }
 }

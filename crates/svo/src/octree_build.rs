@@ -645,14 +645,27 @@ fn build<L: LeafSink>(
         "depth {depth} out of range"
     );
     let progress_level = PROGRESS_LEVEL.min(depth - 1);
-    let home = |t: &GridTriangle| Home::of(t, depth);
+    // Each triangle's home, and whether its bounds touch the root: only those take part
+    // (all do for a mesh's own root).
+    let side = f64::from(1u32 << depth);
+    let home = |t: &GridTriangle| {
+        let inside = t.lo().cmple(DVec3::splat(side)).all() && t.hi().cmpge(DVec3::ZERO).all();
+        (Home::of(t, depth), inside)
+    };
     #[cfg(feature = "parallel")]
-    let homes = {
+    let (homes, inside): (Vec<Home>, Vec<bool>) = {
         use rayon::prelude::*;
-        tris.par_iter().map(home).collect()
+        tris.par_iter().map(home).unzip()
     };
     #[cfg(not(feature = "parallel"))]
-    let homes = tris.iter().map(home).collect();
+    let (homes, inside): (Vec<Home>, Vec<bool>) = tris.iter().map(home).unzip();
+    let all: Vec<u32> = if inside.iter().all(|&b| b) {
+        (0..tris.len() as u32).collect()
+    } else {
+        (0..tris.len() as u32)
+            .filter(|&i| inside[i as usize])
+            .collect()
+    };
     let ctx = Ctx {
         tris,
         homes,
@@ -665,14 +678,6 @@ fn build<L: LeafSink>(
         progress_level,
         spare: Mutex::new(Vec::new()),
     };
-    // Only triangles whose bounds touch the root take part (all do for a mesh's own root).
-    let side = f64::from(1u32 << depth);
-    let all: Vec<u32> = (0..tris.len() as u32)
-        .filter(|&i| {
-            let t = &tris[i as usize];
-            t.lo().cmple(DVec3::splat(side)).all() && t.hi().cmpge(DVec3::ZERO).all()
-        })
-        .collect();
     let (part, tests) = build_node::<L>(&ctx, 0, [0, 0, 0], &all);
     let (chunk, root) = match part {
         Part::Seq(chunk, root) => (chunk, root),
