@@ -249,14 +249,20 @@ pub fn bake_mesh(
     let (pairs, false_positives) = (values.pairs, values.false_positives as usize);
     let leaf_count = values.len();
     progress(Phase::Attributes, 0.0);
-    let (attributes, rep) = inputs.finish(values, wall);
+    // The attributes' last serial step (the contour statistics) and the count of degenerate
+    // triangles (a pass over all the triangle records) run side by side.
+    let count_degenerate = || tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
+    #[cfg(feature = "parallel")]
+    let ((attributes, rep), degenerate) =
+        rayon::join(|| inputs.finish(values, wall), count_degenerate);
+    #[cfg(not(feature = "parallel"))]
+    let ((attributes, rep), degenerate) = (inputs.finish(values, wall), count_degenerate());
     progress(Phase::Attributes, 1.0);
     // The shares are rounded, so their sum may pass the wall time by a nanosecond.
     let voxelize_s = wall
         .saturating_sub(rep.attributes)
         .saturating_sub(rep.contours)
         .as_secs_f64();
-    let degenerate = tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count();
     let mut tree = Octree {
         root,
         depth: opts.depth,

@@ -365,7 +365,7 @@ impl<'a> AttributeInputs<'a> {
                 Duration::ZERO
             }
         };
-        let contour_stats = self.want_contour.then(|| thickness_stats(&mut v.thickness));
+        let contour_stats = self.want_contour.then(|| thickness_stats(&v.thickness));
         (
             attrs,
             AttributeReport {
@@ -488,29 +488,41 @@ impl LeafValues {
     }
 }
 
-fn thickness_stats(v: &mut [f32]) -> ContourStats {
+fn thickness_stats(v: &[f32]) -> ContourStats {
     if v.is_empty() {
         return ContourStats::default();
     }
     let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
     let max = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
     let rank = |f: f64| ((v.len() - 1) as f64 * f).round() as usize;
-    let (k50, k95) = (rank(0.5), rank(0.95));
     // Thicknesses are not negative (nor NaN), so their bit patterns sort as they do (`+ 0.0`
-    // turns a -0.0 into 0.0): the selections compare integers.
-    let mut bits: Vec<u32> = v.iter().map(|x| (x + 0.0).to_bits()).collect();
-    // Select the 95th percentile, then the median among the values below it.
-    let (below, p95, _) = bits.select_nth_unstable(k95);
-    let p95 = *p95;
-    let p50 = if k50 < k95 {
-        *below.select_nth_unstable(k50).1
-    } else {
-        p95
+    // turns a -0.0 into 0.0): the ranks are selected on integers, by a radix select (a count
+    // per top 16 bits, then the values of the one bucket that holds each rank).
+    let key = |x: f32| (x + 0.0).to_bits();
+    let mut counts = vec![0u32; 1 << 16];
+    for &x in v.iter() {
+        counts[(key(x) >> 16) as usize] += 1;
+    }
+    let select = |k: usize| -> f32 {
+        let (mut below, mut bucket) = (0usize, 0usize);
+        for (b, &c) in counts.iter().enumerate() {
+            if below + c as usize > k {
+                bucket = b;
+                break;
+            }
+            below += c as usize;
+        }
+        let mut inside: Vec<u32> = v
+            .iter()
+            .map(|&x| key(x))
+            .filter(|&b| (b >> 16) as usize == bucket)
+            .collect();
+        f32::from_bits(*inside.select_nth_unstable(k - below).1)
     };
     ContourStats {
         mean,
-        p50: f64::from(f32::from_bits(p50)),
-        p95: f64::from(f32::from_bits(p95)),
+        p50: f64::from(select(rank(0.5))),
+        p95: f64::from(select(rank(0.95))),
         max: f64::from(max),
     }
 }
@@ -565,5 +577,40 @@ pub fn unorm8(v: f32) -> u8 {
         (v.clamp(0.0, 1.0) * 255.0).round() as u8
     } else {
         0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The radix select gives the ranks a full sort gives, on values with many repeats,
+    /// zeros of both signs and values that share their top bits.
+    #[test]
+    fn thickness_percentiles_equal_sorting() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for len in [1usize, 2, 3, 19, 1000, 20_001] {
+            let v: Vec<f32> = (0..len)
+                .map(|_| match rnd() % 4 {
+                    0 => 0.0,
+                    1 => -0.0,
+                    2 => (rnd() % 7) as f32 * 1.5e-5,
+                    _ => (rnd() % 1_000_000) as f32 * 1.7e-6,
+                })
+                .collect();
+            let got = thickness_stats(&v);
+            let mut sorted: Vec<f32> = v.iter().map(|x| x + 0.0).collect();
+            sorted.sort_by(f32::total_cmp);
+            let rank = |f: f64| ((len - 1) as f64 * f).round() as usize;
+            assert_eq!(got.p50, f64::from(sorted[rank(0.5)]), "len {len}");
+            assert_eq!(got.p95, f64::from(sorted[rank(0.95)]), "len {len}");
+            assert_eq!(got.max, f64::from(sorted[len - 1]), "len {len}");
+        }
     }
 }
