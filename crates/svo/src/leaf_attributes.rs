@@ -588,13 +588,7 @@ mod tests {
     /// zeros of both signs and values that share their top bits.
     #[test]
     fn thickness_percentiles_equal_sorting() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rnd = crate::test_rng::xorshift(0x9e37_79b9_7f4a_7c15);
         for len in [1usize, 2, 3, 19, 1000, 20_001] {
             let v: Vec<f32> = (0..len)
                 .map(|_| match rnd() % 4 {

@@ -90,6 +90,8 @@ pub mod solid_mode;
 pub mod strategy;
 #[cfg(feature = "trace")]
 pub mod surfaces;
+#[cfg(test)]
+mod test_rng;
 pub mod thread_pool;
 pub mod triangle_setup;
 #[cfg(feature = "trace")]
