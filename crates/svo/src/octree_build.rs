@@ -194,13 +194,13 @@ struct Home {
 }
 
 impl Home {
-    /// The home of triangle `t` in a tree of `depth` levels (`limit` 0, no shortcut, for
+    /// The home of a triangle with bounds `t_lo..t_hi` in a tree of `depth` levels (`limit`
+    /// 0, no shortcut, for
     /// bounds that leave the root or are not finite).
-    fn of(t: &GridTriangle, depth: u8) -> Self {
+    fn of(t_lo: DVec3, t_hi: DVec3, depth: u8) -> Self {
         let n = 1u64 << depth;
         let mut a = [0u32; 3];
         let mut diff = 0u64;
-        let (t_lo, t_hi) = (t.lo(), t.hi());
         for (axis, a) in a.iter_mut().enumerate() {
             let (lo, hi) = (t_lo[axis], t_hi[axis]);
             // `lo > 0` and `hi < n` (false for NaN): the closed range stays in the root.
@@ -649,8 +649,9 @@ fn build<L: LeafSink>(
     // (all do for a mesh's own root).
     let side = f64::from(1u32 << depth);
     let home = |t: &GridTriangle| {
-        let inside = t.lo().cmple(DVec3::splat(side)).all() && t.hi().cmpge(DVec3::ZERO).all();
-        (Home::of(t, depth), inside)
+        let (lo, hi) = (t.lo(), t.hi());
+        let inside = lo.cmple(DVec3::splat(side)).all() && hi.cmpge(DVec3::ZERO).all();
+        (Home::of(lo, hi, depth), inside)
     };
     #[cfg(feature = "parallel")]
     let (homes, inside): (Vec<Home>, Vec<bool>) = {
@@ -659,13 +660,9 @@ fn build<L: LeafSink>(
     };
     #[cfg(not(feature = "parallel"))]
     let (homes, inside): (Vec<Home>, Vec<bool>) = tris.iter().map(home).unzip();
-    let all: Vec<u32> = if inside.iter().all(|&b| b) {
-        (0..tris.len() as u32).collect()
-    } else {
-        (0..tris.len() as u32)
-            .filter(|&i| inside[i as usize])
-            .collect()
-    };
+    let all: Vec<u32> = (0..tris.len() as u32)
+        .filter(|&i| inside[i as usize])
+        .collect();
     let ctx = Ctx {
         tris,
         homes,
@@ -745,7 +742,7 @@ mod tests {
             let v = [0, 1, 2]
                 .map(|_| DVec3::new(coord(rnd(), c[0]), coord(rnd(), c[1]), coord(rnd(), c[2])));
             let t = GridTriangle::new(v[0], v[1], v[2]);
-            let home = Home::of(&t, D);
+            let home = Home::of(t.lo(), t.hi(), D);
             for level in 0..D {
                 let s = 1u32 << (D - level);
                 let node = home.a.map(|x| x / s * s);

@@ -40,7 +40,8 @@ pub const SCATTER_LEVELS: u8 = 4;
 /// few ulps per cut, nine cuts at most).
 const SLICE_MARGIN: f64 = 1e-10;
 
-/// `1 / n` for the point counts of a part (at most `2 * CAP` in `grid_slice`).
+/// `1 / n` for the point counts of a part (at most `CAP`, 12, in `grid_slice`; the table
+/// covers twice that).
 const RECIP: [f64; 32] = {
     let mut t = [0.0; 32];
     let mut i = 1;
