@@ -314,11 +314,20 @@ pub fn scatter_sliced(
             });
             if sliced && !verify.is_empty() {
                 let test = CellTest::new(t, node_min, n as f64);
+                // The cell test leaves the box's own axes to its caller (it is asked about
+                // cells of the triangle's bounds only), and the slicing's tolerance can put
+                // a part one cell beyond them: such a part is rejected here.
+                let (t_lo, t_hi) = (t.lo(), t.hi());
+                let bounds = [0, 1, 2].map(|a| {
+                    let (first, last) = closed_cells(t_lo[a], t_hi[a]);
+                    (first - base[a], last - base[a])
+                });
                 let mut dead = 0;
                 for &i in verify.iter() {
                     let c = local_cell(contacts[i].key, k);
                     *tests += 1;
-                    if !test.touches(c[0], c[1], c[2]) {
+                    let inside = (0..3).all(|a| bounds[a].0 <= c[a] && c[a] <= bounds[a].1);
+                    if !(inside && test.touches(c[0], c[1], c[2])) {
                         contacts[i].len = u32::MAX;
                         dead += 1;
                     }

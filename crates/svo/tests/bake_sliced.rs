@@ -273,3 +273,45 @@ fn grid_aligned_geometry_matches_the_voxelizer() {
         check_against_voxelizer(&mesh, depth, "grid-aligned");
     }
 }
+
+/// Vertices a hair beyond a cell face (1e-11 cells: outside the cell by far more than the
+/// exact test's rounding bound, yet within the slicing's tolerance): the slicing gives the
+/// cell across the face a part, and the exact test that decides it must also reject it on
+/// the box's own axis (an earlier version asked only the plane and the nine edge axes, which
+/// do not separate such a cell, and kept a cell that no triangle touches; the bunny at
+/// depth 8 has a vertex 6e-6 cells off a face that way).
+#[test]
+fn vertices_a_hair_beyond_a_cell_face_add_no_cell() {
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    // The root is [0, 16]^3 (pinned by two specks); at depth 4 a cell is 1 unit.
+    let specks = vec![
+        [v(0.0, 0.0, 0.0), v(0.25, 0.0, 0.0), v(0.0, 0.25, 0.0)],
+        [
+            v(16.0, 16.0, 16.0),
+            v(15.75, 16.0, 16.0),
+            v(16.0, 15.75, 16.0),
+        ],
+    ];
+    let fan = [
+        v(5.361730004688534, 7.749002883769322, 10.158677961965054),
+        v(5.083860525758029, 10.003198479116747, 8.512835663684427),
+        v(5.185800807969207, 12.252461480163646, 10.129082396161834),
+        v(5.169358826967408, 10.014707865818025, 11.7897224773441),
+    ];
+    for hair in [1e-11, -1e-11, 1e-13] {
+        let mut tris = specks.clone();
+        // Triangles around a vertex just beyond (or before) the face x = 5 of the cell
+        // (4, 10, 10), reaching away from it along x, and their mirror images across the
+        // face y = 10.
+        let apex = v(5.0 + hair, 10.006486875317108, 10.148812773364);
+        for k in 0..4 {
+            tris.push([apex, fan[k], fan[(k + 1) % 4]]);
+            let flip = |p: DVec3| v(p.x, 20.0 - p.y, p.z);
+            tris.push([flip(apex), flip(fan[k]), flip(fan[(k + 1) % 4])]);
+        }
+        let mesh = mesh_of(&tris);
+        for depth in [4u8, 5, 6] {
+            check_against_voxelizer(&mesh, depth, &format!("hair {hair:e}"));
+        }
+    }
+}
