@@ -207,6 +207,13 @@ impl<'a> AttributeInputs<'a> {
             || self.per_leaf_ior
     }
 
+    /// The unit normal of grid-space triangle `ti` (zero for a degenerate one, or where
+    /// its length is not finite), computed once per bake when geometry is needed.
+    #[inline]
+    pub fn unit_normal(&self, ti: u32) -> DVec3 {
+        self.normals[ti as usize]
+    }
+
     /// Whether contours are made.
     pub fn wants_contour(&self) -> bool {
         self.want_contour

@@ -286,7 +286,7 @@ pub fn scatter_sliced(
                 .fold(n as f64, |a, v| a.max(v.abs().max_element()));
             let eps = SLICE_MARGIN * reach;
             // The unit normal for the parts' areas (None where the length underflows).
-            let unit = t.n.try_normalize();
+            let unit = Some(inputs.unit_normal(ti)).filter(|u| *u != DVec3::ZERO);
             verify.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
@@ -390,14 +390,18 @@ pub fn scatter_sliced(
         run += *c;
         *c = run;
     }
-    sorted.clear();
-    sorted.resize(contacts.len(), Contact::default());
+    // Every slot is written once, so the buffer is only grown, never cleared (clearing and
+    // refilling it with defaults cost a memset per block).
+    if sorted.len() < contacts.len() {
+        sorted.resize(contacts.len(), Contact::default());
+    }
+    let sorted = &mut sorted[..contacts.len()];
     for c in contacts.iter() {
         let slot = &mut counts[usize::from(c.key)];
         sorted[*slot as usize] = *c;
         *slot += 1;
     }
-    let contacts = sorted;
+    let contacts = &*sorted;
     ctx.node_done(level);
     let t1 = Instant::now();
     let node = emit_sorted(

@@ -100,40 +100,43 @@ pub(crate) const fn spread3(v: u64) -> u64 {
 }
 
 /// A permutation of the mesh's triangles by the Morton code of their grid-space centroids
-/// (ties by index), so that the triangles of a node sit near each other in memory.
-/// `order[k]` is the mesh index of the `k`-th triangle in spatial order.
+/// on a `1024^3` grid (ties by index), so that the triangles of a node sit near each other
+/// in memory. `order[k]` is the mesh index of the `k`-th triangle in spatial order.
+///
+/// The 30-bit code and the 32-bit index share one `u64` key, so the sort compares single
+/// integers (a finer code bought nothing: the build's own splits order the lists within
+/// a node).
 pub fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
-    let to21 = (1u64 << 21) as f64 / root.side;
+    const BITS: u32 = 10;
+    let scale = f64::from(1u32 << BITS) / root.side;
+    let top = f64::from((1u32 << BITS) - 1);
     let key = |(i, t): (usize, &[u32; 3])| {
         let c = (mesh.positions[t[0] as usize]
             + mesh.positions[t[1] as usize]
             + mesh.positions[t[2] as usize])
             / 3.0;
-        let g = (c - root.origin) * to21;
+        let g = (c - root.origin) * scale;
         let q = |x: f64| {
             if x.is_finite() {
-                x.clamp(0.0, 2_097_151.0) as u64
+                x.clamp(0.0, top) as u64
             } else {
                 0
             }
         };
-        (
-            spread3(q(g.x)) << 2 | spread3(q(g.y)) << 1 | spread3(q(g.z)),
-            i as u32,
-        )
+        (spread3(q(g.x)) << 2 | spread3(q(g.y)) << 1 | spread3(q(g.z))) << 32 | i as u64
     };
     #[cfg(feature = "parallel")]
-    let keys: Vec<(u64, u32)> = {
+    let keys: Vec<u64> = {
         use rayon::prelude::*;
-        let mut k: Vec<(u64, u32)> = mesh.triangles.par_iter().enumerate().map(key).collect();
+        let mut k: Vec<u64> = mesh.triangles.par_iter().enumerate().map(key).collect();
         k.par_sort_unstable();
         k
     };
     #[cfg(not(feature = "parallel"))]
-    let keys: Vec<(u64, u32)> = {
-        let mut k: Vec<(u64, u32)> = mesh.triangles.iter().enumerate().map(key).collect();
+    let keys: Vec<u64> = {
+        let mut k: Vec<u64> = mesh.triangles.iter().enumerate().map(key).collect();
         k.sort_unstable();
         k
     };
-    keys.into_iter().map(|(_, i)| i).collect()
+    keys.into_iter().map(|k| k as u32).collect()
 }
