@@ -16,6 +16,8 @@
 //! (An earlier reference that counted such touches reported 2-38 "wrong" rays per 3,000 at
 //! depths 20-24: every one of them was this.)
 
+#![cfg(feature = "trace")]
+
 mod common;
 
 use glam::{DVec3, UVec3};

@@ -1,6 +1,8 @@
 //! The `.svo` format: round trips, determinism, and files that are truncated, corrupted,
 //! hostile or from a newer version, which must give a clear error and never a panic.
 
+#![cfg(feature = "io")]
+
 mod common;
 use common::rng;
 use glam::{DVec3, UVec3};

@@ -3,6 +3,8 @@
 //! crashed a target. Runs on stable in every test run; the fuzzing itself needs nightly and
 //! `cargo fuzz` (see `docs/stability.md`).
 
+#![cfg(all(feature = "io", feature = "obj", feature = "ply", feature = "gltf"))]
+
 mod common;
 
 use common::fuzz_cases;

@@ -5,7 +5,7 @@
 //!
 //! To accept new images after an intended change: `SVO_BLESS=1 cargo test -p svo --test
 //! golden_images`, then look at the images before committing them.
-#![cfg(all(feature = "trace", feature = "obj"))]
+#![cfg(all(feature = "obj", feature = "image-io", feature = "reference"))]
 
 use glam::{DVec3, UVec3, Vec3};
 use std::path::{Path, PathBuf};

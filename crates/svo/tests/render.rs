@@ -2,7 +2,7 @@
 //! and inverse-square falloff), shadows through glass panes in each shadow mode, a mirror, a
 //! glass slab at normal incidence (Fresnel), images independent of the thread count, and the
 //! exact hit mode against the triangle reference.
-#![cfg(all(feature = "trace", feature = "reference"))]
+#![cfg(all(feature = "image-io", feature = "reference"))]
 
 mod common;
 

@@ -2,7 +2,7 @@
 //! (georeferenced, 1e6-1e7) and at micro and mega scales renders the same image as at the
 //! origin (measured: 80-83 dB PSNR, the same pixels hit; the test asks for 70 dB); empty, one-level and very deep trees render without trouble; a camera inside the
 //! model and one looking straight along an axis (zero direction components everywhere) work.
-#![cfg(all(feature = "trace", feature = "obj"))]
+#![cfg(all(feature = "obj", feature = "image-io", feature = "reference"))]
 
 use glam::{DVec3, UVec3, Vec3};
 use svo::builder::{Voxel, from_cells};

@@ -15,6 +15,7 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 
 mod exact_sat;
 pub use exact_sat::*;
+#[cfg(feature = "io")]
 pub mod fuzz_cases;
 
 /// Integer point to f64 grid coordinates.
