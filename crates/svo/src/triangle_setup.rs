@@ -99,18 +99,21 @@ pub(crate) const fn spread3(v: u64) -> u64 {
     (x | x << 2) & 0x1249_2492_4924_9249
 }
 
-/// A permutation of the mesh's triangles by the Morton code of their grid-space centroids
-/// on a `1024^3` grid (ties by index), so that the triangles of a node sit near each other
-/// in memory. `order[k]` is the mesh index of the `k`-th triangle in spatial order.
+/// A permutation of the mesh's triangles by the Morton order of the cell of a `32^3` grid
+/// over the root that holds their centroid (ties in mesh order), so that the triangles of a
+/// node sit near each other in memory. `order[k]` is the mesh index of the `k`-th triangle
+/// in spatial order.
 ///
-/// The 30-bit code and the 32-bit index share one `u64` key, so the sort compares single
-/// integers (a finer code bought nothing: the build's own splits order the lists within
-/// a node).
+/// A stable counting sort by the 15-bit cell code: two passes over the triangles. A finer
+/// order buys nothing: a cell of this grid holds a few hundred triangles even for meshes
+/// of a million, whose records fit in the cache together, and the build's own splits order
+/// the lists within it (a full comparison sort by a 30-bit code took 2.5 ms of a 69 ms
+/// depth-8 bunny bake on two threads).
 pub fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
-    const BITS: u32 = 10;
+    const BITS: u32 = 5;
     let scale = f64::from(1u32 << BITS) / root.side;
     let top = f64::from((1u32 << BITS) - 1);
-    let key = |(i, t): (usize, &[u32; 3])| {
+    let code = |t: &[u32; 3]| -> u16 {
         let c = (mesh.positions[t[0] as usize]
             + mesh.positions[t[1] as usize]
             + mesh.positions[t[2] as usize])
@@ -123,20 +126,33 @@ pub fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
                 0
             }
         };
-        (spread3(q(g.x)) << 2 | spread3(q(g.y)) << 1 | spread3(q(g.z))) << 32 | i as u64
+        (spread3(q(g.x)) << 2 | spread3(q(g.y)) << 1 | spread3(q(g.z))) as u16
     };
     #[cfg(feature = "parallel")]
-    let keys: Vec<u64> = {
+    let codes: Vec<u16> = {
         use rayon::prelude::*;
-        let mut k: Vec<u64> = mesh.triangles.par_iter().enumerate().map(key).collect();
-        k.par_sort_unstable();
-        k
+        mesh.triangles
+            .par_iter()
+            .with_min_len(4096)
+            .map(code)
+            .collect()
     };
     #[cfg(not(feature = "parallel"))]
-    let keys: Vec<u64> = {
-        let mut k: Vec<u64> = mesh.triangles.iter().enumerate().map(key).collect();
-        k.sort_unstable();
-        k
-    };
-    keys.into_iter().map(|k| k as u32).collect()
+    let codes: Vec<u16> = mesh.triangles.iter().map(code).collect();
+    let mut start = vec![0u32; (1 << (3 * BITS)) + 1];
+    for &c in &codes {
+        start[usize::from(c) + 1] += 1;
+    }
+    let mut run = 0;
+    for s in start.iter_mut() {
+        run += *s;
+        *s = run;
+    }
+    let mut order = vec![0u32; codes.len()];
+    for (i, &c) in codes.iter().enumerate() {
+        let slot = &mut start[usize::from(c)];
+        order[*slot as usize] = i as u32;
+        *slot += 1;
+    }
+    order
 }
