@@ -127,7 +127,10 @@ pub struct BakeStats {
     pub leaves: usize,
     /// Leaves estimated before the bake.
     pub estimated_leaves: f64,
-    /// Triangle/cell overlap tests run.
+    /// Triangle/cell overlap tests run: the tests of children and cells the voxelizer
+    /// decided by testing. Contacts it proved without a test are not counted: a triangle
+    /// whose bounds lie inside one child (filed there by the split's shortcut) and a sliced
+    /// part whose centroid lies well inside its cell.
     pub overlap_tests: u64,
     /// Triangle/leaf pairs kept.
     pub leaf_triangle_pairs: usize,

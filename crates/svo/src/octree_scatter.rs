@@ -285,7 +285,7 @@ pub fn scatter_sliced(
                 .iter()
                 .fold(n as f64, |a, v| a.max(v.abs().max_element()));
             let eps = SLICE_MARGIN * reach;
-            // The unit normal for the parts' areas (None where the length underflows).
+            // The unit normal for the parts' areas (None for a degenerate triangle).
             let unit = Some(inputs.unit_normal(ti)).filter(|u| *u != DVec3::ZERO);
             verify.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {

@@ -24,7 +24,7 @@ use crate::sky::{CubeMap, Sky};
 use crate::surfaces::OctreeSurfaces;
 use crate::thread_pool::{ThreadsError, with_threads};
 use crate::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions, Tracer};
-use glam::{DVec3, UVec3, Vec3};
+use glam::{DVec3, Vec3};
 use std::fmt;
 use std::path::PathBuf;
 use thiserror::Error;
@@ -340,20 +340,14 @@ impl fmt::Display for RenderReport {
 
 /// The bounds of the occupied cells, in scene units.
 pub fn occupied_bounds(tree: &Octree) -> (DVec3, DVec3) {
-    let mut lo = UVec3::MAX;
-    let mut hi = UVec3::ZERO;
-    for l in tree.leaves() {
-        lo = lo.min(l.cell);
-        hi = hi.max(l.cell + UVec3::ONE);
-    }
-    if lo.x > hi.x {
+    let Some((lo, hi)) = tree.occupied_cells() else {
         return (
             tree.root.origin,
             tree.root.origin + DVec3::splat(tree.root.side),
         );
-    }
+    };
     let (a, _) = tree.cell_bounds(lo);
-    let (b, _) = tree.cell_bounds(hi);
+    let (_, b) = tree.cell_bounds(hi);
     (a, b)
 }
 
