@@ -73,11 +73,14 @@ impl ScatterScratch {
 }
 
 /// The complete overlap test of one triangle against the unit cells of a block, with the
-/// plane distance and the edge intervals prepared once (the same bounds as
-/// [`crate::overlap::triangle_box_overlap`], with one plane tolerance for the whole block).
+/// box axes (the triangle's closed cell range), the plane distance and the edge intervals
+/// prepared once (the same bounds as [`crate::overlap::triangle_box_overlap`], with one plane
+/// tolerance for the whole block).
 pub struct CellTest<'a> {
     t: &'a GridTriangle,
     node_min: DVec3,
+    /// Per axis, the local cells that the triangle's closed bounds reach.
+    bounds: [(i64, i64); 3],
     pbase: f64,
     pos: f64,
     neg: f64,
@@ -95,9 +98,17 @@ impl<'a> CellTest<'a> {
             let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, i / 3, i % 3);
             *axis = (a1, a2, i1, i2, lo, hi, (0.5 + t.edge_tol) * w);
         }
+        let (t_lo, t_hi) = (t.lo(), t.hi());
+        let bounds = [0, 1, 2].map(|a| {
+            let (first, last) = closed_cells(t_lo[a], t_hi[a]);
+            // The block's corner is an integer well inside `i64`.
+            let base = node_min[a] as i64;
+            (first - base, last - base)
+        });
         Self {
             t,
             node_min,
+            bounds,
             pbase: nn.dot(d0),
             pos: nn.x.max(0.0) + nn.y.max(0.0) + nn.z.max(0.0),
             neg: nn.x.min(0.0) + nn.y.min(0.0) + nn.z.min(0.0),
@@ -108,8 +119,15 @@ impl<'a> CellTest<'a> {
     }
 
     /// Whether the triangle touches the closed unit cell at local coordinates `(x, y, z)`.
+    /// (The box's own axes matter to a caller that asks about cells beyond the triangle's
+    /// bounds: the slicing's tolerance can give a cell across a face a part when a vertex
+    /// lies a hair beyond that face, and neither the plane nor the edge axes reject it.)
     #[inline]
     pub fn touches(&self, x: i64, y: i64, z: i64) -> bool {
+        let inside = |a: usize, c: i64| self.bounds[a].0 <= c && c <= self.bounds[a].1;
+        if !(inside(0, x) && inside(1, y) && inside(2, z)) {
+            return false;
+        }
         let t = self.t;
         let m = self.node_min + DVec3::new(x as f64, y as f64, z as f64);
         vertex_inside(t, m, 1.0) || {
@@ -314,20 +332,11 @@ pub fn scatter_sliced(
             });
             if sliced && !verify.is_empty() {
                 let test = CellTest::new(t, node_min, n as f64);
-                // The cell test leaves the box's own axes to its caller (it is asked about
-                // cells of the triangle's bounds only), and the slicing's tolerance can put
-                // a part one cell beyond them: such a part is rejected here.
-                let (t_lo, t_hi) = (t.lo(), t.hi());
-                let bounds = [0, 1, 2].map(|a| {
-                    let (first, last) = closed_cells(t_lo[a], t_hi[a]);
-                    (first - base[a], last - base[a])
-                });
                 let mut dead = 0;
                 for &i in verify.iter() {
                     let c = local_cell(contacts[i].key, k);
                     *tests += 1;
-                    let inside = (0..3).all(|a| bounds[a].0 <= c[a] && c[a] <= bounds[a].1);
-                    if !(inside && test.touches(c[0], c[1], c[2])) {
+                    if !test.touches(c[0], c[1], c[2]) {
                         contacts[i].len = u32::MAX;
                         dead += 1;
                     }
