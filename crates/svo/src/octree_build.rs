@@ -195,8 +195,7 @@ struct Home {
 
 impl Home {
     /// The home of a triangle with bounds `t_lo..t_hi` in a tree of `depth` levels (`limit`
-    /// 0, no shortcut, for
-    /// bounds that leave the root or are not finite).
+    /// 0, no shortcut, for bounds that leave the root or are not finite).
     fn of(t_lo: DVec3, t_hi: DVec3, depth: u8) -> Self {
         let n = 1u64 << depth;
         let mut a = [0u32; 3];

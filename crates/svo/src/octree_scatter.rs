@@ -79,7 +79,8 @@ impl ScatterScratch {
 pub struct CellTest<'a> {
     t: &'a GridTriangle,
     node_min: DVec3,
-    /// Per axis, the local cells that the triangle's closed bounds reach.
+    /// Per axis, the local cells that the triangle's closed bounds reach (cell `i` meets
+    /// `[lo, hi]` iff `i <= hi` and `i + 1 >= lo`).
     bounds: [(i64, i64); 3],
     pbase: f64,
     pos: f64,
@@ -154,18 +155,15 @@ fn touched_cells(
     tests: &mut u64,
     f: &mut impl FnMut([i64; 3]),
 ) {
-    // Closed cells: cell i meets [lo, hi] iff i <= hi and i + 1 >= lo.
-    let (t_lo, t_hi) = (t.lo(), t.hi());
-    let range = |a: usize| -> (i64, i64) {
-        let (first, last) = closed_cells(t_lo[a], t_hi[a]);
-        ((first - base[a]).max(0), (last - base[a]).min(n - 1))
-    };
-    let ranges = [range(0), range(1), range(2)];
+    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    let test = CellTest::new(t, node_min, n as f64);
+    // The cells of the triangle's closed bounds (the test's box axes) within the block.
+    let ranges = test
+        .bounds
+        .map(|(first, last)| (first.max(0), last.min(n - 1)));
     if ranges.iter().any(|r| r.0 > r.1) {
         return;
     }
-    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
-    let test = CellTest::new(t, node_min, n as f64);
     // Columns along the normal's dominant axis `w`: only the cells that the plane crosses
     // in a column can touch the triangle, so the others are skipped. The range is widened
     // by a margin far above its rounding error; near-degenerate triangles, whose plane is
