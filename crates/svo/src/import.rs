@@ -8,6 +8,8 @@ pub mod import_gltf;
 pub mod import_obj;
 #[cfg(feature = "ply")]
 pub mod import_ply;
+#[cfg(feature = "obj")]
+pub mod obj_geometry;
 
 use crate::mesh::{Mesh, MeshError};
 use std::path::Path;

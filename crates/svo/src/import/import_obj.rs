@@ -1,4 +1,6 @@
-//! OBJ + MTL import through tobj (positions in `f64`), plain or gzipped.
+//! OBJ + MTL import through tobj (positions in `f64`), plain or gzipped. A geometry-only
+//! file (no materials) is read by [`super::obj_geometry`] instead, which gives the same mesh
+//! several times faster; anything it does not mirror exactly goes to tobj.
 //!
 //! Material mapping: colour = `Kd` (times `map_Kd`); reflectivity = the largest `Ks`
 //! component for the mirror illumination models (`illum` 3, 4, 5, 6, 7), else 0;
@@ -9,19 +11,52 @@ use super::{io_error, parse_error};
 use crate::mesh::{Material, Mesh, MeshError, Texture};
 use glam::{DVec3, Vec2};
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
+use std::io::Read;
 use std::path::Path;
 
 /// Loads an OBJ file (gzip-compressed when `gz`); MTL files and textures are looked up
 /// beside it.
 pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    if gz {
-        let mut r = BufReader::new(flate2::read::GzDecoder::new(file));
-        read_obj(&mut r, path, Some(&dir))
+    let mut file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
+    // Room for the whole file at once (for a gzipped one, the size its trailer states,
+    // within reason: it is only a hint).
+    let len = file.metadata().map_or(0, |m| m.len());
+    let hint = if gz {
+        gz_size_hint(&mut file, len)
     } else {
-        read_obj(&mut BufReader::new(file), path, Some(&dir))
+        len
+    };
+    let mut bytes = Vec::new();
+    // Only a hint: without the memory, the buffer grows as it is read.
+    let _ = bytes.try_reserve_exact(usize::try_from(hint).unwrap_or(0));
+    if gz {
+        flate2::read::GzDecoder::new(file).read_to_end(&mut bytes)
+    } else {
+        file.read_to_end(&mut bytes)
+    }
+    .map_err(|e| io_error(path, e))?;
+    if let Some(mesh) = super::obj_geometry::parse(&bytes) {
+        return Ok(mesh);
+    }
+    read_obj(&bytes, path, Some(&dir))
+}
+
+/// The uncompressed size a gzip file's trailer states (its last four bytes, modulo 2^32),
+/// capped at 64 times the compressed size; 0 when it cannot be read. Leaves the file at its
+/// start.
+fn gz_size_hint(file: &mut std::fs::File, len: u64) -> u64 {
+    use std::io::{Seek, SeekFrom};
+    let mut tail = [0u8; 4];
+    let ok = len >= 18
+        && file.seek(SeekFrom::End(-4)).is_ok()
+        && file.read_exact(&mut tail).is_ok()
+        && file.seek(SeekFrom::Start(0)).is_ok();
+    if ok {
+        u64::from(u32::from_le_bytes(tail)).min(len.saturating_mul(64))
+    } else {
+        let _ = file.seek(SeekFrom::Start(0));
+        0
     }
 }
 
@@ -29,11 +64,79 @@ pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
 /// resolved without a folder, so every triangle gets the default material; `name` appears
 /// in error messages.
 pub fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
-    read_obj(&mut std::io::Cursor::new(bytes), name, None)
+    if let Some(mesh) = super::obj_geometry::parse(bytes) {
+        return Ok(mesh);
+    }
+    read_obj(bytes, name, None)
 }
 
-/// Reads an OBJ from `r`; `dir` is where its MTL files and textures are, if anywhere.
-fn read_obj(r: &mut dyn BufRead, path: &Path, dir: Option<&Path>) -> Result<Mesh, MeshError> {
+/// Reads an OBJ from memory through tobj alone (what [`obj_from_bytes`] does for a file its
+/// own geometry reader declines): the reference that reader is tested against.
+pub fn obj_from_bytes_tobj(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    read_obj(bytes, name, None)
+}
+
+/// Finds a face whose texture or normal index tobj would resolve to one so large that its
+/// bounds check overflows (`vt * 2 + 1`, `vn * 3 + 2`: a panic where overflow is checked,
+/// as in the fuzzer's builds, found by it): a relative index reaching before the first
+/// element, a zero, or an absurd one. Returns the face's line number (1-based). Lines are
+/// split as tobj splits them, up to the first that is not UTF-8, where tobj stops.
+fn huge_texture_or_normal_index(bytes: &[u8]) -> Option<usize> {
+    let lines = || {
+        bytes
+            .split(|&b| b == b'\n')
+            .map_while(|l| std::str::from_utf8(l).ok())
+    };
+    // tobj checks these indices only when the file has such elements.
+    let has = |key: &str| lines().any(|l| l.split_whitespace().next() == Some(key));
+    let (has_vt, has_vn) = (has("vt"), has("vn"));
+    let (mut vt, mut vn) = (0usize, 0usize);
+    for (n, line) in lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("vt") => vt += 1,
+            Some("vn") => vn += 1,
+            Some("f" | "l") => {
+                let words: Vec<&str> = words.collect();
+                if words.len() < 3 {
+                    continue; // points and lines are skipped, their indices unused
+                }
+                for w in words {
+                    for (part, text) in w.split('/').enumerate().skip(1).take(2) {
+                        let Ok(x) = text.parse::<isize>() else {
+                            continue;
+                        };
+                        let (count, limit, present) = if part == 1 {
+                            (vt, (usize::MAX - 1) / 2, has_vt)
+                        } else {
+                            (vn, (usize::MAX - 2) / 3, has_vn)
+                        };
+                        // tobj's resolution, wrapping as its casts do.
+                        let r = if x < 0 {
+                            (count as isize).wrapping_add(x) as usize
+                        } else {
+                            (x as usize).wrapping_sub(1)
+                        };
+                        if present && r > limit {
+                            return Some(n + 1);
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// Reads an OBJ through tobj; `dir` is where its MTL files and textures are, if anywhere.
+fn read_obj(bytes: &[u8], path: &Path, dir: Option<&Path>) -> Result<Mesh, MeshError> {
+    if let Some(line) = huge_texture_or_normal_index(bytes) {
+        return Err(parse_error(
+            path,
+            format!("line {line}: a texture or normal index out of range"),
+        ));
+    }
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -45,9 +148,8 @@ fn read_obj(r: &mut dyn BufRead, path: &Path, dir: Option<&Path>) -> Result<Mesh
         Some(d) => tobj::load_mtl(d.join(p)),
         None => Err(tobj::LoadError::OpenFileFailed),
     };
-    let mut r = r;
-    let (models, materials) =
-        tobj::load_obj_buf(&mut r, &opts, loader).map_err(|e| parse_error(path, e))?;
+    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, loader)
+        .map_err(|e| parse_error(path, e))?;
     // A missing or broken MTL file is not fatal: the default material is used.
     let materials = materials.unwrap_or_default();
 

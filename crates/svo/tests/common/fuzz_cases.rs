@@ -38,7 +38,8 @@ fn read_one(data: &[u8]) {
 }
 
 /// The mesh importers: the first byte picks OBJ, gzipped OBJ, PLY or glTF/GLB, the rest is
-/// the file. An error or a valid mesh, never a panic.
+/// the file. An error or a valid mesh, never a panic; and where our own OBJ reader takes the
+/// file, exactly tobj's mesh.
 pub fn mesh_import(data: &[u8]) {
     let Some((&which, bytes)) = data.split_first() else {
         return;
@@ -49,6 +50,10 @@ pub fn mesh_import(data: &[u8]) {
         2 => MeshFormat::Ply,
         _ => MeshFormat::Gltf,
     };
+    #[cfg(feature = "obj")]
+    if format == MeshFormat::Obj {
+        same_as_tobj(bytes);
+    }
     match mesh_from_bytes(bytes, format, Path::new("fuzz")) {
         Ok(mesh) => mesh.validate().expect("an imported mesh is valid"),
         // The glTF importer turns a panic inside the gltf crates into this error; each
@@ -58,6 +63,30 @@ pub fn mesh_import(data: &[u8]) {
             "a panic in the gltf crates: {e}"
         ),
     }
+}
+
+/// Our geometry-only OBJ reader stands in for tobj: on a file it takes, tobj must give the
+/// same mesh (positions to the bit, in the same order; the same triangles).
+#[cfg(feature = "obj")]
+fn same_as_tobj(bytes: &[u8]) {
+    let Some(fast) = svo::import::obj_geometry::parse(bytes) else {
+        return;
+    };
+    let reference = svo::import::import_obj::obj_from_bytes_tobj(bytes, Path::new("fuzz"))
+        .expect("tobj reads what our reader takes");
+    let bits = |m: &Mesh| -> Vec<[u64; 3]> {
+        m.positions
+            .iter()
+            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+            .collect()
+    };
+    assert_eq!(
+        bits(&fast),
+        bits(&reference),
+        "positions differ from tobj's"
+    );
+    assert_eq!(fast.triangles, reference.triangles, "triangles differ");
+    assert_eq!(fast.triangle_materials, reference.triangle_materials);
 }
 
 /// Triangles per fuzzed mesh: lattice meshes are checked against the brute force, which
