@@ -280,3 +280,36 @@ pub(crate) fn load_texture(path: &Path) -> Option<Texture> {
         rgba,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_and_normal_indices_that_would_overflow_in_tobj_are_found() {
+        let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+        let line = |face: &str| huge_texture_or_normal_index(format!("{head}{face}\n").as_bytes());
+        // Before the first element, zero, and absurd: found on the face's line (6).
+        assert_eq!(line("f 1/-3 2/1 3/1"), Some(6));
+        assert_eq!(line("f 1/0 2/1 3/1"), Some(6));
+        assert_eq!(line("f 1//-2 2//1 3//1"), Some(6));
+        assert_eq!(line("f 1//9223372036854775807 2//1 3//1"), Some(6));
+        assert_eq!(line("l 1/-3 2/1 3/1"), Some(6));
+        // In range, merely out of range (tobj reports those itself), or unused.
+        assert_eq!(line("f 1/1/1 2/-1/-1 3/1/1"), None);
+        assert_eq!(line("f 1/5 2/1 3/1"), None);
+        assert_eq!(line("f 1/-3 2/1"), None);
+        assert_eq!(line("f 1/x 2/1 3/1"), None);
+        // Without any `vt` lines tobj ignores texture indices.
+        let bare = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-3 2/0 3\n";
+        assert_eq!(huge_texture_or_normal_index(bare.as_bytes()), None);
+        // And such a file gets one clear error instead of tobj's arithmetic.
+        let e = obj_from_bytes(
+            format!("{head}f 1/-3 2/1 3/1\n").as_bytes(),
+            Path::new("t.obj"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("line 6") && e.contains("out of range"), "{e}");
+    }
+}
