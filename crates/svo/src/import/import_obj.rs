@@ -88,8 +88,14 @@ fn huge_texture_or_normal_index(bytes: &[u8]) -> Option<usize> {
             .map_while(|l| std::str::from_utf8(l).ok())
     };
     // tobj checks these indices only when the file has such elements.
-    let has = |key: &str| lines().any(|l| l.split_whitespace().next() == Some(key));
-    let (has_vt, has_vn) = (has("vt"), has("vn"));
+    let (mut has_vt, mut has_vn) = (false, false);
+    for line in lines() {
+        match line.split_whitespace().next() {
+            Some("vt") => has_vt = true,
+            Some("vn") => has_vn = true,
+            _ => {}
+        }
+    }
     let (mut vt, mut vn) = (0usize, 0usize);
     for (n, line) in lines().enumerate() {
         let mut words = line.split_whitespace();

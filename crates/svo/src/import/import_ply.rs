@@ -11,7 +11,7 @@ use super::{io_error, parse_error};
 use crate::mesh::{Mesh, MeshError};
 use glam::DVec3;
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
+use ply_rs_bw::ply::{ElementDef, Header, Property, PropertyAccess, PropertyAccessResult};
 use std::path::Path;
 
 fn scalar(p: &Property) -> Option<f64> {
@@ -96,6 +96,18 @@ impl PropertyAccess for PlySkip {
     }
 }
 
+/// One element's payload, read into `T` (the type that keeps what the importer needs).
+fn payload<T: PropertyAccess>(
+    reader: &mut Reader<impl std::io::BufRead>,
+    def: &ElementDef,
+    header: &Header,
+    path: &Path,
+) -> Result<Vec<T>, MeshError> {
+    Parser::<T>::new()
+        .read_payload_for_element(reader, def, header)
+        .map_err(|e| parse_error(path, e))
+}
+
 /// Loads a PLY file.
 pub fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
     let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
@@ -108,31 +120,16 @@ pub fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
 }
 
 fn read_ply(r: &mut impl std::io::BufRead, path: &Path) -> Result<Mesh, MeshError> {
-    let err = |e| parse_error(path, e);
     let mut reader = Reader::new(r);
     let header = Parser::<PlySkip>::new()
         .read_header(&mut reader)
-        .map_err(err)?;
+        .map_err(|e| parse_error(path, e))?;
     let (mut vertices, mut faces) = (None, Vec::new());
     for (name, def) in &header.elements {
         match name.as_str() {
-            "vertex" => {
-                vertices = Some(
-                    Parser::<PlyVertex>::new()
-                        .read_payload_for_element(&mut reader, def, &header)
-                        .map_err(err)?,
-                );
-            }
-            "face" => {
-                faces = Parser::<PlyFace>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(err)?;
-            }
-            _ => {
-                Parser::<PlySkip>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(err)?;
-            }
+            "vertex" => vertices = Some(payload::<PlyVertex>(&mut reader, def, &header, path)?),
+            "face" => faces = payload::<PlyFace>(&mut reader, def, &header, path)?,
+            _ => drop(payload::<PlySkip>(&mut reader, def, &header, path)?),
         }
     }
     let vertices = vertices.ok_or_else(|| parse_error(path, "no vertex element"))?;

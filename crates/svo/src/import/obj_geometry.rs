@@ -106,7 +106,9 @@ impl Counts {
 }
 
 /// An index token parsed as `isize::from_str` parses it (an optional sign, then decimal
-/// digits, no overflow), without its generic machinery: face indices are most of a mesh file.
+/// digits, no overflow), without its generic machinery: face indices are most of a mesh file
+/// (the 33 MB dragon: 212 against 270 ms through `str::parse` on one thread, 130 against
+/// 160 ms on two; medians of 9, alternating builds).
 #[inline]
 fn index(t: &[u8]) -> Option<isize> {
     let (neg, digits) = match t.split_first() {
