@@ -12,8 +12,8 @@
 //! arrays are planned in child order and each is copied there in parallel, so the output is
 //! identical whatever the thread count. Below those levels a task
 //! recurses sequentially, reusing one scratch list per level, so memory stays proportional to
-//! the triangles on the current path plus the output. In the default strategy the last four
-//! levels are built in one go per 16^3 block instead of recursing ([`crate::octree_scatter`],
+//! the triangles on the current path plus the output. In the default strategy the last five
+//! levels are built in one go per 32^3 block instead of recursing ([`crate::octree_scatter`],
 //! `docs/algorithms.md`).
 
 use crate::child_classify::{child_cell, child_offset, classify_children};

@@ -33,7 +33,7 @@ use std::time::Instant;
 
 /// Levels above the leaves below which the default strategy scatters triangles into cells
 /// instead of recursing.
-pub const SCATTER_LEVELS: u8 = 4;
+pub const SCATTER_LEVELS: u8 = 5;
 
 /// How far inside its cell (relative to the coordinates' magnitude) a part's vertex must be
 /// to prove the contact without the exact test: far above the rounding of the slicing (a
@@ -58,7 +58,7 @@ pub struct ScatterScratch {
     pairs: Vec<(u16, u32)>,
     contacts: Vec<Contact>,
     pts: Vec<Vec3>,
-    sorted: Vec<Contact>,
+    sort_tmp: Vec<Contact>,
     counts: Vec<u32>,
     verify: Vec<usize>,
     slicer: Slicer,
@@ -281,7 +281,7 @@ pub fn scatter_sliced(
     let ScatterScratch {
         contacts,
         pts,
-        sorted,
+        sort_tmp,
         counts,
         verify,
         slicer,
@@ -381,34 +381,9 @@ pub fn scatter_sliced(
             });
         }
     }
-    // Triangles stay in list order within a cell: a stable counting sort by cell (the
-    // prefix sum runs up to the largest key only).
-    counts.clear();
-    counts.resize((1usize << (3 * k)) + 1, 0);
-    let mut top = 0;
-    for c in contacts.iter() {
-        counts[usize::from(c.key) + 1] += 1;
-        top = top.max(usize::from(c.key) + 1);
-    }
-    // The running sum stays in a register (`counts[i] += counts[i - 1]` waits on the
-    // previous store at every step).
-    let mut run = 0;
-    for c in &mut counts[..=top] {
-        run += *c;
-        *c = run;
-    }
-    // Every slot is written once, so the buffer is only grown, never cleared (clearing and
-    // refilling it with defaults cost a memset per block).
-    if sorted.len() < contacts.len() {
-        sorted.resize(contacts.len(), Contact::default());
-    }
-    let sorted = &mut sorted[..contacts.len()];
-    for c in contacts.iter() {
-        let slot = &mut counts[usize::from(c.key)];
-        sorted[*slot as usize] = *c;
-        *slot += 1;
-    }
-    let contacts = &*sorted;
+    // Triangles stay in list order within a cell: a stable sort by cell.
+    sort_by_cell(contacts, sort_tmp, counts, 3 * u32::from(k));
+    let contacts = &*contacts;
     ctx.node_done(level);
     let t1 = Instant::now();
     let node = emit_sorted(
@@ -432,6 +407,58 @@ pub fn scatter_sliced(
     chunk.leaves.t_attributes += t2 - t1;
     chunk.leaves.t_contours += t3 - t2;
     node
+}
+
+/// Sorts `items` by their cell key (`bits` wide) and keeps the order of equal keys (the
+/// triangles' order within a cell), with `tmp` and `counts` as scratch: a counting sort by
+/// the low half of the key's bits, then one by the high half (a least-significant-digit
+/// radix sort). Two passes of at most `2^8` buckets cost less than one of `2^15` for the
+/// few thousand contacts of a block, whose keys spread over the whole range.
+fn sort_by_cell(
+    items: &mut [Contact],
+    tmp: &mut Vec<Contact>,
+    counts: &mut Vec<u32>,
+    bits: u32,
+) {
+    if tmp.len() < items.len() {
+        // Every slot is written before it is read, so the buffer is only grown, never
+        // refilled with defaults.
+        tmp.resize(items.len(), Contact::default());
+    }
+    let tmp = &mut tmp[..items.len()];
+    let low = bits.div_ceil(2);
+    counting_pass(items, tmp, counts, 0, low);
+    counting_pass(tmp, items, counts, low, bits - low);
+}
+
+/// One stable counting pass of [`sort_by_cell`]: `src` into `dst` by the key bits
+/// `shift..shift + width`.
+fn counting_pass(
+    src: &[Contact],
+    dst: &mut [Contact],
+    counts: &mut Vec<u32>,
+    shift: u32,
+    width: u32,
+) {
+    let digit = |c: &Contact| (usize::from(c.key) >> shift) & ((1 << width) - 1);
+    counts.clear();
+    counts.resize(1 << width, 0);
+    for c in src {
+        counts[digit(c)] += 1;
+    }
+    // Exclusive prefix sums, the running total in a register (`counts[i] += counts[i - 1]`
+    // waits on the previous store at every step).
+    let mut run = 0;
+    for n in counts.iter_mut() {
+        let here = *n;
+        *n = run;
+        run += here;
+    }
+    for c in src {
+        let slot = &mut counts[digit(c)];
+        dst[*slot as usize] = *c;
+        *slot += 1;
+    }
 }
 
 /// Records a contact that slicing lost or rounding emptied (the triangle only touches the
@@ -508,21 +535,21 @@ fn local_cell(key: u16, k: u8) -> [i64; 3] {
 
 /// Interleaves the low `k` bits of local cell coordinates into a Morton index (x highest):
 /// bit `b` of x goes to bit `3b + 2`, of y to `3b + 1`, of z to `3b` (the coordinates are
-/// below `2^k`, `k <= SCATTER_LEVELS`, so the index fits 12 bits).
+/// below `2^k`, `k <= SCATTER_LEVELS`, so the index fits 15 bits).
 #[inline]
 fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
     debug_assert!(k <= SCATTER_LEVELS && (x | y | z) >> k == 0);
     // The bits of a coordinate below 16 spread three apart, by table.
-    const SPREAD: [u16; 16] = {
-        let mut t = [0u16; 16];
+    const SPREAD: [u16; 32] = {
+        let mut t = [0u16; 32];
         let mut v = 0;
-        while v < 16 {
+        while v < 32 {
             t[v] = spread3(v as u64) as u16;
             v += 1;
         }
         t
     };
-    let s = |v: u32| SPREAD[(v & 15) as usize];
+    let s = |v: u32| SPREAD[(v & 31) as usize];
     s(x) << 2 | s(y) << 1 | s(z)
 }
 
@@ -565,7 +592,11 @@ fn emit_at<T, L: LeafStore>(
         let mut start = 0;
         while start < items.len() {
             let m = key(&items[start]);
-            let end = start + items[start..].partition_point(|p| key(p) == m);
+            // A leaf's run is short (about three contacts): a forward scan, not a search.
+            let mut end = start + 1;
+            while end < items.len() && key(&items[end]) == m {
+                end += 1;
+            }
             let i = child(m);
             mask |= 1 << i;
             leaf(
@@ -610,7 +641,7 @@ mod tests {
 
     #[test]
     fn morton_keys_round_trip() {
-        for k in 1..=3u8 {
+        for k in 1..=SCATTER_LEVELS {
             let n = 1u32 << k;
             for x in 0..n {
                 for y in 0..n {
@@ -619,6 +650,36 @@ mod tests {
                         assert_eq!(local_cell(key, k), [x, y, z].map(i64::from));
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_cell_sort_is_a_stable_sort_by_key() {
+        let mut rnd = crate::test_rng::unit_f64(0x5eed_c0de_2026_1124);
+        let (mut tmp, mut counts) = (Vec::new(), Vec::new());
+        for k in 1..=SCATTER_LEVELS {
+            let bits = 3 * u32::from(k);
+            for len in [0usize, 1, 2, 7, 100, 5000] {
+                // Few distinct keys, so that equal keys are common and the order among them
+                // shows.
+                let distinct = 1 + (rnd() * 40.0) as u32;
+                let keys: Vec<u16> = (0..distinct)
+                    .map(|_| (rnd() * f64::from(1u32 << bits)) as u16)
+                    .collect();
+                let mut items: Vec<Contact> = (0..len)
+                    .map(|i| Contact {
+                        key: keys[(rnd() * f64::from(distinct)) as usize],
+                        tri: i as u32,
+                        ..Contact::default()
+                    })
+                    .collect();
+                let mut want = items.clone();
+                want.sort_by_key(|c| c.key);
+                sort_by_cell(&mut items, &mut tmp, &mut counts, bits);
+                let got: Vec<(u16, u32)> = items.iter().map(|c| (c.key, c.tri)).collect();
+                let want: Vec<(u16, u32)> = want.iter().map(|c| (c.key, c.tri)).collect();
+                assert_eq!(got, want, "k {k}, {len} contacts");
             }
         }
     }

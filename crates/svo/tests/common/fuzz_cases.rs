@@ -96,8 +96,8 @@ const MAX_LATTICE_TRIANGLES: usize = 10;
 
 /// The voxelizer on small meshes: an even first byte makes a lattice mesh (coordinates on
 /// the 1/16 lattice in `[0, 4]`, the root pinned to that cube) whose tree, in every
-/// strategy, is compared with the exact `i128` brute force at depth 1-5 (from depth 5 the
-/// bake's 16^3 blocks are below the root, so contacts across block faces are exercised);
+/// strategy, is compared with the exact `i128` brute force at depth 1-6 (at depth 6 the
+/// bake's 32^3 blocks are below the root, so contacts across block faces are exercised);
 /// an odd one reads
 /// raw `f64` coordinates (any bits: NaN, infinities, huge, tiny, denormal) and bakes at
 /// depth 1-6, which must give an error or a tree that survives the file format (and, with
@@ -108,7 +108,7 @@ pub fn bake(data: &[u8]) {
     };
     // The brute force visits every cell near each triangle: shallow trees keep a run fast.
     if head & 1 == 0 {
-        lattice(1 + (head >> 1) % 5, rest);
+        lattice(1 + (head >> 1) % 6, rest);
     } else {
         raw(1 + (head >> 1) % 6, rest);
     }
