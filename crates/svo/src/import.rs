@@ -10,6 +10,8 @@ pub mod import_obj;
 pub mod import_ply;
 #[cfg(feature = "obj")]
 pub mod obj_geometry;
+#[cfg(feature = "ply")]
+pub mod ply_ascii;
 
 use crate::mesh::{Mesh, MeshError};
 use std::path::Path;

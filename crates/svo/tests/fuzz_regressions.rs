@@ -53,6 +53,7 @@ fn seeds_are_valid_inputs() {
         ("mesh_import/seed-obj", svo::import::MeshFormat::Obj),
         ("mesh_import/seed-obj-gz", svo::import::MeshFormat::ObjGz),
         ("mesh_import/seed-ply", svo::import::MeshFormat::Ply),
+        ("mesh_import/seed-ply-ascii", svo::import::MeshFormat::Ply),
         ("mesh_import/seed-gltf", svo::import::MeshFormat::Gltf),
     ] {
         let bytes = read(file);

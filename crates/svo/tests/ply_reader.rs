@@ -1,13 +1,16 @@
 //! The PLY importer reads elements into its own small types; these tests hold it to what the
 //! straightforward reading through the crate's `DefaultElement` (a map per vertex and face)
 //! gives, on `bun_zipper.ply` and on seeded random ASCII and binary files with extra
-//! properties, other elements, both index list names, odd types and broken data.
+//! properties, other elements, both index list names, odd types and broken data, and on
+//! ASCII files whose data bytes are mutated into what the crate's line grammar may or may not
+//! accept. The ASCII fast path (`ply_ascii`, which declines what it does not take) is
+//! checked to be the one that read most of the clean ASCII files.
 #![cfg(feature = "ply")]
 
 mod common;
 use common::rng;
 use glam::DVec3;
-use ply_rs_bw::parser::Parser;
+use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, Property};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -71,6 +74,17 @@ fn reference(bytes: &[u8]) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String> {
     Ok((pos, tris))
 }
 
+/// Whether the ASCII fast path takes the file (rather than declining to the crate).
+fn fast_path_takes(bytes: &[u8]) -> bool {
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mut reader = Reader::new(&mut cursor);
+    let Ok(header) = Parser::<DefaultElement>::new().read_header(&mut reader) else {
+        return false;
+    };
+    let at = reader.get_ref().position() as usize;
+    svo::import::ply_ascii::read_ascii_mesh(&header, &bytes[at..]).is_some()
+}
+
 /// The importer and the reference agree: the same mesh, or both refuse.
 fn check(bytes: &[u8]) -> bool {
     let got = ply_from_bytes(bytes, Path::new("case.ply"));
@@ -101,7 +115,10 @@ fn bun_zipper_reads_the_same() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/models/stanford/bun_zipper.ply");
     match std::fs::read(&path) {
-        Ok(bytes) => assert!(check(&bytes)),
+        Ok(bytes) => {
+            assert!(check(&bytes));
+            assert!(fast_path_takes(&bytes), "the ASCII fast path declined");
+        }
         Err(_) if std::env::var_os("CI").is_none() => {
             eprintln!("skipping: {} not found", path.display());
         }
@@ -141,6 +158,10 @@ fn write_scalar(out: &mut Vec<u8>, ty: &str, v: f64, binary: bool) {
 /// then a broken value or count.
 fn random_ply(r: &mut ChaCha8Rng) -> Vec<u8> {
     let binary = r.random_bool(0.5);
+    random_ply_in(r, binary)
+}
+
+fn random_ply_in(r: &mut ChaCha8Rng, binary: bool) -> Vec<u8> {
     let nv = r.random_range(1..12);
     let nf = r.random_range(0..10);
     // Vertex properties: (name, type, is a list).
@@ -253,4 +274,72 @@ fn random_files_read_the_same() {
     }
     // Most files are valid meshes: the agreement covers read meshes, not only errors.
     assert!(read > 500, "only {read} files read");
+}
+
+#[test]
+fn the_fuzz_seed_takes_the_fast_path() {
+    // Tabs, CRLF, signs, exponents, a list among the vertex properties, a short face and a
+    // last line without a line break: all within the grammar.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fixtures/fuzz/mesh_import/seed-ply-ascii");
+    let bytes = std::fs::read(path).unwrap();
+    assert!(check(&bytes[1..]));
+    assert!(fast_path_takes(&bytes[1..]));
+}
+
+#[test]
+fn the_fast_path_reads_most_clean_ascii_files() {
+    let mut r = rng(0xa5c1_1e57);
+    let (mut read, mut fast) = (0, 0);
+    for _ in 0..1000 {
+        let bytes = random_ply_in(&mut r, false);
+        if check(&bytes) {
+            read += 1;
+            fast += usize::from(fast_path_takes(&bytes));
+        }
+    }
+    // It declines only for other elements, list positions and the like.
+    assert!(read > 300 && fast * 2 > read, "{fast} of {read} read files");
+}
+
+/// ASCII files whose data bytes are mutated into separators, line breaks, signs, points,
+/// exponents, digits and letters: lines that the crate's grammar accepts or rejects by a
+/// character. The importer must agree with the reference on every one.
+#[test]
+fn mutated_ascii_data_reads_the_same() {
+    const BYTES: &[u8] = b"  \t\t\r\r\n\n--++..eeEE0123456789ax\x00\xc3";
+    let mut r = rng(0x3a7e_d00d);
+    let (mut read, mut fast) = (0, 0);
+    for _ in 0..3000 {
+        let mut bytes = random_ply_in(&mut r, false);
+        let Some(start) = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .map(|i| i + 11)
+        else {
+            continue;
+        };
+        if start < bytes.len() {
+            for _ in 0..r.random_range(1..4) {
+                let at = r.random_range(start..bytes.len());
+                let b = BYTES[r.random_range(0..BYTES.len())];
+                match r.random_range(0..3) {
+                    0 => bytes[at] = b,
+                    1 => bytes.insert(at, b),
+                    _ => {
+                        bytes.remove(at);
+                    }
+                }
+                if bytes.len() <= start {
+                    break;
+                }
+            }
+        }
+        if check(&bytes) {
+            read += 1;
+            fast += usize::from(fast_path_takes(&bytes));
+        }
+    }
+    // Many mutations leave a valid file (a digit for a digit, a space doubled).
+    assert!(read > 300 && fast > 100, "{fast} fast of {read} read files");
 }

@@ -1,11 +1,13 @@
 //! PLY import (ASCII and binary) through `ply-rs-bw`: the `vertex` element's `x`, `y`, `z`
 //! and the `face` element's `vertex_indices` (or `vertex_index`) lists, fan-triangulated.
 //!
-//! The elements are read into small types of our own (`PlyVertex`, `PlyFace`) rather
-//! than the crate's `DefaultElement`, a map from property names to values built for every
-//! vertex and face: the same parser, the same values and errors, 2.8 times faster
-//! (`bun_zipper.ply`, ASCII, loads in 70 instead of 206 ms; what is left is mostly the
-//! crate's grammar for a data line). `tests/ply_reader.rs` holds the two readings equal.
+//! The crate reads the header. A plain ASCII payload (a `vertex` and a `face` element) is
+//! then read by our own scan ([`super::ply_ascii`]), which gives exactly the crate's mesh or
+//! declines; every other payload, and every one it declines, goes to the crate, its
+//! elements read into small types of our own (`PlyVertex`, `PlyFace`) rather than the
+//! crate's `DefaultElement`, a map from property names to values built for every vertex and
+//! face (the same parser, values and errors, 2.8 times faster). `tests/ply_reader.rs` holds
+//! all of it equal to the straightforward reading through `DefaultElement`.
 
 use super::{io_error, parse_error};
 use crate::mesh::{Mesh, MeshError};
@@ -110,26 +112,50 @@ fn payload<T: PropertyAccess>(
 
 /// Loads a PLY file.
 pub fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
-    let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    read_ply(&mut std::io::BufReader::new(file), path)
+    let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
+    ply_from_bytes(&bytes, path)
 }
 
 /// Reads a PLY (ASCII or binary) from memory; `name` appears in error messages.
 pub fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
-    read_ply(&mut std::io::Cursor::new(bytes), name)
-}
-
-fn read_ply(r: &mut impl std::io::BufRead, path: &Path) -> Result<Mesh, MeshError> {
-    let mut reader = Reader::new(r);
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mut reader = Reader::new(&mut cursor);
     let header = Parser::<PlySkip>::new()
         .read_header(&mut reader)
-        .map_err(|e| parse_error(path, e))?;
+        .map_err(|e| parse_error(name, e))?;
+    // The plain ASCII case by our own scan (exactly the crate's result, or it declines).
+    let data = usize::try_from(reader.get_ref().position())
+        .ok()
+        .and_then(|at| bytes.get(at..));
+    if let Some(mesh) = data.and_then(|d| super::ply_ascii::read_ascii_mesh(&header, d)) {
+        return Ok(mesh);
+    }
+    read_payload(&mut reader, &header, name)
+}
+
+/// Reads a PLY from memory through the crate alone (what [`ply_from_bytes`] does for a file
+/// the ASCII fast path declines): the reference that fast path is tested against.
+pub fn ply_from_bytes_crate(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mut reader = Reader::new(&mut cursor);
+    let header = Parser::<PlySkip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| parse_error(name, e))?;
+    read_payload(&mut reader, &header, name)
+}
+
+/// The elements after the header through the crate.
+fn read_payload(
+    reader: &mut Reader<impl std::io::BufRead>,
+    header: &Header,
+    path: &Path,
+) -> Result<Mesh, MeshError> {
     let (mut vertices, mut faces) = (None, Vec::new());
     for (name, def) in &header.elements {
         match name.as_str() {
-            "vertex" => vertices = Some(payload::<PlyVertex>(&mut reader, def, &header, path)?),
-            "face" => faces = payload::<PlyFace>(&mut reader, def, &header, path)?,
-            _ => drop(payload::<PlySkip>(&mut reader, def, &header, path)?),
+            "vertex" => vertices = Some(payload::<PlyVertex>(reader, def, header, path)?),
+            "face" => faces = payload::<PlyFace>(reader, def, header, path)?,
+            _ => drop(payload::<PlySkip>(reader, def, header, path)?),
         }
     }
     let vertices = vertices.ok_or_else(|| parse_error(path, "no vertex element"))?;

@@ -39,7 +39,8 @@ fn read_one(data: &[u8]) {
 
 /// The mesh importers: the first byte picks OBJ, gzipped OBJ, PLY or glTF/GLB, the rest is
 /// the file. An error or a valid mesh, never a panic; and where our own OBJ reader takes the
-/// file, exactly tobj's mesh.
+/// file, exactly tobj's mesh, as the PLY read through our ASCII scan is exactly the one read
+/// through `ply-rs-bw` alone.
 pub fn mesh_import(data: &[u8]) {
     let Some((&which, bytes)) = data.split_first() else {
         return;
@@ -54,6 +55,10 @@ pub fn mesh_import(data: &[u8]) {
     if format == MeshFormat::Obj {
         same_as_tobj(bytes);
     }
+    #[cfg(feature = "ply")]
+    if format == MeshFormat::Ply {
+        same_as_ply_crate(bytes);
+    }
     match mesh_from_bytes(bytes, format, Path::new("fuzz")) {
         Ok(mesh) => mesh.validate().expect("an imported mesh is valid"),
         // The glTF importer turns a panic inside the gltf crates into this error; each
@@ -61,6 +66,33 @@ pub fn mesh_import(data: &[u8]) {
         Err(e) => assert!(
             !e.to_string().contains("the glTF library failed"),
             "a panic in the gltf crates: {e}"
+        ),
+    }
+}
+
+/// The PLY importer (which reads plain ASCII payloads by its own scan) and `ply-rs-bw` alone
+/// give the same mesh, or both an error.
+#[cfg(feature = "ply")]
+fn same_as_ply_crate(bytes: &[u8]) {
+    use svo::import::import_ply::{ply_from_bytes, ply_from_bytes_crate};
+    let got = ply_from_bytes(bytes, Path::new("fuzz"));
+    let want = ply_from_bytes_crate(bytes, Path::new("fuzz"));
+    match (got, want) {
+        (Ok(a), Ok(b)) => {
+            let bits = |m: &Mesh| -> Vec<[u64; 3]> {
+                m.positions
+                    .iter()
+                    .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                    .collect()
+            };
+            assert_eq!(bits(&a), bits(&b), "positions differ from ply-rs-bw's");
+            assert_eq!(a.triangles, b.triangles, "triangles differ");
+        }
+        (Err(_), Err(_)) => {}
+        (a, b) => panic!(
+            "the importer gives {:?}, ply-rs-bw alone {:?}",
+            a.map(|m| m.triangles.len()),
+            b.map(|m| m.triangles.len())
         ),
     }
 }
