@@ -414,12 +414,7 @@ pub fn scatter_sliced(
 /// the low half of the key's bits, then one by the high half (a least-significant-digit
 /// radix sort). Two passes of at most `2^8` buckets cost less than one of `2^15` for the
 /// few thousand contacts of a block, whose keys spread over the whole range.
-fn sort_by_cell(
-    items: &mut [Contact],
-    tmp: &mut Vec<Contact>,
-    counts: &mut Vec<u32>,
-    bits: u32,
-) {
+fn sort_by_cell(items: &mut [Contact], tmp: &mut Vec<Contact>, counts: &mut Vec<u32>, bits: u32) {
     if tmp.len() < items.len() {
         // Every slot is written before it is read, so the buffer is only grown, never
         // refilled with defaults.
