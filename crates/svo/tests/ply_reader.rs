@@ -343,3 +343,51 @@ fn mutated_ascii_data_reads_the_same() {
     // Many mutations leave a valid file (a digit for a digit, a space doubled).
     assert!(read > 300 && fast > 100, "{fast} fast of {read} read files");
 }
+
+/// Long files: element lengths at and around powers of two, CRLF and LF lines, a last line
+/// without a line break, and now and then one bad token near the end (the file must then
+/// fail, not read without it).
+#[test]
+fn long_files_read_the_same() {
+    let mut r = rng(0x9_1ece);
+    for (nv, nf) in [
+        (8191, 8192),
+        (8192, 8193),
+        (8193, 16384),
+        (16385, 3),
+        (24577, 24576),
+    ] {
+        for variant in 0..3 {
+            let crlf = variant == 1;
+            let eol = if crlf { "\r\n" } else { "\n" };
+            let mut text = format!(
+                "ply\nformat ascii 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\n\
+                 property float z\nproperty uchar red\nelement face {nf}\n\
+                 property list uchar int vertex_indices\nend_header\n"
+            );
+            for i in 0..nv {
+                let v = f64::from(i as u32) * 0.001;
+                text.push_str(&format!("{v} {} -{v} {}{eol}", v * 2.0, i % 256));
+            }
+            for f in 0..nf {
+                let a = (f * 7) % nv;
+                text.push_str(&format!("3 {a} {} {}{eol}", (a + 1) % nv, (a + 2) % nv));
+            }
+            if variant == 2 {
+                // A bad token in the faces' last piece.
+                let at = text.len() - 3 - r.random_range(0..40);
+                text.insert(at, 'x');
+            }
+            // The last line without its line break.
+            text.truncate(text.len() - eol.len());
+            let bytes = text.into_bytes();
+            let read = check(&bytes);
+            assert_eq!(read, variant != 2, "nv {nv}, nf {nf}, variant {variant}");
+            assert_eq!(
+                fast_path_takes(&bytes),
+                read,
+                "nv {nv}, nf {nf}, variant {variant}"
+            );
+        }
+    }
+}
