@@ -534,7 +534,7 @@ fn local_cell(key: u16, k: u8) -> [i64; 3] {
 #[inline]
 fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
     debug_assert!(k <= SCATTER_LEVELS && (x | y | z) >> k == 0);
-    // The bits of a coordinate below 16 spread three apart, by table.
+    // The bits of a coordinate below 32 spread three apart, by table.
     const SPREAD: [u16; 32] = {
         let mut t = [0u16; 32];
         let mut v = 0;

@@ -153,14 +153,15 @@ fn write_scalar(out: &mut Vec<u8>, ty: &str, v: f64, binary: bool) {
     }
 }
 
-/// A random PLY file: vertex properties (x, y, z among others, some of odd types, lists,
-/// repeated names), possibly another element, faces under either list name, and now and
-/// then a broken value or count.
+/// A random PLY file, ASCII or binary at random (see [`random_ply_in`]).
 fn random_ply(r: &mut ChaCha8Rng) -> Vec<u8> {
     let binary = r.random_bool(0.5);
     random_ply_in(r, binary)
 }
 
+/// A random PLY file in the encoding asked for: vertex properties (x, y, z among others,
+/// some of odd types, lists, repeated names), possibly another element, faces under either
+/// list name, and now and then a broken value or count.
 fn random_ply_in(r: &mut ChaCha8Rng, binary: bool) -> Vec<u8> {
     let nv = r.random_range(1..12);
     let nf = r.random_range(0..10);

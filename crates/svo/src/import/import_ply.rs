@@ -118,29 +118,32 @@ pub fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
 
 /// Reads a PLY (ASCII or binary) from memory; `name` appears in error messages.
 pub fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
-    let mut cursor = std::io::Cursor::new(bytes);
-    let mut reader = Reader::new(&mut cursor);
-    let header = Parser::<PlySkip>::new()
-        .read_header(&mut reader)
-        .map_err(|e| parse_error(name, e))?;
-    // The plain ASCII case by our own scan (exactly the crate's result, or it declines).
-    let data = usize::try_from(reader.get_ref().position())
-        .ok()
-        .and_then(|at| bytes.get(at..));
-    if let Some(mesh) = data.and_then(|d| super::ply_ascii::read_ascii_mesh(&header, d)) {
-        return Ok(mesh);
-    }
-    read_payload(&mut reader, &header, name)
+    read_bytes(bytes, name, true)
 }
 
 /// Reads a PLY from memory through the crate alone (what [`ply_from_bytes`] does for a file
 /// the ASCII fast path declines): the reference that fast path is tested against.
 pub fn ply_from_bytes_crate(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+    read_bytes(bytes, name, false)
+}
+
+/// The header through the crate, then the payload by our ASCII scan where `scan` is set and
+/// it takes the file, else through the crate.
+fn read_bytes(bytes: &[u8], name: &Path, scan: bool) -> Result<Mesh, MeshError> {
     let mut cursor = std::io::Cursor::new(bytes);
     let mut reader = Reader::new(&mut cursor);
     let header = Parser::<PlySkip>::new()
         .read_header(&mut reader)
         .map_err(|e| parse_error(name, e))?;
+    if scan {
+        // The plain ASCII case (exactly the crate's result, or it declines).
+        let data = usize::try_from(reader.get_ref().position())
+            .ok()
+            .and_then(|at| bytes.get(at..));
+        if let Some(mesh) = data.and_then(|d| super::ply_ascii::read_ascii_mesh(&header, d)) {
+            return Ok(mesh);
+        }
+    }
     read_payload(&mut reader, &header, name)
 }
 

@@ -70,6 +70,15 @@ pub fn mesh_import(data: &[u8]) {
     }
 }
 
+/// A mesh's positions as bit patterns, to compare two readings exactly.
+#[cfg(any(feature = "obj", feature = "ply"))]
+fn position_bits(m: &Mesh) -> Vec<[u64; 3]> {
+    m.positions
+        .iter()
+        .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+        .collect()
+}
+
 /// The PLY importer (which reads plain ASCII payloads by its own scan) and `ply-rs-bw` alone
 /// give the same mesh, or both an error.
 #[cfg(feature = "ply")]
@@ -79,13 +88,11 @@ fn same_as_ply_crate(bytes: &[u8]) {
     let want = ply_from_bytes_crate(bytes, Path::new("fuzz"));
     match (got, want) {
         (Ok(a), Ok(b)) => {
-            let bits = |m: &Mesh| -> Vec<[u64; 3]> {
-                m.positions
-                    .iter()
-                    .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                    .collect()
-            };
-            assert_eq!(bits(&a), bits(&b), "positions differ from ply-rs-bw's");
+            assert_eq!(
+                position_bits(&a),
+                position_bits(&b),
+                "positions differ from ply-rs-bw's"
+            );
             assert_eq!(a.triangles, b.triangles, "triangles differ");
         }
         (Err(_), Err(_)) => {}
@@ -106,15 +113,9 @@ fn same_as_tobj(bytes: &[u8]) {
     };
     let reference = svo::import::import_obj::obj_from_bytes_tobj(bytes, Path::new("fuzz"))
         .expect("tobj reads what our reader takes");
-    let bits = |m: &Mesh| -> Vec<[u64; 3]> {
-        m.positions
-            .iter()
-            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-            .collect()
-    };
     assert_eq!(
-        bits(&fast),
-        bits(&reference),
+        position_bits(&fast),
+        position_bits(&reference),
         "positions differ from tobj's"
     );
     assert_eq!(fast.triangles, reference.triangles, "triangles differ");
