@@ -3,7 +3,8 @@
 # depths 8 and 10, cube and contour, primary rays only, shaded with one light
 # and product shadows, and a glass bunny (reflection + refraction + shadows through glass);
 # each also with --full-shader (nothing left out) to measure what the scene's shader variant
-# saves, and once per depth against the CPU reference (image difference and CPU time).
+# saves, and once per depth against the CPU reference (image difference and CPU time; 3
+# frames).
 #
 # Usage: docs/bench/gpu_bench.sh BIN_DIR BUNNY.obj [FRAMES]
 #   BIN_DIR holds release builds of svo-bake and svo-view. The .svo files are baked into a
@@ -25,10 +26,12 @@ for d in 8 10; do
   "$bin/svo-bake" "$work/glass.obj" --depth $d -o "$work/glass$d.svo" -q
 done
 view() { echo "=== $*"; "$bin/svo-view" "$@" --headless --size 1920x1080 --bench "$frames" | grep -v '^wrote'; }
+# The comparisons with the CPU tracer: 3 frames on each side (the CPU's frames take 0.1-1 s).
+check() { echo "=== $* --vs-cpu"; "$bin/svo-view" "$@" --headless --size 1920x1080 --vs-cpu --bench 3 | grep -v '^wrote'; }
 for d in 8 10; do
   f=$work/bunny$d.svo; g=$work/glass$d.svo
-  view "$f" --vs-cpu
-  view "$g" --vs-cpu
+  check "$f"
+  check "$g"
   for hit in cube contour; do
     view "$f" --hit $hit --bounces 0 --shadows none
     view "$f" --hit $hit --bounces 0 --shadows none --full-shader

@@ -28,11 +28,11 @@ const RAY_STACK_LINE: &str = "const RAY_STACK: u32 = 34u;";
 
 /// [`TRACE_WGSL`] with its two private stacks sized for a tree of `depth` levels and
 /// `ray_stack` pending rays ([`ShaderVariant::ray_stack`]) instead of the most the shader
-/// allows (30 levels, 34 rays). WGSL zero-initializes function variables, and the drivers
-/// store every element of an array that is indexed at run time: each traversal (primary,
-/// secondary and shadow rays) pays for its whole ancestor stack (28 bytes an entry) and
-/// each pixel for its whole ray stack (60 bytes an entry). Function arrays cannot be sized
-/// by pipeline constants, so the text is edited before compilation.
+/// allows (30 levels, 34 rays). WGSL zero-initializes private and function variables, and
+/// the drivers store every element of an array that is indexed at run time: each pixel
+/// pays for its whole ancestor stack (12 bytes an entry) and its whole ray stack (56 bytes
+/// an entry). Arrays cannot be sized by pipeline constants, so the text is edited before
+/// compilation.
 pub fn trace_source(ray_stack: u32, depth: u32) -> String {
     debug_assert!(TRACE_WGSL.contains(MAX_DEPTH_LINE) && TRACE_WGSL.contains(RAY_STACK_LINE));
     TRACE_WGSL
@@ -57,18 +57,17 @@ pub struct GpuLayout {
     /// Where the traversal's and the ray tracer's stacks live.
     pub stacks: StackPlacement,
     /// The render's workgroup, pixels across and down (`WG_X`, `WG_Y` in the shader);
-    /// `None`: chosen per shader variant (see [`AUTO_WIDE`]).
+    /// `None`: [`DEFAULT_WORKGROUP`].
     pub workgroup: Option<[u32; 2]>,
+    /// Which of wgpu's run-time checks the shader gets (index clamps, loop bounds).
+    pub checks: ShaderChecks,
 }
 
-/// The workgroup of variants without bounces where the adapter allows 256 invocations:
-/// measured on the H100 (docs/gpu-benchmarks.md), 16x16 with private ancestor stacks
-/// renders the bunny 1.2-1.4x faster than 8x8 with the ancestors in workgroup memory (the
-/// best before the private stacks were sized and moved to module scope), while bouncing
-/// variants are fastest at 8x8 ([`AUTO_NARROW`]).
-pub const AUTO_WIDE: [u32; 2] = [16, 16];
-/// The workgroup of every other variant.
-pub const AUTO_NARROW: [u32; 2] = [8, 8];
+/// The render's workgroup unless one is given: on the H100 (docs/gpu-benchmarks.md) 8x8 was
+/// the fastest shape or within a few percent of it for every scene, with and without
+/// bounces, once the traversal stepped over empty children in an inner loop (before that,
+/// 16x16 had been faster for scenes without bounces).
+pub const DEFAULT_WORKGROUP: [u32; 2] = [8, 8];
 
 impl Default for GpuLayout {
     fn default() -> Self {
@@ -76,6 +75,7 @@ impl Default for GpuLayout {
             chunk_limit: None,
             stacks: StackPlacement::Auto,
             workgroup: None,
+            checks: ShaderChecks::NoLoopBounds,
         }
     }
 }
@@ -332,14 +332,9 @@ impl GpuRenderer {
         let placement = Placement {
             chunks: arena.chunks,
             depth: u32::from(tree.depth),
-            wide_allowed: {
-                let l = &ctx.limits;
-                l.max_compute_invocations_per_workgroup >= AUTO_WIDE[0] * AUTO_WIDE[1]
-                    && l.max_compute_workgroup_size_x >= AUTO_WIDE[0]
-                    && l.max_compute_workgroup_size_y >= AUTO_WIDE[1]
-            },
             stacks: gpu_layout.stacks,
             workgroup: gpu_layout.workgroup,
+            checks: gpu_layout.checks,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
         ctx.check()?;
@@ -384,7 +379,7 @@ impl GpuRenderer {
 
     /// The current variant's workgroup, pixels across and down.
     pub fn workgroup(&self) -> [u32; 2] {
-        self.placement.workgroup(&self.variant)
+        self.placement.workgroup()
     }
 
     /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
@@ -536,7 +531,7 @@ impl GpuRenderer {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        let [wx, wy] = self.placement.workgroup(&self.variant);
+        let [wx, wy] = self.placement.workgroup();
         pass.dispatch_workgroups(self.width.div_ceil(wx), self.height.div_ceil(wy), 1);
     }
 
@@ -590,25 +585,17 @@ impl GpuRenderer {
 struct Placement {
     chunks: u32,
     depth: u32,
-    /// Whether the adapter allows [`AUTO_WIDE`] workgroups.
-    wide_allowed: bool,
     stacks: StackPlacement,
     /// The render's workgroup shape, if given.
     workgroup: Option<[u32; 2]>,
+    /// [`GpuLayout::checks`].
+    checks: ShaderChecks,
 }
 
 impl Placement {
-    /// The render's workgroup for `variant`: the given one, or [`AUTO_WIDE`] for variants
-    /// without bounces where the adapter allows it, else [`AUTO_NARROW`].
-    fn workgroup(&self, variant: &ShaderVariant) -> [u32; 2] {
-        if let Some(w) = self.workgroup {
-            return w;
-        }
-        if !variant.reflections && self.wide_allowed {
-            AUTO_WIDE
-        } else {
-            AUTO_NARROW
-        }
+    /// The render's workgroup: the given one, or [`DEFAULT_WORKGROUP`].
+    fn workgroup(&self) -> [u32; 2] {
+        self.workgroup.unwrap_or(DEFAULT_WORKGROUP)
     }
 
     /// `(ancestors in workgroup memory, pending rays in workgroup memory)` for `variant`.
@@ -625,7 +612,7 @@ impl Placement {
 
     fn constants(&self, variant: &ShaderVariant) -> Vec<(&'static str, f64)> {
         let (wt, wr) = self.decide(variant);
-        let [wx, wy] = self.workgroup(variant);
+        let [wx, wy] = self.workgroup();
         // Flags, and entries per invocation (one where the stack is not there).
         let flag = |on: bool| f64::from(u8::from(on));
         let entries = |on: bool, n: u32| if on { f64::from(n.max(1)) } else { 1.0 };
@@ -672,6 +659,34 @@ impl std::str::FromStr for StackPlacement {
     }
 }
 
+/// Which of wgpu's run-time checks the tracer's shader gets. Its index clamps (on the stacks,
+/// the uniform tables) cost nothing measurable and always stay; the loop bounds that wgpu
+/// adds to every loop by default (a counter per iteration, so that a loop without an end
+/// cannot hang the device) cost 6-18% of a frame on the H100 (docs/gpu-benchmarks.md), and the
+/// shader's loops all end on their own (the "Loops" comment in `shaders/trace.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ShaderChecks {
+    /// Index clamps and loop bounds: wgpu's default, for measuring what the bounds cost.
+    Full,
+    /// Index clamps only (the default).
+    #[default]
+    NoLoopBounds,
+}
+
+impl std::str::FromStr for ShaderChecks {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "full" => Ok(Self::Full),
+            "no-loop-bounds" => Ok(Self::NoLoopBounds),
+            _ => Err(format!(
+                "unknown shader checks '{s}': full or no-loop-bounds"
+            )),
+        }
+    }
+}
+
 /// The pipeline of `entry` for `variant` with the renderer's `placement`.
 fn compute_pipeline(
     dev: &wgpu::Device,
@@ -680,10 +695,30 @@ fn compute_pipeline(
     variant: &ShaderVariant,
     placement: &Placement,
 ) -> wgpu::ComputePipeline {
-    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+    let desc = wgpu::ShaderModuleDescriptor {
         label: Some("trace.wgsl"),
         source: wgpu::ShaderSource::Wgsl(trace_source(variant.ray_stack, placement.depth).into()),
-    });
+    };
+    let module = match placement.checks {
+        ShaderChecks::Full => dev.create_shader_module(desc),
+        ShaderChecks::NoLoopBounds => {
+            let mut checks = wgpu::ShaderRuntimeChecks::checked();
+            checks.force_loop_bounding = false;
+            // SAFETY: the contract of `create_shader_module_trusted` is the checks turned
+            // off: with bounds checks kept, only the loop bounds are, and every loop of
+            // trace.wgsl ends on its own (the shader's "Loops" comment): `traverse` counts a
+            // step in every pass of its outer and inner loops and returns past
+            // `max_steps` (at most `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop
+            // shrinks the stack each pass, `mirror` and the light loop count to constants,
+            // and the Whitted loop takes a ray off its stack each pass and pushes at most two
+            // with a reflection or refraction count one higher, below the bounce limits.
+            #[allow(unsafe_code)]
+            unsafe {
+                dev.create_shader_module_trusted(desc, checks)
+            }
+        }
+    };
+
     let mut constants = variant.constants();
     constants.extend(placement.constants(variant));
     dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

@@ -373,7 +373,9 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
         scale: ((1u64 << depth) as f64 / tree.root.side) as f32,
         bias: opts.bias_cells,
         depth: u32::from(depth),
-        max_steps: opts.max_steps,
+        // Below u32::MAX, so that the shader's step counter always passes it (its loops run
+        // without wgpu's loop bounds: gpu_render::ShaderChecks).
+        max_steps: opts.max_steps.min(u32::MAX - 1),
         max_reflections: u32::from(opts.max_reflections),
         max_refractions: u32::from(opts.max_refractions),
         n_nodes: tree.nodes.len() as u32,

@@ -51,10 +51,14 @@ struct Args {
     #[arg(long, requires = "headless", default_value = "auto")]
     stacks: svo_view::gpu_render::StackPlacement,
     /// With --headless: the workgroup shape, WIDTHxHEIGHT pixels (at most 256), for
-    /// measuring; the image is the same. Default: 16x16 for shaders without bounces (where
-    /// the adapter allows 256 invocations), else 8x8.
+    /// measuring; the image is the same. Default: 8x8.
     #[arg(long, requires = "headless", value_parser = svo_view::gpu_render::parse_workgroup)]
     workgroup: Option<[u32; 2]>,
+    /// With --headless: which of wgpu's run-time checks the shader gets: no-loop-bounds
+    /// (index clamps only; every loop of the shader ends on its own) or full (also a bound
+    /// on every loop), for measuring what the bounds cost. The image is the same.
+    #[arg(long, requires = "headless", default_value = "no-loop-bounds")]
+    shader_checks: svo_view::gpu_render::ShaderChecks,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
     quit_after: Option<u32>,
@@ -234,6 +238,7 @@ fn real_main() -> anyhow::Result<()> {
             layout: svo_view::gpu_render::GpuLayout {
                 stacks: args.stacks,
                 workgroup: args.workgroup,
+                checks: args.shader_checks,
                 ..Default::default()
             },
         };

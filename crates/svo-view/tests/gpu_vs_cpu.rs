@@ -22,7 +22,7 @@ use svo::render_job::{JobScene, RenderJob, scene};
 use svo::surfaces::OctreeSurfaces;
 use svo::whitted::{ShadowMode, TraceOptions, Tracer};
 use svo_view::gpu_context::GpuContext;
-use svo_view::gpu_render::{GpuLayout, GpuRenderer, StackPlacement};
+use svo_view::gpu_render::{GpuLayout, GpuRenderer, ShaderChecks, StackPlacement};
 use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
 use svo_view::headless::render_scene;
 
@@ -345,10 +345,18 @@ fn batch(n: u32, seed: u64) -> Vec<(Vec3, Vec3, f32)> {
 }
 
 /// The GPU's first hits of `rays` against `svo::leaf_hit::cast`: the same leaf for all but
-/// one in a thousand (on lavapipe: all), and where the leaf agrees the same steps and `t`.
-fn check_batch(ctx: &GpuContext, tree: &Octree, mode: HitMode, rays: &[(Vec3, Vec3, f32)]) {
+/// one in a thousand (on lavapipe: all), and where the leaf agrees the same steps, `t` and
+/// step-cap flag. Returns how many rays the cap stopped.
+fn check_batch(
+    ctx: &GpuContext,
+    tree: &Octree,
+    mode: HitMode,
+    rays: &[(Vec3, Vec3, f32)],
+    max_steps: u32,
+) -> usize {
     let trace = TraceOptions {
         mode,
+        max_steps,
         ..TraceOptions::default()
     };
     let variant = ShaderVariant::for_scene(tree, &trace, 0);
@@ -367,12 +375,13 @@ fn check_batch(ctx: &GpuContext, tree: &Octree, mode: HitMode, rays: &[(Vec3, Ve
         .unwrap();
     let mut differ = 0;
     let mut hit_count = 0;
+    let mut capped = 0;
     for ((o, d, tmin), g) in rays.iter().zip(&hits) {
         let ray = GridRay {
             origin: *o,
             dir: *d,
         };
-        let c = cast(tree, &ray, *tmin, f32::INFINITY, mode, None, MAX_STEPS);
+        let c = cast(tree, &ray, *tmin, f32::INFINITY, mode, None, max_steps);
         let cl = c.hit.map_or(NO_LEAF, |h| h.leaf);
         hit_count += usize::from(cl != NO_LEAF);
         if cl != g.leaf {
@@ -391,19 +400,23 @@ fn check_batch(ctx: &GpuContext, tree: &Octree, mode: HitMode, rays: &[(Vec3, Ve
                 );
             }
             assert_eq!(c.steps, g.steps, "steps of ray {o} {d}");
+            assert_eq!(c.capped, g.capped != 0, "cap of ray {o} {d}");
         }
-        assert_eq!(g.capped, 0);
+        capped += usize::from(g.capped != 0);
     }
     eprintln!(
         "{mode:?}: {} rays, {hit_count} hits, {differ} differ",
         rays.len()
     );
-    assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
+    if max_steps == MAX_STEPS {
+        assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
+    }
     assert!(
         differ * 1000 <= rays.len(),
         "{differ} of {} rays differ",
         rays.len()
     );
+    capped
 }
 
 #[test]
@@ -428,12 +441,34 @@ fn batch_rays_hit_the_same_leaves() {
         },
     )
     .unwrap();
-    check_batch(&ctx, &cubes, HitMode::Cube, &batch(32, 7));
+    assert_eq!(
+        check_batch(&ctx, &cubes, HitMode::Cube, &batch(32, 7), MAX_STEPS),
+        0
+    );
     // The torus with its contours, depth 6.
     let t = torus(None, 6);
     let rays = batch(64, 8);
-    check_batch(&ctx, &t, HitMode::Cube, &rays);
-    check_batch(&ctx, &t, HitMode::Contour, &rays);
+    for mode in [HitMode::Cube, HitMode::Contour] {
+        assert_eq!(check_batch(&ctx, &t, mode, &rays, MAX_STEPS), 0);
+    }
+}
+
+/// The step cap stops the GPU's rays where it stops the CPU's (the shader's loops run
+/// without wgpu's loop bounds, so the cap is what ends a long traversal): the torus's rays
+/// with caps of 1 to 40 steps, some stopped and some not at each cap.
+#[test]
+fn step_cap_stops_gpu_rays_where_it_stops_cpu_rays() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let t = torus(None, 6);
+    let rays = batch(16, 9);
+    for cap in [1, 2, 5, 12, 40] {
+        let capped = check_batch(&ctx, &t, HitMode::Contour, &rays, cap);
+        eprintln!("cap {cap}: {capped} of {} rays stopped", rays.len());
+        assert!(capped > 0, "cap {cap} stopped no ray");
+        assert!(capped < rays.len(), "cap {cap} stopped every ray");
+    }
 }
 
 /// Deep trees (depths 16, 20 and 24): clusters of leaves in the middle and the far corner of
@@ -480,7 +515,7 @@ fn deep_tree_batch_rays_hit_the_same_leaves() {
             })
             .collect();
         eprintln!("depth {depth}:");
-        check_batch(&ctx, &tree, HitMode::Cube, &rays);
+        assert_eq!(check_batch(&ctx, &tree, HitMode::Cube, &rays, MAX_STEPS), 0);
     }
 }
 
@@ -559,13 +594,17 @@ fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() 
     // Workgroups smaller and larger than the default 8x8 (the workgroup stacks are sized
     // for the larger of the render's and the batch entry's 64 invocations), and ones that
     // do not divide the image.
-    for (stacks, workgroup) in [
-        (StackPlacement::Private, [8, 8]),
-        (StackPlacement::Workgroup, [8, 8]),
-        (StackPlacement::Workgroup, [4, 4]),
-        (StackPlacement::Workgroup, [16, 8]),
-        (StackPlacement::Private, [32, 2]),
-        (StackPlacement::Private, [5, 3]),
+    for (stacks, workgroup, checks) in [
+        (StackPlacement::Private, [8, 8], ShaderChecks::Full),
+        (StackPlacement::Workgroup, [8, 8], ShaderChecks::Full),
+        (StackPlacement::Workgroup, [4, 4], ShaderChecks::Full),
+        (
+            StackPlacement::Workgroup,
+            [16, 8],
+            ShaderChecks::NoLoopBounds,
+        ),
+        (StackPlacement::Private, [32, 2], ShaderChecks::NoLoopBounds),
+        (StackPlacement::Private, [5, 3], ShaderChecks::Full),
     ] {
         let r = GpuRenderer::with_options(
             &ctx,
@@ -577,6 +616,7 @@ fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() 
                 chunk_limit: Some(u64::MAX),
                 stacks,
                 workgroup: Some(workgroup),
+                checks,
             },
         )
         .unwrap();

@@ -41,16 +41,18 @@ pub struct RenderStats {
 
 impl RenderStats {
     /// One line for reports: rays by kind, the share of primary hits, steps per primary
-    /// ray and the capped count.
+    /// ray and per other ray, and the capped count.
     pub fn summary(&self) -> String {
+        let others = self.secondary_rays + self.shadow_rays;
         format!(
-            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}); {} capped",
+            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}), {:.1} per other ray; {} capped",
             self.primary_rays,
             100.0 * self.primary_hits as f64 / self.primary_rays.max(1) as f64,
             self.secondary_rays,
             self.shadow_rays,
             self.primary_steps as f64 / self.primary_rays.max(1) as f64,
             self.max_primary_steps,
+            self.steps.saturating_sub(self.primary_steps) as f64 / others.max(1) as f64,
             self.capped
         )
     }

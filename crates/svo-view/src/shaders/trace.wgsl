@@ -349,17 +349,12 @@ fn finite(v: vec3<f32>) -> bool {
 fn mirror(origin: vec3<f32>, dir: vec3<f32>, n: u32) -> MRay {
     var r: MRay;
     r.valid = finite(origin) && finite(dir) && any(dir != vec3<f32>(0.0));
-    var d = dir;
-    var mask = 0u;
-    for (var axis = 0u; axis < 3u; axis++) {
-        if (bitcast<u32>(d[axis]) >> 31u) != 0u {
-            mask |= 4u >> axis;
-            d[axis] = min(d[axis], -TINY);
-        } else {
-            d[axis] = max(d[axis], TINY);
-        }
-    }
-    let m = vec3<bool>((mask & 4u) != 0u, (mask & 2u) != 0u, (mask & 1u) != 0u);
+    // Per axis at once (no loop over a vector's components, which compilers may keep in
+    // memory): the sign bit decides, so -0.0 mirrors.
+    let neg = (bitcast<vec3<u32>>(dir) >> vec3<u32>(31u)) != vec3<u32>(0u);
+    let d = select(max(dir, vec3<f32>(TINY)), min(dir, vec3<f32>(-TINY)), neg);
+    let mask = select(0u, 4u, neg.x) | select(0u, 2u, neg.y) | select(0u, 1u, neg.z);
+    let m = neg;
     r.o = origin;
     r.inv = vec3<f32>(1.0) / d;
     r.mask = mask;
@@ -390,9 +385,8 @@ fn unmirror_cell(r: MRay, m: vec3<u32>) -> vec3<u32> {
 
 // MirroredRay::entry_normal
 fn entry_normal(r: MRay, axis: u32) -> vec3<f32> {
-    var n = vec3<f32>(0.0);
-    n[axis] = select(-1.0, 1.0, (r.mask & (4u >> axis)) != 0u);
-    return n;
+    let s = select(-1.0, 1.0, (r.mask & (4u >> axis)) != 0u);
+    return select(vec3<f32>(0.0), vec3<f32>(s), vec3<u32>(0u, 1u, 2u) == vec3<u32>(axis));
 }
 
 fn entry_normal_of(r: MRay, c0: vec3<f32>, tmin: f32) -> vec3<f32> {
@@ -443,17 +437,15 @@ struct Frame {
     enter: f32,
 }
 
-// An ancestor on the stack: its node, mirrored corner, next child and that child's entry,
-// seven scalars (no vec3 padding). Its size is implied by its level, and its plane
-// parameters are recomputed from the corner when it is popped (t_planes of integer planes,
-// so they are the values it had).
+// An ancestor on the stack, three words: its first child's index, its child mask with the
+// next child above it, and that child's entry. Its size is implied by its level and its
+// mirrored corner by the current cell's (the corner of a node of size s is the corner of any
+// cell inside it with the bits below s cleared), and its plane parameters are recomputed
+// from the corner when it is popped (t_planes of integer planes, so they are the values it
+// had).
 struct Saved {
-    info: u32,
     first: u32,
-    ox: u32,
-    oy: u32,
-    oz: u32,
-    next: u32,
+    mask_next: u32,            // child mask | next << 8
     enter: f32,
 }
 
@@ -547,6 +539,13 @@ fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_e
     return h;
 }
 
+// Loops: the renderer compiles this shader without wgpu's loop bounds (gpu_render.rs,
+// ShaderChecks), so every loop here must end on its own. traverse's outer loop and its inner
+// loop over a node's children count a step in every pass and return past max_steps (below
+// u32::MAX), its pop loop shrinks the stack in every pass; mirror and the light loop count
+// to constants; the Whitted loop takes a ray off its stack in every pass and pushes at most
+// two, each with a reflection or refraction count one higher and below its limit.
+//
 // traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
 // OctreeSurfaces::walk (kind 1).
 fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
@@ -585,7 +584,6 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     cur.node = root;
     cur.origin = vec3<u32>(0u);
     cur.half = n / 2u;
-    var t0 = rt0;
     var t1 = rt1;
     var tm = t_planes(r, vec3<u32>(cur.half));
     cur.next = first_child(tm, enter0);
@@ -596,41 +594,61 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     let mask = r.mask;
     loop {
         if cur.next == DONE {
-            if len == 0u {
+            // Pop to the nearest ancestor with a child left (an ancestor whose next is DONE
+            // would only be popped in turn), then visit that child in this same iteration.
+            var sv = Saved(0u, DONE << 8u, 0.0);
+            loop {
+                if len == 0u {
+                    break;
+                }
+                len -= 1u;
+                if WG_TRAVERSE {
+                    sv = wg_tstack[base + len];
+                } else {
+                    sv = tstack[len];
+                }
+                if (sv.mask_next >> 8u) != DONE {
+                    break;
+                }
+            }
+            if (sv.mask_next >> 8u) == DONE {
                 break;
             }
-            len -= 1u;
-            var sv: Saved;
-            if WG_TRAVERSE {
-                sv = wg_tstack[base + len];
-            } else {
-                sv = tstack[len];
-            }
-            cur.node = Node(sv.info, sv.first);
-            cur.origin = vec3<u32>(sv.ox, sv.oy, sv.oz);
+            cur.node = Node(sv.mask_next & 0xffu, sv.first);
             cur.half = n >> (len + 1u);
-            cur.next = sv.next;
+            cur.origin &= vec3<u32>(~(2u * cur.half - 1u));
+            cur.next = sv.mask_next >> 8u;
             cur.enter = sv.enter;
-            t0 = t_planes(r, cur.origin);
             tm = t_planes(r, cur.origin + vec3<u32>(cur.half));
             t1 = t_planes(r, cur.origin + vec3<u32>(2u * cur.half));
-            continue;
         }
-        let c = cur.next;
-        let t_enter = cur.enter;
-        let hc = high(c);
-        let c1 = select(tm, t1, hc);
-        let m = min3(c1);
-        let tied = select(0u, 4u, c1.x == m) | select(0u, 2u, c1.y == m) | select(0u, 1u, c1.z == m);
-        cur.next = select(c | tied, DONE, (c & tied) != 0u);
-        cur.enter = select(q.tmin, m, m > q.tmin);
-        out.steps += 1u;
-        if out.steps > u.params.max_steps {
-            out.capped = true;
-            return out;
-        }
-        let real = c ^ mask;
+        // Step over the node's children in the ray's order until one exists (or none is
+        // left): the cheap part of a step in a tight loop, so that the lanes of a warp
+        // meet again before the costly parts (a leaf's test, a push).
         let child_mask = cur.node.info & 0xffu;
+        var c = 0u;
+        var t_enter = 0.0;
+        var c1 = vec3<f32>(0.0);
+        var m = 0.0;
+        var real = 0u;
+        loop {
+            c = cur.next;
+            t_enter = cur.enter;
+            c1 = select(tm, t1, high(c));
+            m = min3(c1);
+            let tied = select(0u, 4u, c1.x == m) | select(0u, 2u, c1.y == m) | select(0u, 1u, c1.z == m);
+            cur.next = select(c | tied, DONE, (c & tied) != 0u);
+            cur.enter = select(q.tmin, m, m > q.tmin);
+            out.steps += 1u;
+            if out.steps > u.params.max_steps {
+                out.capped = true;
+                return out;
+            }
+            real = c ^ mask;
+            if ((child_mask >> real) & 1u) != 0u || cur.next == DONE {
+                break;
+            }
+        }
         if ((child_mask >> real) & 1u) == 0u {
             continue;
         }
@@ -643,9 +661,10 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
         }
         let rank = countOneBits(child_mask & ((1u << real) - 1u));
         let origin = cur.origin + child_bits(c) * cur.half;
-        let c0 = select(t0, tm, hc);
         if bitcast<i32>(cur.node.first) < 0 {
-            // A leaf: the callbacks.
+            // A leaf: the callbacks. The cell's entry planes, the values the traversal would
+            // have carried down (the same integer planes).
+            let c0 = t_planes(r, origin);
             let leaf = u32(-(bitcast<i32>(cur.node.first) + 1)) + rank;
             let cell = unmirror_cell(r, origin);
             if q.kind == 0u {
@@ -708,8 +727,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 continue;
             }
             let half = cur.half / 2u;
-            let saved = Saved(cur.node.info, cur.node.first, cur.origin.x, cur.origin.y,
-                              cur.origin.z, cur.next, cur.enter);
+            let saved = Saved(cur.node.first, child_mask | (cur.next << 8u), cur.enter);
             if WG_TRAVERSE {
                 wg_tstack[base + len] = saved;
             } else {
@@ -719,7 +737,6 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             cur.node = node_at(idx);
             cur.origin = origin;
             cur.half = half;
-            t0 = c0;
             t1 = c1;
             tm = t_planes(r, origin + vec3<u32>(half));
             cur.next = first_child(tm, t_enter);
