@@ -707,11 +707,11 @@ fn compute_pipeline(
             // SAFETY: the contract of `create_shader_module_trusted` is the checks turned
             // off: with bounds checks kept, only the loop bounds are, and every loop of
             // trace.wgsl ends on its own (the shader's "Loops" comment): `traverse` counts a
-            // step in every pass of its outer and inner loops and returns past
-            // `max_steps` (at most `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop
-            // shrinks the stack each pass, `mirror` and the light loop count to constants,
-            // and the Whitted loop takes a ray off its stack each pass and pushes at most two
-            // with a reflection or refraction count one higher, below the bounce limits.
+            // step in every pass of its outer and inner loops and returns past `max_steps`
+            // (at most `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop
+            // shrinks the stack each pass, the light loop counts to a constant, and the
+            // Whitted loop takes a ray off its stack each pass and pushes at most two with a
+            // reflection or refraction count one higher, below the bounce limits.
             #[allow(unsafe_code)]
             unsafe {
                 dev.create_shader_module_trusted(desc, checks)

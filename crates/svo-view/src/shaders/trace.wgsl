@@ -354,13 +354,12 @@ fn mirror(origin: vec3<f32>, dir: vec3<f32>, n: u32) -> MRay {
     let neg = (bitcast<vec3<u32>>(dir) >> vec3<u32>(31u)) != vec3<u32>(0u);
     let d = select(max(dir, vec3<f32>(TINY)), min(dir, vec3<f32>(-TINY)), neg);
     let mask = select(0u, 4u, neg.x) | select(0u, 2u, neg.y) | select(0u, 1u, neg.z);
-    let m = neg;
     r.o = origin;
     r.inv = vec3<f32>(1.0) / d;
     r.mask = mask;
     r.n = n;
-    r.sgn = select(vec3<f32>(1.0), vec3<f32>(-1.0), m);
-    r.off = select(vec3<f32>(0.0), vec3<f32>(f32(n)), m);
+    r.sgn = select(vec3<f32>(1.0), vec3<f32>(-1.0), neg);
+    r.off = select(vec3<f32>(0.0), vec3<f32>(f32(n)), neg);
     return r;
 }
 
@@ -542,8 +541,8 @@ fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_e
 // Loops: the renderer compiles this shader without wgpu's loop bounds (gpu_render.rs,
 // ShaderChecks), so every loop here must end on its own. traverse's outer loop and its inner
 // loop over a node's children count a step in every pass and return past max_steps (below
-// u32::MAX), its pop loop shrinks the stack in every pass; mirror and the light loop count
-// to constants; the Whitted loop takes a ray off its stack in every pass and pushes at most
+// u32::MAX), its pop loop shrinks the stack in every pass; the light loop counts to a
+// constant; the Whitted loop takes a ray off its stack in every pass and pushes at most
 // two, each with a reflection or refraction count one higher and below its limit.
 //
 // traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
