@@ -6,6 +6,10 @@ root cube as `svo-bake` (root = AABB minimum, side = largest extent, 2^depth cel
 
 Prints the median of 5 runs of VoxelGrid.create_from_triangle_mesh_within_bounds (the voxel
 set only, no octree, attributes or file), loading excluded, and the voxel count.
+
+With --serve instead of depths, the mesh stays loaded and each line "DEPTH RUNS" read from
+stdin is answered with one result line (the median of RUNS runs), so that a caller can time
+its own work between open3d's runs, side by side in one sitting.
 """
 import statistics
 import sys
@@ -15,25 +19,37 @@ import numpy as np
 import open3d as o3d
 
 
+def measure(mesh, lo, side, depth, runs):
+    n = 2 ** depth
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        grid = o3d.geometry.VoxelGrid.create_from_triangle_mesh_within_bounds(
+            mesh, side / n, lo, lo + side)
+        times.append(time.perf_counter() - t0)
+    return (f"depth {depth} ({n}^3): median {statistics.median(times) * 1e3:.1f} ms, "
+            f"{len(grid.get_voxels())} voxels")
+
+
 def main():
     path = sys.argv[1]
-    depths = [int(d) for d in sys.argv[2:]] or [8]
+    serve = sys.argv[2:] == ["--serve"]
+    depths = [] if serve else [int(d) for d in sys.argv[2:]] or [8]
     mesh = o3d.io.read_triangle_mesh(path)
     v = np.asarray(mesh.vertices)
     lo, hi = v.min(axis=0), v.max(axis=0)
     side = float((hi - lo).max())
     print(f"{path}: {len(mesh.triangles)} triangles, open3d {o3d.__version__}, "
-          f"{o3d.utility.get_num_threads() if hasattr(o3d.utility, 'get_num_threads') else '?'} threads")
+          f"{o3d.utility.get_num_threads() if hasattr(o3d.utility, 'get_num_threads') else '?'} threads",
+          flush=True)
     for depth in depths:
-        n = 2 ** depth
-        times = []
-        for _ in range(5):
-            t0 = time.perf_counter()
-            grid = o3d.geometry.VoxelGrid.create_from_triangle_mesh_within_bounds(
-                mesh, side / n, lo, lo + side)
-            times.append(time.perf_counter() - t0)
-        print(f"depth {depth} ({n}^3): median {statistics.median(times) * 1e3:.1f} ms, "
-              f"{len(grid.get_voxels())} voxels")
+        print(measure(mesh, lo, side, depth, 5), flush=True)
+    if serve:
+        for line in sys.stdin:
+            if not line.strip():
+                continue
+            depth, runs = (int(x) for x in line.split())
+            print(measure(mesh, lo, side, depth, runs), flush=True)
 
 
 if __name__ == "__main__":

@@ -2,8 +2,9 @@
 //! and Embree's single-ray throughput, through the Python scripts in `docs/bench/`. Where a
 //! tool is missing the report says so instead of quoting an old figure.
 
+use std::io::{BufRead, BufReader, Lines, Write};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use svo::camera::Camera;
 
 /// The folder of the baseline scripts (`docs/bench` of this repository).
@@ -48,46 +49,98 @@ pub struct Open3d {
     pub voxels: usize,
 }
 
-/// Runs `open3d_voxelize.py` on `mesh` at `depths` (a gzipped mesh is unpacked into `dir`
-/// first: open3d reads no `.gz`); also returns open3d's version line.
-pub fn open3d(mesh: &Path, depths: &[u8], dir: &Path) -> anyhow::Result<(String, Vec<Open3d>)> {
-    let script = scripts().join("open3d_voxelize.py");
-    let mesh = if mesh.extension().is_some_and(|e| e == "gz") {
-        let o = Command::new("gzip").arg("-dc").arg(mesh).output()?;
-        if !o.status.success() {
-            anyhow::bail!("gzip -dc {} failed", mesh.display());
-        }
-        let stem = mesh
-            .file_stem()
-            .map_or_else(|| "mesh.obj".into(), std::ffi::OsStr::to_os_string);
-        let out = dir.join(stem);
-        std::fs::write(&out, o.stdout)?;
-        out
-    } else {
-        mesh.to_path_buf()
-    };
-    let mut args = vec![
-        script.to_string_lossy().into_owned(),
-        mesh.to_string_lossy().into_owned(),
-    ];
-    args.extend(depths.iter().map(u8::to_string));
-    let a: Vec<&str> = args.iter().map(String::as_str).collect();
-    let out = run(&a)?;
-    let mut lines = out.lines();
-    let head = lines.next().unwrap_or_default().to_string();
-    let rows = lines
-        .filter_map(|l| {
-            let depth = l.strip_prefix("depth ")?.split(' ').next()?.parse().ok()?;
-            let ms = number_before(l, " ms")?;
-            let voxels = number_before(l, " voxels")? as usize;
-            Some(Open3d {
-                depth,
-                seconds: ms / 1e3,
-                voxels,
-            })
+/// The mesh as open3d can read it: a gzipped mesh is unpacked into `dir` (open3d reads no
+/// `.gz`).
+fn open3d_input(mesh: &Path, dir: &Path) -> anyhow::Result<PathBuf> {
+    if mesh.extension().is_none_or(|e| e != "gz") {
+        return Ok(mesh.to_path_buf());
+    }
+    let o = Command::new("gzip").arg("-dc").arg(mesh).output()?;
+    if !o.status.success() {
+        anyhow::bail!("gzip -dc {} failed", mesh.display());
+    }
+    let stem = mesh
+        .file_stem()
+        .map_or_else(|| "mesh.obj".into(), std::ffi::OsStr::to_os_string);
+    let out = dir.join(stem);
+    std::fs::write(&out, o.stdout)?;
+    Ok(out)
+}
+
+/// `open3d_voxelize.py --serve` on one mesh: open3d stays loaded and measures one depth
+/// when asked, so that the caller's own runs sit between its runs in one sitting.
+pub struct Open3dServer {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Lines<BufReader<ChildStdout>>,
+    /// The script's first line ("PATH: N triangles, open3d X, T threads").
+    pub head: String,
+}
+
+impl Open3dServer {
+    /// Starts the script on `mesh` (`dir` receives an unpacked copy of a gzipped mesh).
+    pub fn start(mesh: &Path, dir: &Path) -> anyhow::Result<Self> {
+        let input = open3d_input(mesh, dir)?;
+        let mut child = Command::new("python3")
+            .arg(scripts().join("open3d_voxelize.py"))
+            .arg(&input)
+            .arg("--serve")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()?;
+        let (Some(stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
+            anyhow::bail!("open3d_voxelize.py started without its pipes");
+        };
+        let mut lines = BufReader::new(stdout).lines();
+        let head = match lines.next() {
+            Some(line) => line?,
+            None => anyhow::bail!("open3d_voxelize.py --serve ended before its first line"),
+        };
+        Ok(Self {
+            child,
+            stdin: Some(stdin),
+            lines,
+            head,
         })
-        .collect();
-    Ok((head, rows))
+    }
+
+    /// open3d's voxel set at `depth`: the median of `runs` runs.
+    pub fn measure(&mut self, depth: u8, runs: u32) -> anyhow::Result<Open3d> {
+        let stdin = self
+            .stdin
+            .as_mut()
+            .ok_or_else(|| anyhow::anyhow!("open3d_voxelize.py is closed"))?;
+        writeln!(stdin, "{depth} {runs}")?;
+        stdin.flush()?;
+        let line = match self.lines.next() {
+            Some(line) => line?,
+            None => anyhow::bail!("open3d_voxelize.py ended without measuring depth {depth}"),
+        };
+        parse_open3d(&line)
+            .filter(|o| o.depth == depth)
+            .ok_or_else(|| anyhow::anyhow!("unexpected line from open3d_voxelize.py: {line}"))
+    }
+}
+
+impl Drop for Open3dServer {
+    fn drop(&mut self) {
+        // Closing its input ends the script's loop.
+        drop(self.stdin.take());
+        let _ = self.child.wait();
+    }
+}
+
+/// One result line of `open3d_voxelize.py`.
+fn parse_open3d(l: &str) -> Option<Open3d> {
+    let depth = l.strip_prefix("depth ")?.split(' ').next()?.parse().ok()?;
+    let ms = number_before(l, " ms")?;
+    let voxels = number_before(l, " voxels")? as usize;
+    Some(Open3d {
+        depth,
+        seconds: ms / 1e3,
+        voxels,
+    })
 }
 
 /// Runs `embree_primary.py` for the camera (one thread): median seconds per frame and Mrays/s.
@@ -134,5 +187,9 @@ mod tests {
         assert_eq!(super::number_before(l, " ms"), Some(258.1));
         assert_eq!(super::number_before(l, " voxels"), Some(224_718.0));
         assert_eq!(super::number_before(l, " Mrays/s"), None);
+        let o = super::parse_open3d(l).expect("a result line");
+        assert_eq!((o.depth, o.voxels), (8, 224_718));
+        assert!((o.seconds - 0.2581).abs() < 1e-12);
+        assert!(super::parse_open3d("/x/bunny.obj: 69451 triangles, open3d 0.20.0").is_none());
     }
 }

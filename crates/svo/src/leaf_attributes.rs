@@ -477,21 +477,35 @@ impl LeafValues {
         }
     }
 
-    /// Appends `other`'s leaves after these.
-    pub fn append(&mut self, mut other: Self) {
-        self.count += other.count;
-        self.normal.append(&mut other.normal);
-        self.contour.append(&mut other.contour);
-        self.colour.append(&mut other.colour);
-        self.reflectivity.append(&mut other.reflectivity);
-        self.refractivity.append(&mut other.refractivity);
-        self.ior.append(&mut other.ior);
-        self.thickness.append(&mut other.thickness);
-        self.pairs += other.pairs;
-        self.false_positives += other.false_positives;
-        self.t_voxelize += other.t_voxelize;
-        self.t_attributes += other.t_attributes;
-        self.t_contours += other.t_contours;
+    /// The leaves of `parts`, one after the other (each channel reserved once at its full
+    /// length).
+    pub fn concat(parts: &[Self]) -> Self {
+        fn join<T: Copy>(parts: &[LeafValues], f: fn(&LeafValues) -> &Vec<T>) -> Vec<T> {
+            let mut out = Vec::with_capacity(parts.iter().map(|p| f(p).len()).sum());
+            for p in parts {
+                out.extend_from_slice(f(p));
+            }
+            out
+        }
+        let mut out = Self {
+            normal: join(parts, |p| &p.normal),
+            contour: join(parts, |p| &p.contour),
+            colour: join(parts, |p| &p.colour),
+            reflectivity: join(parts, |p| &p.reflectivity),
+            refractivity: join(parts, |p| &p.refractivity),
+            ior: join(parts, |p| &p.ior),
+            thickness: join(parts, |p| &p.thickness),
+            ..Self::default()
+        };
+        for p in parts {
+            out.count += p.count;
+            out.pairs += p.pairs;
+            out.false_positives += p.false_positives;
+            out.t_voxelize += p.t_voxelize;
+            out.t_attributes += p.t_attributes;
+            out.t_contours += p.t_contours;
+        }
+        out
     }
 }
 
@@ -499,38 +513,64 @@ fn thickness_stats(v: &[f32]) -> ContourStats {
     if v.is_empty() {
         return ContourStats::default();
     }
-    let mean = v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
-    let max = v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-    let rank = |f: f64| ((v.len() - 1) as f64 * f).round() as usize;
     // Thicknesses are not negative (nor NaN), so their bit patterns sort as they do (`+ 0.0`
     // turns a -0.0 into 0.0): the ranks are selected on integers, by a radix select (a count
-    // per top 16 bits, then the values of the one bucket that holds each rank).
+    // per top 16 bits, then the values of the buckets that hold the ranks). One pass counts,
+    // sums (four running sums, so the additions do not wait on each other) and finds the
+    // maximum; a scan of the counts names both ranks' buckets; one more pass collects their
+    // values.
     let key = |x: f32| (x + 0.0).to_bits();
     let mut counts = vec![0u32; 1 << 16];
-    for &x in v.iter() {
-        counts[(key(x) >> 16) as usize] += 1;
-    }
-    let select = |k: usize| -> f32 {
-        let (mut below, mut bucket) = (0usize, 0usize);
-        for (b, &c) in counts.iter().enumerate() {
-            if below + c as usize > k {
-                bucket = b;
-                break;
-            }
-            below += c as usize;
+    let (mut sums, mut max) = ([0.0f64; 4], 0u32);
+    let mut quads = v.chunks_exact(4);
+    for q in &mut quads {
+        for (s, &x) in sums.iter_mut().zip(q) {
+            let b = key(x);
+            counts[(b >> 16) as usize] += 1;
+            *s += f64::from(x);
+            max = max.max(b);
         }
-        let mut inside: Vec<u32> = v
-            .iter()
-            .map(|&x| key(x))
-            .filter(|&b| (b >> 16) as usize == bucket)
-            .collect();
-        f32::from_bits(*inside.select_nth_unstable(k - below).1)
+    }
+    for &x in quads.remainder() {
+        let b = key(x);
+        counts[(b >> 16) as usize] += 1;
+        sums[0] += f64::from(x);
+        max = max.max(b);
+    }
+    let mean = (sums[0] + sums[1] + (sums[2] + sums[3])) / v.len() as f64;
+    let rank = |f: f64| ((v.len() - 1) as f64 * f).round() as usize;
+    let ranks = [rank(0.5), rank(0.95)];
+    // Per rank, its bucket and the count of values in the buckets below it.
+    let mut found = [(0usize, 0usize); 2];
+    let (mut below, mut r) = (0usize, 0usize);
+    for (b, &c) in counts.iter().enumerate() {
+        while r < 2 && below + c as usize > ranks[r] {
+            found[r] = (b, below);
+            r += 1;
+        }
+        if r == 2 {
+            break;
+        }
+        below += c as usize;
+    }
+    let mut inside = [Vec::new(), Vec::new()];
+    for &x in v {
+        let b = key(x);
+        for (list, &(bucket, _)) in inside.iter_mut().zip(&found) {
+            if (b >> 16) as usize == bucket {
+                list.push(b);
+            }
+        }
+    }
+    let mut select = |i: usize| -> f32 {
+        let (_, below) = found[i];
+        f32::from_bits(*inside[i].select_nth_unstable(ranks[i] - below).1)
     };
     ContourStats {
         mean,
-        p50: f64::from(select(rank(0.5))),
-        p95: f64::from(select(rank(0.95))),
-        max: f64::from(max),
+        p50: f64::from(select(0)),
+        p95: f64::from(select(1)),
+        max: f64::from(f32::from_bits(max)),
     }
 }
 
@@ -591,7 +631,8 @@ pub fn unorm8(v: f32) -> u8 {
 mod tests {
     use super::*;
 
-    /// The radix select gives the ranks a full sort gives, on values with many repeats,
+    /// The radix select gives the ranks a full sort gives (and the mean the sum in order,
+    /// within rounding), on values with many repeats,
     /// zeros of both signs and values that share their top bits.
     #[test]
     fn thickness_percentiles_equal_sorting() {
@@ -612,6 +653,8 @@ mod tests {
             assert_eq!(got.p50, f64::from(sorted[rank(0.5)]), "len {len}");
             assert_eq!(got.p95, f64::from(sorted[rank(0.95)]), "len {len}");
             assert_eq!(got.max, f64::from(sorted[len - 1]), "len {len}");
+            let mean = sorted.iter().map(|&x| f64::from(x)).sum::<f64>() / len as f64;
+            assert!((got.mean - mean).abs() <= 1e-12 * mean, "len {len}");
         }
     }
 }

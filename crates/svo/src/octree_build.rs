@@ -89,8 +89,9 @@ trait LeafSink: LeafStore + Sized {
         scratch: &mut ScatterScratch,
         tests: &mut u64,
     ) -> Option<Node>;
-    /// Appends `other`'s leaves after these.
-    fn append(&mut self, other: Self);
+    /// The leaves of `parts`, one after the other (each array reserved once at its full
+    /// length, so no element is copied twice).
+    fn concat(parts: Vec<Self>) -> Self;
 }
 
 impl LeafSink for LeafTriangles {
@@ -112,11 +113,20 @@ impl LeafSink for LeafTriangles {
         scatter_pairs(ctx, level, cell, list, chunk, scratch, tests)
     }
 
-    fn append(&mut self, mut other: Self) {
-        let off = self.tris.len() as u64;
-        self.cells.append(&mut other.cells);
-        self.ends.extend(other.ends.iter().map(|e| e + off));
-        self.tris.append(&mut other.tris);
+    fn concat(parts: Vec<Self>) -> Self {
+        let sum = |f: fn(&Self) -> usize| parts.iter().map(f).sum::<usize>();
+        let mut out = Self {
+            cells: Vec::with_capacity(sum(|p| p.cells.len())),
+            ends: Vec::with_capacity(sum(|p| p.ends.len())),
+            tris: Vec::with_capacity(sum(|p| p.tris.len())),
+        };
+        for p in parts {
+            let off = out.tris.len() as u64;
+            out.cells.extend_from_slice(&p.cells);
+            out.ends.extend(p.ends.iter().map(|e| e + off));
+            out.tris.extend_from_slice(&p.tris);
+        }
+        out
     }
 }
 
@@ -157,8 +167,8 @@ impl LeafSink for LeafValues {
         scatter_sliced(ctx, level, cell, list, chunk, scratch, tests)
     }
 
-    fn append(&mut self, other: Self) {
-        LeafValues::append(self, other);
+    fn concat(parts: Vec<Self>) -> Self {
+        LeafValues::concat(&parts)
     }
 }
 
@@ -479,33 +489,36 @@ enum Job {
     },
 }
 
-/// Plans the post-order placement of a part: appends its leaves to `leaves`, pushes its
-/// node jobs with their final offsets and returns its root record relocated there. `off` is
-/// the number of nodes placed so far.
+/// Plans the post-order placement of a part: pushes its leaves to `leaves` (to be joined in
+/// that order), its node jobs with their final offsets to `jobs`, and returns its root
+/// record relocated there. `off` and `leaf_off` count the nodes and leaves placed so far.
 fn plan<L: LeafSink>(
     part: Part<L>,
     jobs: &mut Vec<Job>,
     off: &mut usize,
-    leaves: &mut L,
+    leaf_off: &mut usize,
+    leaves: &mut Vec<L>,
 ) -> Option<Node> {
     match part {
         Part::Seq(chunk, rec) => {
             let rec = rec?;
-            let (node_off, leaf_off) = (*off, leaves.len());
+            let node_off = *off;
+            let first_leaf = *leaf_off;
             *off += chunk.nodes.len();
-            leaves.append(chunk.leaves);
+            *leaf_off += chunk.leaves.len();
+            leaves.push(chunk.leaves);
             jobs.push(Job::Chunk {
                 nodes: chunk.nodes,
                 node_off,
-                leaf_off,
+                leaf_off: first_leaf,
             });
-            Some(Chunk::<L>::relocate(rec, node_off as u32, leaf_off))
+            Some(Chunk::<L>::relocate(rec, node_off as u32, first_leaf))
         }
         Part::Par(children) => {
             let mut records = Vec::with_capacity(8);
             let mut mask = 0u8;
             for (i, p) in children {
-                if let Some(r) = plan(p, jobs, off, leaves) {
+                if let Some(r) = plan(p, jobs, off, leaf_off, leaves) {
                     mask |= 1 << i;
                     records.push(r);
                 }
@@ -526,16 +539,16 @@ fn plan<L: LeafSink>(
     }
 }
 
-/// Joins the parts into one chunk: the leaves are appended in order while the offsets are
-/// planned, then every node piece is copied (and relocated) into its own slice of the final
-/// array in parallel.
+/// Joins the parts into one chunk: the offsets are planned, then every node piece is copied
+/// (and relocated) into its own slice of the final array in parallel, while the leaves are
+/// joined in order.
 fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
     let mut jobs = Vec::new();
-    let mut off = 0;
-    let mut out = Chunk::<L>::new();
-    let root = plan(part, &mut jobs, &mut off, &mut out.leaves);
-    out.nodes = vec![Node::default(); off];
-    let mut rest = &mut out.nodes[..];
+    let (mut off, mut leaf_off) = (0, 0);
+    let mut parts = Vec::new();
+    let root = plan(part, &mut jobs, &mut off, &mut leaf_off, &mut parts);
+    let mut nodes = vec![Node::default(); off];
+    let mut rest = &mut nodes[..];
     let mut tasks = Vec::with_capacity(jobs.len());
     for job in jobs {
         let n = match &job {
@@ -559,13 +572,16 @@ fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
         Job::Block { records } => dst.copy_from_slice(&records),
     };
     #[cfg(feature = "parallel")]
-    {
+    let leaves = {
         use rayon::prelude::*;
-        tasks.into_par_iter().for_each(copy);
-    }
+        rayon::join(|| L::concat(parts), || tasks.into_par_iter().for_each(copy)).0
+    };
     #[cfg(not(feature = "parallel"))]
-    tasks.into_iter().for_each(copy);
-    (out, root)
+    let leaves = {
+        tasks.into_iter().for_each(copy);
+        L::concat(parts)
+    };
+    (Chunk { nodes, leaves }, root)
 }
 
 /// Builds the subtree of a node, in parallel over children at the top levels.

@@ -1,0 +1,149 @@
+//! Our bake against open3d's voxelizer in one sitting: rounds that alternate open3d's runs
+//! (the script kept loaded, [`external::Open3dServer`]) with ours, so that both tools see the
+//! same state of a shared machine. On the 2-core VM the same command's median moves by 1.5x
+//! within minutes; figures taken minutes apart can disagree by that much, figures taken in
+//! alternation cannot.
+
+use crate::external::{self, Open3dServer};
+use crate::report::median;
+use std::path::Path;
+use std::time::Instant;
+use svo::mesh::Mesh;
+use svo::{BakeOptions, bake_mesh};
+
+/// What to measure at one depth.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Tree depth (grid `2^depth`).
+    pub depth: u8,
+    /// Rounds (open3d, then ours, in each).
+    pub rounds: usize,
+    /// Runs per tool in a round (each round's figure is their median).
+    pub runs: usize,
+}
+
+/// One depth of one mesh, measured in alternation.
+#[derive(Clone, Debug)]
+pub struct SideBySide {
+    /// The mesh's label.
+    pub label: String,
+    /// Tree depth.
+    pub depth: u8,
+    /// Runs per tool in a round.
+    pub runs: usize,
+    /// Per round: open3d's median seconds, then ours (the whole in-memory bake).
+    pub rounds: Vec<(f64, f64)>,
+    /// open3d's voxel count.
+    pub open3d_voxels: usize,
+    /// Our leaf count.
+    pub leaves: usize,
+}
+
+impl SideBySide {
+    /// open3d's median over the rounds' medians.
+    pub fn open3d_s(&self) -> f64 {
+        median(&self.rounds.iter().map(|r| r.0).collect::<Vec<_>>())
+    }
+
+    /// Our median over the rounds' medians.
+    pub fn svo_s(&self) -> f64 {
+        median(&self.rounds.iter().map(|r| r.1).collect::<Vec<_>>())
+    }
+
+    /// The rounds' ratios open3d / ours: median, lowest, highest.
+    pub fn ratios(&self) -> (f64, f64, f64) {
+        let r: Vec<f64> = self.rounds.iter().map(|r| r.0 / r.1).collect();
+        let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (median(&r), lo, hi)
+    }
+}
+
+/// Measures `mesh` (already loaded as `loaded`) at each planned depth, open3d and ours in
+/// alternation. Returns open3d's first line (its version) and one row per depth.
+pub fn measure(
+    label: &str,
+    mesh: &Path,
+    loaded: &Mesh,
+    plans: &[Plan],
+    dir: &Path,
+    log: &dyn Fn(&str),
+) -> anyhow::Result<(String, Vec<SideBySide>)> {
+    let mut server = Open3dServer::start(mesh, dir)?;
+    let mut rows = Vec::new();
+    for p in plans {
+        log(&format!(
+            "open3d side by side: {label} depth {}, {} rounds",
+            p.depth, p.rounds
+        ));
+        let opts = BakeOptions {
+            depth: p.depth,
+            ..Default::default()
+        };
+        let mut row = SideBySide {
+            label: label.to_string(),
+            depth: p.depth,
+            runs: p.runs,
+            rounds: Vec::with_capacity(p.rounds),
+            open3d_voxels: 0,
+            leaves: 0,
+        };
+        // One untimed run of each first: neither tool's first run in a process (page faults
+        // of fresh buffers, cold caches) is what the rounds compare.
+        server.measure(p.depth, 1)?;
+        bake_mesh(loaded, &opts, &|_, _| {})?;
+        for _ in 0..p.rounds {
+            let o = server.measure(p.depth, p.runs as u32)?;
+            row.open3d_voxels = o.voxels;
+            let mut times = Vec::with_capacity(p.runs);
+            for _ in 0..p.runs {
+                let t = Instant::now();
+                let (tree, _) = bake_mesh(loaded, &opts, &|_, _| {})?;
+                times.push(t.elapsed().as_secs_f64());
+                row.leaves = tree.leaf_count as usize;
+            }
+            row.rounds.push((o.seconds, median(&times)));
+        }
+        rows.push(row);
+    }
+    let head = std::mem::take(&mut server.head);
+    Ok((version_of(&head), rows))
+}
+
+/// "PATH: N triangles, open3d X, T threads" -> "open3d X".
+fn version_of(head: &str) -> String {
+    head.split(", ")
+        .find(|p| p.starts_with("open3d"))
+        .unwrap_or("open3d")
+        .to_string()
+}
+
+/// Whether open3d (and numpy) can be imported here.
+pub fn available() -> bool {
+    external::python_has(&["open3d", "numpy"])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ratios_are_taken_per_round() {
+        let row = SideBySide {
+            label: "bunny".into(),
+            depth: 8,
+            runs: 5,
+            rounds: vec![(0.30, 0.05), (0.24, 0.06), (0.28, 0.04)],
+            open3d_voxels: 1,
+            leaves: 1,
+        };
+        assert!((row.open3d_s() - 0.28).abs() < 1e-12);
+        assert!((row.svo_s() - 0.05).abs() < 1e-12);
+        let (mid, lo, hi) = row.ratios();
+        assert!((mid - 6.0).abs() < 1e-9 && (lo - 4.0).abs() < 1e-9 && (hi - 7.0).abs() < 1e-9);
+        assert_eq!(
+            version_of("/x/bunny.obj: 69451 triangles, open3d 0.20.0, ? threads"),
+            "open3d 0.20.0"
+        );
+    }
+}
