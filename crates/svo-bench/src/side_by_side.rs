@@ -8,6 +8,8 @@ use crate::external::{self, Open3dServer};
 use crate::report::median;
 use std::path::Path;
 use std::time::Instant;
+use svo::format_header::BuildInfo;
+use svo::format_write::write_file;
 use svo::mesh::Mesh;
 use svo::{BakeOptions, bake_mesh};
 
@@ -33,6 +35,9 @@ pub struct SideBySide {
     pub runs: usize,
     /// Per round: open3d's median seconds, then ours (the whole in-memory bake).
     pub rounds: Vec<(f64, f64)>,
+    /// Per round, our median seconds for the bake and the `.svo` file written after it
+    /// (atomically, with its `fsync`), as `svo-bake` does.
+    pub with_file: Vec<f64>,
     /// open3d's voxel count.
     pub open3d_voxels: usize,
     /// Our leaf count.
@@ -50,13 +55,33 @@ impl SideBySide {
         median(&self.rounds.iter().map(|r| r.1).collect::<Vec<_>>())
     }
 
-    /// The rounds' ratios open3d / ours: median, lowest, highest.
-    pub fn ratios(&self) -> (f64, f64, f64) {
-        let r: Vec<f64> = self.rounds.iter().map(|r| r.0 / r.1).collect();
-        let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        (median(&r), lo, hi)
+    /// Our median over the rounds' medians of the bake with the file.
+    pub fn with_file_s(&self) -> f64 {
+        median(&self.with_file)
     }
+
+    /// The rounds' ratios open3d / ours (the in-memory bake): median, lowest, highest.
+    pub fn ratios(&self) -> (f64, f64, f64) {
+        spread(self.rounds.iter().map(|r| r.0 / r.1))
+    }
+
+    /// The rounds' ratios open3d / ours with the file written: median, lowest, highest.
+    pub fn ratios_with_file(&self) -> (f64, f64, f64) {
+        spread(
+            self.rounds
+                .iter()
+                .zip(&self.with_file)
+                .map(|(r, f)| r.0 / f),
+        )
+    }
+}
+
+/// Median, lowest and highest of some ratios.
+fn spread(r: impl Iterator<Item = f64>) -> (f64, f64, f64) {
+    let r: Vec<f64> = r.collect();
+    let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (median(&r), lo, hi)
 }
 
 /// Measures `mesh` (already loaded as `loaded`) at each planned depth, open3d and ours in
@@ -70,6 +95,7 @@ pub fn measure(
     log: &dyn Fn(&str),
 ) -> anyhow::Result<(String, Vec<SideBySide>)> {
     let mut server = Open3dServer::start(mesh, dir)?;
+    let out = dir.join("side_by_side.svo");
     let mut rows = Vec::new();
     for p in plans {
         log(&format!(
@@ -85,6 +111,7 @@ pub fn measure(
             depth: p.depth,
             runs: p.runs,
             rounds: Vec::with_capacity(p.rounds),
+            with_file: Vec::with_capacity(p.rounds),
             open3d_voxels: 0,
             leaves: 0,
         };
@@ -95,14 +122,17 @@ pub fn measure(
         for _ in 0..p.rounds {
             let o = server.measure(p.depth, p.runs as u32)?;
             row.open3d_voxels = o.voxels;
-            let mut times = Vec::with_capacity(p.runs);
+            let (mut times, mut with_file) = (Vec::new(), Vec::new());
             for _ in 0..p.runs {
                 let t = Instant::now();
                 let (tree, _) = bake_mesh(loaded, &opts, &|_, _| {})?;
                 times.push(t.elapsed().as_secs_f64());
+                write_file(&tree, &BuildInfo::default(), &out)?;
+                with_file.push(t.elapsed().as_secs_f64());
                 row.leaves = tree.leaf_count as usize;
             }
             row.rounds.push((o.seconds, median(&times)));
+            row.with_file.push(median(&with_file));
         }
         rows.push(row);
     }
@@ -134,6 +164,7 @@ mod tests {
             depth: 8,
             runs: 5,
             rounds: vec![(0.30, 0.05), (0.24, 0.06), (0.28, 0.04)],
+            with_file: vec![0.06, 0.06, 0.07],
             open3d_voxels: 1,
             leaves: 1,
         };
@@ -141,6 +172,9 @@ mod tests {
         assert!((row.svo_s() - 0.05).abs() < 1e-12);
         let (mid, lo, hi) = row.ratios();
         assert!((mid - 6.0).abs() < 1e-9 && (lo - 4.0).abs() < 1e-9 && (hi - 7.0).abs() < 1e-9);
+        assert!((row.with_file_s() - 0.06).abs() < 1e-12);
+        let (mid, lo, hi) = row.ratios_with_file();
+        assert!((mid - 4.0).abs() < 1e-9 && (lo - 4.0).abs() < 1e-9 && (hi - 5.0).abs() < 1e-9);
         assert_eq!(
             version_of("/x/bunny.obj: 69451 triangles, open3d 0.20.0, ? threads"),
             "open3d 0.20.0"
