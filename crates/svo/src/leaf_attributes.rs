@@ -477,27 +477,31 @@ impl LeafValues {
         }
     }
 
-    /// The leaves of `parts`, one after the other (each channel reserved once at its full
-    /// length).
-    pub fn concat(parts: &[Self]) -> Self {
-        fn join<T: Copy>(parts: &[LeafValues], f: fn(&LeafValues) -> &Vec<T>) -> Vec<T> {
-            let mut out = Vec::with_capacity(parts.iter().map(|p| f(p).len()).sum());
-            for p in parts {
-                out.extend_from_slice(f(p));
+    /// The leaves of `parts`, one after the other. Each channel is reserved once at its full
+    /// length and the parts' arrays of that channel are freed as they are copied, so that at
+    /// most one channel is held twice.
+    pub fn concat(mut parts: Vec<Self>) -> Self {
+        fn join<T: Copy>(
+            parts: &mut [LeafValues],
+            f: fn(&mut LeafValues) -> &mut Vec<T>,
+        ) -> Vec<T> {
+            let mut out = Vec::with_capacity(parts.iter_mut().map(|p| f(p).len()).sum());
+            for p in parts.iter_mut() {
+                out.extend_from_slice(&std::mem::take(f(p)));
             }
             out
         }
         let mut out = Self {
-            normal: join(parts, |p| &p.normal),
-            contour: join(parts, |p| &p.contour),
-            colour: join(parts, |p| &p.colour),
-            reflectivity: join(parts, |p| &p.reflectivity),
-            refractivity: join(parts, |p| &p.refractivity),
-            ior: join(parts, |p| &p.ior),
-            thickness: join(parts, |p| &p.thickness),
+            normal: join(&mut parts, |p| &mut p.normal),
+            contour: join(&mut parts, |p| &mut p.contour),
+            colour: join(&mut parts, |p| &mut p.colour),
+            reflectivity: join(&mut parts, |p| &mut p.reflectivity),
+            refractivity: join(&mut parts, |p| &mut p.refractivity),
+            ior: join(&mut parts, |p| &mut p.ior),
+            thickness: join(&mut parts, |p| &mut p.thickness),
             ..Self::default()
         };
-        for p in parts {
+        for p in &parts {
             out.count += p.count;
             out.pairs += p.pairs;
             out.false_positives += p.false_positives;

@@ -113,20 +113,21 @@ impl LeafSink for LeafTriangles {
         scatter_pairs(ctx, level, cell, list, chunk, scratch, tests)
     }
 
-    fn concat(parts: Vec<Self>) -> Self {
+    fn concat(mut parts: Vec<Self>) -> Self {
         let sum = |f: fn(&Self) -> usize| parts.iter().map(f).sum::<usize>();
-        let mut out = Self {
-            cells: Vec::with_capacity(sum(|p| p.cells.len())),
-            ends: Vec::with_capacity(sum(|p| p.ends.len())),
-            tris: Vec::with_capacity(sum(|p| p.tris.len())),
-        };
-        for p in parts {
-            let off = out.tris.len() as u64;
-            out.cells.extend_from_slice(&p.cells);
-            out.ends.extend(p.ends.iter().map(|e| e + off));
-            out.tris.extend_from_slice(&p.tris);
+        let mut cells = Vec::with_capacity(sum(|p| p.cells.len()));
+        let mut ends = Vec::with_capacity(sum(|p| p.ends.len()));
+        let mut tris = Vec::with_capacity(sum(|p| p.tris.len()));
+        // Each array of a part is freed as it is copied (at most one array is held twice).
+        for p in &mut parts {
+            cells.extend_from_slice(&std::mem::take(&mut p.cells));
         }
-        out
+        for p in &mut parts {
+            let off = tris.len() as u64;
+            ends.extend(std::mem::take(&mut p.ends).iter().map(|e| e + off));
+            tris.extend_from_slice(&std::mem::take(&mut p.tris));
+        }
+        Self { cells, ends, tris }
     }
 }
 
@@ -168,7 +169,7 @@ impl LeafSink for LeafValues {
     }
 
     fn concat(parts: Vec<Self>) -> Self {
-        LeafValues::concat(&parts)
+        LeafValues::concat(parts)
     }
 }
 
@@ -539,14 +540,18 @@ fn plan<L: LeafSink>(
     }
 }
 
-/// Joins the parts into one chunk: the offsets are planned, then every node piece is copied
-/// (and relocated) into its own slice of the final array in parallel, while the leaves are
-/// joined in order.
+/// Joins the parts into one chunk: the offsets are planned and the leaves joined in order
+/// (the parts' arrays freed as they are copied), then every node piece is copied (and
+/// relocated) into its own slice of the final array in parallel. The leaves are joined
+/// before the node array is allocated, not beside its copy: side by side that measured within
+/// the noise of this order, and it held both at once (12 MiB more at the peak of the bunny at
+/// depth 10).
 fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
     let mut jobs = Vec::new();
     let (mut off, mut leaf_off) = (0, 0);
     let mut parts = Vec::new();
     let root = plan(part, &mut jobs, &mut off, &mut leaf_off, &mut parts);
+    let leaves = L::concat(parts);
     let mut nodes = vec![Node::default(); off];
     let mut rest = &mut nodes[..];
     let mut tasks = Vec::with_capacity(jobs.len());
@@ -572,15 +577,12 @@ fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
         Job::Block { records } => dst.copy_from_slice(&records),
     };
     #[cfg(feature = "parallel")]
-    let leaves = {
+    {
         use rayon::prelude::*;
-        rayon::join(|| L::concat(parts), || tasks.into_par_iter().for_each(copy)).0
-    };
+        tasks.into_par_iter().for_each(copy);
+    }
     #[cfg(not(feature = "parallel"))]
-    let leaves = {
-        tasks.into_iter().for_each(copy);
-        L::concat(parts)
-    };
+    tasks.into_iter().for_each(copy);
     (Chunk { nodes, leaves }, root)
 }
 
