@@ -24,6 +24,18 @@ pub struct Plan {
     pub runs: usize,
 }
 
+/// One round's medians, in seconds.
+#[derive(Clone, Copy, Debug)]
+pub struct Round {
+    /// open3d's voxel set.
+    pub open3d: f64,
+    /// Our whole in-memory bake.
+    pub bake: f64,
+    /// Our bake and the `.svo` file written after it (atomically, with its `fsync`), as
+    /// `svo-bake` does.
+    pub with_file: f64,
+}
+
 /// One depth of one mesh, measured in alternation.
 #[derive(Clone, Debug)]
 pub struct SideBySide {
@@ -33,11 +45,8 @@ pub struct SideBySide {
     pub depth: u8,
     /// Runs per tool in a round.
     pub runs: usize,
-    /// Per round: open3d's median seconds, then ours (the whole in-memory bake).
-    pub rounds: Vec<(f64, f64)>,
-    /// Per round, our median seconds for the bake and the `.svo` file written after it
-    /// (atomically, with its `fsync`), as `svo-bake` does.
-    pub with_file: Vec<f64>,
+    /// The rounds, in order.
+    pub rounds: Vec<Round>,
     /// open3d's voxel count.
     pub open3d_voxels: usize,
     /// Our leaf count.
@@ -45,43 +54,43 @@ pub struct SideBySide {
 }
 
 impl SideBySide {
+    /// The median over the rounds of `f`.
+    fn over_rounds(&self, f: fn(&Round) -> f64) -> f64 {
+        median(&self.rounds.iter().map(f).collect::<Vec<_>>())
+    }
+
     /// open3d's median over the rounds' medians.
     pub fn open3d_s(&self) -> f64 {
-        median(&self.rounds.iter().map(|r| r.0).collect::<Vec<_>>())
+        self.over_rounds(|r| r.open3d)
     }
 
     /// Our median over the rounds' medians.
     pub fn svo_s(&self) -> f64 {
-        median(&self.rounds.iter().map(|r| r.1).collect::<Vec<_>>())
+        self.over_rounds(|r| r.bake)
     }
 
     /// Our median over the rounds' medians of the bake with the file.
     pub fn with_file_s(&self) -> f64 {
-        median(&self.with_file)
+        self.over_rounds(|r| r.with_file)
     }
 
     /// The rounds' ratios open3d / ours (the in-memory bake): median, lowest, highest.
     pub fn ratios(&self) -> (f64, f64, f64) {
-        spread(self.rounds.iter().map(|r| r.0 / r.1))
+        self.spread(|r| r.open3d / r.bake)
     }
 
     /// The rounds' ratios open3d / ours with the file written: median, lowest, highest.
     pub fn ratios_with_file(&self) -> (f64, f64, f64) {
-        spread(
-            self.rounds
-                .iter()
-                .zip(&self.with_file)
-                .map(|(r, f)| r.0 / f),
-        )
+        self.spread(|r| r.open3d / r.with_file)
     }
-}
 
-/// Median, lowest and highest of some ratios.
-fn spread(r: impl Iterator<Item = f64>) -> (f64, f64, f64) {
-    let r: Vec<f64> = r.collect();
-    let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    (median(&r), lo, hi)
+    /// Median, lowest and highest over the rounds of `f`.
+    fn spread(&self, f: fn(&Round) -> f64) -> (f64, f64, f64) {
+        let r: Vec<f64> = self.rounds.iter().map(f).collect();
+        let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (median(&r), lo, hi)
+    }
 }
 
 /// Measures `mesh` (already loaded as `loaded`) at each planned depth, open3d and ours in
@@ -111,7 +120,6 @@ pub fn measure(
             depth: p.depth,
             runs: p.runs,
             rounds: Vec::with_capacity(p.rounds),
-            with_file: Vec::with_capacity(p.rounds),
             open3d_voxels: 0,
             leaves: 0,
         };
@@ -131,8 +139,11 @@ pub fn measure(
                 with_file.push(t.elapsed().as_secs_f64());
                 row.leaves = tree.leaf_count as usize;
             }
-            row.rounds.push((o.seconds, median(&times)));
-            row.with_file.push(median(&with_file));
+            row.rounds.push(Round {
+                open3d: o.seconds,
+                bake: median(&times),
+                with_file: median(&with_file),
+            });
         }
         rows.push(row);
     }
@@ -163,8 +174,13 @@ mod tests {
             label: "bunny".into(),
             depth: 8,
             runs: 5,
-            rounds: vec![(0.30, 0.05), (0.24, 0.06), (0.28, 0.04)],
-            with_file: vec![0.06, 0.06, 0.07],
+            rounds: [(0.30, 0.05, 0.06), (0.24, 0.06, 0.06), (0.28, 0.04, 0.07)]
+                .map(|(open3d, bake, with_file)| Round {
+                    open3d,
+                    bake,
+                    with_file,
+                })
+                .to_vec(),
             open3d_voxels: 1,
             leaves: 1,
         };
