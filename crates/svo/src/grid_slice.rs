@@ -65,26 +65,44 @@ impl Poly {
 }
 
 /// What the voxelizer takes from a part, in one pass over its points: appends them to
-/// `out` relative to the cell corner `m` in `f32`, and returns their sum and twice their
-/// fan's vector area (the same sums, in the same order, as [`polygon_area`] takes).
+/// `out` relative to the cell corner `m` in `f32`, and returns their sum and twice the area
+/// of the part's projection on the plane normal to axis `W` (the `W` component of its fan's
+/// vector area, the sums in [`polygon_area`]'s order). The part lies in its triangle's plane,
+/// so its area is that projection's over the unit normal's `W` component (best taken on the
+/// normal's dominant axis, [`dominant_axis`]): two products per point instead of a cross
+/// product's six.
 #[inline]
-pub fn digest_part(part: &Poly, m: DVec3, out: &mut Vec<Vec3>) -> (DVec3, DVec3) {
+pub fn digest_part<const W: usize>(part: &Poly, m: DVec3, out: &mut Vec<Vec3>) -> (DVec3, f64) {
+    let (u, v) = ((W + 1) % 3, (W + 2) % 3);
     let p = part.points();
     out.reserve(p.len());
-    let (mut sum, mut fan) = (DVec3::ZERO, DVec3::ZERO);
-    let (p0, mut prev) = (p.first().copied().unwrap_or_default(), DVec3::ZERO);
+    let (mut sum, mut fan) = (DVec3::ZERO, 0.0);
+    let (p0, mut prev) = (p.first().copied().unwrap_or_default(), (0.0, 0.0));
     for (i, &q) in p.iter().enumerate() {
         sum += q;
         out.push((q - m).as_vec3());
         if i > 0 {
-            let d = q - p0;
+            let d = (q[u] - p0[u], q[v] - p0[v]);
             if i > 1 {
-                fan += prev.cross(d);
+                fan += prev.0 * d.1 - prev.1 * d.0;
             }
             prev = d;
         }
     }
     (sum, fan)
+}
+
+/// The axis of `n`'s largest component (by magnitude; the first of equals).
+#[inline]
+pub fn dominant_axis(n: DVec3) -> usize {
+    let a = n.abs();
+    if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    }
 }
 
 /// Twice the vector area of a planar polygon, summed over the fan from its first vertex
@@ -333,19 +351,42 @@ mod tests {
     }
 
     #[test]
-    fn a_digest_repeats_the_area_and_points_exactly() {
+    fn a_digest_repeats_the_area_and_points() {
         let mut slicer = Slicer::default();
         let v = [
             DVec3::new(0.3, 0.2, 0.1),
             DVec3::new(3.7, 1.1, 2.9),
             DVec3::new(1.2, 3.8, 0.4),
         ];
+        let unit = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        let w = dominant_axis(unit);
         let mut parts = 0;
         assert!(slicer.slice(v, 4, 1e-12, &mut |c, part| {
             let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
             let mut out = vec![Vec3::ONE];
-            let (sum, fan) = digest_part(part, m, &mut out);
-            assert_eq!((0.5 * fan.length()).to_bits(), part.area().to_bits());
+            let (sum, fan) = match w {
+                0 => digest_part::<0>(part, m, &mut out),
+                1 => digest_part::<1>(part, m, &mut out),
+                _ => digest_part::<2>(part, m, &mut out),
+            };
+            // The projected area over the normal's component is the part's area (to
+            // rounding), for every axis the normal has a component on.
+            let area = part.area();
+            let got = 0.5 * fan.abs() / unit[w].abs();
+            assert!((got - area).abs() <= 1e-12 * area.max(1e-3), "{got} {area}");
+            for k in 0..3 {
+                let mut o = Vec::new();
+                let f = match k {
+                    0 => digest_part::<0>(part, m, &mut o).1,
+                    1 => digest_part::<1>(part, m, &mut o).1,
+                    _ => digest_part::<2>(part, m, &mut o).1,
+                };
+                let a = 0.5 * f.abs() / unit[k].abs();
+                assert!(
+                    (a - area).abs() <= 1e-9 * area.max(1e-3),
+                    "axis {k}: {a} {area}"
+                );
+            }
             let want = part.points().iter().fold(DVec3::ZERO, |a, &p| a + p);
             assert_eq!(sum, want);
             let pts: Vec<Vec3> = part.points().iter().map(|&p| (p - m).as_vec3()).collect();

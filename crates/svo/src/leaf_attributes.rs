@@ -240,21 +240,31 @@ impl<'a> AttributeInputs<'a> {
         if !self.needs_geometry() {
             return;
         }
-        let wsum: f64 = contacts.iter().map(|c| c.area).sum();
+        // The weights' sum and the area-weighted normal sum in one pass (the additions in
+        // the same order as two passes would make them).
+        let (mut wsum, mut s) = (0.0, DVec3::ZERO);
+        if self.want_normal {
+            for c in contacts {
+                wsum += c.area;
+                s += self.normals[c.tri as usize] * c.area;
+            }
+        } else {
+            wsum = contacts.iter().map(|c| c.area).sum();
+        }
         let weight = |c: &Contact| if wsum > 0.0 { c.area } else { 1.0 };
         let material = |ti: u32| self.mesh.material_of(self.order[ti as usize] as usize);
         if self.want_normal {
-            let mut s = DVec3::ZERO;
-            if wsum > 0.0 {
-                for c in contacts {
-                    s += self.normals[c.tri as usize] * c.area;
-                }
-            } else {
+            if !(wsum > 0.0) {
+                s = DVec3::ZERO;
                 for c in contacts {
                     s += self.normals[c.tri as usize];
                 }
             }
-            if !(s.length() > 1e-12 * wsum.max(1e-300)) {
+            // `|s| > floor`, decided without a square root where it clearly holds (a floor
+            // above 1e-150 squares without underflow; twice it absorbs the rounding).
+            let floor = 1e-12 * wsum.max(1e-300);
+            let clear = floor > 1e-150 && s.length_squared() > 4.0 * floor * floor;
+            if !clear && !(s.length() > floor) {
                 // Opposite sheets cancel: take the heaviest triangle's normal.
                 s = contacts
                     .iter()

@@ -21,7 +21,7 @@
 use crate::child_classify::child_cell;
 use crate::clip::clip_to_unit_cube;
 use crate::grid::{closed_cells, floor_i64};
-use crate::grid_slice::{Slicer, digest_part, polygon_area, well_inside};
+use crate::grid_slice::{Slicer, digest_part, dominant_axis, polygon_area, well_inside};
 use crate::leaf_attributes::{Contact, LeafValues};
 use crate::octree::Node;
 use crate::octree_build::{Ctx, LeafTriangles};
@@ -301,13 +301,26 @@ pub fn scatter_sliced(
                 .iter()
                 .fold(n as f64, |a, v| a.max(v.abs().max_element()));
             let eps = SLICE_MARGIN * reach;
-            // The unit normal for the parts' areas (None for a degenerate triangle).
-            let unit = Some(inputs.unit_normal(ti)).filter(|u| *u != DVec3::ZERO);
+            // The parts' areas from their projections on the plane across the unit normal's
+            // dominant axis `w`: `area = fan_w / (2 |u_w|)`, with `|u_w| >= 1 / sqrt(3)`.
+            // (A triangle whose normal's length underflows has no unit normal; its parts
+            // take their areas from the full fan, `polygon_area`.)
+            let unit = inputs.unit_normal(ti);
+            let w = dominant_axis(unit);
+            let half_over = if unit == DVec3::ZERO {
+                None
+            } else {
+                Some(0.5 / unit[w].abs())
+            };
             verify.clear();
             sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
                 let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
                 let start = pts.len() as u32;
-                let (sum, fan) = digest_part(part, m, pts);
+                let (sum, fan) = match w {
+                    0 => digest_part::<0>(part, m, pts),
+                    1 => digest_part::<1>(part, m, pts),
+                    _ => digest_part::<2>(part, m, pts),
+                };
                 // A centroid well inside the cell is within rounding of a point of the
                 // triangle: the contact is proven. Other parts take the exact test.
                 // (The mean by a reciprocal from a table rather than a division: rounding
@@ -317,9 +330,7 @@ pub fn scatter_sliced(
                 if !well_inside(centroid - m, eps) {
                     verify.push(contacts.len());
                 }
-                // The part lies in the triangle's plane: its area is its fan's vector area
-                // along the unit normal (where the normal's length underflows, the length).
-                let area = 0.5 * unit.map_or_else(|| fan.length(), |u| fan.dot(u).abs());
+                let area = half_over.map_or_else(|| part.area(), |h| fan.abs() * h);
                 contacts.push(Contact {
                     key: key_of(c.map(i64::from)),
                     tri: ti,

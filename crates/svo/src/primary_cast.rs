@@ -60,11 +60,10 @@ pub fn cast_primary<S: Surfaces>(
     let band =
         |scratch: &mut PrimaryScratch, y0: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
             let mut counts = [0u64; 4];
-            let decided = view.as_ref().map(|v| {
-                let mut band = PrimaryBand::new(v, y0, (leaf.len() / w as usize) as u32, scratch);
-                tracer.surfaces().primary_band(&mut band);
-                band
-            });
+            let rows = (leaf.len() / w as usize) as u32;
+            let decided = view
+                .as_ref()
+                .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
             for i in 0..leaf.len() {
                 let start = decided
                     .as_ref()

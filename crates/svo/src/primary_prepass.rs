@@ -388,6 +388,20 @@ impl<'a> PrimaryBand<'a> {
         }
     }
 
+    /// The band of `rows` rows from row `y0`, its primary rays decided by `surfaces`
+    /// ([`Surfaces::primary_band`]), as the renderer and the primary cast both start a band.
+    pub(crate) fn decided_by<S: Surfaces>(
+        view: &'a PrimaryView,
+        surfaces: &S,
+        y0: u32,
+        rows: u32,
+        s: &'a mut PrimaryScratch,
+    ) -> Self {
+        let mut band = Self::new(view, y0, rows, s);
+        surfaces.primary_band(&mut band);
+        band
+    }
+
     /// What the prepass knows of pixel `i` of the band (row-major from the band's first
     /// row): a decided hit or miss, or tracing from the eye.
     #[inline]

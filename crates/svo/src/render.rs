@@ -171,11 +171,10 @@ pub fn render_into<S: Surfaces>(
                 cost: &mut [u32]|
      -> RenderStats {
         let mut stats = RenderStats::default();
-        let decided = view.as_ref().map(|v| {
-            let mut band = PrimaryBand::new(v, y0, (colour.len() / w as usize) as u32, scratch);
-            tracer.surfaces().primary_band(&mut band);
-            band
-        });
+        let rows = (colour.len() / w as usize) as u32;
+        let decided = view
+            .as_ref()
+            .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
         let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
         for (i, (x, y)) in pixels.enumerate() {
             let start = decided
