@@ -170,13 +170,7 @@ fn touched_cells(
     // rounding noise, test their whole box.
     let nn = t.n;
     let na = nn.abs();
-    let w = if na.x >= na.y && na.x >= na.z {
-        0
-    } else if na.y >= na.z {
-        1
-    } else {
-        2
-    };
+    let w = dominant_axis(nn);
     let (u, v) = ((w + 1) % 3, (w + 2) % 3);
     let prune = na[w] > 1e-6 * t.n_scale && na[w].is_finite();
     // The plane's w-coordinate is `w_at(u, v) = wc - su u - sv v`; over a column

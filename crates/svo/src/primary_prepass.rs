@@ -372,22 +372,6 @@ pub struct PrimaryBand<'a> {
 }
 
 impl<'a> PrimaryBand<'a> {
-    /// The band of `rows` rows from row `y0`, nothing decided yet.
-    pub(crate) fn new(
-        view: &'a PrimaryView,
-        y0: u32,
-        rows: u32,
-        s: &'a mut PrimaryScratch,
-    ) -> Self {
-        Self {
-            view,
-            y0,
-            rows,
-            decided: false,
-            s,
-        }
-    }
-
     /// The band of `rows` rows from row `y0`, its primary rays decided by `surfaces`
     /// ([`Surfaces::primary_band`]), as the renderer and the primary cast both start a band.
     pub(crate) fn decided_by<S: Surfaces>(
@@ -397,7 +381,13 @@ impl<'a> PrimaryBand<'a> {
         rows: u32,
         s: &'a mut PrimaryScratch,
     ) -> Self {
-        let mut band = Self::new(view, y0, rows, s);
+        let mut band = Self {
+            view,
+            y0,
+            rows,
+            decided: false,
+            s,
+        };
         surfaces.primary_band(&mut band);
         band
     }
