@@ -20,6 +20,13 @@ use svo::pipeline::{BakeJob, GivenOptions, run};
 use svo::solid_mode::SolidMode;
 use svo::strategy::Strategy;
 
+/// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
+/// returns large ones to the kernel, and touching them again costs a page fault per page
+/// (feature `mimalloc`, on by default; docs/performance-notes.md, session 19).
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Bake a triangle mesh (OBJ, OBJ.GZ, PLY, glTF, GLB) or a scene file (.toml) into a sparse
 /// voxel octree (.svo), or export/convert to .binvox or .vox (MagicaVoxel).
 #[derive(Parser, Debug)]

@@ -60,8 +60,14 @@ impl Machine {
     /// One line for the report.
     pub fn line(&self) -> String {
         format!(
-            "{}, {} logical cores, {:.0} GiB; {} worker threads; {} (UTC); source `{}`",
-            self.cpu, self.cores, self.memory_gib, self.threads, self.date, self.commit
+            "{}, {} logical cores, {:.0} GiB; {} worker threads; allocator: {}; {} (UTC); source `{}`",
+            self.cpu,
+            self.cores,
+            self.memory_gib,
+            self.threads,
+            crate::peak_memory::ALLOCATOR,
+            self.date,
+            self.commit
         )
     }
 }
