@@ -96,7 +96,8 @@ pub struct BakeJob {
     pub output: PathBuf,
     /// Bake settings (ignored for `.svo` input).
     pub options: BakeOptions,
-    /// Worker threads (all cores when `None`).
+    /// Worker threads: a pool of this many, or with `None` the caller's pool (rayon's global
+    /// one: all cores unless `RAYON_NUM_THREADS` says otherwise).
     pub threads: Option<usize>,
     /// Which of `options` the user set: a scene file's own depth and solid fill are used
     /// where the user did not.

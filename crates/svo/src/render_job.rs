@@ -189,7 +189,8 @@ pub struct RenderJob {
     /// pixel, no shading, no image: [`crate::primary_cast`]), as a ray-casting library
     /// returns them.
     pub cast: bool,
-    /// Worker threads (default all cores).
+    /// Worker threads: a pool of this many, or with `None` the caller's pool (rayon's global
+    /// one: all cores unless `RAYON_NUM_THREADS` says otherwise).
     pub threads: Option<usize>,
     /// A triangle mesh to render instead (the reference), or beside the octree with
     /// `compare`.

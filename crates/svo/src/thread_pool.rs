@@ -17,9 +17,11 @@ pub struct ThreadsError {
     pub message: String,
 }
 
-/// Runs `f` with the number of threads it gets, on a pool of `threads` workers (all cores
-/// when `None`); without the `parallel` feature, on the calling thread with 1. A count of 0
-/// or above [`MAX_THREADS`] is refused.
+/// Runs `f` with the number of threads it gets: on a new pool of `threads` workers, or with
+/// `None` on the pool the caller runs in (rayon's global pool: all cores unless
+/// `RAYON_NUM_THREADS` says otherwise), whose threads, started once, a program that runs
+/// job after job keeps warm; without the `parallel` feature, on the calling thread with 1.
+/// A count of 0 or above [`MAX_THREADS`] is refused.
 pub fn with_threads<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce(usize) -> R + Send,
@@ -32,14 +34,16 @@ pub fn with_threads<R: Send>(
     }
     #[cfg(feature = "parallel")]
     {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(n) = threads {
-            b = b.num_threads(n);
-        }
-        let pool = b.build().map_err(|e| ThreadsError {
-            threads: threads.unwrap_or(0),
-            message: e.to_string(),
-        })?;
+        let Some(threads) = threads else {
+            return Ok(f(rayon::current_num_threads()));
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| ThreadsError {
+                threads,
+                message: e.to_string(),
+            })?;
         let n = pool.current_num_threads();
         Ok(pool.install(|| f(n)))
     }
