@@ -3,8 +3,13 @@
 # (examples/scenes/pool.toml) baked at depths 3-8 and 10, its three views (water, bunny,
 # parallel) at 640x480 and 1920x1200, rendered by `svo-view --headless`.
 #
-# "thesis" runs use the thesis's settings: contours, one reflection and one refraction, no
-# shadow rays (its section 1.7: "a whitted ray tracer without shadow rays"). "stacks" runs
+# "thesis" runs use the thesis's settings: contours, no shadow rays (its section 1.7: "a
+# whitted ray tracer without shadow rays") and one bounce a path: a primary ray that hits
+# water spawns a reflection and a refraction ray and those spawn none (its section 1.5:
+# every ray hits the water, "requiring two more traversals for the reflection and
+# refraction rays"). "each" runs repeat the depth-8 1920x1200 ones with one reflection and
+# one refraction allowed on each path (--bounces 1 alone, the setting of the tables before
+# 2026-11-25, which also traces a refracted ray's reflection). "stacks" runs
 # repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so
@@ -29,14 +34,18 @@ for d in $depths; do
   for v in water bunny parallel; do
     for size in 640x480 1920x1200; do
       echo "--- thesis depth $d view $v size $size"
-      view "$work/pool$d.svo" --view $v --size $size --bounces 1 --shadows none
+      view "$work/pool$d.svo" --view $v --size $size --bounces 1 --path-bounces 1 --shadows none
     done
   done
 done
 for v in water bunny parallel; do
+  echo "--- each depth 8 view $v size 1920x1200"
+  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none
+done
+for v in water bunny parallel; do
   for st in private workgroup; do
     echo "--- stacks $st depth 8 view $v size 1920x1200"
-    view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none --stacks $st
+    view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --stacks $st
   done
 done
 for d in 8 10; do

@@ -105,8 +105,8 @@ pub struct GpuParams {
     pub ior_at: u32,
     /// log2 of the words per arena chunk.
     pub arena_shift: u32,
-    /// Padding.
-    pub pad1: u32,
+    /// The most reflections and refractions together along one path.
+    pub max_path_bounces: u32,
     /// Padding.
     pub pad2: u32,
 }
@@ -246,7 +246,8 @@ pub struct ShaderVariant {
     pub interior: bool,
     /// Per channel: 0 absent, 1 constant, 2 per leaf.
     pub channels: [u32; 6],
-    /// Pending rays a pixel can have: the bounce limits plus two (one without bounces).
+    /// Pending rays a pixel can have: the bounce limits (the smaller of their sum and the
+    /// path limit) plus two; one without bounces.
     pub ray_stack: u32,
 }
 
@@ -256,8 +257,9 @@ impl ShaderVariant {
         let a = &tree.attributes;
         let reflective = any_nonzero(&a.reflectivity);
         let refractive = any_nonzero(&a.refractivity);
-        let bounces = (opts.max_reflections > 0 && (reflective || refractive))
-            || (opts.max_refractions > 0 && refractive);
+        let bounces = opts.max_path_bounces > 0
+            && ((opts.max_reflections > 0 && (reflective || refractive))
+                || (opts.max_refractions > 0 && refractive));
         Self {
             hit_mode: u32::from(opts.mode == HitMode::Contour),
             reflections: bounces,
@@ -271,8 +273,9 @@ impl ShaderVariant {
             media: matches!(a.normal, Channel::Absent) && refractive,
             interior: a.has_interior(),
             ray_stack: if bounces {
-                u32::from(opts.max_reflections.min(MAX_BOUNCES))
-                    + u32::from(opts.max_refractions.min(MAX_BOUNCES))
+                (u32::from(opts.max_reflections.min(MAX_BOUNCES))
+                    + u32::from(opts.max_refractions.min(MAX_BOUNCES)))
+                .min(u32::from(opts.max_path_bounces))
                     + 2
             } else {
                 1
@@ -378,6 +381,7 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
         max_steps: opts.max_steps.min(u32::MAX - 1),
         max_reflections: u32::from(opts.max_reflections),
         max_refractions: u32::from(opts.max_refractions),
+        max_path_bounces: u32::from(opts.max_path_bounces),
         n_nodes: tree.nodes.len() as u32,
         const_normal: channel_const(&a.normal),
         const_contour: channel_const(&a.contour),

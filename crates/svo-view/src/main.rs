@@ -99,6 +99,11 @@ struct Args {
     /// Refraction depth limit (overrides --bounces).
     #[arg(long)]
     refractions: Option<u8>,
+    /// The most reflections and refractions together along one ray path (the depth of the ray
+    /// tree). 1 is the 2015 thesis's tracer: primary, reflection and refraction rays, no more.
+    /// Default: only the limits above
+    #[arg(long)]
+    path_bounces: Option<u8>,
     /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: the file's lights, else
     /// one white light above the camera; intensity defaults to the squared distance to the
     /// model's centre.
@@ -208,6 +213,7 @@ fn real_main() -> anyhow::Result<()> {
             mode: args.hit,
             max_reflections: args.reflections.unwrap_or(args.bounces),
             max_refractions: args.refractions.unwrap_or(args.bounces),
+            max_path_bounces: args.path_bounces.unwrap_or(u8::MAX),
             shadows: args.shadows,
             fresnel: args.fresnel,
             bias_cells: args.bias,

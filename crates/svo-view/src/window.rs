@@ -440,8 +440,13 @@ impl App {
                         "{fw}x{fh} (1/{}), depth {tree_depth}, {leaves} leaves",
                         settings.render_scale
                     ));
+                    let path = if trace.max_path_bounces == u8::MAX {
+                        String::new()
+                    } else {
+                        format!(" (at most {} a path)", trace.max_path_bounces)
+                    };
                     ui.label(format!(
-                        "hit {} [1/2], bounces {} [ [ ] ], lights {} [L], shadows {} [G]",
+                        "hit {} [1/2], bounces {}{path} [ [ ] ], lights {} [L], shadows {} [G]",
                         trace.mode.name(),
                         trace.max_reflections,
                         if settings.lights_on { "on" } else { "off" },

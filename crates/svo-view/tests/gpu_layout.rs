@@ -72,7 +72,7 @@ fn shared_structs_match_the_wgsl() {
                 n_nodes, const_normal, const_contour, const_colour, const_reflectivity,
                 const_refractivity, const_ior, specular, shininess, infinity, shadow_mode,
                 nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
-                ior_at, arena_shift, pad1, pad2),
+                ior_at, arena_shift, max_path_bounces, pad2),
         ),
         (
             "Light",

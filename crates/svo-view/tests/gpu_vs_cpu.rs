@@ -165,6 +165,27 @@ fn glass_torus_cube_refraction() {
     assert!(st.secondary_rays > st.primary_hits, "{st:?}");
 }
 
+/// The path limit of the 2015 thesis's tracer (one bounce a path: the primary ray's
+/// reflection and refraction, nothing after them) on the glass torus: the same image as the
+/// CPU, at most two secondary rays per primary hit, fewer than without the limit.
+#[test]
+fn path_bounce_limit_of_one_renders_the_same() {
+    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let trace = TraceOptions {
+        max_path_bounces: 1,
+        ..TraceOptions::default()
+    };
+    let Some(one) = same_image(torus(Some(glass), 5), trace, 2.0) else {
+        return;
+    };
+    assert!(
+        one.secondary_rays > one.primary_hits && one.secondary_rays <= 2 * one.primary_hits,
+        "{one:?}"
+    );
+    let all = same_image(torus(Some(glass), 5), TraceOptions::default(), 2.0).unwrap();
+    assert!(all.secondary_rays > one.secondary_rays, "{all:?}");
+}
+
 #[test]
 fn solid_glass_torus_passes_through_its_interior_leaves() {
     // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both

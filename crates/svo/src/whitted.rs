@@ -97,6 +97,11 @@ pub struct TraceOptions {
     pub max_reflections: u8,
     /// Refraction depth limit (at most [`MAX_BOUNCES`]).
     pub max_refractions: u8,
+    /// The most reflections and refractions together along one path (the depth of the ray
+    /// tree). `1` is the 2015 thesis's tracer: a primary ray that hits a surface spawns its
+    /// reflection and refraction rays, and those spawn none. `u8::MAX` (the default): only
+    /// the two limits above apply.
+    pub max_path_bounces: u8,
     /// Shadow rays.
     pub shadows: ShadowMode,
     /// Fresnel formula.
@@ -117,6 +122,7 @@ impl Default for TraceOptions {
             mode: HitMode::Contour,
             max_reflections: 3,
             max_refractions: 3,
+            max_path_bounces: u8::MAX,
             shadows: ShadowMode::Transmittance,
             fresnel: FresnelMode::Exact,
             bias_cells: 0.75,
@@ -318,8 +324,9 @@ impl<S: Surfaces> Tracer<S> {
         // A depth-first ray stack holds at most one pending ray per bounce plus two; a
         // stack sized for the limits keeps its initialization small (without bounces it is
         // the primary ray alone).
-        let bounces =
-            usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions);
+        let bounces = (usize::from(self.opts.max_reflections)
+            + usize::from(self.opts.max_refractions))
+        .min(usize::from(self.opts.max_path_bounces));
         if bounces == 0 {
             self.trace_with::<1>(origin, dir, start)
         } else if bounces + 2 <= SMALL_STACK {
@@ -444,7 +451,9 @@ impl<S: Surfaces> Tracer<S> {
                 sample.colour += task.weight * local_w * local;
             }
 
-            // Reflection and refraction.
+            // Reflection and refraction, while the path has bounces left.
+            let path_left =
+                u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
             // From the medium the ray is in into the leaf's, or out of the leaf's into the
             // one around it.
             let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
@@ -473,7 +482,7 @@ impl<S: Surfaces> Tracer<S> {
                     fr += kt;
                 }
             }
-            if fr > 0.0 && task.refl < self.opts.max_reflections && len < STACK {
+            if fr > 0.0 && path_left && task.refl < self.opts.max_reflections && len < STACK {
                 stack[len] = Task {
                     origin: p + n_f * bias,
                     dir: reflect(task.dir, n_f).normalize(),
@@ -489,6 +498,7 @@ impl<S: Surfaces> Tracer<S> {
             }
             if let Some(td) = t_dir
                 && ft > 0.0
+                && path_left
                 && task.refr < self.opts.max_refractions
                 && len < STACK
             {

@@ -280,6 +280,73 @@ fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
     );
 }
 
+/// The path limit (`max_path_bounces`) on the same two-cell glass slab, now also reflective
+/// and with both limits generous: with 1 (the 2015 thesis's tracer) the ray entering the
+/// glass is the last refraction, so looking up through the slab is black and a primary ray
+/// spawns exactly two rays; with 2 it crosses both boundaries, `(1 - r0)^2` of the white sky
+/// as at normal incidence, and the reflection inside the glass stops at the first boundary
+/// (five rays); a limit that the two others make unreachable changes nothing, bit for bit.
+#[test]
+fn path_bounce_limit_cuts_the_ray_tree() {
+    let glass = |n: Vec3| Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.0,
+        refractivity: 1.0,
+        ior: 1.5,
+        normal: Some(n),
+    };
+    let scene = grid16((0..16).flat_map(|x| {
+        (0..16).flat_map(move |z| {
+            [
+                (UVec3::new(x, 4, z), glass(Vec3::NEG_Y)),
+                (UVec3::new(x, 5, z), glass(Vec3::Y)),
+            ]
+        })
+    }));
+    let sky = Sky {
+        zenith: Vec3::ONE,
+        horizon: Vec3::ONE,
+        ground: Vec3::ZERO,
+        up: Vec3::Y,
+        cube_map: None,
+    };
+    let up = |path: u8| {
+        let t = Tracer::new(
+            OctreeSurfaces::new(&scene, HitMode::Cube),
+            &[],
+            sky.clone(),
+            Phong::default(),
+            TraceOptions {
+                max_reflections: 3,
+                max_refractions: 4,
+                max_path_bounces: path,
+                ..opts(ShadowMode::None)
+            },
+        );
+        t.trace(Vec3::new(8.5, 1.0, 8.5), Vec3::Y)
+    };
+    let one = up(1);
+    assert_eq!(one.colour, Vec3::ZERO);
+    assert_eq!(one.stats.rays, 3, "primary, reflection, refraction");
+    let two = up(2);
+    let r0 = 0.04f32;
+    assert!(
+        (two.colour - Vec3::splat((1.0 - r0) * (1.0 - r0))).length() < 1e-4,
+        "{}",
+        two.colour
+    );
+    assert_eq!(two.stats.rays, 5);
+    let all = up(u8::MAX);
+    assert!(all.stats.rays > 5, "{:?}", all.stats);
+    assert!(
+        all.colour.x > two.colour.x,
+        "light reflected inside the glass"
+    );
+    let reachable = up(7);
+    assert_eq!(reachable.colour, all.colour);
+    assert_eq!(reachable.stats, all.stats);
+}
+
 /// Nested media: a glass slab inside a water slab, looked through at normal incidence. Each
 /// boundary transmits `1 - ((n1 - n2) / (n1 + n2))^2` with the IORs on its two sides, so the
 /// inner boundaries are water/glass (1.33/1.5), not air/glass as they would be if media did
@@ -761,6 +828,22 @@ fn facing_mirrors_stop_at_the_reflection_limit() {
             );
             assert_eq!(s.stats.capped, 0);
         }
+    }
+    // The path limit cuts the same chain: one ray per bounce up to the smaller limit.
+    for path in [0u8, 1, 5] {
+        let t = Tracer::new(
+            OctreeSurfaces::new(&scene, HitMode::Cube),
+            &[light],
+            black_sky(),
+            Phong::default(),
+            TraceOptions {
+                max_reflections: svo::whitted::MAX_BOUNCES,
+                max_path_bounces: path,
+                ..opts(ShadowMode::Opaque)
+            },
+        );
+        let s = t.trace(Vec3::new(8.0, 8.0, 8.0), Vec3::X);
+        assert_eq!(s.stats.rays, 1 + u32::from(path), "path limit {path}");
     }
 }
 

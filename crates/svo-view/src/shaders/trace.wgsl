@@ -99,7 +99,7 @@ struct Params {
     refractivity_at: u32,
     ior_at: u32,
     arena_shift: u32,
-    pad1: u32,
+    max_path_bounces: u32,     // reflections and refractions together along one path
     pad2: u32,
 }
 
@@ -1063,7 +1063,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                     fr += kt;
                 }
             }
-            if fr > 0.0 && task.refl < p.max_reflections && len < rcap {
+            // whitted.rs: while the path has bounces left.
+            let path_left = task.refl + task.refr < p.max_path_bounces;
+            if fr > 0.0 && path_left && task.refl < p.max_reflections && len < rcap {
                 let t = pack_task(Task(hp + n_f * bias, task.refl + 1u,
                                        normalize(reflect_dir(task.dir, n_f)), task.refr,
                                        task.weight * fr, h.leaf, task.medium, task.iors));
@@ -1074,7 +1076,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                 }
                 len += 1u;
             }
-            if REFRACTIONS && t_ok && ft > 0.0 && task.refr < p.max_refractions && len < rcap {
+            if REFRACTIONS && t_ok && ft > 0.0 && path_left && task.refr < p.max_refractions
+                && len < rcap {
                 var med = NO_MEDIUM;
                 if MEDIA && entering {
                     med = medium_of(h.leaf);
