@@ -185,8 +185,8 @@ fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) 
     b
 }
 
-/// Bindings 0-7 of the shader (uniforms, four arena chunks, pixels, batch rays in and out),
-/// declared once for both entry points.
+/// Bindings 0-8 of the shader (uniforms, four arena chunks, pixels, batch rays in and out,
+/// the primary tiles), declared once for every entry point.
 fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -205,6 +205,7 @@ fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     entries.push(entry(5, write));
     entries.push(entry(6, read));
     entries.push(entry(7, write));
+    entries.push(entry(8, write));
     dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("trace"),
         entries: &entries,
@@ -225,6 +226,11 @@ pub struct GpuRenderer {
     readback: wgpu::Buffer,
     unused_in: wgpu::Buffer,
     unused_out: wgpu::Buffer,
+    /// The primary tiles' start parameters (a float per 8x8 block of pixels).
+    tiles: wgpu::Buffer,
+    /// The `tile_bounds` pipeline, compiled when a variant first needs it (it uses nothing
+    /// that differs between the variants of one tree).
+    tile_pipeline: Option<wgpu::ComputePipeline>,
     width: u32,
     height: u32,
     variant: ShaderVariant,
@@ -260,6 +266,20 @@ fn frame_buffers(
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         ),
     ))
+}
+
+/// Pixels across and down a primary tile (`TILE` in the shader).
+const TILE: u32 = 8;
+
+/// The primary tiles' buffer for a `width` x `height` frame: a float per block.
+fn tile_buffer(ctx: &GpuContext, width: u32, height: u32) -> wgpu::Buffer {
+    let blocks = u64::from(width.div_ceil(TILE)) * u64::from(height.div_ceil(TILE));
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("primary tiles"),
+        size: (blocks * 4).max(4),
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
 }
 
 impl GpuRenderer {
@@ -337,13 +357,17 @@ impl GpuRenderer {
             checks: gpu_layout.checks,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
+        let tile_pipeline = variant
+            .primary_tiles
+            .then(|| compute_pipeline(dev, &pipeline_layout, "tile_bounds", &variant, &placement));
         ctx.check()?;
         let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
+        let tiles = tile_buffer(ctx, width, height);
         let bind_group = bind_group(
             dev,
             &layout,
             &tree_buffers,
-            [&pixels, &unused_in, &unused_out],
+            [&pixels, &unused_in, &unused_out, &tiles],
         );
         ctx.check()?;
         Ok(Self {
@@ -358,6 +382,8 @@ impl GpuRenderer {
             readback,
             unused_in,
             unused_out,
+            tiles,
+            tile_pipeline,
             width,
             height,
             variant,
@@ -427,7 +453,7 @@ impl GpuRenderer {
             dev,
             &self.layout,
             &self.tree_buffers,
-            [&self.pixels, &ray_in, &ray_out],
+            [&self.pixels, &ray_in, &ray_out, &self.tiles],
         );
         ctx.check()?;
         self.write_uniforms(ctx, u);
@@ -487,6 +513,16 @@ impl GpuRenderer {
                 p
             }
         };
+        if variant.primary_tiles && self.tile_pipeline.is_none() {
+            self.tile_pipeline = Some(compute_pipeline(
+                &ctx.device,
+                &self.pipeline_layout,
+                "tile_bounds",
+                &variant,
+                &self.placement,
+            ));
+            ctx.check()?;
+        }
         let old = std::mem::replace(&mut self.pipeline, pipeline);
         self.pipelines.push((self.variant, old));
         self.variant = variant;
@@ -499,12 +535,14 @@ impl GpuRenderer {
             return Ok(());
         }
         let (pixels, readback) = frame_buffers(ctx, width, height)?;
+        let tiles = tile_buffer(ctx, width, height);
         self.bind_group = bind_group(
             &ctx.device,
             &self.layout,
             &self.tree_buffers,
-            [&pixels, &self.unused_in, &self.unused_out],
+            [&pixels, &self.unused_in, &self.unused_out, &tiles],
         );
+        self.tiles = tiles;
         self.pixels = pixels;
         self.readback = readback;
         self.width = width;
@@ -525,6 +563,25 @@ impl GpuRenderer {
     /// Records one frame into `enc` with the uniforms written before (the window's path:
     /// the blit and the overlay follow in the same encoder).
     pub fn encode(&self, enc: &mut wgpu::CommandEncoder) {
+        if let Some(tp) = self
+            .tile_pipeline
+            .as_ref()
+            .filter(|_| self.variant.primary_tiles)
+        {
+            // Its own pass, before the frame's: the frame reads what it writes.
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("primary tiles"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(tp);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            // Workgroups of 8x8 blocks.
+            pass.dispatch_workgroups(
+                self.width.div_ceil(TILE).div_ceil(8),
+                self.height.div_ceil(TILE).div_ceil(8),
+                1,
+            );
+        }
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("trace"),
             timestamp_writes: None,
@@ -711,7 +768,8 @@ fn compute_pipeline(
             // (at most `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop
             // shrinks the stack each pass, the light loop counts to a constant, and the
             // Whitted loop takes a ray off its stack each pass and pushes at most two with a
-            // reflection or refraction count one higher, below the bounce limits.
+            // reflection or refraction count one higher, below the bounce limits; the
+            // primary tiles' walk counts a visit each pass and stops past `TILE_VISITS`.
             #[allow(unsafe_code)]
             unsafe {
                 dev.create_shader_module_trusted(desc, checks)
@@ -744,12 +802,12 @@ fn dummy_buffer(dev: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
-/// Bindings 0-4 from `tree` (uniforms, arena chunks) and 5-7 from `rest`.
+/// Bindings 0-4 from `tree` (uniforms, arena chunks) and 5-8 from `rest`.
 fn bind_group(
     dev: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     tree: &[wgpu::Buffer],
-    rest: [&wgpu::Buffer; 3],
+    rest: [&wgpu::Buffer; 4],
 ) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry<'_>> = tree
         .iter()

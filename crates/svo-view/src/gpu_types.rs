@@ -249,6 +249,10 @@ pub struct ShaderVariant {
     /// Pending rays a pixel can have: the bounce limits (the smaller of their sum and the
     /// path limit) plus two; one without bounces.
     pub ray_stack: u32,
+    /// Primary rays start where the primary tiles pass puts them (the renderer runs it
+    /// first): past the empty space before the nearest leaf cell of their 8x8 block. The
+    /// image is the same; only the work differs. `TraceOptions::prepass`.
+    pub primary_tiles: bool,
 }
 
 impl ShaderVariant {
@@ -280,6 +284,7 @@ impl ShaderVariant {
             } else {
                 1
             },
+            primary_tiles: opts.prepass,
             channels: [
                 channel_kind(&a.normal),
                 channel_kind(&a.contour),
@@ -327,6 +332,7 @@ impl ShaderVariant {
             ("FRESNEL_SCHLICK", b(self.fresnel_schlick)),
             ("MEDIA", b(self.media)),
             ("INTERIOR", b(self.interior)),
+            ("PRIMARY_TILES", b(self.primary_tiles)),
         ];
         c.extend(
             names
@@ -362,6 +368,9 @@ impl ShaderVariant {
         }
         if self.interior {
             parts.push("interior");
+        }
+        if self.primary_tiles {
+            parts.push("primary tiles");
         }
         parts.join(", ")
     }

@@ -120,8 +120,10 @@ struct Args {
     /// leaf, cost (traversal steps heat map).
     #[arg(long, value_parser = |s: &str| Aov::parse(s).ok_or_else(|| format!("unknown AOV {s:?} (expected colour, depth, normal, leaf or cost)")))]
     aov: Option<Aov>,
-    /// Trace every primary ray from the eye (no prepass that projects the octree front to
-    /// back to decide the primary rays of a band of rows at once; the image is the same).
+    /// Trace every primary ray from the eye: no prepass (on the CPU, the projection of the
+    /// octree front to back that decides the primary rays of a band of rows at once; on the
+    /// GPU, the pass that starts each 8x8 block's rays at the nearest leaf cell in its cone).
+    /// The image is the same.
     #[arg(long)]
     no_prepass: bool,
     /// Offset of secondary and shadow rays from the surface, in cells.

@@ -112,7 +112,8 @@ pub struct TraceOptions {
     pub max_steps: u32,
     /// Let renders decide primary rays a band of rows at a time by projecting the octree
     /// front to back ([`crate::primary_prepass`]) instead of walking it once per pixel. The
-    /// image is the same either way; only the work (and the steps counted) differ.
+    /// image is the same either way; only the work (and the steps counted) differ. (The GPU
+    /// viewer reads it too, for its own primary pass.)
     pub prepass: bool,
 }
 

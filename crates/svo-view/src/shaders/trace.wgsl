@@ -35,6 +35,8 @@ override COLOUR_CH: u32 = 1u;
 override REFLECTIVITY_CH: u32 = 1u;
 override REFRACTIVITY_CH: u32 = 1u;
 override IOR_CH: u32 = 1u;
+// Primary rays start where the primary tiles pass says (tile_bounds), not at the eye.
+override PRIMARY_TILES: bool = false;
 // The tree's arrays live in one arena of u32 words split over this many bindings (1-4), so a
 // tree larger than one storage binding still fits (gpu_render.rs).
 override ARENA_CHUNKS: u32 = 1u;
@@ -159,6 +161,8 @@ struct RayOut {
 
 @group(0) @binding(6) var<storage, read> ray_in: array<RayIn>;
 @group(0) @binding(7) var<storage, read_write> ray_out: array<RayOut>;
+// Per TILE x TILE block of pixels, the ray parameter its primary rays start at (tile_bounds).
+@group(0) @binding(8) var<storage, read_write> tiles: array<f32>;
 
 // Word i of the arena.
 fn word(i: u32) -> u32 {
@@ -901,6 +905,14 @@ fn refract_dir(d: vec3<f32>, n: vec3<f32>, n1: f32, n2: f32, ok: ptr<function, b
     return normalize(eta * d + (eta * cos_i - sqrt(k)) * n);
 }
 
+// CameraRays::dir_f32: the primary ray of pixel (x, y).
+fn camera_dir(x: u32, y: u32) -> vec3<f32> {
+    let p = u.params;
+    let sx = ((f32(x) + 0.5) * p.px_scale_x - 1.0) * p.half_w;
+    let sy = (1.0 - (f32(y) + 0.5) * p.px_scale_y) * p.half_h;
+    return normalize(p.forward + p.right * sx + p.up * sy);
+}
+
 @compute @workgroup_size(WG_X, WG_Y, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         @builtin(local_invocation_index) lidx: u32) {
@@ -909,10 +921,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     if gid.x >= p.width || gid.y >= p.height {
         return;
     }
-    // CameraRays::dir_f32
-    let sx = ((f32(gid.x) + 0.5) * p.px_scale_x - 1.0) * p.half_w;
-    let sy = (1.0 - (f32(gid.y) + 0.5) * p.px_scale_y) * p.half_h;
-    let dir0 = normalize(p.forward + p.right * sx + p.up * sy);
+    let dir0 = camera_dir(gid.x, gid.y);
+    // Where the primary ray starts: no leaf cell of its tile lies nearer (tile_bounds).
+    var primary_tmin = 0.0;
+    if PRIMARY_TILES {
+        primary_tmin = tiles[(gid.y / TILE) * ((p.width + TILE - 1u) / TILE) + gid.x / TILE];
+    }
 
     var px: Pixel;
     px.colour = vec3<f32>(0.0);
@@ -948,7 +962,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         let ray_d = task.dir * p.scale;
         var q: Query;
         q.kind = 0u;
-        q.tmin = 0.0;
+        q.tmin = select(0.0, primary_tmin, first);
         q.tmax = p.infinity;
         q.skip = task.skip;
         q.medium = task.medium;
@@ -1123,4 +1137,143 @@ fn cast_rays(@builtin(global_invocation_id) gid: vec3<u32>,
         out.leaf = o.leaf;
     }
     ray_out[i] = out;
+}
+
+// ---- primary tiles: where a block of primary rays may start ------------------------------
+//
+// One invocation per TILE x TILE block of pixels (the last row and column of blocks may be
+// smaller). The block's rays all leave the eye inside the cone around their mean direction
+// through its four corner pixels' rays (the rays of a rectangle of pixels span a convex patch
+// of directions, farthest from the mean at a corner), widened for rounding. The walk goes
+// down the tree, nearest octant first, into the children whose bounding spheres meet the
+// cone and that are nearer than the nearest leaf cell found so far. No ray of the block
+// enters a leaf cell nearer than that distance, so its primary rays start their traversal at
+// the distance's ray parameter less a margin (1e-4 of it, far above the rounding of a plane
+// parameter): every leaf cell a ray enters it enters at the same plane parameter as from the
+// eye, so its leaves, hits and image are those of a traversal from the eye, bit for bit, and
+// only the empty space before them is skipped. Nothing in the cone: the block's rays miss
+// (+inf). A walk past TILE_VISITS children, or a malformed tree, starts the block at the eye.
+// The walk's loop ends on its own: every pass counts a visit and the walk stops past
+// TILE_VISITS.
+const TILE: u32 = 8u;
+const TILE_VISITS: u32 = 4096u;
+
+// Whether a sphere of radius r around v (relative to the cone's apex) meets the solid cone
+// of unit axis `axis` and half-angle t (sin_t, cos_t; t below 90 degrees). In the plane of
+// the axis and v, the point nearest v on the cone is the apex when v projects behind the
+// cone's edge, else on the edge, at the signed distance perp cos t - along sin t.
+fn cone_meets(v: vec3<f32>, axis: vec3<f32>, sin_t: f32, cos_t: f32, r: f32) -> bool {
+    let len_v = length(v);
+    if len_v <= r {
+        return true;
+    }
+    let along = dot(v, axis);
+    let perp = length(cross(v, axis));
+    if along * cos_t + perp * sin_t < 0.0 {
+        return false;
+    }
+    return perp * cos_t - along * sin_t <= r;
+}
+
+// The ray parameter the primary rays of block i (of tiles_x across) start at.
+fn tile_start(i: u32, tiles_x: u32) -> f32 {
+    let p = u.params;
+    let x0 = (i % tiles_x) * TILE;
+    let y0 = (i / tiles_x) * TILE;
+    let x1 = min(x0 + TILE - 1u, p.width - 1u);
+    let y1 = min(y0 + TILE - 1u, p.height - 1u);
+    let d0 = camera_dir(x0, y0);
+    let d1 = camera_dir(x1, y0);
+    let d2 = camera_dir(x0, y1);
+    let d3 = camera_dir(x1, y1);
+    let axis = normalize(d0 + d1 + d2 + d3);
+    let cos_min = min(min(dot(axis, d0), dot(axis, d1)), min(dot(axis, d2), dot(axis, d3)));
+    if !(cos_min > 0.5) {
+        // A block wider than 60 degrees (or a camera that makes no directions).
+        return 0.0;
+    }
+    // The sine of the widest angle, from cross products (exact to a few ulps at any angle,
+    // where 1 - cos is not), widened.
+    let s = max(max(length(cross(axis, d0)), length(cross(axis, d1))),
+                max(length(cross(axis, d2)), length(cross(axis, d3))));
+    let sin_t = s * 1.001 + 1e-5;
+    let cos_t = sqrt(max(1.0 - sin_t * sin_t, 0.0));
+    let depth = p.depth;
+    if depth == 0u || depth > MAX_DEPTH {
+        return 0.0;
+    }
+    let eye = p.eye;
+    let oct = select(0u, 4u, axis.x < 0.0) | select(0u, 2u, axis.y < 0.0) | select(0u, 1u, axis.z < 0.0);
+    // Ancestors: their child mask with the next child's rank in the nearest-first order
+    // above it, and their first child's index.
+    var stack: array<vec2<u32>, MAX_DEPTH>;
+    var len = 0u;
+    var node = node_at(0u);
+    var corner = vec3<u32>(0u);
+    var side = 1u << depth;
+    var k = 0u;
+    var best = p.infinity;
+    var visits = 0u;
+    loop {
+        if k == 8u {
+            if len == 0u {
+                break;
+            }
+            len -= 1u;
+            let f = stack[len];
+            node = Node(f.x & 0xffu, f.y);
+            k = f.x >> 8u;
+            side *= 2u;
+            corner &= vec3<u32>(~(side - 1u));
+            continue;
+        }
+        visits += 1u;
+        if visits > TILE_VISITS {
+            return 0.0;
+        }
+        let c = k ^ oct;
+        k += 1u;
+        if ((node.info >> c) & 1u) == 0u {
+            continue;
+        }
+        let half = side / 2u;
+        let lo_u = corner + child_bits(c) * half;
+        let lo = vec3<f32>(lo_u);
+        let hs = f32(half);
+        let dist = length(max(max(lo - eye, eye - (lo + vec3<f32>(hs))), vec3<f32>(0.0)));
+        if dist >= best {
+            continue;
+        }
+        let v = lo + vec3<f32>(0.5 * hs) - eye;
+        if !cone_meets(v, axis, sin_t, cos_t, 0.8660254 * hs * 1.001 + 1e-5 * length(v)) {
+            continue;
+        }
+        if bitcast<i32>(node.first) < 0 {
+            best = dist;
+            continue;
+        }
+        let idx = node.first + countOneBits(node.info & 0xffu & ((1u << c) - 1u));
+        if idx >= p.n_nodes || len == MAX_DEPTH || half < 2u {
+            return 0.0;
+        }
+        stack[len] = vec2<u32>((node.info & 0xffu) | (k << 8u), node.first);
+        len += 1u;
+        node = node_at(idx);
+        corner = lo_u;
+        side = half;
+        k = 0u;
+    }
+    return best / p.scale * (1.0 - 1e-4);
+}
+
+// An invocation per block: x the block's column, y its row.
+@compute @workgroup_size(8, 8, 1)
+fn tile_bounds(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = u.params;
+    let tiles_x = (p.width + TILE - 1u) / TILE;
+    if gid.x >= tiles_x || gid.y >= (p.height + TILE - 1u) / TILE {
+        return;
+    }
+    let i = gid.y * tiles_x + gid.x;
+    tiles[i] = tile_start(i, tiles_x);
 }
