@@ -275,6 +275,109 @@ fn primary_tiles_change_nothing_but_the_steps() {
     );
 }
 
+/// The primary tiles on seeded random views (eyes outside, near and inside the model's box,
+/// fields of view from 3 to 150 degrees) of the torus and of a sparse random tree with
+/// single scattered cells and thin slabs: with and without the pass, the same colours,
+/// depths, normals and leaves bit for bit.
+#[test]
+fn primary_tiles_change_nothing_on_random_views() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let sparse = from_fn(
+        root,
+        7,
+        |_, _| true,
+        |c| {
+            // A hash of the cell: about one cell in 400, plus two one-cell slabs.
+            let h = (c.x.wrapping_mul(73_856_093)
+                ^ c.y.wrapping_mul(19_349_663)
+                ^ c.z.wrapping_mul(83_492_791))
+                % 400;
+            (h == 0 || c.y == 40 && c.x < 90 || c.x == 100 && c.z > 30)
+                .then(|| Voxel::solid([0.6, 0.7, 0.8, 1.0]))
+        },
+    )
+    .unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20);
+    let (w, h) = (61, 47);
+    let (mut with_steps, mut without_steps, mut hits) = (0u64, 0u64, 0u64);
+    for tree in [torus(None, 6), sparse] {
+        let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+        let ext = hi - lo;
+        let mut sides = Vec::new();
+        for prepass in [true, false] {
+            let trace = TraceOptions {
+                prepass,
+                shadows: ShadowMode::None,
+                ..TraceOptions::default()
+            };
+            let j = RenderJob {
+                width: w,
+                height: h,
+                trace,
+                ..RenderJob::default()
+            };
+            let s = scene(tree.clone(), &j).unwrap();
+            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            let r = GpuRenderer::new(&ctx, &s.tree, variant, w, h).unwrap();
+            sides.push((s, trace, r));
+        }
+        for k in 0..16 {
+            let mut pick = |a: f64, b: f64| {
+                DVec3::new(
+                    rng.random_range(a..b),
+                    rng.random_range(a..b),
+                    rng.random_range(a..b),
+                )
+            };
+            // Eyes inside the box for a third of the views, around it for the rest.
+            let eye = if k % 3 == 0 {
+                lo + pick(0.0, 1.0) * ext
+            } else {
+                lo + pick(-1.5, 2.5) * ext
+            };
+            let target = lo + pick(0.0, 1.0) * ext;
+            let fov = 3.0 * 50f64.powf(rng.random_range(0.0..1.0));
+            let camera = svo::camera::Camera {
+                eye,
+                target,
+                up: DVec3::Y,
+                fov_deg: fov,
+                width: w,
+                height: h,
+            };
+            if camera.rays().is_err() {
+                continue;
+            }
+            let frames: Vec<Frame> = sides
+                .iter_mut()
+                .map(|(s, trace, r)| {
+                    s.camera = camera;
+                    render_with(&ctx, s, trace, r)
+                })
+                .collect();
+            let (a, b) = (&frames[0], &frames[1]);
+            let what = format!("view {k}: eye {eye}, target {target}, fov {fov:.1}");
+            assert_eq!(a.colour, b.colour, "{what}");
+            assert_eq!(a.depth, b.depth, "{what}");
+            assert_eq!(a.normal, b.normal, "{what}");
+            assert_eq!(a.leaf, b.leaf, "{what}");
+            assert!(a.stats.primary_steps <= b.stats.primary_steps, "{what}");
+            with_steps += a.stats.primary_steps;
+            without_steps += b.stats.primary_steps;
+            hits += a.stats.primary_hits;
+        }
+    }
+    eprintln!("{hits} hits; primary steps: {with_steps} with the tiles, {without_steps} without");
+    assert!(hits > 0);
+    assert!(with_steps < without_steps);
+}
+
 #[test]
 fn solid_glass_torus_passes_through_its_interior_leaves() {
     // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both
