@@ -10,7 +10,8 @@
 # refraction rays"). "each" runs repeat the depth-8 1920x1200 ones with one reflection and
 # one refraction allowed on each path (--bounces 1 alone, the setting of the tables before
 # 2026-11-25, which also traces a refracted ray's reflection); "no-tiles" runs repeat them
-# without the primary tiles pass (--no-prepass), for its saving side by side. "stacks" runs
+# without the primary tiles pass (--no-prepass), and with hit paths (--hit-paths, off by
+# default), for what each saves side by side. "stacks" runs
 # repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so
@@ -44,6 +45,8 @@ for v in water bunny parallel; do
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none
   echo "--- no-tiles depth 8 view $v size 1920x1200"
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --no-prepass
+  echo "--- hit-paths depth 8 view $v size 1920x1200"
+  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --hit-paths
 done
 for v in water bunny parallel; do
   for st in private workgroup; do

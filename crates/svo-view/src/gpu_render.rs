@@ -61,6 +61,11 @@ pub struct GpuLayout {
     pub workgroup: Option<[u32; 2]>,
     /// Which of wgpu's run-time checks the shader gets (index clamps, loop bounds).
     pub checks: ShaderChecks,
+    /// Rays spawned at a primary hit descend the hit's path without reading its nodes
+    /// (`HIT_PATHS` in the shader); off (the default: on lavapipe it costs more than the
+    /// reads it saves, docs/gpu-benchmarks.md), they descend from the root as any ray. The
+    /// image and the steps are the same.
+    pub hit_paths: bool,
 }
 
 /// The render's workgroup unless one is given: on the H100 (docs/gpu-benchmarks.md) 8x8 was
@@ -76,6 +81,7 @@ impl Default for GpuLayout {
             stacks: StackPlacement::Auto,
             workgroup: None,
             checks: ShaderChecks::NoLoopBounds,
+            hit_paths: false,
         }
     }
 }
@@ -355,6 +361,7 @@ impl GpuRenderer {
             stacks: gpu_layout.stacks,
             workgroup: gpu_layout.workgroup,
             checks: gpu_layout.checks,
+            hit_paths: gpu_layout.hit_paths,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
         let tile_pipeline = variant
@@ -647,6 +654,8 @@ struct Placement {
     workgroup: Option<[u32; 2]>,
     /// [`GpuLayout::checks`].
     checks: ShaderChecks,
+    /// [`GpuLayout::hit_paths`].
+    hit_paths: bool,
 }
 
 impl Placement {
@@ -681,6 +690,7 @@ impl Placement {
             ("RSTACK", entries(wr, variant.ray_stack)),
             ("WG_X", f64::from(wx)),
             ("WG_Y", f64::from(wy)),
+            ("HIT_PATHS", flag(self.hit_paths)),
         ]
     }
 }

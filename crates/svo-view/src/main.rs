@@ -59,6 +59,11 @@ struct Args {
     /// on every loop), for measuring what the bounds cost. The image is the same.
     #[arg(long, requires = "headless", default_value = "no-loop-bounds")]
     shader_checks: svo_view::gpu_render::ShaderChecks,
+    /// With --headless: rays spawned at a primary hit descend along the hit's recorded path
+    /// without reading its nodes, instead of from the root as any ray (for measuring; the
+    /// image and the steps are the same).
+    #[arg(long, requires = "headless")]
+    hit_paths: bool,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
     quit_after: Option<u32>,
@@ -247,6 +252,7 @@ fn real_main() -> anyhow::Result<()> {
                 stacks: args.stacks,
                 workgroup: args.workgroup,
                 checks: args.shader_checks,
+                hit_paths: args.hit_paths,
                 ..Default::default()
             },
         };

@@ -129,8 +129,8 @@ fn shader_constants_name_real_overrides() {
             1,
         ),
     );
-    // The renderer adds the arena's chunk count, the stacks' placement and the workgroup
-    // shape; BOUNCES and WORKGROUP are derived in the shader.
+    // The renderer adds the arena's chunk count, the stacks' placement, the workgroup shape
+    // and whether hit paths are used; BOUNCES and WORKGROUP are derived in the shader.
     let mut constants = v.constants();
     for c in [
         "ARENA_CHUNKS",
@@ -140,6 +140,7 @@ fn shader_constants_name_real_overrides() {
         "RSTACK",
         "WG_X",
         "WG_Y",
+        "HIT_PATHS",
     ] {
         constants.push((c, 1.0));
     }

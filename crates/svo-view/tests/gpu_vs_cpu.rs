@@ -378,6 +378,76 @@ fn primary_tiles_change_nothing_on_random_views() {
     assert!(with_steps < without_steps);
 }
 
+/// Rays spawned at a primary hit descend the hit's path without reading its nodes: with and
+/// without that (`GpuLayout::hit_paths`), the same frames bit for bit and the same counters,
+/// steps included, on glass (contours and cubes, shadow rays traced between the hit and its
+/// rays), a mirror, a solid bake's interior leaves and a volumetric medium, with the stacks
+/// private and in workgroup memory.
+#[test]
+fn hit_paths_change_nothing() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let cube = TraceOptions {
+        mode: HitMode::Cube,
+        ..TraceOptions::default()
+    };
+    let opaque_shadows = TraceOptions {
+        shadows: ShadowMode::Opaque,
+        ..TraceOptions::default()
+    };
+    let cases = [
+        (
+            "glass torus",
+            torus(Some(glass), 5),
+            TraceOptions::default(),
+        ),
+        ("glass torus, cubes", torus(Some(glass), 5), cube),
+        ("copper torus", torus(None, 6), TraceOptions::default()),
+        (
+            "solid glass torus",
+            torus_with(Some(glass), 6, Some(svo::solid_mode::SolidMode::Closed)),
+            TraceOptions::default(),
+        ),
+        ("glass block", glass_block_on_a_floor(), opaque_shadows),
+    ];
+    for (name, tree, trace) in cases {
+        let s = scene(tree, &job(trace)).unwrap();
+        let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+        for stacks in [StackPlacement::Private, StackPlacement::Workgroup] {
+            let frames: Vec<Frame> = [true, false]
+                .into_iter()
+                .map(|hit_paths| {
+                    let layout = GpuLayout {
+                        stacks,
+                        hit_paths,
+                        ..GpuLayout::default()
+                    };
+                    let r = GpuRenderer::with_options(
+                        &ctx,
+                        &s.tree,
+                        variant,
+                        s.camera.width,
+                        s.camera.height,
+                        &layout,
+                    )
+                    .unwrap();
+                    render_with(&ctx, &s, &trace, &r)
+                })
+                .collect();
+            let (a, b) = (&frames[0], &frames[1]);
+            let what = format!("{name}, {stacks:?}");
+            assert!(a.stats.secondary_rays > 0, "{what}: {:?}", a.stats);
+            assert_eq!(a.colour, b.colour, "{what}");
+            assert_eq!(a.depth, b.depth, "{what}");
+            assert_eq!(a.normal, b.normal, "{what}");
+            assert_eq!(a.leaf, b.leaf, "{what}");
+            assert_eq!(a.stats, b.stats, "{what}");
+        }
+    }
+}
+
 #[test]
 fn solid_glass_torus_passes_through_its_interior_leaves() {
     // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both
@@ -397,15 +467,14 @@ fn solid_glass_torus_passes_through_its_interior_leaves() {
     assert!(st.secondary_rays > st.primary_hits, "{st:?}");
 }
 
-#[test]
-fn volumetric_glass_block_on_a_floor() {
-    // The 2019 report's kind of scene: a glass block without normals (a volumetric medium)
-    // standing on an opaque floor, opaque-shadowed.
+/// The 2019 report's kind of scene: a glass block without normals (a volumetric medium)
+/// standing on an opaque floor.
+fn glass_block_on_a_floor() -> Octree {
     let root = RootCube {
         origin: DVec3::ZERO,
         side: 1.0,
     };
-    let tree = from_fn(
+    from_fn(
         root,
         5,
         |_, _| true,
@@ -419,12 +488,17 @@ fn volumetric_glass_block_on_a_floor() {
             }
         },
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn volumetric_glass_block_on_a_floor() {
+    // Opaque-shadowed.
     let trace = TraceOptions {
         shadows: ShadowMode::Opaque,
         ..TraceOptions::default()
     };
-    let Some(st) = same_image(tree, trace, 1.0) else {
+    let Some(st) = same_image(glass_block_on_a_floor(), trace, 1.0) else {
         return;
     };
     assert!(st.secondary_rays > 0, "{st:?}");
@@ -830,6 +904,7 @@ fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() 
                 stacks,
                 workgroup: Some(workgroup),
                 checks,
+                hit_paths: true,
             },
         )
         .unwrap();

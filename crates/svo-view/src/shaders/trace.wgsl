@@ -37,6 +37,9 @@ override REFRACTIVITY_CH: u32 = 1u;
 override IOR_CH: u32 = 1u;
 // Primary rays start where the primary tiles pass says (tile_bounds), not at the eye.
 override PRIMARY_TILES: bool = false;
+// Rays spawned at the primary hit descend the primary hit's path without reading its nodes
+// (traverse, hpath); for measuring (`--hit-paths`).
+override HIT_PATHS: bool = false;
 // The tree's arrays live in one arena of u32 words split over this many bindings (1-4), so a
 // tree larger than one storage binding still fits (gpu_render.rs).
 override ARENA_CHUNKS: u32 = 1u;
@@ -470,7 +473,16 @@ struct Query {
     skip: u32,
     medium: vec2<u32>,
     half_cell: f32,            // shadow rays: half a cell in ray parameter
+    path: u32,                 // 1: record the hit's path (a primary ray); 2: start on it
 }
+
+// The primary hit's path, recorded by the primary ray's traversal where it stops: the inner
+// nodes from the root down to the hit leaf's parent (the traversal's ancestors and its
+// current node there) and the leaf's cell. A ray spawned at that hit starts next to the
+// leaf, so its own descent from the root mostly goes through the same nodes.
+var<private> hpath: array<Node, MAX_DEPTH>;
+var<private> hpath_len: u32;
+var<private> hpath_cell: vec3<u32>;
 
 struct Outcome {
     hit: bool,
@@ -545,8 +557,9 @@ fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_e
 // Loops: the renderer compiles this shader without wgpu's loop bounds (gpu_render.rs,
 // ShaderChecks), so every loop here must end on its own. traverse's outer loop and its inner
 // loop over a node's children count a step in every pass and return past max_steps (below
-// u32::MAX), its pop loop shrinks the stack in every pass; the light loop counts to a
-// constant; the Whitted loop takes a ray off its stack in every pass and pushes at most
+// u32::MAX), its pop loop shrinks the stack in every pass, its descent along a hit's path
+// deepens the stack in every pass and stops at the path's end, and the copy of a path
+// counts to the stack's length; the light loop counts to a constant; the Whitted loop takes a ray off its stack in every pass and pushes at most
 // two, each with a reflection or refraction count one higher and below its limit.
 //
 // traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
@@ -595,6 +608,53 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     let base = lane * TSTACK;
     var len = 0u;
     let mask = r.mask;
+    // A ray spawned at the primary hit (q.path 2): while its next child is the next node of
+    // the hit's path, the loop's step for that child, push and all, with the node taken from
+    // the path instead of read from the tree. Anything the loop would do otherwise (a child
+    // off the path, past tmax or the step cap, a full stack) stops this and is left to the
+    // loop, which then finds the state it would have reached itself: the same leaves, steps
+    // and image.
+    if BOUNCES && HIT_PATHS && q.path == 2u {
+        loop {
+            if len + 1u >= hpath_len || len >= depth {
+                break;
+            }
+            let s = depth - 1u - len;
+            let on_path = (((hpath_cell.x >> s) & 1u) << 2u) | (((hpath_cell.y >> s) & 1u) << 1u)
+                | ((hpath_cell.z >> s) & 1u);
+            let c = cur.next;
+            if c == DONE || (c ^ mask) != on_path || len == cap || cur.half < 2u {
+                break;
+            }
+            let t_enter = cur.enter;
+            let c1 = select(tm, t1, high(c));
+            let m = min3(c1);
+            let t_exit = select(q.tmax, m, m < q.tmax);
+            if t_enter > q.tmax || t_exit < t_enter || out.steps >= u.params.max_steps {
+                break;
+            }
+            let tied = select(0u, 4u, c1.x == m) | select(0u, 2u, c1.y == m) | select(0u, 1u, c1.z == m);
+            cur.next = select(c | tied, DONE, (c & tied) != 0u);
+            cur.enter = select(q.tmin, m, m > q.tmin);
+            out.steps += 1u;
+            let origin = cur.origin + child_bits(c) * cur.half;
+            let half = cur.half / 2u;
+            let saved = Saved(cur.node.first, (cur.node.info & 0xffu) | (cur.next << 8u), cur.enter);
+            if WG_TRAVERSE {
+                wg_tstack[base + len] = saved;
+            } else {
+                tstack[len] = saved;
+            }
+            len += 1u;
+            cur.node = hpath[len];
+            cur.origin = origin;
+            cur.half = half;
+            t1 = c1;
+            tm = t_planes(r, origin + vec3<u32>(half));
+            cur.next = first_child(tm, t_enter);
+            cur.enter = t_enter;
+        }
+    }
     loop {
         if cur.next == DONE {
             // Pop to the nearest ancestor with a child left (an ancestor whose next is DONE
@@ -694,6 +754,20 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                     out.t_exit = t_exit;
                     out.leaf = leaf;
                     out.normal = h.normal;
+                    if BOUNCES && HIT_PATHS && q.path == 1u && len < MAX_DEPTH {
+                        for (var i = 0u; i < len; i++) {
+                            var sv: Saved;
+                            if WG_TRAVERSE {
+                                sv = wg_tstack[base + i];
+                            } else {
+                                sv = tstack[i];
+                            }
+                            hpath[i] = Node(sv.mask_next & 0xffu, sv.first);
+                        }
+                        hpath[len] = cur.node;
+                        hpath_len = len + 1u;
+                        hpath_cell = cell;
+                    }
                     return out;
                 }
             } else {
@@ -841,6 +915,7 @@ fn shadow(start: vec3<f32>, light: vec3<f32>, skip: u32) -> ShadowResult {
     q.skip = skip;
     q.medium = NO_MEDIUM;
     q.half_cell = 0.5 / scale;
+    q.path = 0u;
     let o = traverse(start, l * scale, q);
     res.steps = o.steps;
     res.capped = o.capped;
@@ -967,6 +1042,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
         q.skip = task.skip;
         q.medium = task.medium;
         q.half_cell = 0.0;
+        // The primary ray records its hit's path; the rays spawned at that hit (one bounce
+        // on their path) start on it.
+        q.path = select(select(0u, 2u, task.refl + task.refr == 1u), 1u, first);
         let h = traverse(task.origin, ray_d, q);
         rays += 1u;
         px.steps += h.steps;
@@ -1130,6 +1208,7 @@ fn cast_rays(@builtin(global_invocation_id) gid: vec3<u32>,
     q.skip = NO_SKIP;
     q.medium = NO_MEDIUM;
     q.half_cell = 0.0;
+    q.path = 0u;
     let o = traverse(r.origin, r.dir, q);
     var out = RayOut(u.params.infinity, NO_LEAF, o.steps, select(0u, 1u, o.capped));
     if o.hit {
