@@ -456,3 +456,25 @@ fn a_scene_file_is_a_triangle_reference() {
         "{err}"
     );
 }
+
+/// `--path-bounces` reaches the tracer: the copper torus reflects, and with no bounce a path
+/// no secondary ray is traced; a value out of range is a one-line error.
+#[test]
+fn path_bounce_limit_on_the_command_line() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let s = svo.to_str().unwrap();
+    let secondary = |extra: &[&str]| {
+        let mut args = vec![s, "--bench", "1", "--size", "32x24", "--json"];
+        args.extend_from_slice(extra);
+        let j: serde_json::Value = serde_json::from_str(&ok(&view(&args))).unwrap();
+        j["stats"]["secondary_rays"].as_u64().unwrap()
+    };
+    assert!(secondary(&[]) > 0);
+    assert!(secondary(&["--path-bounces", "1"]) > 0);
+    assert_eq!(secondary(&["--path-bounces", "0"]), 0);
+    let o = view(&[s, "--bench", "1", "--path-bounces", "300"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("path-bounces"), "{err}");
+}
