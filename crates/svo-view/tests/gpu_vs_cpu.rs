@@ -448,6 +448,104 @@ fn hit_paths_change_nothing() {
     }
 }
 
+/// The 2015 thesis's own scene (`examples/scenes/pool.toml`: the Stanford bunny from
+/// `../shared/models` in a pool of water) at depth 7, its three views with its settings
+/// (contours, no shadow rays, one bounce a path): the GPU against the CPU (the same hit/miss
+/// mask, nearly the same leaves and colours), and the GPU without the primary tiles and
+/// with hit paths against its default, bit for bit.
+#[test]
+fn the_thesis_pool_views() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let bunny = root.join("../shared/models/stanford/bun_zipper.ply");
+    if !bunny.exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI needs {}",
+            bunny.display()
+        );
+        eprintln!("NOTICE: skipping: {} not found", bunny.display());
+        return;
+    }
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let d = tempfile::tempdir().unwrap();
+    let svo_path = d.path().join("pool.svo");
+    let bake = svo::pipeline::BakeJob {
+        input: root.join("examples/scenes/pool.toml"),
+        output: svo_path.clone(),
+        options: svo::BakeOptions {
+            depth: 7,
+            ..svo::BakeOptions::default()
+        },
+        threads: None,
+        given: svo::pipeline::GivenOptions {
+            depth: true,
+            solid: false,
+        },
+    };
+    svo::pipeline::run(&bake, &|_, _| {}).unwrap();
+    let trace = TraceOptions {
+        max_reflections: 1,
+        max_refractions: 1,
+        max_path_bounces: 1,
+        shadows: ShadowMode::None,
+        ..TraceOptions::default()
+    };
+    for view in ["water", "bunny", "parallel"] {
+        let j = RenderJob {
+            input: svo_path.clone(),
+            width: 120,
+            height: 75,
+            view: Some(view.into()),
+            trace,
+            ..RenderJob::default()
+        };
+        let s = svo::render_job::prepare(&j).unwrap();
+        let c = cpu_frame(&s, &trace);
+        let gpu_frame = |trace: TraceOptions, hit_paths: bool| {
+            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            let layout = GpuLayout {
+                hit_paths,
+                ..GpuLayout::default()
+            };
+            let r = GpuRenderer::with_options(&ctx, &s.tree, variant, 120, 75, &layout).unwrap();
+            render_with(&ctx, &s, &trace, &r)
+        };
+        let g = gpu_frame(trace, false);
+        let diff = svo::image_compare::compare(&g, &c).unwrap();
+        let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
+        eprintln!(
+            "{view}: RMSE {:.3} against the CPU, leaves differ on {leaf_diff}; {} secondary rays",
+            diff.rmse, g.stats.secondary_rays
+        );
+        assert_eq!(diff.hit_mismatch, 0.0, "{view}");
+        assert!(leaf_diff * 200 <= c.leaf.len(), "{view}");
+        assert!(diff.rmse <= 1.0, "{view}: RMSE {}", diff.rmse);
+        assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{view}");
+        assert!(g.stats.secondary_rays <= 2 * g.stats.primary_hits, "{view}");
+        let no_tiles = gpu_frame(
+            TraceOptions {
+                prepass: false,
+                ..trace
+            },
+            false,
+        );
+        let paths = gpu_frame(trace, true);
+        for (what, other) in [("without tiles", &no_tiles), ("with hit paths", &paths)] {
+            assert_eq!(g.colour, other.colour, "{view} {what}");
+            assert_eq!(g.depth, other.depth, "{view} {what}");
+            assert_eq!(g.normal, other.normal, "{view} {what}");
+            assert_eq!(g.leaf, other.leaf, "{view} {what}");
+        }
+        assert_eq!(g.stats, paths.stats, "{view}");
+        assert!(
+            g.stats.primary_steps < no_tiles.stats.primary_steps,
+            "{view}"
+        );
+    }
+}
+
 #[test]
 fn solid_glass_torus_passes_through_its_interior_leaves() {
     // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both
