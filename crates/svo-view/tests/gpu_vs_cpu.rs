@@ -94,6 +94,11 @@ fn cpu_frame(s: &JobScene, trace: &TraceOptions) -> Frame {
     render(&t, &s.camera).unwrap()
 }
 
+/// A hash of a cell, for scattering cells over a tree.
+fn cell_hash(c: glam::UVec3) -> u32 {
+    c.x.wrapping_mul(73_856_093) ^ c.y.wrapping_mul(19_349_663) ^ c.z.wrapping_mul(83_492_791)
+}
+
 /// Renders `tree` on both and checks the images: the same hit/miss mask, nearly the same
 /// leaves, an RMSE (8-bit sRGB) of at most `max_rmse`, and depths within 1e-4 relative
 /// where the leaves agree. Returns the GPU frame's counters for further checks.
@@ -293,11 +298,8 @@ fn primary_tiles_change_nothing_on_random_views() {
         7,
         |_, _| true,
         |c| {
-            // A hash of the cell: about one cell in 400, plus two one-cell slabs.
-            let h = (c.x.wrapping_mul(73_856_093)
-                ^ c.y.wrapping_mul(19_349_663)
-                ^ c.z.wrapping_mul(83_492_791))
-                % 400;
+            // About one cell in 400, plus two one-cell slabs.
+            let h = cell_hash(c) % 400;
             (h == 0 || c.y == 40 && c.x < 90 || c.x == 100 && c.z > 30)
                 .then(|| Voxel::solid([0.6, 0.7, 0.8, 1.0]))
         },
@@ -818,10 +820,7 @@ fn batch_rays_hit_the_same_leaves() {
         5,
         |_, _| true,
         |c| {
-            let h = (c.x.wrapping_mul(73_856_093)
-                ^ c.y.wrapping_mul(19_349_663)
-                ^ c.z.wrapping_mul(83_492_791))
-                % 100;
+            let h = cell_hash(c) % 100;
             (h < 6).then(Voxel::default)
         },
     )

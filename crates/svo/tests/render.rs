@@ -218,11 +218,9 @@ fn mirror_reflects_the_lit_wall() {
     );
 }
 
-#[test]
-fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
-    // A glass slab two cells thick whose leaves carry outward normals: looking straight up
-    // through it at a white sky, each of the two boundaries transmits 1 - 0.04 (Fresnel at
-    // normal incidence, IOR 1.5), entering then leaving the medium.
+/// A glass slab two cells thick (y = 4 and 5) whose leaves carry outward normals, under a
+/// white sky with a black ground.
+fn glass_slab_under_white_sky() -> (Octree, Sky) {
     let glass = |n: Vec3| Voxel {
         colour: [1.0, 1.0, 1.0, 1.0],
         reflectivity: 0.0,
@@ -245,6 +243,15 @@ fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
         up: Vec3::Y,
         cube_map: None,
     };
+    (scene, sky)
+}
+
+#[test]
+fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
+    // A glass slab two cells thick whose leaves carry outward normals: looking straight up
+    // through it at a white sky, each of the two boundaries transmits 1 - 0.04 (Fresnel at
+    // normal incidence, IOR 1.5), entering then leaving the medium.
+    let (scene, sky) = glass_slab_under_white_sky();
     let t = Tracer::new(
         OctreeSurfaces::new(&scene, HitMode::Cube),
         &[],
@@ -288,28 +295,7 @@ fn glass_slab_at_normal_incidence_transmits_per_fresnel() {
 /// (five rays); a limit that the two others make unreachable changes nothing, bit for bit.
 #[test]
 fn path_bounce_limit_cuts_the_ray_tree() {
-    let glass = |n: Vec3| Voxel {
-        colour: [1.0, 1.0, 1.0, 1.0],
-        reflectivity: 0.0,
-        refractivity: 1.0,
-        ior: 1.5,
-        normal: Some(n),
-    };
-    let scene = grid16((0..16).flat_map(|x| {
-        (0..16).flat_map(move |z| {
-            [
-                (UVec3::new(x, 4, z), glass(Vec3::NEG_Y)),
-                (UVec3::new(x, 5, z), glass(Vec3::Y)),
-            ]
-        })
-    }));
-    let sky = Sky {
-        zenith: Vec3::ONE,
-        horizon: Vec3::ONE,
-        ground: Vec3::ZERO,
-        up: Vec3::Y,
-        cube_map: None,
-    };
+    let (scene, sky) = glass_slab_under_white_sky();
     let up = |path: u8| {
         let t = Tracer::new(
             OctreeSurfaces::new(&scene, HitMode::Cube),
