@@ -48,6 +48,9 @@ fn gpu() -> Option<std::sync::MutexGuard<'static, GpuContext>> {
         .map(|m| m.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
 }
 
+/// The torus fixture's material made glass: 20% opacity, IOR 1.5, a little specular.
+const GLASS_MTL: &str = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+
 fn torus(mtl: Option<&str>, depth: u8) -> Octree {
     torus_with(mtl, depth, None)
 }
@@ -157,7 +160,7 @@ fn reflective_torus_contour_with_shadows() {
 
 #[test]
 fn glass_torus_cube_refraction() {
-    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let glass = GLASS_MTL;
     let trace = TraceOptions {
         mode: HitMode::Cube,
         shadows: ShadowMode::MaxRefractivity,
@@ -175,7 +178,7 @@ fn glass_torus_cube_refraction() {
 /// CPU, at most two secondary rays per primary hit, fewer than without the limit.
 #[test]
 fn path_bounce_limit_of_one_renders_the_same() {
-    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let glass = GLASS_MTL;
     let trace = TraceOptions {
         max_path_bounces: 1,
         ..TraceOptions::default()
@@ -390,7 +393,7 @@ fn hit_paths_change_nothing() {
     let Some(ctx) = gpu() else {
         return;
     };
-    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let glass = GLASS_MTL;
     let cube = TraceOptions {
         mode: HitMode::Cube,
         ..TraceOptions::default()
@@ -965,7 +968,7 @@ fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() 
     let Some(ctx) = gpu() else {
         return;
     };
-    let glass = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
+    let glass = GLASS_MTL;
     let trace = TraceOptions {
         max_reflections: 1,
         max_refractions: 2,
