@@ -9,14 +9,13 @@ fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let path = args.next().unwrap_or_else(|| "fixtures/torus.obj".into());
     let depth: u8 = args.next().map_or(Ok(7), |d| d.parse())?;
-    let mesh = svo::import::load_mesh(std::path::Path::new(&path))?;
+    let mesh = svo::Mesh::load(&path)?;
     let (tree, stats) = bake_mesh(
         &mesh,
         &BakeOptions {
             depth,
             ..Default::default()
         },
-        &|_, _| {},
     )?;
     println!(
         "{path}: {} triangles -> {} leaves, {} nodes in {:.1} ms",
@@ -27,11 +26,10 @@ fn main() -> anyhow::Result<()> {
     );
     // The first few leaves with their cells, scene-space bounds and attributes.
     for leaf in tree.leaves().take(3) {
-        let (lo, hi) = tree.cell_bounds(leaf.cell);
-        let v = tree.attributes.get(leaf.index as usize);
+        let v = leaf.attributes;
         println!(
-            "leaf {} cell {} bounds {lo:.3}..{hi:.3} normal {:?} contour {:?}",
-            leaf.index, leaf.cell, v.normal, v.contour
+            "leaf {} cell {} bounds {:.3}..{:.3} normal {:?} contour {:?}",
+            leaf.index, leaf.cell, leaf.min, leaf.max, v.normal, v.contour
         );
     }
     Ok(())

@@ -6,8 +6,8 @@
 
 use glam::{DVec3, UVec3, Vec3};
 use svo::RootCube;
-use svo::builder::{Voxel, from_fn};
-use svo::format_header::BuildInfo;
+use svo::io::BuildInfo;
+use svo::octree::{Octree, Voxel};
 
 fn main() -> anyhow::Result<()> {
     let out = std::env::args()
@@ -34,7 +34,7 @@ fn main() -> anyhow::Result<()> {
             .fold(0.0, f64::max);
         (near, far)
     };
-    let tree = from_fn(
+    let tree = Octree::from_fn(
         RootCube {
             origin: DVec3::splat(-1.0),
             side: 2.0,
@@ -84,7 +84,7 @@ fn main() -> anyhow::Result<()> {
         source_triangles: 0,
         ..Default::default()
     };
-    let bytes = svo::format_write::write_file(&tree, &build, std::path::Path::new(&out))?;
+    let bytes = svo::io::write_file(&tree, &build, std::path::Path::new(&out))?;
     println!("wrote {out} ({bytes} bytes)");
     Ok(())
 }

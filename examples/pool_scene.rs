@@ -1,20 +1,23 @@
 //! The 2015 thesis's scene from its committed scene file (`examples/scenes/pool.toml`): the
-//! Stanford bunny submerged in a pool of water. Bakes it (`svo::pipeline`, as `svo-bake`
-//! does), then renders the three camera views stored in the file (water, bunny, parallel)
+//! Stanford bunny submerged in a pool of water. Bakes it (`svo::bake::bake_file`, as
+//! `svo-bake` does), then renders the three camera views stored in the file (water, bunny, parallel)
 //! on the CPU, as `svo-view --cpu --view NAME` does.
 //!
 //! `cargo run --release -p svo-examples --example pool_scene -- [OUT_DIR [WIDTHxHEIGHT]]`
 //! (default `docs/images` at 640x400). The bunny comes from `../shared/models`.
 
 use std::path::PathBuf;
-use svo::pipeline::{BakeJob, run as bake};
-use svo::render_job::{RenderJob, parse_size, run as render};
+use svo::bake::{BakeJob, bake_file as bake};
+use svo::render::{RenderJob, render_file as render};
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().unwrap_or_else(|| "docs/images".into()));
-    let (width, height) =
-        parse_size(&args.next().unwrap_or_else(|| "640x400".into())).map_err(anyhow::Error::msg)?;
+    let size = args.next().unwrap_or_else(|| "640x400".into());
+    let (width, height) = size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+        .ok_or_else(|| anyhow::anyhow!("size {size:?} is not WIDTHxHEIGHT"))?;
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let svo_path = out.join("pool.svo");
     let job = BakeJob {
@@ -24,7 +27,7 @@ fn main() -> anyhow::Result<()> {
         threads: None,
         given: Default::default(),
     };
-    let report = bake(&job, &|_, _| {})?;
+    let report = bake(&job)?;
     print!("{report}");
     for view in ["water", "bunny", "parallel"] {
         let job = RenderJob {

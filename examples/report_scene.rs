@@ -1,6 +1,6 @@
 //! The 2019 report's scene (glass panes in a solid frame, void holes, a semi-solid centre
 //! cube, three coloured point lights), built through the programmatic API
-//! (`svo::scene_report2019`), saved as an `.svo` file with its lights and camera, and ray
+//! (`svo_examples::report2019`), saved as an `.svo` file with its lights and camera, and ray
 //! traced on the CPU at the report's settings (512 x 512, four reflections and four
 //! refractions).
 //!
@@ -9,14 +9,10 @@
 //! its output; a test checks the file is what the library builds today).
 
 use std::path::PathBuf;
-use svo::format_header::BuildInfo;
-use svo::leaf_hit::HitMode;
-use svo::render::render;
-use svo::scene_report2019::report_scene;
-use svo::shading::Phong;
-use svo::sky::Sky;
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+use svo::io::BuildInfo;
+use svo::render::{OctreeSurfaces, Phong, ShadowMode, Sky, TraceOptions, Tracer, render};
+use svo::trace::HitMode;
+use svo_examples::report2019::report_scene;
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -36,7 +32,7 @@ fn main() -> anyhow::Result<()> {
         scene: scene.scene_info(),
         ..BuildInfo::default()
     };
-    svo::format_write::write_file(&scene.tree, &build, &svo_path)?;
+    svo::io::write_file(&scene.tree, &build, &svo_path)?;
     let dark = Sky {
         zenith: glam::Vec3::splat(0.02),
         horizon: glam::Vec3::splat(0.05),
@@ -56,8 +52,8 @@ fn main() -> anyhow::Result<()> {
         },
     );
     let frame = render(&tracer, &scene.camera)?;
-    let rgb = svo::aov::colour_rgb8(&frame);
-    svo::image_write::write_png(&png_path, frame.width, frame.height, &rgb)?;
+    let rgb = svo::render::colour_rgb8(&frame);
+    svo::render::write_png(&png_path, frame.width, frame.height, &rgb)?;
     println!(
         "{} -> {} ({:.0} ms)",
         svo_path.display(),

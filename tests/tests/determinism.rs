@@ -1,25 +1,14 @@
 //! Byte-identical `.svo` output whatever the thread count, on real meshes (the bunny, and a
 //! textured multi-material glTF so every channel is per leaf).
 
-use std::path::{Path, PathBuf};
-use svo::format_header::BuildInfo;
+use std::path::PathBuf;
+use svo::io::BuildInfo;
 use svo::{BakeOptions, bake_mesh};
 
+/// The models folder, when the bunny is in it.
 fn models() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models");
-    if p.join("stanford/stanford-bunny.obj").exists() {
-        return Some(p);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "shared models missing at {}",
-        p.display()
-    );
-    eprintln!(
-        "notice: skipping, shared models not found at {}",
-        p.display()
-    );
-    None
+    svo_tests::model("stanford/stanford-bunny.obj")?;
+    Some(svo_tests::models_dir())
 }
 
 fn bake_with(threads: usize, mesh: &svo::Mesh, depth: u8) -> Vec<u8> {
@@ -34,11 +23,10 @@ fn bake_with(threads: usize, mesh: &svo::Mesh, depth: u8) -> Vec<u8> {
                 depth,
                 ..Default::default()
             },
-            &|_, _| {},
         )
         .unwrap()
     });
-    svo::format_write::to_bytes(&tree, &BuildInfo::default())
+    svo::io::to_bytes(&tree, &BuildInfo::default())
 }
 
 #[test]
@@ -48,7 +36,7 @@ fn same_bytes_for_1_2_and_4_threads() {
         ("stanford/stanford-bunny.obj", 8u8),
         ("gltf/DamagedHelmet.glb", 7),
     ] {
-        let mesh = svo::import::load_mesh(&m.join(file)).unwrap();
+        let mesh = svo::Mesh::load(m.join(file)).unwrap();
         let one = bake_with(1, &mesh, depth);
         assert_eq!(one, bake_with(2, &mesh, depth), "{file}: 1 vs 2 threads");
         assert_eq!(one, bake_with(4, &mesh, depth), "{file}: 1 vs 4 threads");

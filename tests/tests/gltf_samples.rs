@@ -4,25 +4,13 @@
 //! within a PSNR floor and a hit/miss disagreement ceiling (figures printed; the floors sit
 //! below what depth 6 gives, see docs/scenes.md).
 
-use std::path::{Path, PathBuf};
-use svo::leaf_hit::HitMode;
-use svo::mesh_reference::MeshSurfaces;
-use svo::render::render;
-use svo::render_job::{RenderJob, scene};
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::{TraceOptions, Tracer};
+use std::path::PathBuf;
+use svo::render::{MeshSurfaces, OctreeSurfaces, RenderJob, TraceOptions, Tracer, render, scene};
+use svo::trace::HitMode;
 
+/// The glTF samples' folder, when they are there.
 fn gltf_dir() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models/gltf");
-    if p.join("Box.glb").exists() {
-        return Some(p);
-    }
-    assert!(std::env::var_os("CI").is_none(), "shared models missing");
-    eprintln!(
-        "notice: skipping, shared models not found at {}",
-        p.display()
-    );
-    None
+    Some(svo_tests::model("gltf/Box.glb")?.with_file_name(""))
 }
 
 /// What each sample's leaves must show.
@@ -51,12 +39,12 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
     ];
     let depth = 6;
     for (name, expect, min_psnr) in samples {
-        let mesh = svo::import::load_mesh(&dir.join(name)).unwrap();
+        let mesh = svo::Mesh::load(dir.join(name)).unwrap();
         let opts = svo::BakeOptions {
             depth,
             ..svo::BakeOptions::default()
         };
-        let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+        let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
         let a = &tree.attributes;
         let n = tree.leaf_count as usize;
         let share = |f: &dyn Fn(usize) -> bool| (0..n).filter(|&i| f(i)).count() as f64 / n as f64;
@@ -113,7 +101,7 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
             &s.camera,
         )
         .unwrap();
-        let d = svo::image_compare::compare(&ours, &reference).unwrap();
+        let d = svo::render::compare(&ours, &reference).unwrap();
         eprintln!(
             "{name}: {} leaves, PSNR {:.1} dB, RMSE {:.2}, hit/miss differ on {:.2}%",
             n,

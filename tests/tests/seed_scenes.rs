@@ -4,29 +4,19 @@
 //! bunny view sees the bunny in every pixel, the parallel view (inside the hollow bunny) sees
 //! only the bunny and costs more traversal steps per ray than the bunny view.
 
-use std::path::{Path, PathBuf};
-use svo::render::{NO_LEAF, render};
-use svo::render_job::{RenderJob, scene_with};
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::Tracer;
+use std::path::PathBuf;
+use svo::render::{NO_LEAF, OctreeSurfaces, RenderJob, Tracer, render, scene_with};
 
+/// The scene file, when the bunny it reads (from `../shared/models`) is there.
 fn pool_scene() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    if root
-        .join("../shared/models/stanford/bun_zipper.ply")
-        .exists()
-    {
-        return Some(root.join("examples/scenes/pool.toml"));
-    }
-    assert!(std::env::var_os("CI").is_none(), "shared models missing");
-    eprintln!("notice: skipping, shared models not found beside the repository");
-    None
+    svo_tests::model("stanford/bun_zipper.ply")?;
+    Some(svo_tests::repo_root().join("examples/scenes/pool.toml"))
 }
 
 #[test]
 fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
     let Some(path) = pool_scene() else { return };
-    let scene = svo::scene_file::load_scene(&path).unwrap();
+    let scene = svo::scene::load_scene(&path).unwrap();
     assert_eq!(scene.depth, Some(8));
     let names: Vec<&str> = scene.info.cameras.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["water", "bunny", "parallel"]);
@@ -36,14 +26,14 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
         depth: 6,
         ..svo::BakeOptions::default()
     };
-    let (tree, _) = svo::bake_mesh(&scene.mesh, &opts, &|_, _| {}).unwrap();
+    let (tree, _) = svo::bake_mesh(&scene.mesh, &opts).unwrap();
     // The file round trip keeps the lights and views.
-    let build = svo::format_header::BuildInfo {
+    let build = svo::io::BuildInfo {
         scene: scene.info.clone(),
         ..Default::default()
     };
-    let bytes = svo::format_write::to_bytes(&tree, &build);
-    let (tree, build) = svo::format_read::from_bytes(&bytes).unwrap();
+    let bytes = svo::io::to_bytes(&tree, &build);
+    let (tree, build) = svo::io::from_bytes(&bytes).unwrap();
     assert_eq!(build.scene, scene.info);
 
     let a = &tree.attributes;
@@ -107,19 +97,21 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
     );
 }
 
+/// Needs the `csg` feature (the Manifold kernel's C++ build).
+#[cfg(feature = "csg")]
 #[test]
 fn csg_scene_file_bakes_solid_with_its_bowl_hollowed_out() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let scene = svo::scene_file::load_scene(&root.join("examples/scenes/csg.toml")).unwrap();
-    assert_eq!(scene.solid, Some(svo::solid_mode::SolidMode::Closed));
+    let root = svo_tests::repo_root();
+    let scene = svo::scene::load_scene(&root.join("examples/scenes/csg.toml")).unwrap();
+    assert_eq!(scene.solid, Some(svo::bake::SolidMode::Closed));
     // The result and the floor are closed: the solid bake accepts them.
-    assert_eq!(svo::mesh_closed::open_edges(&scene.mesh), 0);
+    assert_eq!(scene.mesh.open_edges(), 0);
     let opts = svo::BakeOptions {
         depth: 6,
         solid: scene.solid,
         ..svo::BakeOptions::default()
     };
-    let (tree, stats) = svo::bake_mesh(&scene.mesh, &opts, &|_, _| {}).unwrap();
+    let (tree, stats) = svo::bake_mesh(&scene.mesh, &opts).unwrap();
     assert!(stats.interior_leaves > 1000, "{}", stats.interior_leaves);
     let cell = |p: glam::DVec3| {
         let g = tree.root.to_grid(p, tree.depth).floor();

@@ -4,7 +4,7 @@
 //! svo-bake bunny.obj --depth 8 -o bunny.svo
 //! svo-bake bunny.svo -o bunny.binvox
 //! ```
-//! All the work is in the `svo` library ([`svo::pipeline::run`]); this file parses arguments,
+//! All the work is in the `svo` library ([`svo::bake::bake_file`]); this file parses arguments,
 //! draws the progress bar and prints the summary.
 #![forbid(unsafe_code)]
 
@@ -14,15 +14,14 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Mutex;
-use svo::bake::{BakeOptions, Phase, available_memory};
-use svo::leaf_attributes::ChannelSelection;
-use svo::pipeline::{BakeJob, GivenOptions, run};
-use svo::solid_mode::SolidMode;
-use svo::strategy::Strategy;
+use svo::bake::{
+    BakeJob, BakeOptions, ChannelSelection, GivenOptions, Phase, SolidMode, Strategy,
+    available_memory, bake_file_with_progress,
+};
 
 /// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
 /// returns large ones to the kernel, and touching them again costs a page fault per page
-/// (feature `mimalloc`, on by default; docs/performance-notes.md, session 19).
+/// (feature `mimalloc`, on by default; `docs/performance.md`).
 #[cfg(feature = "mimalloc")]
 #[global_allocator]
 static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -67,15 +66,11 @@ struct Args {
     /// refused, with its count of open edges); `--solid vote` for meshes with holes (parity
     /// along x, y and z columns, the majority deciding).
     #[arg(long, num_args = 0..=1, default_missing_value = "closed", value_name = "MODE",
-          value_parser = parse_solid)]
+)]
     solid: Option<SolidMode>,
     /// Bake even when the memory estimate exceeds the available memory.
     #[arg(long)]
     force: bool,
-}
-
-fn parse_solid(s: &str) -> Result<SolidMode, String> {
-    SolidMode::parse(s).ok_or_else(|| format!("unknown solid mode `{s}` (closed, vote)"))
 }
 
 /// `println!` that returns the error instead of panicking, so that a closed pipe
@@ -102,7 +97,7 @@ fn main() {
 
 fn real_main() -> anyhow::Result<()> {
     let args = Args::parse();
-    let mut channels = ChannelSelection::parse(&args.channels).map_err(anyhow::Error::msg)?;
+    let mut channels: ChannelSelection = args.channels.parse().map_err(anyhow::Error::msg)?;
     if args.no_contours {
         channels = channels.without(svo::ChannelKind::Contour);
     }
@@ -162,7 +157,8 @@ fn real_main() -> anyhow::Result<()> {
         }
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
     };
-    let report = run(&job, &progress).with_context(|| format!("baking {}", job.input.display()))?;
+    let report = bake_file_with_progress(&job, &progress)
+        .with_context(|| format!("baking {}", job.input.display()))?;
     bar.finish_and_clear();
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);

@@ -1,4 +1,4 @@
-//! End-to-end tests of the `svo-bake` binary on the real meshes in `../shared/models` and on
+//! End-to-end tests of the `svo-bake` binary on the real meshes (`SVO_MODELS`) and on
 //! bad input: every failure exits non-zero with one clear line and leaves no output file.
 
 use std::path::{Path, PathBuf};
@@ -8,23 +8,11 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_svo-bake"))
 }
 
-/// The shared models folder; in CI its absence is a failure, elsewhere the test is skipped.
+/// The shared models folder (`SVO_MODELS`, else `../shared/models`), when the bunny is in
+/// it; in CI its absence is a failure, elsewhere the test is skipped.
 fn models() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if p.join("stanford/stanford-bunny.obj").exists() {
-        return Some(p);
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!(
-            "shared models not found at {} (CI must have ../shared beside the repo)",
-            p.display()
-        );
-    }
-    eprintln!(
-        "notice: skipping, shared models not found at {}",
-        p.display()
-    );
-    None
+    svo_tests::model("stanford/stanford-bunny.obj")?;
+    Some(svo_tests::models_dir())
 }
 
 fn run(args: &[&str]) -> Output {
@@ -61,7 +49,7 @@ fn s(p: &Path) -> &str {
 }
 
 fn read_tree(p: &Path) -> svo::Octree {
-    svo::format_read::read_file(p).unwrap().0
+    svo::io::read_file(p).unwrap().0
 }
 
 #[test]
@@ -213,7 +201,7 @@ fn exports_hold_exactly_the_octree_cells() {
     ok(&[s(&svo_path), "-o", s(&bv2), "-q"]);
     let bytes = std::fs::read(&bv).unwrap();
     assert_eq!(bytes, std::fs::read(&bv2).unwrap());
-    let (dim, tr, scale, mut got) = svo::export_binvox::read_binvox(&bytes).unwrap();
+    let (dim, tr, scale, mut got) = svo::io::read_binvox(&bytes).unwrap();
     got.sort_unstable();
     assert_eq!(dim, 64);
     assert_eq!(tr, tree.root.origin.to_array());
@@ -491,7 +479,7 @@ fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
     );
     let bv = d.path().join("solid.binvox");
     ok(&[s(&solid), "-o", s(&bv), "-q"]);
-    let (_, _, _, got) = svo::export_binvox::read_binvox(&std::fs::read(&bv).unwrap()).unwrap();
+    let (_, _, _, got) = svo::io::read_binvox(&std::fs::read(&bv).unwrap()).unwrap();
     assert_eq!(got.len(), b.leaf_count as usize);
     let o = run(&[s(&torus), "--solid", "inside", "-o", s(&voted)]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -556,14 +544,14 @@ fn scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_li
     let out = d.path().join("s.svo");
     let text = ok(&[s(&scene), "-o", s(&out)]);
     assert!(text.contains("interior leaves (closed fill"), "{text}");
-    let (tree, build) = svo::format_read::read_file(&out).unwrap();
+    let (tree, build) = svo::io::read_file(&out).unwrap();
     assert_eq!(tree.depth, 4);
     assert_eq!(build.scene.lights.len(), 1);
     assert_eq!(build.scene.cameras[0].name, "front");
     assert!(tree.attributes.refractivity.is_per_leaf());
     // The command line wins over the file's defaults.
     ok(&[s(&scene), "--depth", "5", "-o", s(&out), "-q"]);
-    let (tree, _) = svo::format_read::read_file(&out).unwrap();
+    let (tree, _) = svo::io::read_file(&out).unwrap();
     assert_eq!(tree.depth, 5);
     assert!(tree.attributes.has_interior());
     // Mistakes: one line naming the file and the entry, no output.

@@ -6,9 +6,9 @@ use crate::peak_memory;
 use crate::report::{Report, f, median, ms};
 use std::path::Path;
 use std::time::Instant;
-use svo::format_header::BuildInfo;
+use svo::bake::{BakeJob, BakeReport};
+use svo::io::BuildInfo;
 use svo::mesh::Mesh;
-use svo::pipeline::{BakeJob, BakeReport};
 use svo::{BakeOptions, Strategy, bake_mesh};
 
 /// The thesis's build times (seconds, depths 1-8), rows in [`Strategy::ALL`] order; the
@@ -118,7 +118,7 @@ pub fn measure(
                 depth,
                 ..Default::default()
             };
-            sorted_cells(&bake_mesh(mesh, &opts, &|_, _| {})?.0)
+            sorted_cells(&bake_mesh(mesh, &opts)?.0)
         };
         for (si, &strategy) in Strategy::ALL.iter().enumerate() {
             let opts = BakeOptions {
@@ -131,7 +131,7 @@ pub fn measure(
             let mut peak = None;
             for r in 0..runs(depth).max(1) {
                 let t0 = Instant::now();
-                let (res, grew) = peak_memory::measure(|| bake_mesh(mesh, &opts, &|_, _| {}));
+                let (res, grew) = peak_memory::measure(|| bake_mesh(mesh, &opts));
                 times.push(t0.elapsed().as_secs_f64());
                 if r == 0 {
                     peak = grew;
@@ -141,7 +141,7 @@ pub fn measure(
             let tree = tree.expect("at least one run");
             let got = sorted_cells(&tree);
             let (fp, fneg) = differences(&got, &exact);
-            let bytes = svo::format_write::to_bytes(&tree, &BuildInfo::default()).len();
+            let bytes = svo::io::to_bytes(&tree, &BuildInfo::default()).len();
             cells[si].push(BakeCell {
                 seconds: median(&times),
                 runs: times,
@@ -263,7 +263,7 @@ pub fn pipeline(
     let mut reports = Vec::new();
     let mut peak = None;
     for i in 0..runs.max(1) {
-        let (rep, grew) = peak_memory::measure(|| svo::pipeline::run(&job, &|_, _| {}));
+        let (rep, grew) = peak_memory::measure(|| svo::bake::bake_file(&job));
         if i == 0 {
             peak = grew;
         }

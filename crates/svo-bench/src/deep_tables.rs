@@ -82,7 +82,7 @@ pub fn measure(max_depth: u8, runs: fn(u8) -> usize, log: &dyn Fn(&str)) -> Vec<
             let mut size = (0, 0);
             for run in 0..runs(depth).max(1) {
                 let t0 = Instant::now();
-                let (res, p) = peak_memory::measure(|| bake_mesh(&mesh, &opts, &|_, _| {}));
+                let (res, p) = peak_memory::measure(|| bake_mesh(&mesh, &opts));
                 times.push(t0.elapsed().as_secs_f64());
                 let Ok((tree, _)) = res else {
                     break;

@@ -5,7 +5,7 @@
 use std::io::{BufRead, BufReader, Lines, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
-use svo::camera::Camera;
+use svo::render::Camera;
 
 /// The folder of the baseline scripts (`docs/bench` of this repository).
 pub fn scripts() -> PathBuf {

@@ -9,10 +9,9 @@ use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use svo::grid_ray::GridRay;
 use svo::mesh::Mesh;
-use svo::octree_traverse::MAX_STEPS;
-use svo::surfaces::{Query, Surfaces};
+use svo::render::{Query, Surfaces};
+use svo::trace::{GridRay, MAX_STEPS};
 
 /// How far off the surface the rays start, in cells.
 pub const OFFSET_CELLS: f32 = 2.0;

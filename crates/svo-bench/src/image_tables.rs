@@ -9,21 +9,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 use svo::Octree;
-use svo::camera::{Camera, CameraRays};
-use svo::exact_surfaces::exact_surfaces;
-use svo::grid_dda::{DenseGrid, traverse_dda};
-use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, cast, leaf_hit};
 use svo::mesh::Mesh;
-use svo::mesh_reference::MeshSurfaces;
-use svo::octree_traverse::MAX_STEPS;
-use svo::primary_cast::cast_timed;
-use svo::render::{Frame, render_timed};
-use svo::render_job::JobScene;
-use svo::shading::{Phong, PointLight};
-use svo::sky::Sky;
-use svo::surfaces::{OctreeSurfaces, Surfaces};
-use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+use svo::render::{
+    Camera, CameraRays, Frame, JobScene, MeshSurfaces, OctreeSurfaces, Phong, PointLight,
+    ShadowMode, Sky, Surfaces, TraceOptions, Tracer, cast_timed, exact_surfaces, render_timed,
+};
+use svo::trace::{DenseGrid, GridRay, HitMode, MAX_STEPS, cast, leaf_hit, traverse_dda};
 use svo_view::gpu_context::GpuContext;
 use svo_view::headless::render_scene;
 
@@ -99,7 +90,7 @@ fn row(
     reference: &Frame,
     cells_per_unit: f64,
 ) -> ImageRow {
-    let d = svo::image_compare::compare(f, reference).expect("frames of one camera");
+    let d = svo::render::compare(f, reference).expect("frames of one camera");
     let s = &f.stats;
     ImageRow {
         view,
@@ -141,7 +132,7 @@ fn gpu_frame(
         ..TraceOptions::default()
     };
     let g = render_scene(ctx, &scene, &opts, &Default::default(), Some(runs))?;
-    let d = svo::image_compare::compare(&g.frame, cpu).expect("frames of one camera");
+    let d = svo::render::compare(&g.frame, cpu).expect("frames of one camera");
     Ok((median(&g.times), d.psnr_db))
 }
 
@@ -212,7 +203,7 @@ pub struct Throughput {
     pub depth: u8,
     /// Hit mode, or `triangles`.
     pub mode: &'static str,
-    /// Whether the frame was the first hits alone ([`svo::primary_cast`]: what a ray-casting
+    /// Whether the frame was the first hits alone ([`svo::render::cast_primary`]: what a ray-casting
     /// library returns) rather than a shaded image with its AOVs.
     pub cast: bool,
     /// Median seconds per frame.
@@ -320,7 +311,7 @@ fn primary_only(
 }
 
 /// Measures the octree against the DDA on `tree` (depth at most
-/// [`svo::grid_dda::MAX_DDA_DEPTH`]).
+/// [`svo::trace::MAX_DDA_DEPTH`]).
 pub fn dda(tree: &Octree, mesh: &Mesh, size: (u32, u32), runs: u32) -> anyhow::Result<DdaRow> {
     let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
     let cam = View::Framed.camera(lo, hi, size.0, size.1);

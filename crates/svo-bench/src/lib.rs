@@ -30,11 +30,9 @@ use crate::report::{Report, f, ms};
 use crate::views::View;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use svo::exact_surfaces::exact_surfaces;
-use svo::leaf_hit::HitMode;
 use svo::mesh::Mesh;
-use svo::mesh_reference::MeshSurfaces;
-use svo::surfaces::OctreeSurfaces;
+use svo::render::{MeshSurfaces, OctreeSurfaces, exact_surfaces};
+use svo::trace::HitMode;
 use svo::{BakeOptions, Octree, bake_mesh};
 
 /// What to measure and where to write.
@@ -121,7 +119,7 @@ struct DepthResults {
     depth: u8,
     leaves: usize,
     cell: f64,
-    thickness: Option<svo::leaf_attributes::ContourStats>,
+    thickness: Option<svo::bake::ContourStats>,
     geometry: Vec<(&'static str, GeometryError)>,
 }
 
@@ -137,7 +135,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     let bench_dir = opts.out.join("bench");
     std::fs::create_dir_all(&bench_dir)?;
     plots::register_font()?;
-    let mesh = svo::import::load_mesh(&opts.mesh).map_err(|e| {
+    let mesh = Mesh::load(&opts.mesh).map_err(|e| {
         anyhow::anyhow!(
             "cannot load the benchmark mesh {}: {e} (run from the repository root with \
              ../shared/models beside it, or pass --mesh)",
@@ -217,7 +215,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         )];
         if let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists()) {
             let label = file_name(large);
-            let run = svo::import::load_mesh(large)
+            let run = Mesh::load(large)
                 .map_err(anyhow::Error::from)
                 .and_then(|m| {
                     side_by_side::measure(&label, large, &m, &plans(&[10]), tmp.path(), &lg)
@@ -283,7 +281,6 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
                     depth,
                     ..Default::default()
                 },
-                &|_, _| {},
             )?)
         };
         let (tree, stats) = bake(&mesh)?;
@@ -326,7 +323,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
                 save_frames(&bench_dir, view, &frames)?;
             }
         }
-        if depth <= svo::grid_dda::MAX_DDA_DEPTH {
+        if depth <= svo::trace::MAX_DDA_DEPTH {
             lg(&format!("depth {depth}: octree against DDA"));
             dda_rows.push(image_tables::dda(
                 &tree,
@@ -405,8 +402,8 @@ fn file_name(p: &Path) -> String {
 }
 
 fn save_frames(dir: &Path, view: View, frames: &image_tables::ViewFrames) -> anyhow::Result<()> {
-    use svo::aov::{colour_rgb8, cost_rgb8};
-    use svo::image_write::write_png;
+    use svo::render::write_png;
+    use svo::render::{colour_rgb8, cost_rgb8};
     let c = &frames.contour;
     let name = view.name();
     write_png(
@@ -478,7 +475,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
          the cells the triangles touch (tested against an integer brute force in \
          `crates/svo/tests`), and image and geometric error are measured against the triangles \
          themselves (an `obvhs` BVH with the same camera, lights and shading). Figures taken \
-         on a GPU lent to one session are in [gpu-benchmarks.md](gpu-benchmarks.md).",
+         on a lent GPU are in [gpu-benchmarks.md](gpu-benchmarks.md).",
     );
     if opts.quick {
         r.para(
@@ -505,7 +502,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     // 2. Pipeline.
     r.heading(2, "2. The whole `svo-bake` pipeline, per phase");
     r.para(
-        "`svo::pipeline::run`, what `svo-bake MESH --depth D -o out.svo` runs: load, voxelize, \
+        "`svo::bake::bake_file`, what `svo-bake MESH --depth D -o out.svo` runs: load, voxelize, \
          attributes, contours, and the atomic write with `fsync`. \"bake\" is voxelize + \
          attributes + contours; the row is the run with the median total; peak memory is the \
          most heap bytes live at once during the first run (loading included), counted by the \
@@ -756,7 +753,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
          after a warm-up, {} threads; the triangle reference through `obvhs` on the same rays. \
          `shaded`: the whole render (prepass, first hit, Phong shading, the colour and four \
          AOV buffers); `first hit`: the primary rays cast alone (`svo-view --cpu --bench \
-         --cast`, `svo::primary_cast`: the hit leaf and its distance per pixel, what Embree's \
+         --cast`, `svo::render::cast_primary`: the hit leaf and its distance per pixel, what Embree's \
          `run` returns for the same rays).",
         p.framed_size.0, p.framed_size.1, p.throughput_runs, m.machine.threads
     ));
@@ -848,11 +845,11 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     r.image("octree against DDA", "bench/octree_vs_dda.png");
 
     // 8. Targets.
-    r.heading(2, "7. Targets and where we stand");
+    r.heading(2, "7. Targets");
     let mut t = Vec::new();
     if let Some(c) = m.tables.exact(8) {
         t.push(vec![
-            "issue 2: depth-8 bake (bunny) at most a fifth of open3d's 0.29 s (58 ms)".into(),
+            "depth-8 bake (bunny) at most a fifth of open3d's 0.29 s (58 ms)".into(),
             format!(
                 "{} (in-memory bake, median): {}",
                 ms(c.seconds),
@@ -876,7 +873,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             let line = |what: &str, ours: f64, (mid, lo, hi): (f64, f64, f64)| {
                 vec![
                     format!(
-                        "issue 2: {what}, against open3d measured in this run in alternation (a fifth of it)"
+                        "{what}, against open3d measured in this run in alternation (a fifth of it)"
                     ),
                     format!(
                         "{} against {} (median ratio {mid:.1}x, rounds {lo:.1}-{hi:.1}x): {}",
@@ -896,7 +893,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     }
     if let Some(c) = m.tables.exact(10) {
         t.push(vec![
-            "issue 2: depth-10 bake (bunny) under 1 s".into(),
+            "depth-10 bake (bunny) under 1 s".into(),
             format!(
                 "{}: {}",
                 ms(c.seconds),
@@ -915,7 +912,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             .peak_bytes
             .map_or(f64::NAN, |x| x as f64 / f64::from(1u32 << 30));
         t.push(vec![
-            format!("issue 2: {} at depth 10 under 2 s within 4 GiB", pr.label),
+            format!("{} at depth 10 under 2 s within 4 GiB", pr.label),
             format!(
                 "bake {}, peak {:.2} GiB: {}",
                 ms(bake),
@@ -943,7 +940,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
                 if let Some(ours) = at(depth, cast) {
                     t.push(vec![
                         format!(
-                            "issue 3: primary rays (depth {depth}, cube hits, {what}) at least \
+                            "primary rays (depth {depth}, cube hits, {what}) at least \
                              twice Embree's single-ray throughput"
                         ),
                         format!(
@@ -965,7 +962,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     if !opts.quick {
         let minutes = start.elapsed().as_secs_f64() / 60.0;
         t.push(vec![
-            "issue 5: this report regenerates in under 20 minutes on this machine".into(),
+            "this report regenerates in under 20 minutes on this machine".into(),
             format!(
                 "{minutes:.1} min: {}",
                 if minutes < 20.0 { "met" } else { "**not met**" }

@@ -18,12 +18,14 @@ struct Args {
     /// Folder for benchmarks.md and bench/*.png (default: docs, or target/bench-quick with --quick).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// The benchmark mesh.
-    #[arg(long, default_value = "../shared/models/stanford/stanford-bunny.obj")]
-    mesh: PathBuf,
-    /// A large mesh for the pipeline table (skipped when absent).
-    #[arg(long, default_value = "../shared/models/stanford/dragon_vrip.obj.gz")]
-    large_mesh: PathBuf,
+    /// The benchmark mesh [default: stanford/stanford-bunny.obj in the shared models folder,
+    /// `$SVO_MODELS` or ../shared/models].
+    #[arg(long)]
+    mesh: Option<PathBuf>,
+    /// A large mesh for the pipeline table, skipped when absent [default:
+    /// stanford/dragon_vrip.obj.gz in the shared models folder].
+    #[arg(long)]
+    large_mesh: Option<PathBuf>,
     /// Do not run open3d and Embree even where installed.
     #[arg(long)]
     no_external: bool,
@@ -46,8 +48,13 @@ fn main() {
                 "docs"
             })
         }),
-        mesh: a.mesh,
-        large_mesh: Some(a.large_mesh),
+        mesh: a
+            .mesh
+            .unwrap_or_else(|| svo_tests::models_dir().join("stanford/stanford-bunny.obj")),
+        large_mesh: Some(
+            a.large_mesh
+                .unwrap_or_else(|| svo_tests::models_dir().join("stanford/dragon_vrip.obj.gz")),
+        ),
         no_external: a.no_external,
         no_gpu: a.no_gpu,
         software_gpu: a.software_gpu,

@@ -46,7 +46,11 @@ impl Report {
 
     /// Writes the document to `path` atomically.
     pub fn write(&self, path: &Path) -> anyhow::Result<()> {
-        svo::atomic_write::write_atomic(path, |w| w.write_all(self.md.as_bytes()))?;
+        // A temporary file beside the target, renamed over it once written.
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+        let mut tmp = tempfile::NamedTempFile::new_in(dir.unwrap_or_else(|| Path::new(".")))?;
+        std::io::Write::write_all(&mut tmp, self.md.as_bytes())?;
+        tmp.persist(path)?;
         Ok(())
     }
 }

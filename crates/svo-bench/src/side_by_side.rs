@@ -8,8 +8,7 @@ use crate::external::{self, Open3dServer};
 use crate::report::median;
 use std::path::Path;
 use std::time::Instant;
-use svo::format_header::BuildInfo;
-use svo::format_write::write_file;
+use svo::io::{BuildInfo, write_file};
 use svo::mesh::Mesh;
 use svo::{BakeOptions, bake_mesh};
 
@@ -126,14 +125,14 @@ pub fn measure(
         // One untimed run of each first: neither tool's first run in a process (page faults
         // of fresh buffers, cold caches) is what the rounds compare.
         server.measure(p.depth, 1)?;
-        bake_mesh(loaded, &opts, &|_, _| {})?;
+        bake_mesh(loaded, &opts)?;
         for _ in 0..p.rounds {
             let o = server.measure(p.depth, p.runs as u32)?;
             row.open3d_voxels = o.voxels;
             let (mut times, mut with_file) = (Vec::new(), Vec::new());
             for _ in 0..p.runs {
                 let t = Instant::now();
-                let (tree, _) = bake_mesh(loaded, &opts, &|_, _| {})?;
+                let (tree, _) = bake_mesh(loaded, &opts)?;
                 times.push(t.elapsed().as_secs_f64());
                 write_file(&tree, &BuildInfo::default(), &out)?;
                 with_file.push(t.elapsed().as_secs_f64());

@@ -7,9 +7,8 @@
 //! the same views; the fractions were chosen on the Stanford bunny.
 
 use glam::{DVec3, Vec3};
-use svo::camera::Camera;
 use svo::mesh::{Material, Mesh};
-use svo::shading::PointLight;
+use svo::render::{Camera, PointLight};
 
 /// A view of the image tables.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

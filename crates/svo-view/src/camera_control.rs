@@ -1,10 +1,10 @@
 //! The window's camera: orbit (drag to turn around a target, wheel to zoom, pan with the
 //! other buttons) and fly (mouse look, keys to move), both turning into an
-//! [`svo::camera::Camera`] for each frame. Pure state and arithmetic, tested without a
+//! [`svo::render::Camera`] for each frame. Pure state and arithmetic, tested without a
 //! window.
 
 use glam::DVec3;
-use svo::camera::Camera;
+use svo::render::Camera;
 
 /// Radians per pixel of mouse movement.
 const TURN_PER_PIXEL: f64 = 0.005;

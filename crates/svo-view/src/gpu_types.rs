@@ -6,12 +6,11 @@
 //! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
 
 use bytemuck::{Pod, Zeroable};
-use svo::camera::{Camera, CameraError};
-use svo::leaf_hit::HitMode;
 use svo::octree::{Channel, Octree};
-use svo::shading::{Phong, PointLight};
-use svo::sky::Sky;
-use svo::whitted::{FresnelMode, MAX_BOUNCES, ShadowMode, TraceOptions};
+use svo::render::{
+    Camera, CameraError, FresnelMode, MAX_BOUNCES, Phong, PointLight, ShadowMode, Sky, TraceOptions,
+};
+use svo::trace::HitMode;
 
 /// The most point lights the shader takes (they live in the uniform buffer).
 pub const MAX_LIGHTS: usize = 16;

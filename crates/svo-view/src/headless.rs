@@ -1,5 +1,5 @@
 //! `svo-view --headless`: a render job on the GPU without a window. The scene (tree,
-//! camera, lights, sky) is set up by the same [`svo::render_job::prepare`] as the CPU
+//! camera, lights, sky) is set up by the same [`svo::render::prepare`] as the CPU
 //! path, the frame is traced by [`crate::gpu_render::GpuRenderer`], and the image or AOV is
 //! written by the CPU path's writer, so `--headless` and `--cpu` give the same files.
 //! With `vs_cpu` the CPU reference renders the same frame and the two are compared.
@@ -9,14 +9,11 @@ use crate::gpu_render::{GpuLayout, GpuRenderer};
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
 use serde::Serialize;
 use std::fmt;
-use svo::image_compare::{self, ImageDiff};
-use svo::leaf_hit::HitMode;
-use svo::render::{RenderStats, render_timed};
-use svo::render_job::{
-    FrameTiming, JobScene, RenderJob, RenderJobError, median, prepare, write_output,
+use svo::render::{
+    FrameTiming, ImageDiff, JobScene, OctreeSurfaces, RenderJob, RenderJobError, RenderStats,
+    Tracer, compare, prepare, render_timed, write_output,
 };
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::Tracer;
+use svo::trace::HitMode;
 use thiserror::Error;
 
 /// Errors of a headless job.
@@ -138,7 +135,7 @@ pub struct HeadlessOptions {
 /// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
 /// than [`MAX_LIGHTS`] lights.
 pub fn check_gpu_support(
-    trace: &svo::whitted::TraceOptions,
+    trace: &svo::render::TraceOptions,
     cube_map: bool,
     lights: usize,
 ) -> Result<(), GpuError> {
@@ -184,7 +181,7 @@ pub struct GpuFrame {
 pub fn render_scene(
     ctx: &GpuContext,
     scene: &JobScene,
-    trace: &svo::whitted::TraceOptions,
+    trace: &svo::render::TraceOptions,
     opts: &HeadlessOptions,
     frames: Option<u32>,
 ) -> Result<GpuFrame, HeadlessError> {
@@ -256,7 +253,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         );
         let (cpu, cpu_times) =
             render_timed(&tracer, &scene.camera, job.bench_frames).map_err(RenderJobError::from)?;
-        let diff = image_compare::compare(&frame, &cpu)
+        let diff = compare(&frame, &cpu)
             .ok_or_else(|| RenderJobError::Invalid("the two renders differ in size".into()))?;
         let leaf_mismatch = frame
             .leaf
@@ -315,4 +312,11 @@ fn stack_place(workgroup: bool, entries: u32) -> String {
         "{entries} ({})",
         if workgroup { "workgroup" } else { "private" }
     )
+}
+
+/// The median of `v` (the upper one of an even count); `v` must not be empty.
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
 }

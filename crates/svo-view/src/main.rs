@@ -8,19 +8,16 @@
 //! svo-view bunny.svo --cpu --aov cost -o cost.png
 //! svo-view bunny.svo --info
 //! ```
-//! The work is in the libraries: the CPU path is [`svo::render_job::run`], the GPU path
+//! The work is in the libraries: the CPU path is [`svo::render::render_file`], the GPU path
 //! [`svo_view::headless::run`], the window `svo_view::window::run`; this file parses
 //! arguments and prints the report.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
 use clap::Parser;
+use glam::DVec3;
 use std::path::PathBuf;
-use svo::aov::Aov;
-use svo::render_job::{
-    LightSpec, RenderJob, parse_dvec3, parse_fresnel, parse_hit, parse_shadows, parse_size, run,
-};
-use svo::whitted::TraceOptions;
+use svo::render::{Aov, LightSpec, RenderJob, TraceOptions, render_file};
 
 /// Render a sparse voxel octree (.svo) file on the GPU or with the CPU ray tracer, or inspect it.
 #[derive(Parser, Debug)]
@@ -77,13 +74,13 @@ struct Args {
     size: (u32, u32),
     /// Camera position x,y,z (scene units). Default: frame the model.
     #[arg(long, value_parser = parse_dvec3)]
-    eye: Option<glam::DVec3>,
+    eye: Option<DVec3>,
     /// Point the camera looks at, x,y,z. Default: the model's centre.
     #[arg(long, value_parser = parse_dvec3)]
-    target: Option<glam::DVec3>,
+    target: Option<DVec3>,
     /// Up direction x,y,z. Default: 0,1,0.
     #[arg(long, value_parser = parse_dvec3)]
-    up: Option<glam::DVec3>,
+    up: Option<DVec3>,
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 40.0)]
     fov: f64,
@@ -93,8 +90,8 @@ struct Args {
     view: Option<String>,
     /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
     /// --mesh or --reference).
-    #[arg(long, default_value = "contour", value_parser = parse_hit)]
-    hit: svo::leaf_hit::HitMode,
+    #[arg(long, default_value = "contour")]
+    hit: svo::trace::HitMode,
     /// Reflection and refraction depth limit (each).
     #[arg(long, default_value_t = 3)]
     bounces: u8,
@@ -112,18 +109,18 @@ struct Args {
     /// Point light `x,y,z[:r,g,b[:intensity]]` (repeatable). Default: the file's lights, else
     /// one white light above the camera; intensity defaults to the squared distance to the
     /// model's centre.
-    #[arg(long, value_parser = LightSpec::parse)]
+    #[arg(long, value_parser = parse_light)]
     light: Vec<LightSpec>,
     /// Shadows: none, opaque, max (the 2019 report's max-refractivity rule) or product
     /// (transmittance product).
-    #[arg(long, default_value = "product", value_parser = parse_shadows)]
-    shadows: svo::whitted::ShadowMode,
+    #[arg(long, default_value = "product")]
+    shadows: svo::render::ShadowMode,
     /// Fresnel formula: exact or schlick.
-    #[arg(long, default_value = "exact", value_parser = parse_fresnel)]
-    fresnel: svo::whitted::FresnelMode,
+    #[arg(long, default_value = "exact")]
+    fresnel: svo::render::FresnelMode,
     /// Write an AOV instead of the colour: depth (float .pfm/.exr, +inf on a miss), normal,
     /// leaf, cost (traversal steps heat map).
-    #[arg(long, value_parser = |s: &str| Aov::parse(s).ok_or_else(|| format!("unknown AOV {s:?} (expected colour, depth, normal, leaf or cost)")))]
+    #[arg(long)]
     aov: Option<Aov>,
     /// Trace every primary ray from the eye: no prepass (on the CPU, the projection of the
     /// octree front to back that decides the primary rays of a band of rows at once; on the
@@ -191,12 +188,12 @@ fn real_main() -> anyhow::Result<()> {
     if args.info {
         let bytes = std::fs::read(&args.file)
             .with_context(|| format!("cannot read {}", args.file.display()))?;
-        let (tree, build) = svo::format_read::from_bytes(&bytes)
+        let (tree, build) = svo::io::from_bytes(&bytes)
             .with_context(|| format!("loading {}", args.file.display()))?;
         say!(
             "{}\n{}",
             args.file.display(),
-            svo::describe::describe(&tree, &build, bytes.len() as u64)
+            svo::io::describe(&tree, &build, bytes.len() as u64)
         );
         return Ok(());
     }
@@ -268,7 +265,7 @@ fn real_main() -> anyhow::Result<()> {
     if !args.cpu {
         return window(&args, &job);
     }
-    let report = run(&job).with_context(|| format!("rendering {}", args.file.display()))?;
+    let report = render_file(&job).with_context(|| format!("rendering {}", args.file.display()))?;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -305,4 +302,104 @@ fn window(_args: &Args, _job: &RenderJob) -> anyhow::Result<()> {
     anyhow::bail!(
         "this svo-view was built without the window feature: render with --headless (GPU) or --cpu"
     )
+}
+
+/// Parses a point light, `x,y,z[:r,g,b[:intensity]]`.
+fn parse_light(s: &str) -> Result<LightSpec, String> {
+    let mut parts = s.split(':');
+    let position = parse_dvec3(parts.next().unwrap_or(""))
+        .map_err(|e| format!("light {s:?}: position: {e}"))?;
+    let colour = parts
+        .next()
+        .map(|c| parse_dvec3(c).map(DVec3::as_vec3))
+        .transpose()
+        .map_err(|e| format!("light {s:?}: colour: {e}"))?;
+    if colour.is_some_and(|c| c.min_element() < 0.0) {
+        return Err(format!("light {s:?}: colour must not be negative"));
+    }
+    let intensity = parts
+        .next()
+        .map(|i| match i.trim().parse::<f32>() {
+            Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+            _ => Err(format!(
+                "light {s:?}: intensity {i:?} is not a non-negative number"
+            )),
+        })
+        .transpose()?;
+    if parts.next().is_some() {
+        return Err(format!("light {s:?}: expected x,y,z[:r,g,b[:intensity]]"));
+    }
+    Ok(LightSpec {
+        position,
+        colour,
+        intensity,
+    })
+}
+
+/// Parses `x,y,z` into finite numbers.
+fn parse_dvec3(s: &str) -> Result<DVec3, String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    if v.len() != 3 {
+        return Err(format!("{s:?} is not x,y,z"));
+    }
+    let mut out = [0.0f64; 3];
+    for (o, t) in out.iter_mut().zip(&v) {
+        *o = t
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{t:?} in {s:?} is not a finite number"))?;
+    }
+    Ok(DVec3::from_array(out))
+}
+
+/// Parses `WIDTHxHEIGHT`.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {s:?} is not WIDTHxHEIGHT"))?;
+    let p = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("size {s:?} is not WIDTHxHEIGHT"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn light_specs() {
+        let l = parse_light("1,2,3").unwrap();
+        assert_eq!(l.position, DVec3::new(1.0, 2.0, 3.0));
+        assert!(l.colour.is_none() && l.intensity.is_none());
+        let l = parse_light("1,2,3:1,0.5,0:40").unwrap();
+        assert_eq!(l.colour, Some(Vec3::new(1.0, 0.5, 0.0)));
+        assert_eq!(l.intensity, Some(40.0));
+        for bad in [
+            "",
+            "1,2",
+            "1,2,x",
+            "1,2,3:1,1",
+            "1,2,3:1,1,1:-1",
+            "1,2,3:1,1,1:1:1",
+            "nan,1,1",
+            "1,2,3:-1,0,0",
+        ] {
+            assert!(parse_light(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("1920x1080"), Ok((1920, 1080)));
+        assert!(
+            parse_size("1920").is_err()
+                && parse_size("ax2").is_err()
+                && parse_size("-1x2").is_err()
+        );
+    }
 }

@@ -19,12 +19,11 @@ use crate::window_blit::{Blit, BlitParams};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
-use svo::aov::Aov;
-use svo::leaf_hit::HitMode;
-use svo::render_job::{
-    JobScene, RenderJob, RenderJobError, occupied_bounds, prepare, write_output,
+use svo::render::{
+    Aov, JobScene, MAX_BOUNCES, RenderJob, RenderJobError, ShadowMode, TraceOptions, prepare,
+    write_output,
 };
-use svo::whitted::{MAX_BOUNCES, ShadowMode, TraceOptions};
+use svo::trace::HitMode;
 use thiserror::Error;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -57,7 +56,7 @@ pub struct WindowOptions {
     pub screenshot: Option<PathBuf>,
 }
 
-/// What a window session did.
+/// What a window did while it was open.
 #[derive(Clone, Debug)]
 pub struct WindowReport {
     /// The adapter.
@@ -89,7 +88,7 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
     let scene = prepare(job)?;
     check_gpu_support(&job.trace, false, scene.lights.len())?;
     let event_loop = EventLoop::new().map_err(|e| WindowError::NoWindow(e.to_string()))?;
-    let (lo, hi) = occupied_bounds(&scene.tree);
+    let (lo, hi) = scene.tree.occupied_bounds();
     let control = CameraControl::from_camera(&scene.camera, (hi - lo).length());
     let mut app = App {
         title: format!("svo-view: {}", job.input.display()),
@@ -185,7 +184,7 @@ impl App {
         el.exit();
     }
 
-    fn lights(&self) -> Vec<svo::shading::PointLight> {
+    fn lights(&self) -> Vec<svo::render::PointLight> {
         if self.settings.lights_on {
             self.scene.lights.clone()
         } else {
@@ -301,7 +300,7 @@ impl App {
             KeyCode::KeyV if !self.scene.views.is_empty() => {
                 // The next camera view stored in the file.
                 self.view = (self.view + 1) % self.scene.views.len();
-                let (lo, hi) = occupied_bounds(&self.scene.tree);
+                let (lo, hi) = self.scene.tree.occupied_bounds();
                 let mode = self.control.mode;
                 self.control =
                     CameraControl::from_camera(&self.scene.views[self.view].1, (hi - lo).length());
@@ -541,7 +540,7 @@ impl App {
             match (capture, &self.opts.screenshot) {
                 (Some(c), Some(path)) => {
                     let rgb = read_capture(&r.ctx, &c)?;
-                    svo::image_write::write_png(path, c.width, c.height, &rgb)
+                    svo::render::write_png(path, c.width, c.height, &rgb)
                         .map_err(RenderJobError::from)?;
                     self.screenshots.push(path.clone());
                 }

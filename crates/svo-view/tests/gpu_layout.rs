@@ -116,16 +116,16 @@ fn shader_constants_name_real_overrides() {
         .collect();
     let v = svo_view::gpu_types::ShaderVariant::everything(
         svo_view::gpu_types::ShaderVariant::for_scene(
-            &svo::builder::from_cells(
-                svo::grid::RootCube {
+            &svo::Octree::from_cells(
+                svo::octree::RootCube {
                     origin: glam::DVec3::ZERO,
                     side: 1.0,
                 },
                 2,
-                [(glam::UVec3::ZERO, svo::builder::Voxel::default())],
+                [(glam::UVec3::ZERO, svo::octree::Voxel::default())],
             )
             .unwrap(),
-            &svo::whitted::TraceOptions::default(),
+            &svo::render::TraceOptions::default(),
             1,
         ),
     );

@@ -19,18 +19,18 @@ fn info_describes_a_file_and_errors_are_one_line() {
     let cells = (0..20u32).map(|i| {
         (
             glam::UVec3::new(i % 4, i / 4 % 4, i / 16),
-            svo::builder::Voxel::glass(),
+            svo::octree::Voxel::glass(),
         )
     });
-    let tree = svo::builder::from_cells(root, 2, cells).unwrap();
+    let tree = svo::Octree::from_cells(root, 2, cells).unwrap();
     let path = d.path().join("t.svo");
-    let build = svo::format_header::BuildInfo {
+    let build = svo::io::BuildInfo {
         generator: "test".into(),
         strategy: "builder".into(),
         source_triangles: 0,
         ..Default::default()
     };
-    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    svo::io::write_file(&tree, &build, &path).unwrap();
 
     let o = view(&[path.to_str().unwrap(), "--info"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -65,17 +65,17 @@ fn info_describes_a_file_and_errors_are_one_line() {
 fn a_closed_stdout_ends_quietly() {
     // `svo-view file --info | head -1`: the reader has gone before the report is written.
     let d = tempfile::tempdir().unwrap();
-    let tree = svo::builder::from_cells(
+    let tree = svo::Octree::from_cells(
         svo::RootCube {
             origin: glam::DVec3::ZERO,
             side: 1.0,
         },
         1,
-        [(glam::UVec3::ZERO, svo::builder::Voxel::default())],
+        [(glam::UVec3::ZERO, svo::octree::Voxel::default())],
     )
     .unwrap();
     let path = d.path().join("one.svo");
-    svo::format_write::write_file(&tree, &svo::format_header::BuildInfo::default(), &path).unwrap();
+    svo::io::write_file(&tree, &svo::io::BuildInfo::default(), &path).unwrap();
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
     let o = Command::new(env!("CARGO_BIN_EXE_svo-view"))

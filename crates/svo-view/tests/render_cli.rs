@@ -92,7 +92,7 @@ fn renders_colour_and_aovs() {
         "--size",
         "40x30",
     ]));
-    let (w, h, v) = svo::image_write::read_pfm(&std::fs::read(&pfm).unwrap()).unwrap();
+    let (w, h, v) = svo::render::read_pfm(&std::fs::read(&pfm).unwrap()).unwrap();
     assert_eq!((w, h, v.len()), (40, 30, 1200));
     assert!(v[0].is_infinite() && v[0] > 0.0);
     let hits: Vec<f32> = v.iter().copied().filter(|x| x.is_finite()).collect();
@@ -296,11 +296,11 @@ fn bad_input_gives_one_line_and_no_output() {
         vec![[0, 1, 2], [3, 3, 3]],
     );
     let opts = svo::BakeOptions {
-        depth: svo::render_job::MAX_TRACE_DEPTH + 1,
+        depth: svo::render::MAX_TRACE_DEPTH + 1,
         ..svo::BakeOptions::default()
     };
-    let (tree, _) = svo::bake_mesh(&tri, &opts, &|_, _| {}).unwrap();
-    svo::format_write::write_file(&tree, &Default::default(), &deep).unwrap();
+    let (tree, _) = svo::bake_mesh(&tri, &opts).unwrap();
+    svo::io::write_file(&tree, &Default::default(), &deep).unwrap();
     let r = view(&[deep.to_str().unwrap(), "-o", o]);
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(
@@ -319,10 +319,10 @@ fn bad_input_gives_one_line_and_no_output() {
 
 #[test]
 fn stored_views_and_lights_are_used_unless_overridden() {
-    use svo::scene_info::{SceneInfo, StoredCamera, StoredLight};
+    use svo::mesh::{SceneInfo, StoredCamera, StoredLight};
     let d = tempfile::tempdir().unwrap();
     let plain = torus_svo(d.path());
-    let (tree, mut build) = svo::format_read::read_file(&plain).unwrap();
+    let (tree, mut build) = svo::io::read_file(&plain).unwrap();
     let view_of = |name: &str, eye: [f64; 3], fov_deg: f64| StoredCamera {
         name: name.into(),
         eye,
@@ -342,7 +342,7 @@ fn stored_views_and_lights_are_used_unless_overridden() {
         ],
     };
     let svo = d.path().join("scene.svo");
-    svo::format_write::write_file(&tree, &build, &svo).unwrap();
+    svo::io::write_file(&tree, &build, &svo).unwrap();
     let s = svo.to_str().unwrap();
     let png = d.path().join("v.png");
     let p = png.to_str().unwrap();
@@ -418,14 +418,14 @@ fn a_scene_file_is_a_triangle_reference() {
     )
     .unwrap();
     let svo_path = d.path().join("s.svo");
-    let job = svo::pipeline::BakeJob {
+    let job = svo::bake::BakeJob {
         input: scene.clone(),
         output: svo_path.clone(),
         options: Default::default(),
         threads: Some(1),
         given: Default::default(),
     };
-    svo::pipeline::run(&job, &|_, _| {}).unwrap();
+    svo::bake::bake_file(&job).unwrap();
     let png = d.path().join("s.png");
     let out = ok(&view(&[
         svo_path.to_str().unwrap(),

@@ -12,7 +12,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("bake");
     g.sample_size(10);
     for (name, path) in &meshes {
-        let mesh = svo::import::load_mesh(path).unwrap();
+        let mesh = svo::Mesh::load(path).unwrap();
         for depth in [6u8, 8] {
             for strategy in [Strategy::Exact, Strategy::PlaneSatLeaf] {
                 let opts = BakeOptions {
@@ -21,7 +21,7 @@ fn bench(c: &mut Criterion) {
                     ..Default::default()
                 };
                 g.bench_function(format!("{name}/d{depth}/{strategy}"), |b| {
-                    b.iter(|| bake_mesh(&mesh, &opts, &|_, _| {}).unwrap())
+                    b.iter(|| bake_mesh(&mesh, &opts).unwrap())
                 });
             }
         }

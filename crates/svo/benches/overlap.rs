@@ -5,8 +5,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
-use svo::overlap::{edges_overlap, plane_overlaps, triangle_box_overlap, vertex_inside};
-use svo::triangle_setup::GridTriangle;
+use svo::voxelize::{
+    GridTriangle, edges_overlap, plane_overlaps, triangle_box_overlap, vertex_inside,
+};
 
 fn cases() -> Vec<(GridTriangle, DVec3)> {
     let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(11);

@@ -6,11 +6,8 @@
 mod common;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use svo::camera::Camera;
-use svo::grid_dda::{DenseGrid, traverse_dda};
-use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, cast, leaf_hit};
-use svo::octree_traverse::MAX_STEPS;
+use svo::render::Camera;
+use svo::trace::{DenseGrid, GridRay, HitMode, MAX_STEPS, cast, leaf_hit, traverse_dda};
 use svo::{BakeOptions, bake_mesh};
 
 fn bench(c: &mut Criterion) {
@@ -18,14 +15,14 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("cast");
     g.sample_size(10);
     for (name, path) in &meshes {
-        let mesh = svo::import::load_mesh(path).unwrap();
+        let mesh = svo::Mesh::load(path).unwrap();
         for depth in [8u8, 10] {
             let opts = BakeOptions {
                 depth,
                 ..Default::default()
             };
-            let tree = bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0;
-            let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+            let tree = bake_mesh(&mesh, &opts).unwrap().0;
+            let (lo, hi) = tree.occupied_bounds();
             let cam = Camera::framing(lo, hi, 480, 270, 40.0);
             let r = cam.rays().unwrap();
             let eye = tree.root.to_grid(cam.eye, depth).as_vec3();

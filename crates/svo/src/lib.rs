@@ -1,122 +1,100 @@
 //! # svo: exact sparse voxel octrees from triangle meshes
 //!
-//! The library behind `svo-bake` and `svo-view`:
+//! Bake a mesh into a sparse voxel octree that holds exactly the cells its triangles touch,
+//! with per-leaf normals, colours, materials and contours; save it in a compact, versioned,
+//! validated file; and cast rays through it or render it with a Whitted ray tracer
+//! (reflections, refractions, shadows), on the CPU here and on the GPU in `svo-view`.
 //!
-//! - [`mesh`]: the in-memory triangle mesh with materials and textures, and its validation;
-//!   importers for OBJ/MTL (and `.obj.gz`), PLY and glTF 2.0 live in [`import`] behind the
-//!   `obj`, `ply` and `gltf` features.
-//! - [`grid`]: the root cube and the mapping from scene space to grid space (`[0, 2^depth]^3`).
-//! - [`child_classify`] and [`overlap`]: the thesis's child AABB classification (Algorithm 1),
-//!   the triangle-plane/box test (Algorithm 2), the separating axis test on the edge axes
-//!   (Algorithm 3) and the vertex-inside shortcut, all with closed cells and a rigorous
-//!   floating-point tolerance so that no touched cell is ever missed.
-//! - [`octree_build`]: the parallel, depth-first, deterministic voxelizer with its
-//!   [`Strategy`] choices; [`octree_layout`] the packed node layout they share with the
-//!   programmatic [`builder`].
-//! - [`leaf_attributes`] and [`contour`]: clipped-area-weighted normals, colours and
-//!   materials per leaf, and the two planes that bound the surface inside each leaf.
-//! - [`octree`]: the [`Octree`] itself: nodes, leaf channels, iteration and cell queries.
-//! - [`format_write`] / [`format_read`]: the versioned `.svo` file (feature `io`), plus
-//!   [`export_binvox`] and [`export_vox`].
-//! - [`bake`]: the whole pipeline with options, timings and the summary report.
+//! ```
+//! use svo::prelude::*;
+//! # let path = std::env::temp_dir().join(format!("svo-front-page-{}.obj", std::process::id()));
+//! # std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")?;
+//! let mesh = Mesh::load(&path)?; // .obj, .obj.gz, .ply, .gltf, .glb
+//! let (tree, _stats) = bake_mesh(&mesh, &BakeOptions::default())?; // 256^3 cells, exact
+//! tree.save(path.with_extension("svo"))?; // atomically; Octree::load validates
+//! let hit = tree.cast(Ray::new(DVec3::new(0.2, 0.2, -1.0), DVec3::Z)).expect("a hit");
+//! println!("t = {}, point = {}, normal = {}", hit.t, hit.point, hit.normal); // scene units
+//! # assert!((hit.t - 1.0).abs() < 0.01 && hit.normal == -DVec3::Z);
+//! # std::fs::remove_file(&path)?;
+//! # std::fs::remove_file(path.with_extension("svo"))?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ## Where things are
+//!
+//! - [`Mesh`] ([`mesh`]): the triangles with their materials, loaded from a path, bytes or
+//!   a reader; [`scene`]: TOML scene files (meshes, primitives, lights, views, CSG).
+//! - [`bake_mesh`] ([`bake`]): mesh to [`Octree`], with [`BakeOptions`] (depth, [`Strategy`],
+//!   channels, padding, solid fill) and [`BakeStats`]; [`bake::bake_file`] is the whole
+//!   `svo-bake` job. [`voxelize`] has the exact triangle/cell tests the voxelizer is made of.
+//! - [`Octree`] ([`octree`]): the packed nodes and leaf channels, queries in scene units
+//!   ([`Octree::leaf_at_point`], [`Octree::leaves`]), and trees built from cells or a
+//!   function ([`Octree::from_cells`], [`Octree::from_fn`]).
+//! - [`io`]: the `.svo` file ([`Octree::save`], [`Octree::load`], bytes, readers and
+//!   writers), `.binvox` and MagicaVoxel `.vox` exports.
+//! - [`trace`]: rays in scene units ([`Octree::cast`], [`Octree::cast_many`]) and the
+//!   traversal beneath them, with a callback per leaf.
+//! - [`render`]: cameras, lights, the Whitted tracer, images and their comparison.
+//!
+//! ## Cargo features
+//!
+//! All on by default except `csg`: `obj`, `ply`, `gltf` (importers), `parallel` (rayon),
+//! `io` (the file formats), `vox` (MagicaVoxel export), `trace` (rays and the CPU
+//! renderer), `image-io` (image files), `reference` (the triangle renderer images are
+//! measured against), `solid` (solid voxelization), `scene` (TOML scene files), and `csg`
+//! (CSG in scene files through the Manifold kernel: C++, needs cmake and ninja). With
+//! `default-features = false` the crate builds octrees in memory and nothing else.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
-#[cfg(feature = "trace")]
-pub mod aov;
+mod attributes;
 pub mod bake;
-pub mod builder;
-#[cfg(feature = "trace")]
-pub mod camera;
-pub mod child_classify;
-pub mod clip;
-pub mod contour;
+mod geometry;
+mod import;
 #[cfg(feature = "io")]
-pub mod describe;
-pub mod estimate;
-#[cfg(feature = "trace")]
-pub mod exact_surfaces;
-pub mod grid;
-#[cfg(feature = "trace")]
-pub mod grid_dda;
-#[cfg(feature = "trace")]
-pub mod grid_ray;
-pub mod grid_slice;
-#[cfg(feature = "trace")]
-pub mod image_compare;
-#[cfg(feature = "image-io")]
-pub mod image_write;
-pub mod import;
-pub mod leaf_attributes;
-#[cfg(feature = "trace")]
-pub mod leaf_hit;
-pub mod material_presets;
+pub mod io;
 pub mod mesh;
-pub mod mesh_closed;
-#[cfg(feature = "reference")]
-pub mod mesh_reference;
-pub mod normal_encoding;
 pub mod octree;
-pub mod octree_build;
-pub mod octree_layout;
-pub mod octree_scatter;
-#[cfg(feature = "trace")]
-pub mod octree_traverse;
-pub mod octree_validate;
-pub mod overlap;
-#[cfg(feature = "trace")]
-pub mod primary_cast;
-#[cfg(feature = "trace")]
-pub mod primary_prepass;
-pub mod primitives;
 #[cfg(feature = "trace")]
 pub mod render;
-#[cfg(all(feature = "image-io", feature = "reference"))]
-pub mod render_job;
-#[cfg(feature = "csg")]
-pub mod scene_csg;
 #[cfg(feature = "scene")]
-pub mod scene_file;
-pub mod scene_info;
-#[cfg(feature = "trace")]
-pub mod scene_report2019;
-#[cfg(feature = "trace")]
-pub mod shading;
-#[cfg(feature = "trace")]
-pub mod sky;
-#[cfg(feature = "solid")]
-pub mod solid_fill;
-pub mod solid_mode;
-pub mod strategy;
-#[cfg(feature = "trace")]
-pub mod surfaces;
+pub mod scene;
+mod solid;
 #[cfg(test)]
 mod test_rng;
-pub mod thread_pool;
-pub mod triangle_setup;
+#[cfg(feature = "io")]
+mod thread_pool;
 #[cfg(feature = "trace")]
-pub mod whitted;
+pub mod trace;
+pub mod voxelize;
 
-#[cfg(feature = "io")]
-pub mod atomic_write;
-#[cfg(feature = "io")]
-pub mod export_binvox;
-#[cfg(feature = "vox")]
-pub mod export_vox;
-#[cfg(feature = "io")]
-pub mod format_header;
-#[cfg(feature = "io")]
-pub mod format_read;
-#[cfg(feature = "io")]
-pub mod format_write;
-#[cfg(feature = "io")]
-pub mod pipeline;
+pub mod prelude;
 
-pub use bake::{BakeError, BakeOptions, BakeStats, bake_mesh};
-pub use grid::RootCube;
-pub use mesh::{Material, Mesh, MeshError, Texture};
-pub use octree::{Channel, ChannelKind, LeafAttributes, LeafValue, Node, Octree};
-pub use strategy::Strategy;
+// The differential checks of the importers, for the fuzz targets only (`cargo fuzz` builds
+// with `--cfg fuzzing`); not part of the API.
+#[cfg(fuzzing)]
+#[doc(hidden)]
+pub use import::differential as fuzz_import;
+
+pub use bake::{BakeError, BakeOptions, BakeStats, ChannelSelection, SolidMode, bake_mesh};
+#[cfg(feature = "io")]
+pub use io::{BuildInfo, FormatError};
+pub use mesh::{Material, Mesh, MeshError, MeshFormat};
+pub use octree::{
+    BuilderError, Channel, ChannelKind, Leaf, LeafAttributes, LeafValue, Node, Octree, RootCube,
+    Voxel,
+};
+#[cfg(feature = "io")]
+pub use thread_pool::ThreadsError;
+#[cfg(feature = "trace")]
+pub use trace::{Hit, HitMode, Ray};
+pub use voxelize::Strategy;
+
+// The README's example is compiled with the doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+struct ReadmeExamples;
 
 /// The deepest tree the library builds: cells are addressed by `u32` coordinates and grid
 /// space must stay exact in `f64` far below a cell.

@@ -1,46 +1,10 @@
-//! Leaf attributes: normal encoding accuracy, contours that enclose the clipped surface,
-//! material mapping from MTL (including `Tr`), textures, binary PLY, padding and the builder.
+//! Leaf attributes: material mapping from MTL (including `Tr`), textures, binary PLY, padding and the builder.
 
 mod common;
 use common::{bake_at, rng};
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
-use svo::clip::clip_to_unit_cube;
 use svo::{BakeOptions, Mesh, bake_mesh};
-
-#[test]
-fn octahedral_normals_are_accurate() {
-    let mut r = rng(21);
-    let mut worst = 0.0f64;
-    for _ in 0..200_000 {
-        let v = Vec3::new(
-            r.random_range(-1.0..1.0),
-            r.random_range(-1.0..1.0),
-            r.random_range(-1.0..1.0),
-        );
-        if v.length() < 1e-3 {
-            continue;
-        }
-        let n = v.normalize();
-        let d = svo::normal_encoding::decode(svo::normal_encoding::encode(n));
-        // 2 asin(|a - b| / 2) in f64: acos of an f32 dot product near 1 has no precision.
-        let chord = (n.as_dvec3() - d.as_dvec3()).length();
-        worst = worst.max((2.0 * (chord / 2.0).asin()).to_degrees());
-    }
-    // Axis directions and the octahedron's seams are exact or nearly.
-    for n in [
-        Vec3::X,
-        Vec3::NEG_X,
-        Vec3::Y,
-        Vec3::NEG_Y,
-        Vec3::Z,
-        Vec3::NEG_Z,
-    ] {
-        assert!(svo::normal_encoding::decode(svo::normal_encoding::encode(n)).dot(n) > 0.999_999);
-    }
-    assert!(worst < 0.004, "worst angular error {worst} degrees");
-    eprintln!("octahedral snorm16 worst error over 200k directions: {worst:.5} degrees");
-}
 
 fn random_mesh(seed: u64, n: usize, size: f64) -> Mesh {
     let mut r = rng(seed);
@@ -59,43 +23,6 @@ fn random_mesh(seed: u64, n: usize, size: f64) -> Mesh {
         m.triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
     }
     m
-}
-
-#[test]
-fn contours_enclose_the_clipped_surface() {
-    // Small triangles (most leaves single-triangle: the no-clipping path) and large ones
-    // (many triangles per leaf: the clipping path).
-    for (seed, n, size, depth) in [(1u64, 300, 0.02, 6u8), (2, 60, 0.3, 5), (3, 200, 0.05, 7)] {
-        let mesh = random_mesh(seed, n, size);
-        let (tree, _) = bake_at(&mesh, depth);
-        let (_, leaves) = svo::bake::voxelize_mesh(&mesh, depth, svo::Strategy::Exact).unwrap();
-        let mut checked = 0;
-        for leaf in tree.leaves() {
-            let v = tree.attributes.get(leaf.index as usize);
-            let (nrm, c) = (
-                v.normal.unwrap(),
-                tree.attributes.contour.get(leaf.index as usize).unwrap(),
-            );
-            let (near, far) = svo::contour::offsets(c, nrm);
-            let i = leaf.index as usize;
-            assert_eq!(leaves.cells[i], leaf.cell.to_array());
-            let m = leaf.cell.as_dvec3();
-            for &t in leaves.triangles(i) {
-                let tri = mesh.triangles[t as usize]
-                    .map(|k| tree.root.to_grid(mesh.positions[k as usize], depth) - m);
-                let p = clip_to_unit_cube(tri);
-                for q in p.points() {
-                    let d = nrm.as_dvec3().dot(*q - DVec3::splat(0.5));
-                    assert!(
-                        d >= f64::from(near) - 1e-5 && d <= f64::from(far) + 1e-5,
-                        "leaf {i}: {d} outside [{near}, {far}]"
-                    );
-                    checked += 1;
-                }
-            }
-        }
-        assert!(checked > 100, "{checked}");
-    }
 }
 
 fn write(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBuf {
@@ -130,7 +57,7 @@ fn mtl_materials_map_as_documented() {
         "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.25 0.5\nvt 0.75 0.5\n\
          usemtl glass\nf 1 2 3\nusemtl mirror\nf 2 4 3\nusemtl dissolve\nf 1 2 4\nusemtl textured\nf 1/1 2/2 3/1\n",
     );
-    let mesh = svo::import::load_mesh(&obj).unwrap();
+    let mesh = Mesh::load(&obj).unwrap();
     let mat = |t: usize| mesh.material_of(t).clone();
     assert!(
         (mat(0).refractivity - 0.75).abs() < 1e-6,
@@ -179,7 +106,7 @@ fn single_material_channels_are_constants() {
         stats.payload_bytes,
         tree.nodes.len() * 8 + tree.leaf_count as usize * 8
     );
-    let sel = svo::leaf_attributes::ChannelSelection::parse("normal").unwrap();
+    let sel = "normal".parse::<svo::ChannelSelection>().unwrap();
     let (tree, _) = bake_mesh(
         &mesh,
         &BakeOptions {
@@ -187,7 +114,6 @@ fn single_material_channels_are_constants() {
             channels: sel,
             ..Default::default()
         },
-        &|_, _| {},
     )
     .unwrap();
     assert!(
@@ -222,8 +148,8 @@ fn binary_ply_reads_like_ascii() {
     std::fs::write(d.path().join("b.ply"), &bytes).unwrap();
     let ascii = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n";
     write(d.path(), "a.ply", ascii);
-    let a = svo::import::load_mesh(&d.path().join("a.ply")).unwrap();
-    let b = svo::import::load_mesh(&d.path().join("b.ply")).unwrap();
+    let a = Mesh::load(d.path().join("a.ply")).unwrap();
+    let b = Mesh::load(d.path().join("b.ply")).unwrap();
     assert_eq!(a.positions, b.positions);
     assert_eq!(a.triangles, b.triangles);
 }
@@ -239,7 +165,6 @@ fn padding_shifts_cells_and_grows_the_root() {
             pad: 2,
             ..Default::default()
         },
-        &|_, _| {},
     )
     .unwrap();
     assert!(padded.root.side > plain.root.side);
@@ -260,11 +185,11 @@ fn builder_from_fn_equals_from_cells() {
     let inside = |c: UVec3| {
         (c.as_vec3() - Vec3::splat(7.5)).length() < 6.0 && !(c.x + c.y + c.z).is_multiple_of(3)
     };
-    let voxel = |c: UVec3| svo::builder::Voxel {
+    let voxel = |c: UVec3| svo::octree::Voxel {
         colour: [c.x as f32 / 16.0, 0.5, 0.5, 1.0],
         ..Default::default()
     };
-    let a = svo::builder::from_fn(root, 4, |_, _| true, |c| inside(c).then(|| voxel(c))).unwrap();
+    let a = svo::Octree::from_fn(root, 4, |_, _| true, |c| inside(c).then(|| voxel(c))).unwrap();
     let cells: Vec<_> = (0..16u32 * 16 * 16)
         .map(|i| UVec3::new(i / 256, (i / 16) % 16, i % 16))
         .filter(|&c| inside(c))
@@ -272,15 +197,15 @@ fn builder_from_fn_equals_from_cells() {
     // Reverse order and a duplicate: the builder sorts and keeps the last.
     let mut list: Vec<_> = cells.iter().rev().map(|&c| (c, voxel(c))).collect();
     list.push((cells[0], voxel(cells[0])));
-    let b = svo::builder::from_cells(root, 4, list).unwrap();
+    let b = svo::Octree::from_cells(root, 4, list).unwrap();
     assert_eq!(a, b);
-    svo::octree_validate::validate(&a).unwrap();
+    a.validate().unwrap();
     for &c in &cells {
         assert!(a.leaf_at(c).is_some());
     }
     assert!(matches!(
-        svo::builder::from_cells(root, 4, [(UVec3::new(16, 0, 0), voxel(UVec3::ZERO))]),
-        Err(svo::builder::BuilderError::CellOutOfRange { .. })
+        svo::Octree::from_cells(root, 4, [(UVec3::new(16, 0, 0), voxel(UVec3::ZERO))]),
+        Err(svo::octree::BuilderError::CellOutOfRange { .. })
     ));
-    assert!(svo::builder::from_cells(root, 0, []).is_err());
+    assert!(svo::Octree::from_cells(root, 0, []).is_err());
 }

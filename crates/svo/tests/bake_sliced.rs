@@ -1,16 +1,15 @@
-//! The bake's bottom levels slice triangles through the grid ([`svo::grid_slice`]) and
+//! The bake's bottom levels slice triangles through the grid (`geometry/grid_slice.rs`) and
 //! decide the doubtful cells with the exact test; the voxelizer alone tests every candidate
 //! cell. Both must give the same cells and contacts: against the exact integer brute force
 //! on lattice meshes (where contacts on faces, edges and corners are exact ties), against
 //! each other on generic, axis-aligned, huge and offset meshes at depths up to 9, and the
-//! leaves' normals against per-contact clipping.
+//! leaves' normals against per-contact clipping (the tests' own clipping).
 
 mod common;
 use common::*;
 use glam::{DVec3, Vec3};
 use rand::Rng;
 use std::collections::{BTreeMap, BTreeSet};
-use svo::clip::clip_to_unit_cube;
 use svo::mesh::Mesh;
 use svo::{BakeOptions, Strategy, bake_mesh};
 
@@ -31,7 +30,7 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
         depth,
         ..Default::default()
     };
-    let (tree, stats) = bake_mesh(mesh, &opts, &|_, _| {}).unwrap();
+    let (tree, stats) = bake_mesh(mesh, &opts).unwrap();
     let (root, leaves) = svo::bake::voxelize_mesh(mesh, depth, Strategy::Exact).unwrap();
     let expect: BTreeMap<[u32; 3], usize> = (0..leaves.cells.len())
         .map(|i| (leaves.cells[i], i))
@@ -50,7 +49,7 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
     // overlaps after shrinking the cell by 1e-9 on every side must be in the tree.
     let grid = |t: u32| {
         let tri = mesh.triangles[t as usize];
-        svo::triangle_setup::GridTriangle::new(
+        svo::voxelize::GridTriangle::new(
             root.to_grid(mesh.positions[tri[0] as usize], depth),
             root.to_grid(mesh.positions[tri[1] as usize], depth),
             root.to_grid(mesh.positions[tri[2] as usize], depth),
@@ -62,7 +61,7 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
         let solid = leaves
             .triangles(expect[cell])
             .iter()
-            .any(|&t| svo::overlap::triangle_box_overlap(&grid(t), m + 1e-9, 1.0 - 2e-9));
+            .any(|&t| svo::voxelize::triangle_box_overlap(&grid(t), m + 1e-9, 1.0 - 2e-9));
         assert!(
             !solid,
             "{what}: missed the touched cell {cell:?} at depth {depth}"
@@ -88,7 +87,7 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
             let tri = mesh.triangles[t as usize]
                 .map(|k| root.to_grid(mesh.positions[k as usize], depth) - m);
             let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-            let a = clip_to_unit_cube(tri).area();
+            let a = clipped_area(tri);
             if n.length() > 0.0 {
                 s += n.normalize() * a;
                 units.push(n.normalize());
@@ -124,7 +123,7 @@ fn check_lattice(tris: &[[I3; 3]], depth: u8, what: &str) {
         depth,
         ..Default::default()
     };
-    let (tree, stats) = bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+    let (tree, stats) = bake_mesh(&mesh, &opts).unwrap();
     let got: BTreeSet<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
     let want: BTreeSet<[u32; 3]> = expect.keys().copied().collect();
     let missed: Vec<_> = want.difference(&got).collect();

@@ -23,10 +23,8 @@ mod common;
 use glam::{DVec3, UVec3};
 use rand::Rng;
 use svo::RootCube;
-use svo::builder::{Voxel, from_cells};
-use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, cast};
-use svo::octree_traverse::MAX_STEPS;
+use svo::octree::{Octree, Voxel};
+use svo::trace::{GridRay, HitMode, MAX_STEPS, cast};
 
 /// The first leaf the `f64` ray `o + t d` enters, and where (cells along the unit ray).
 fn reference(cells: &[UVec3], o: DVec3, d: DVec3) -> Option<(UVec3, f64)> {
@@ -79,7 +77,8 @@ fn deep_trees_hit_the_right_leaf_at_the_right_distance() {
             origin: DVec3::ZERO,
             side: side as f64,
         };
-        let tree = from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default()))).unwrap();
+        let tree =
+            Octree::from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default()))).unwrap();
         let (mut hits, mut wrong, mut worst) = (0usize, 0usize, 0.0f64);
         let mut worst_allowed_excess = f64::NEG_INFINITY;
         let rays = 3000;

@@ -38,7 +38,7 @@ fn leaves_per_depth(mesh: &Mesh, pieces: usize) -> Vec<usize> {
                 depth,
                 ..Default::default()
             };
-            let (tree, stats) = bake_mesh(mesh, &opts, &|_, _| {}).unwrap();
+            let (tree, stats) = bake_mesh(mesh, &opts).unwrap();
             assert_eq!(stats.false_positives, 0);
             let leaves = tree.leaf_count as usize;
             // Inner nodes: at most about one per leaf (a line of cells has about one parent

@@ -50,17 +50,17 @@ fn seeds_are_valid_inputs() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/fuzz");
     let read = |p: &str| std::fs::read(dir.join(p)).unwrap();
     for (file, format) in [
-        ("mesh_import/seed-obj", svo::import::MeshFormat::Obj),
-        ("mesh_import/seed-obj-gz", svo::import::MeshFormat::ObjGz),
-        ("mesh_import/seed-ply", svo::import::MeshFormat::Ply),
-        ("mesh_import/seed-ply-ascii", svo::import::MeshFormat::Ply),
-        ("mesh_import/seed-gltf", svo::import::MeshFormat::Gltf),
+        ("mesh_import/seed-obj", svo::MeshFormat::Obj),
+        ("mesh_import/seed-obj-gz", svo::MeshFormat::ObjGz),
+        ("mesh_import/seed-ply", svo::MeshFormat::Ply),
+        ("mesh_import/seed-ply-ascii", svo::MeshFormat::Ply),
+        ("mesh_import/seed-gltf", svo::MeshFormat::Gltf),
     ] {
         let bytes = read(file);
-        let mesh = svo::import::mesh_from_bytes(&bytes[1..], format, Path::new(file))
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        let mesh =
+            svo::Mesh::from_bytes(&bytes[1..], format).unwrap_or_else(|e| panic!("{file}: {e}"));
         assert!(!mesh.triangles.is_empty(), "{file}");
     }
-    assert!(svo::format_read::from_bytes(&read("svo_read/seed-depth3.svo")).is_ok());
-    assert!(svo::format_read::from_bytes(&read("svo_read/seed-truncated")).is_err());
+    assert!(svo::io::from_bytes(&read("svo_read/seed-depth3.svo")).is_ok());
+    assert!(svo::io::from_bytes(&read("svo_read/seed-truncated")).is_err());
 }

@@ -4,22 +4,12 @@
 #![cfg(all(feature = "gltf", feature = "io"))]
 
 use serde_json::{Value, json};
-use std::path::Path;
-use svo::import::{MeshFormat, mesh_from_bytes};
-
-fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<svo::Mesh, svo::MeshError> {
-    mesh_from_bytes(bytes, MeshFormat::Gltf, name)
-}
+use svo::{Mesh, MeshFormat};
 
 /// `Box-Embedded.gltf` (from `../shared/models`) with lights and cameras added.
 fn box_with(extra: impl FnOnce(&mut Value)) -> Option<Vec<u8>> {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/gltf/Box-Embedded.gltf");
-    let Ok(text) = std::fs::read_to_string(&path) else {
-        assert!(std::env::var_os("CI").is_none(), "shared models missing");
-        eprintln!("notice: skipping, {} not found", path.display());
-        return None;
-    };
+    let path = svo_tests::model("gltf/Box-Embedded.gltf")?;
+    let text = std::fs::read_to_string(&path).unwrap();
     let mut j: Value = serde_json::from_str(&text).unwrap();
     j["extensionsUsed"] = json!(["KHR_lights_punctual"]);
     j["extensions"] = json!({"KHR_lights_punctual": {"lights": [
@@ -54,7 +44,7 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
     let Some(bytes) = box_with(|_| {}) else {
         return;
     };
-    let mesh = gltf_from_bytes(&bytes, Path::new("box.gltf")).unwrap();
+    let mesh = Mesh::from_bytes(&bytes, MeshFormat::Gltf).unwrap();
     let s = &mesh.scene;
     // The point light and the spot (as a point light); not the directional one.
     assert_eq!(s.lights.len(), 2, "{s:?}");
@@ -90,14 +80,13 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
             depth: 3,
             ..Default::default()
         },
-        &|_, _| {},
     )
     .unwrap();
     let d = tempfile::tempdir().unwrap();
     let gltf = d.path().join("box.gltf");
     std::fs::write(&gltf, &bytes).unwrap();
     let out = d.path().join("box.svo");
-    let job = svo::pipeline::BakeJob {
+    let job = svo::bake::BakeJob {
         input: gltf,
         output: out.clone(),
         options: svo::BakeOptions {
@@ -107,8 +96,8 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
         threads: Some(1),
         given: Default::default(),
     };
-    svo::pipeline::run(&job, &|_, _| {}).unwrap();
-    let (back, build) = svo::format_read::read_file(&out).unwrap();
+    svo::bake::bake_file(&job).unwrap();
+    let (back, build) = svo::io::read_file(&out).unwrap();
     assert_eq!(back, tree);
     assert_eq!(&build.scene, s);
 }
@@ -142,7 +131,7 @@ fn malformed_lights_and_cameras_never_panic() {
     ];
     for (i, f) in cases.iter().enumerate() {
         let Some(bytes) = box_with(f) else { return };
-        match gltf_from_bytes(&bytes, Path::new("box.gltf")) {
+        match Mesh::from_bytes(&bytes, MeshFormat::Gltf) {
             Ok(m) => m.scene.validate().unwrap(),
             Err(e) => assert!(!e.to_string().is_empty(), "case {i}"),
         }

@@ -9,15 +9,11 @@
 
 use glam::{DVec3, UVec3, Vec3};
 use std::path::{Path, PathBuf};
-use svo::builder::{Voxel, from_fn};
-use svo::camera::Camera;
-use svo::leaf_hit::HitMode;
-use svo::octree::Octree;
-use svo::render::{Frame, render};
-use svo::shading::{Phong, PointLight};
-use svo::sky::Sky;
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+use svo::octree::{Octree, Voxel};
+use svo::render::{
+    Camera, Frame, OctreeSurfaces, Phong, PointLight, ShadowMode, Sky, TraceOptions, Tracer, render,
+};
+use svo::trace::HitMode;
 use svo::{BakeOptions, RootCube};
 
 fn root_dir() -> PathBuf {
@@ -25,12 +21,12 @@ fn root_dir() -> PathBuf {
 }
 
 fn torus(depth: u8) -> Octree {
-    let mesh = svo::import::load_mesh(&root_dir().join("fixtures/torus.obj")).unwrap();
+    let mesh = svo::Mesh::load(root_dir().join("fixtures/torus.obj")).unwrap();
     let opts = BakeOptions {
         depth,
         ..BakeOptions::default()
     };
-    svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0
+    svo::bake_mesh(&mesh, &opts).unwrap().0
 }
 
 /// A small version of the 2019 report's scene: a solid frame with glass panes (holes in
@@ -78,11 +74,11 @@ fn report_scene() -> Octree {
         }
         (a.max_element() < 0.25).then(|| Voxel::semi_solid([0.8, 0.2, 0.2, 1.0]))
     };
-    from_fn(root, 5, |_, _| true, f).unwrap()
+    Octree::from_fn(root, 5, |_, _| true, f).unwrap()
 }
 
 fn render_scene(tree: &Octree, mode: HitMode, eye_dir: DVec3, zoom: f64, bounces: u8) -> Frame {
-    let (lo, hi) = svo::render_job::occupied_bounds(tree);
+    let (lo, hi) = tree.occupied_bounds();
     let mut cam = Camera::framing(lo, hi, 96, 72, 40.0);
     let centre = (lo + hi) * 0.5;
     cam.eye = centre + eye_dir * (cam.eye - centre).length() / zoom;
@@ -108,7 +104,7 @@ fn render_scene(tree: &Octree, mode: HitMode, eye_dir: DVec3, zoom: f64, bounces
 }
 
 fn check(name: &str, f: &Frame) {
-    let rgb = svo::aov::colour_rgb8(f);
+    let rgb = svo::render::colour_rgb8(f);
     let path = root_dir()
         .join("fixtures/golden")
         .join(format!("{name}.png"));

@@ -94,7 +94,7 @@ fn inexact_strategies_count_their_false_positives() {
                     strategy,
                     ..Default::default()
                 };
-                let (tree, stats) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
+                let (tree, stats) = svo::bake_mesh(&mesh, &opts).unwrap();
                 let extra = tree
                     .leaves()
                     .filter(|l| !expect.contains_key(&l.cell.to_array()))
@@ -185,8 +185,8 @@ fn tree_structure_matches_leaf_cells() {
             depth,
             ..Default::default()
         };
-        let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
-        svo::octree_validate::validate(&tree).unwrap();
+        let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
+        tree.validate().unwrap();
         let (_, leaves) = voxelize_mesh(&mesh, depth, Strategy::Exact).unwrap();
         // Iteration yields leaf indices in array order with the voxelizer's cells.
         let it: Vec<_> = tree.leaves().collect();

@@ -3,10 +3,9 @@
 
 mod common;
 use common::*;
-use svo::overlap::{
-    aabb_overlaps, edges_overlap, plane_overlaps, triangle_box_overlap, vertex_inside,
+use svo::voxelize::{
+    GridTriangle, aabb_overlaps, edges_overlap, plane_overlaps, triangle_box_overlap, vertex_inside,
 };
-use svo::triangle_setup::GridTriangle;
 
 fn check(v: [[i128; 3]; 3], m: [i128; 3], s: i128) {
     let t = GridTriangle::new(to_f(v[0]), to_f(v[1]), to_f(v[2]));

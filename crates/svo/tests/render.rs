@@ -8,18 +8,21 @@ mod common;
 
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
-use svo::RootCube;
-use svo::builder::{Voxel, from_cells};
-use svo::camera::Camera;
-use svo::exact_surfaces::exact_surfaces;
-use svo::leaf_hit::HitMode;
-use svo::mesh_reference::MeshSurfaces;
-use svo::octree::Octree;
-use svo::render::render;
-use svo::shading::{Phong, PointLight};
-use svo::sky::Sky;
-use svo::surfaces::{OctreeSurfaces, Query, Surfaces};
-use svo::whitted::{ShadowMode, TraceOptions, Tracer};
+use svo::render::{
+    Camera, MeshSurfaces, OctreeSurfaces, Phong, PointLight, Query, ShadowMode, Sky, Surfaces,
+    TraceOptions, Tracer, exact_surfaces, render,
+};
+use svo::{HitMode, Octree, RootCube, Voxel};
+
+/// An sRGB byte as linear light (IEC 61966-2-1), as the stored colours are decoded.
+fn srgb_to_linear(byte: u8) -> f32 {
+    let c = f32::from(byte) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
 
 /// A 16^3 grid over `[0, 16]^3` scene units, so scene and grid coordinates coincide.
 fn grid16(cells: impl IntoIterator<Item = (UVec3, Voxel)>) -> Octree {
@@ -27,7 +30,7 @@ fn grid16(cells: impl IntoIterator<Item = (UVec3, Voxel)>) -> Octree {
         origin: DVec3::ZERO,
         side: 16.0,
     };
-    from_cells(root, 4, cells).unwrap()
+    Octree::from_cells(root, 4, cells).unwrap()
 }
 
 fn grey(c: f32) -> Voxel {
@@ -77,7 +80,9 @@ fn shade<S: Surfaces>(t: &Tracer<S>, from: Vec3, to: Vec3) -> Vec3 {
 fn lit_wall_matches_phong_with_inverse_square_falloff() {
     // A wall: the layer z = 0 (cells z in [0, 1]), albedo 0.5 (sRGB byte 188 -> linear).
     let wall = grid16((0..16).flat_map(|x| (0..16).map(move |y| (UVec3::new(x, y, 0), grey(0.5)))));
-    let albedo = svo::mesh::srgb_to_linear(svo::mesh::linear_to_srgb(0.5));
+    let stored = wall.attributes.get(0).colour.unwrap()[0];
+    assert_eq!(stored, 188);
+    let albedo = srgb_to_linear(stored);
     let phong = Phong::default();
     let light = PointLight {
         position: DVec3::new(8.5, 8.5, 5.0),
@@ -162,7 +167,7 @@ fn shadows_through_two_glass_panes_in_each_mode() {
         );
         shade(&t, eye, at)
     };
-    let albedo = svo::mesh::srgb_to_linear(svo::mesh::linear_to_srgb(0.5));
+    let albedo = srgb_to_linear(188);
     let ambient = Vec3::splat(albedo * Phong::default().ambient);
     let lit = radiance(ShadowMode::None) - ambient;
     assert!(lit.x > 0.05, "the floor must be lit: {lit}");
@@ -379,7 +384,7 @@ fn nested_media_refract_with_the_surrounding_medium() {
     );
     let tr = |a: f32, b: f32| 1.0 - ((a - b) / (a + b)).powi(2);
     // The IORs go through the file's 1/16384 steps.
-    let q = |n: f32| svo::octree::ior_decode(svo::octree::ior_encode(n));
+    let q = |n: f32| 1.0 + ((n - 1.0) * 16384.0).round() / 16384.0;
     let (w, g) = (q(water), q(glass));
     let want = tr(1.0, w) * tr(w, g) * tr(g, w) * tr(w, 1.0);
     let unnested = tr(1.0, w) * tr(1.0, g) * tr(g, 1.0) * tr(w, 1.0);
@@ -398,7 +403,7 @@ fn nested_media_refract_with_the_surrounding_medium() {
 
 fn torus_mesh() -> svo::Mesh {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
-    svo::import::load_mesh(std::path::Path::new(path)).unwrap()
+    svo::Mesh::load(std::path::Path::new(path)).unwrap()
 }
 
 fn torus_tree(depth: u8) -> Octree {
@@ -407,7 +412,7 @@ fn torus_tree(depth: u8) -> Octree {
         depth,
         ..svo::BakeOptions::default()
     };
-    svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap().0
+    svo::bake_mesh(&mesh, &opts).unwrap().0
 }
 
 #[test]
@@ -432,7 +437,7 @@ fn exact_hits_equal_the_triangle_reference() {
             rng.random_range(0.0..n),
             rng.random_range(0.0..n),
         );
-        let ray = svo::grid_ray::GridRay {
+        let ray = svo::trace::GridRay {
             origin: o,
             dir: (target - o).normalize(),
         };
@@ -458,7 +463,7 @@ fn exact_hits_equal_the_triangle_reference() {
 #[test]
 fn images_do_not_depend_on_the_thread_count() {
     let tree = torus_tree(6);
-    let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+    let (lo, hi) = tree.occupied_bounds();
     let cam = Camera::framing(lo, hi, 96, 64, 40.0);
     let light = PointLight {
         position: cam.eye + DVec3::new(0.0, 10.0, 0.0),
@@ -532,7 +537,7 @@ fn solid_glass_block_without_normals_is_one_medium() {
 #[test]
 fn primary_prepass_changes_nothing_but_the_steps() {
     let tree = torus_tree(7);
-    let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+    let (lo, hi) = tree.occupied_bounds();
     let base = Camera::framing(lo, hi, 120, 90, 40.0);
     let c = (lo + hi) * 0.5;
     // The centre of a leaf: every box around it holds the eye.
@@ -609,8 +614,8 @@ fn with_and_without_prepass(
     // Casting the primary rays alone finds the same hits, with the prepass and without.
     for prepass in [true, false] {
         let t = tracer(prepass);
-        let mut hits = svo::primary_cast::Hits::default();
-        svo::primary_cast::cast_primary(&t, cam, &mut hits).unwrap();
+        let mut hits = svo::render::Hits::default();
+        svo::render::cast_primary(&t, cam, &mut hits).unwrap();
         assert_eq!(hits.leaf, a.leaf, "{what}: cast leaves, prepass {prepass}");
         assert!(
             hits.depth
@@ -680,13 +685,13 @@ fn primary_prepass_changes_nothing_on_random_views() {
             origin: DVec3::ZERO,
             side: f64::from(n),
         };
-        let random = from_cells(root, depth, cells).unwrap();
+        let random = Octree::from_cells(root, depth, cells).unwrap();
         let torus = torus_tree(depth);
         for (name, tree, modes) in [
             ("random cells", &random, &[HitMode::Cube][..]),
             ("torus", &torus, &[HitMode::Cube, HitMode::Contour][..]),
         ] {
-            let (lo, hi) = svo::render_job::occupied_bounds(tree);
+            let (lo, hi) = tree.occupied_bounds();
             let c = (lo + hi) * 0.5;
             let r = (hi - lo).length();
             // Scene units per cell.
@@ -791,7 +796,7 @@ fn facing_mirrors_stop_at_the_reflection_limit() {
         colour: Vec3::ONE,
         intensity: 40.0,
     };
-    for limit in [0u8, 1, 2, 7, svo::whitted::MAX_BOUNCES] {
+    for limit in [0u8, 1, 2, 7, svo::render::MAX_BOUNCES] {
         let o = TraceOptions {
             max_reflections: limit,
             ..opts(ShadowMode::Opaque)
@@ -823,7 +828,7 @@ fn facing_mirrors_stop_at_the_reflection_limit() {
             black_sky(),
             Phong::default(),
             TraceOptions {
-                max_reflections: svo::whitted::MAX_BOUNCES,
+                max_reflections: svo::render::MAX_BOUNCES,
                 max_path_bounces: path,
                 ..opts(ShadowMode::Opaque)
             },

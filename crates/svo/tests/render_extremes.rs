@@ -5,26 +5,22 @@
 #![cfg(all(feature = "obj", feature = "image-io", feature = "reference"))]
 
 use glam::{DVec3, UVec3, Vec3};
-use svo::builder::{Voxel, from_cells};
-use svo::camera::Camera;
-use svo::leaf_hit::HitMode;
-use svo::octree::Octree;
-use svo::render::{Frame, render};
-use svo::shading::{Phong, PointLight};
-use svo::sky::Sky;
-use svo::surfaces::OctreeSurfaces;
-use svo::whitted::{TraceOptions, Tracer};
+use svo::octree::{Octree, Voxel};
+use svo::render::{
+    Camera, Frame, OctreeSurfaces, Phong, PointLight, Sky, TraceOptions, Tracer, render,
+};
+use svo::trace::HitMode;
 use svo::{BakeOptions, Mesh, RootCube, bake_mesh};
 
 fn torus() -> Mesh {
     let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
-    svo::import::load_mesh(std::path::Path::new(p)).unwrap()
+    Mesh::load(std::path::Path::new(p)).unwrap()
 }
 
 /// Renders `tree` from a camera placed relative to the model's bounds (so transformed
 /// copies of a scene get the transformed camera), with a light placed the same way.
 fn shoot(tree: &Octree, mode: HitMode) -> Frame {
-    let (lo, hi) = svo::render_job::occupied_bounds(tree);
+    let (lo, hi) = tree.occupied_bounds();
     let cam = Camera::framing(lo, hi, 64, 48, 40.0);
     let size = (hi - lo).length();
     let light = PointLight {
@@ -58,7 +54,7 @@ fn bake(m: &Mesh, depth: u8) -> Octree {
         depth,
         ..BakeOptions::default()
     };
-    bake_mesh(m, &opts, &|_, _| {}).unwrap().0
+    bake_mesh(m, &opts).unwrap().0
 }
 
 #[test]
@@ -78,7 +74,7 @@ fn far_from_the_origin_and_at_extreme_scales_the_image_is_the_same() {
             HitMode::Contour,
         );
         assert_eq!(f.stats.capped, 0);
-        let d = svo::image_compare::compare(&f, &reference).unwrap();
+        let d = svo::render::compare(&f, &reference).unwrap();
         assert!(
             d.psnr_db > 70.0 && d.hit_mismatch == 0.0,
             "scale {scale} offset {offset}: PSNR {} dB, hit/miss {}",
@@ -96,7 +92,7 @@ fn empty_shallow_and_deep_trees() {
         side: 1.0,
     };
     // No leaves: all sky.
-    let empty = from_cells(root, 3, std::iter::empty()).unwrap();
+    let empty = Octree::from_cells(root, 3, std::iter::empty()).unwrap();
     let cam = Camera {
         eye: DVec3::new(0.5, 0.5, 3.0),
         target: DVec3::splat(0.5),
@@ -124,13 +120,13 @@ fn empty_shallow_and_deep_trees() {
                 .collect(),
         ),
     ] {
-        let tree = from_cells(
+        let tree = Octree::from_cells(
             root,
             depth,
             cells.into_iter().map(|c| (c, Voxel::default())),
         )
         .unwrap();
-        let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+        let (lo, hi) = tree.occupied_bounds();
         let cam = Camera::framing(lo, hi, 16, 16, 40.0);
         let t = Tracer::new(
             OctreeSurfaces::new(&tree, HitMode::Cube),
@@ -153,7 +149,7 @@ fn empty_shallow_and_deep_trees() {
 #[test]
 fn camera_inside_the_model_and_axis_aligned_views() {
     let tree = bake(&torus(), 6);
-    let (lo, hi) = svo::render_job::occupied_bounds(&tree);
+    let (lo, hi) = tree.occupied_bounds();
     let c = (lo + hi) * 0.5;
     let r = (hi - lo).max_element() * 0.5;
     // Inside the tube of the torus (the ring lies in the y = 0 plane around the centre), and

@@ -11,15 +11,12 @@ mod common;
 use glam::{DMat3, DVec3, UVec3};
 use rand::Rng;
 use std::collections::BTreeSet;
-use svo::bake::{BakeError, BakeOptions, bake_mesh};
+use svo::bake::{BakeError, BakeOptions, SolidMode, bake_mesh};
 use svo::mesh::Mesh;
 use svo::octree::{NO_NORMAL, Octree};
-use svo::primitives::{cuboid, sphere};
-use svo::solid_mode::SolidMode;
 
 fn torus() -> Mesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/torus.obj");
-    svo::import::load_mesh(std::path::Path::new(path)).unwrap()
+    Mesh::load(svo_tests::repo_root().join("fixtures/torus.obj")).unwrap()
 }
 
 /// Appends `b`'s triangles to `a`.
@@ -88,7 +85,7 @@ fn bake(m: &Mesh, depth: u8, solid: Option<SolidMode>) -> Octree {
         solid,
         ..BakeOptions::default()
     };
-    bake_mesh(m, &opts, &|_, _| {}).unwrap().0
+    bake_mesh(m, &opts).unwrap().0
 }
 
 fn cells(t: &Octree) -> BTreeSet<[u32; 3]> {
@@ -106,7 +103,7 @@ fn check_against_oracle(m: &Mesh, truth: &Mesh, depth: u8, solid: &Octree, what:
         f64::from(1u32 << depth),
         "{what}: root not pinned"
     );
-    svo::octree_validate::validate(solid).unwrap();
+    solid.validate().unwrap();
     let side = 1u32 << depth;
     let mut interior = 0;
     for x in 0..side {
@@ -143,8 +140,8 @@ fn closed_meshes_in_general_position_fill_exactly() {
     let depth = 5;
     let n = 32.0;
     let shapes = [
-        ("box", cuboid(DVec3::ZERO, DVec3::new(1.0, 0.7, 0.4))),
-        ("sphere", sphere(DVec3::ZERO, 1.0, 4)),
+        ("box", Mesh::cuboid(DVec3::ZERO, DVec3::new(1.0, 0.7, 0.4))),
+        ("sphere", Mesh::sphere(DVec3::ZERO, 1.0, 4)),
     ];
     for (name, shape) in &shapes {
         for k in 0..4 {
@@ -177,18 +174,21 @@ fn faces_edges_and_vertices_on_column_lines_and_cell_planes() {
         // Faces through the cell centres' planes, edges along column lines.
         (
             "half-integer box",
-            cuboid(DVec3::splat(2.5), DVec3::new(9.5, 11.5, 7.5)),
+            Mesh::cuboid(DVec3::splat(2.5), DVec3::new(9.5, 11.5, 7.5)),
         ),
         // Faces on cell planes.
         (
             "integer box",
-            cuboid(DVec3::splat(3.0), DVec3::new(12.0, 9.0, 13.0)),
+            Mesh::cuboid(DVec3::splat(3.0), DVec3::new(12.0, 9.0, 13.0)),
         ),
         // A sphere with poles on column lines (centre at a cell centre) and its octant
         // vertices' diagonals through column points.
-        ("centred sphere", sphere(DVec3::splat(8.5), 5.0, 3)),
+        ("centred sphere", Mesh::sphere(DVec3::splat(8.5), 5.0, 3)),
         // An octahedron with every vertex at a cell centre.
-        ("octahedron", sphere(DVec3::new(7.5, 8.5, 6.5), 5.0, 1)),
+        (
+            "octahedron",
+            Mesh::sphere(DVec3::new(7.5, 8.5, 6.5), 5.0, 1),
+        ),
     ];
     for (name, m) in cases {
         let m = pinned(m, n);
@@ -214,7 +214,7 @@ fn a_nonconvex_closed_mesh_fills_exactly() {
         ),
         16.0,
     );
-    assert_eq!(svo::mesh_closed::open_edges(&m), 0);
+    assert_eq!(m.open_edges(), 0);
     let solid = bake(&m, 4, Some(SolidMode::Closed));
     let interior = check_against_oracle(&m, &m, 4, &solid, "torus");
     assert!(interior > 10, "{interior}");
@@ -223,7 +223,7 @@ fn a_nonconvex_closed_mesh_fills_exactly() {
 #[test]
 fn open_meshes_are_refused_unless_voted() {
     let closed = pinned(
-        cuboid(DVec3::new(3.3, 2.6, 4.1), DVec3::new(12.7, 13.2, 11.9)),
+        Mesh::cuboid(DVec3::new(3.3, 2.6, 4.1), DVec3::new(12.7, 13.2, 11.9)),
         16.0,
     );
     let mut open = closed.clone();
@@ -233,7 +233,7 @@ fn open_meshes_are_refused_unless_voted() {
         solid: Some(SolidMode::Closed),
         ..BakeOptions::default()
     };
-    match bake_mesh(&open, &opts, &|_, _| {}) {
+    match bake_mesh(&open, &opts) {
         Err(e @ BakeError::OpenMesh { open_edges: 3 }) => {
             let msg = e.to_string();
             assert!(
@@ -266,14 +266,14 @@ fn voting_fills_a_torus_with_holes() {
         open.triangles.drain(start..start + 6);
         open.triangle_materials.drain(start..start + 6);
     }
-    assert!(svo::mesh_closed::open_edges(&open) > 0);
+    assert!(open.open_edges() > 0);
     let solid = bake(&open, 4, Some(SolidMode::Vote));
     check_against_oracle(&open, &closed, 4, &solid, "torus with holes");
 }
 
 #[test]
 fn interior_leaves_carry_their_material_and_no_normal() {
-    let mut m = pinned(sphere(DVec3::splat(8.0), 6.0, 4), 16.0);
+    let mut m = pinned(Mesh::sphere(DVec3::splat(8.0), 6.0, 4), 16.0);
     m.materials = vec![svo::Material {
         name: "glass".into(),
         colour: [0.2, 0.6, 0.9, 1.0],
@@ -298,7 +298,8 @@ fn interior_leaves_carry_their_material_and_no_normal() {
             None => {
                 assert_eq!(a.normal.get(i), Some(NO_NORMAL));
                 assert_eq!(a.get(i).normal, None);
-                assert_eq!(a.contour.get(i), Some(svo::contour::FULL));
+                // The whole cell: near plane at 0, far at 1 (docs/format.md).
+                assert_eq!(a.contour.get(i), Some(0xFFFF_0000));
             }
         }
     }
@@ -306,10 +307,13 @@ fn interior_leaves_carry_their_material_and_no_normal() {
 
 #[test]
 fn fills_that_would_not_fit_are_refused() {
-    let m = cuboid(DVec3::ZERO, DVec3::ONE);
+    let m = Mesh::cuboid(DVec3::ZERO, DVec3::ONE);
     let depth = 7;
-    let root = svo::RootCube::around(DVec3::ZERO, DVec3::ONE, depth, 0);
-    let surface_bytes = svo::estimate::estimate(&m, &root, depth).bytes;
+    let surface = BakeOptions {
+        depth,
+        ..BakeOptions::default()
+    };
+    let surface_bytes = svo::bake::estimate_bake(&m, &surface).unwrap().bytes;
     // Enough for the surface, far too little for 128^3 interior cells.
     let opts = BakeOptions {
         depth,
@@ -317,7 +321,7 @@ fn fills_that_would_not_fit_are_refused() {
         max_memory: Some((surface_bytes * 2.0) as u64),
         ..BakeOptions::default()
     };
-    match bake_mesh(&m, &opts, &|_, _| {}) {
+    match bake_mesh(&m, &opts) {
         Err(BakeError::TooLarge { leaves, .. }) => assert!(leaves >= 126f64.powi(3), "{leaves}"),
         other => panic!("{:?}", other.map(|(_, s)| s.leaves)),
     }
@@ -326,13 +330,13 @@ fn fills_that_would_not_fit_are_refused() {
 #[cfg(all(feature = "trace", feature = "reference"))]
 #[test]
 fn solid_trees_render_exactly_like_their_surfaces() {
-    use svo::camera::Camera;
-    use svo::leaf_hit::HitMode;
+    use svo::render::Camera;
+    use svo::render::OctreeSurfaces;
+    use svo::render::Sky;
     use svo::render::render;
-    use svo::shading::{Phong, PointLight};
-    use svo::sky::Sky;
-    use svo::surfaces::OctreeSurfaces;
-    use svo::whitted::{TraceOptions, Tracer};
+    use svo::render::{Phong, PointLight};
+    use svo::render::{TraceOptions, Tracer};
+    use svo::trace::HitMode;
     let mut m = torus();
     for mat in &mut m.materials {
         mat.refractivity = 0.6;
@@ -343,7 +347,7 @@ fn solid_trees_render_exactly_like_their_surfaces() {
         let surface = bake(&m, 6, None);
         let solid = bake(&m, 6, Some(SolidMode::Closed));
         assert!(solid.leaf_count > surface.leaf_count * 2);
-        let (lo, hi) = svo::render_job::occupied_bounds(&surface);
+        let (lo, hi) = surface.occupied_bounds();
         let cam = Camera::framing(lo, hi, 80, 60, 40.0);
         let light = PointLight {
             position: cam.eye + DVec3::new(0.0, 10.0, 0.0),
@@ -371,7 +375,7 @@ fn solid_trees_render_exactly_like_their_surfaces() {
         // The exact mode (the leaves' triangles) too: interior leaves have none.
         let exact = |t: &Octree| {
             let tracer = Tracer::new(
-                svo::exact_surfaces::exact_surfaces(t, &m).unwrap(),
+                svo::render::exact_surfaces(t, &m).unwrap(),
                 &[light],
                 Sky::default(),
                 Phong::default(),

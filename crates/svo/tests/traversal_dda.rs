@@ -8,13 +8,12 @@ mod common;
 
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
-use svo::builder::{Voxel, from_cells};
-use svo::grid_dda::{DenseGrid, MAX_DDA_DEPTH, traverse_dda};
-use svo::grid_ray::GridRay;
-use svo::leaf_hit::{HitMode, leaf_hit};
-use svo::octree::{Channel, Octree};
-use svo::octree_traverse::{LeafEntry, MAX_STEPS, traverse};
-use svo::{RootCube, contour, normal_encoding};
+use svo::RootCube;
+use svo::octree::{Channel, Octree, Voxel};
+use svo::trace::{
+    DenseGrid, GridRay, HitMode, LeafEntry, MAX_DDA_DEPTH, MAX_STEPS, leaf_hit, traverse,
+    traverse_dda,
+};
 
 fn random_tree(rng: &mut impl Rng, depth: u8, density: f64) -> Octree {
     let side = 1u32 << depth;
@@ -33,20 +32,16 @@ fn random_tree(rng: &mut impl Rng, depth: u8, density: f64) -> Octree {
         origin: DVec3::ZERO,
         side: 1.0,
     };
-    let mut tree = from_cells(root, depth, cells).unwrap();
+    let mut tree = Octree::from_cells(root, depth, cells).unwrap();
     let n = tree.leaf_count as usize;
     let (mut normals, mut contours) = (Vec::new(), Vec::new());
     for _ in 0..n {
-        let w = normal_encoding::encode(Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        ));
-        let nd = normal_encoding::decode(w);
-        let e = f64::from(0.5 * (nd.x.abs() + nd.y.abs() + nd.z.abs()));
-        let a = rng.random_range(-e..e);
-        normals.push(w);
-        contours.push(contour::pack(a, (a + 0.3 * e).min(e), nd));
+        // Octahedral normal words and unorm16 plane pairs (docs/format.md), near <= far.
+        let q = |v: f64| u32::from(((v * 32767.0).round() as i16) as u16);
+        normals.push(q(rng.random_range(-1.0..1.0)) | q(rng.random_range(-1.0..1.0)) << 16);
+        let a: f64 = rng.random_range(0.0..1.0);
+        let u = |t: f64| (t.min(1.0) * 65535.0).round() as u32;
+        contours.push(u(a) | u(a + 0.15) << 16);
     }
     tree.attributes.normal = Channel::PerLeaf(normals);
     tree.attributes.contour = Channel::PerLeaf(contours);
@@ -135,7 +130,8 @@ fn too_deep_for_a_dense_grid_is_an_error() {
         origin: DVec3::ZERO,
         side: 1.0,
     };
-    let tree = from_cells(root, MAX_DDA_DEPTH + 1, [(UVec3::ZERO, Voxel::default())]).unwrap();
+    let tree =
+        Octree::from_cells(root, MAX_DDA_DEPTH + 1, [(UVec3::ZERO, Voxel::default())]).unwrap();
     let e = DenseGrid::new(&tree).unwrap_err();
     assert!(e.to_string().contains("depth 11"), "{e}");
 }

@@ -1,6 +1,6 @@
 // The GPU port of svo's CPU reference tracer: the octree traversal of
-// `octree_traverse.rs` / `grid_ray.rs`, the leaf hits of `leaf_hit.rs`, the octree surfaces
-// of `surfaces.rs` and the Whitted loop of `whitted.rs`, one invocation per pixel.
+// `trace/traverse.rs` / `trace/grid_ray.rs`, the leaf hits of `trace/leaf_hit.rs`, the octree surfaces
+// of `render/surfaces.rs` and the Whitted loop of `render/whitted.rs`, one invocation per pixel.
 // Every function names the Rust function it ports; keep the two in step (the golden tests
 // compare their images).
 //
@@ -46,7 +46,7 @@ override ARENA_CHUNKS: u32 = 1u;
 
 const MAX_LIGHTS: u32 = 16u;
 // The private stacks' sizes: the most the shader allows (RAY_STACK: 2 * MAX_BOUNCES + 2, as
-// whitted.rs). The renderer edits both lines to the scene's sizes before compiling
+// render/whitted.rs). The renderer edits both lines to the scene's sizes before compiling
 // (gpu_render::trace_source), since function arrays cannot be sized by pipeline constants.
 const MAX_DEPTH: u32 = 30u;
 const RAY_STACK: u32 = 34u;
@@ -55,7 +55,7 @@ const RAY_STACK: u32 = 34u;
 override WG_X: u32 = 8u;
 override WG_Y: u32 = 8u;
 override WORKGROUP: u32 = max(WG_X * WG_Y, 64u);
-const TINY: f32 = 8.673617e-19;       // 2^-60, grid_ray::TINY
+const TINY: f32 = 8.673617e-19;       // 2^-60, trace/grid_ray.rs TINY
 const DONE: u32 = 8u;
 const NO_SKIP: u32 = 0xffffffffu;
 const NO_LEAF: u32 = 0xffffffffu;
@@ -195,7 +195,7 @@ fn node_at(i: u32) -> Node {
     return Node(word(k), word(k + 1u));
 }
 
-// ---- leaf attributes (octree.rs, normal_encoding.rs, contour.rs) -------------------------
+// ---- leaf attributes (octree/tree.rs, octree/normal_encoding.rs, octree/contour.rs) -------------------------
 
 fn sign_not_zero(v: f32) -> f32 {
     return select(-1.0, 1.0, v >= 0.0);
@@ -335,7 +335,7 @@ fn shadows() -> u32 {
     return SHADOWS;
 }
 
-// ---- rays (grid_ray.rs) ------------------------------------------------------------------
+// ---- rays (trace/grid_ray.rs) ------------------------------------------------------------------
 
 struct MRay {
     o: vec3<f32>,
@@ -418,7 +418,7 @@ fn exit_normal_of(r: MRay, c1: vec3<f32>) -> vec3<f32> {
     return -entry_normal(r, axis);
 }
 
-// ---- the traversal (octree_traverse.rs) ----------------------------------------------
+// ---- the traversal (trace/traverse.rs) ----------------------------------------------
 
 fn high(c: u32) -> vec3<bool> {
     return vec3<bool>((c & 4u) != 0u, (c & 2u) != 0u, (c & 1u) != 0u);
@@ -831,7 +831,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     return out;
 }
 
-// ---- shading (shading.rs, sky.rs) -------------------------------------------------------
+// ---- shading (render/shading.rs, render/sky.rs) -------------------------------------------------------
 
 fn sky_colour(d: vec3<f32>) -> vec3<f32> {
     let p = u.params;
@@ -929,7 +929,7 @@ fn shadow(start: vec3<f32>, light: vec3<f32>, skip: u32) -> ShadowResult {
     return res;
 }
 
-// ---- the Whitted loop (whitted.rs, Tracer::trace_with) ---------------------------------
+// ---- the Whitted loop (render/whitted.rs, Tracer::trace_with) ---------------------------------
 
 struct Task {
     origin: vec3<f32>,
@@ -1123,7 +1123,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
 
         // Reflection and refraction.
         if BOUNCES {
-            // whitted.rs: from the medium the ray is in into the leaf's, or out of the
+            // render/whitted.rs: from the medium the ray is in into the leaf's, or out of the
             // leaf's into the one around it.
             let here = task.iors & 0xffffu;
             let around = task.iors >> 16u;
@@ -1155,7 +1155,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                     fr += kt;
                 }
             }
-            // whitted.rs: while the path has bounces left.
+            // render/whitted.rs: while the path has bounces left.
             let path_left = task.refl + task.refr < p.max_path_bounces;
             if fr > 0.0 && path_left && task.refl < p.max_reflections && len < rcap {
                 let t = pack_task(Task(hp + n_f * bias, task.refl + 1u,

@@ -5,24 +5,24 @@ use std::path::{Path, PathBuf};
 
 /// The torus fixture (`fixtures/torus.obj`, copper).
 pub fn torus_obj() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj")
+    svo_tests::repo_root().join("fixtures/torus.obj")
 }
 
 /// Bakes the torus fixture at depth 5 into `dir/torus.svo`.
 pub fn torus_svo(dir: &Path) -> PathBuf {
-    let mesh = svo::import::load_mesh(&torus_obj()).unwrap();
+    let mesh = svo::Mesh::load(torus_obj()).unwrap();
     let opts = svo::BakeOptions {
         depth: 5,
         ..svo::BakeOptions::default()
     };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts, &|_, _| {}).unwrap();
-    let build = svo::format_header::BuildInfo {
+    let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
+    let build = svo::io::BuildInfo {
         generator: "test".into(),
         strategy: "exact".into(),
         source_triangles: mesh.triangles.len() as u64,
         ..Default::default()
     };
     let path = dir.join("torus.svo");
-    svo::format_write::write_file(&tree, &build, &path).unwrap();
+    svo::io::write_file(&tree, &build, &path).unwrap();
     path
 }

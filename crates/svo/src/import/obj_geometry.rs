@@ -12,7 +12,7 @@
 //! letter (materials, `l` lines, a `v` line with a weight or a colour, a face index out of
 //! range or pointing ahead, a texture or normal index it cannot check, non-ASCII bytes, any
 //! token tobj would reject) makes it return `None`, and the caller hands the file to tobj,
-//! which then reads it or reports the error. `tests/obj_reader.rs` checks the agreement on
+//! which then reads it or reports the error. `obj_reader_tests.rs` checks the agreement on
 //! the shared meshes and on seeded random files.
 //!
 //! What tobj does that this mirrors: positions per model (a model ends at an `o` or `g` line
@@ -20,7 +20,7 @@
 //! vertices skipped, polygons split into a fan from their first vertex, negative indices
 //! relative to the vertices read so far, every other line kind ignored.
 
-use crate::mesh::{Material, Mesh};
+use crate::mesh::triangle_mesh::{Material, Mesh};
 use glam::DVec3;
 use std::str::FromStr;
 

@@ -10,10 +10,10 @@
 //! position numeric, every face list an integer list within the vertex range. Anything
 //! else (another element, a line the grammar rejects, a missing token, an index out of
 //! range) makes it decline, and the file is read by the crate, which gives the mesh or the
-//! error it always gave. `tests/ply_reader.rs` holds the two equal on `bun_zipper.ply` and
+//! error it always gave. `ply_reader_tests.rs` holds the two equal on `bun_zipper.ply` and
 //! on random clean and corrupted files.
 
-use crate::mesh::Mesh;
+use crate::mesh::triangle_mesh::Mesh;
 use glam::DVec3;
 use ply_rs_bw::ply::{ElementDef, Encoding, Header, PropertyType, ScalarType};
 

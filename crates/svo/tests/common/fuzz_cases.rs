@@ -6,11 +6,8 @@
 
 use super::exact_sat;
 use glam::DVec3;
-use std::path::Path;
-use svo::format_read::from_bytes;
-use svo::format_write::to_bytes;
-use svo::import::{MeshFormat, mesh_from_bytes};
-use svo::{BakeOptions, Mesh, Strategy, bake_mesh};
+use svo::io::{from_bytes, to_bytes};
+use svo::{BakeOptions, Mesh, MeshFormat, Strategy, bake_mesh};
 
 /// The `.svo` reader on arbitrary bytes: an error or a valid tree, never a panic, a hang or
 /// a huge allocation; a tree it accepts writes back to bytes that read as the same tree.
@@ -51,75 +48,24 @@ pub fn mesh_import(data: &[u8]) {
         2 => MeshFormat::Ply,
         _ => MeshFormat::Gltf,
     };
-    #[cfg(feature = "obj")]
-    if format == MeshFormat::Obj {
-        same_as_tobj(bytes);
+    // The importers' own readers against the crates they stand in for: the library's
+    // differential checks, built for the fuzz targets only (its unit tests run them on the
+    // kept inputs).
+    #[cfg(fuzzing)]
+    match format {
+        MeshFormat::Obj => svo::fuzz_import::same_as_tobj(bytes),
+        MeshFormat::Ply => svo::fuzz_import::same_as_ply_crate(bytes),
+        _ => {}
     }
-    #[cfg(feature = "ply")]
-    if format == MeshFormat::Ply {
-        same_as_ply_crate(bytes);
-    }
-    match mesh_from_bytes(bytes, format, Path::new("fuzz")) {
+    match Mesh::from_bytes(bytes, format) {
         Ok(mesh) => mesh.validate().expect("an imported mesh is valid"),
         // The glTF importer turns a panic inside the gltf crates into this error; each
-        // one the fuzzer finds gets a check of its own (`import_gltf::precheck`).
+        // one the fuzzer finds gets a check of its own (`precheck` in `import/gltf.rs`).
         Err(e) => assert!(
             !e.to_string().contains("the glTF library failed"),
             "a panic in the gltf crates: {e}"
         ),
     }
-}
-
-/// A mesh's positions as bit patterns, to compare two readings exactly.
-#[cfg(any(feature = "obj", feature = "ply"))]
-fn position_bits(m: &Mesh) -> Vec<[u64; 3]> {
-    m.positions
-        .iter()
-        .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-        .collect()
-}
-
-/// The PLY importer (which reads plain ASCII payloads by its own scan) and `ply-rs-bw` alone
-/// give the same mesh, or both an error.
-#[cfg(feature = "ply")]
-fn same_as_ply_crate(bytes: &[u8]) {
-    use svo::import::import_ply::{ply_from_bytes, ply_from_bytes_crate};
-    let got = ply_from_bytes(bytes, Path::new("fuzz"));
-    let want = ply_from_bytes_crate(bytes, Path::new("fuzz"));
-    match (got, want) {
-        (Ok(a), Ok(b)) => {
-            assert_eq!(
-                position_bits(&a),
-                position_bits(&b),
-                "positions differ from ply-rs-bw's"
-            );
-            assert_eq!(a.triangles, b.triangles, "triangles differ");
-        }
-        (Err(_), Err(_)) => {}
-        (a, b) => panic!(
-            "the importer gives {:?}, ply-rs-bw alone {:?}",
-            a.map(|m| m.triangles.len()),
-            b.map(|m| m.triangles.len())
-        ),
-    }
-}
-
-/// Our geometry-only OBJ reader stands in for tobj: on a file it takes, tobj must give the
-/// same mesh (positions to the bit, in the same order; the same triangles).
-#[cfg(feature = "obj")]
-fn same_as_tobj(bytes: &[u8]) {
-    let Some(fast) = svo::import::obj_geometry::parse(bytes) else {
-        return;
-    };
-    let reference = svo::import::import_obj::obj_from_bytes_tobj(bytes, Path::new("fuzz"))
-        .expect("tobj reads what our reader takes");
-    assert_eq!(
-        position_bits(&fast),
-        position_bits(&reference),
-        "positions differ from tobj's"
-    );
-    assert_eq!(fast.triangles, reference.triangles, "triangles differ");
-    assert_eq!(fast.triangle_materials, reference.triangle_materials);
 }
 
 /// Triangles per fuzzed mesh: lattice meshes are checked against the brute force, which
@@ -172,7 +118,7 @@ fn lattice(depth: u8, bytes: &[u8]) {
             strategy,
             ..Default::default()
         };
-        let (tree, _) = bake_mesh(&mesh, &opts, &|_, _| {}).expect("a lattice mesh bakes");
+        let (tree, _) = bake_mesh(&mesh, &opts).expect("a lattice mesh bakes");
         let cells: std::collections::BTreeSet<[u32; 3]> =
             tree.leaves().map(|l| l.cell.to_array()).collect();
         for c in expect.keys() {
@@ -209,7 +155,7 @@ fn raw(depth: u8, bytes: &[u8]) {
         max_memory: Some(1 << 30),
         ..Default::default()
     };
-    if let Ok((tree, _)) = bake_mesh(&mesh, &opts, &|_, _| {}) {
+    if let Ok((tree, _)) = bake_mesh(&mesh, &opts) {
         let bytes = to_bytes(&tree, &Default::default());
         from_bytes(&bytes).expect("a baked tree reads back");
         // The same mesh filled by voting (these meshes are rarely closed): a valid tree
@@ -217,11 +163,11 @@ fn raw(depth: u8, bytes: &[u8]) {
         #[cfg(feature = "solid")]
         {
             let solid_opts = BakeOptions {
-                solid: Some(svo::solid_mode::SolidMode::Vote),
+                solid: Some(svo::bake::SolidMode::Vote),
                 ..opts
             };
-            if let Ok((solid, _)) = bake_mesh(&mesh, &solid_opts, &|_, _| {}) {
-                svo::octree_validate::validate(&solid).expect("a solid tree is valid");
+            if let Ok((solid, _)) = bake_mesh(&mesh, &solid_opts) {
+                solid.validate().expect("a solid tree is valid");
                 for l in tree.leaves() {
                     let i = solid.leaf_at(l.cell).expect("a surface leaf is kept");
                     assert!(!solid.attributes.is_interior(i as usize));

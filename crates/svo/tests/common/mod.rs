@@ -81,7 +81,46 @@ pub fn bake_at(mesh: &svo::Mesh, depth: u8) -> (svo::Octree, svo::BakeStats) {
             depth,
             ..Default::default()
         },
-        &|_, _| {},
     )
     .unwrap()
+}
+
+/// The area of the part of triangle `tri` inside the unit cube `[0, 1]^3`: the polygon
+/// clipped against the cube's six planes (Sutherland-Hodgman), in `f64`. Written here, apart
+/// from the library's clipping, as a reference.
+pub fn clipped_area(tri: [DVec3; 3]) -> f64 {
+    let mut poly: Vec<DVec3> = tri.to_vec();
+    for axis in 0..3 {
+        for (bound, keep_below) in [(0.0, false), (1.0, true)] {
+            let inside = |p: DVec3| {
+                if keep_below {
+                    p[axis] <= bound
+                } else {
+                    p[axis] >= bound
+                }
+            };
+            let mut out = Vec::with_capacity(poly.len() + 1);
+            for i in 0..poly.len() {
+                let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                if inside(a) {
+                    out.push(a);
+                }
+                if inside(a) != inside(b) {
+                    let t = (bound - a[axis]) / (b[axis] - a[axis]);
+                    let mut p = a + (b - a) * t;
+                    p[axis] = bound;
+                    out.push(p);
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                return 0.0;
+            }
+        }
+    }
+    let mut twice = DVec3::ZERO;
+    for i in 1..poly.len().saturating_sub(1) {
+        twice += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
+    }
+    twice.length() / 2.0
 }

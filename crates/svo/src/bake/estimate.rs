@@ -1,0 +1,56 @@
+//! Estimating a bake's size before running it, so absurd depths are refused with a number
+//! instead of exhausting memory.
+//!
+//! A triangle of area `A` (in cells squared) with unit normal `n` and perimeter `P` (in cells)
+//! touches about `A * |n|_1` cells across its face plus up to `P` along its edges; the sum over
+//! triangles (capped by the grid's `8^depth` cells) over-estimates the leaves, because
+//! neighbours share cells. Peak memory is estimated per leaf (the leaf's cell, its triangle
+//! list, node share and attribute arrays) plus the per-triangle setup.
+
+use crate::geometry::grid::RootCube;
+use crate::mesh::triangle_mesh::Mesh;
+
+/// Peak bytes of the bake per leaf (cell, triangle list, nodes, channels, scratch).
+pub(crate) const BYTES_PER_LEAF: f64 = 64.0;
+/// Peak bytes per input triangle (grid-space setup and attribute inputs).
+pub(crate) const BYTES_PER_TRIANGLE: f64 = 240.0;
+
+/// A bake's size, estimated before baking ([`crate::bake::estimate_bake`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Leaves (an upper estimate).
+    pub leaves: f64,
+    /// Peak memory in bytes.
+    pub bytes: f64,
+}
+
+/// Estimates the leaves and peak memory of baking `mesh` at `depth` in `root`.
+pub(crate) fn estimate(mesh: &Mesh, root: &RootCube, depth: u8) -> Estimate {
+    let scale = (1u64 << depth) as f64 / root.side;
+    // area * |n|_1 / |n| is half the normal's L1 norm: no square root for it.
+    let cells = |t: &[u32; 3]| {
+        let [a, b, c] =
+            t.map(|i| mesh.positions.get(i as usize).copied().unwrap_or_default() * scale);
+        let n = (b - a).cross(c - a);
+        let area_l1 = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
+        let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
+        area_l1 + perimeter + 1.0
+    };
+    // Fixed chunks summed in order: the same sum whatever the thread count.
+    const CHUNK: usize = 8192;
+    let chunk_sum = |c: &[[u32; 3]]| c.iter().map(cells).sum::<f64>();
+    #[cfg(feature = "parallel")]
+    let sums: Vec<f64> = {
+        use rayon::prelude::*;
+        mesh.triangles.par_chunks(CHUNK).map(chunk_sum).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let sums: Vec<f64> = mesh.triangles.chunks(CHUNK).map(chunk_sum).collect();
+    let leaves: f64 = sums.iter().sum();
+    let grid = 8f64.powi(i32::from(depth));
+    let leaves = leaves.min(grid);
+    Estimate {
+        leaves,
+        bytes: leaves * BYTES_PER_LEAF + mesh.triangles.len() as f64 * BYTES_PER_TRIANGLE,
+    }
+}

@@ -1,0 +1,140 @@
+//! The reader against files whose header and node array were edited on purpose, with the
+//! checksum fixed so that the checks behind it must catch the edit: hostile node words,
+//! cycles, backward pointers, references past the end, reserved bits, and headers that lie
+//! about their counts or depth. A refused file is an error, never a panic or an allocation
+//! the file does not justify.
+
+use crate::io::BuildInfo;
+use crate::io::header::bincode_config;
+use crate::io::read::{from_bytes, read_header};
+use crate::io::write::{FormatError, to_bytes};
+use crate::octree::{Octree, RootCube, Voxel};
+use glam::{DVec3, UVec3};
+
+/// A depth-4 tree of 40 cells on a diagonal band, with per-leaf colours.
+fn small_tree() -> Octree {
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let cells = (0..40u32).map(|i| {
+        let c = UVec3::new(i % 16, (i * 7) % 16, (i * 3) % 16);
+        let v = Voxel {
+            colour: [i as f32 / 40.0, 0.5, 0.25, 1.0],
+            ..Voxel::default()
+        };
+        (c, v)
+    });
+    Octree::from_cells(root, 4, cells).unwrap()
+}
+
+fn info() -> BuildInfo {
+    BuildInfo {
+        generator: "test".into(),
+        ..BuildInfo::default()
+    }
+}
+
+fn rechecksum(b: &mut [u8]) {
+    let n = b.len() - 8;
+    let s = xxhash_rust::xxh3::xxh3_64(&b[..n]);
+    b[n..].copy_from_slice(&s.to_le_bytes());
+}
+
+/// A seeded generator of bytes and ranges (xorshift).
+struct Rng(Box<dyn FnMut() -> u64>);
+
+impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(Box::new(crate::test_rng::xorshift(seed)))
+    }
+    fn below(&mut self, n: usize) -> usize {
+        ((self.0)() % n as u64) as usize
+    }
+    fn in_range(&mut self, r: std::ops::Range<usize>) -> usize {
+        r.start + self.below(r.end - r.start)
+    }
+}
+
+#[test]
+fn hostile_contents_with_valid_checksum_never_panic() {
+    // Corrupt the payload and fix the checksum, so the structural validation must catch it.
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let header = read_header(&bytes).unwrap();
+    let nodes_at = header.nodes.offset as usize;
+    let mut r = Rng::new(4);
+    let mut rejected = 0;
+    for _ in 0..5000 {
+        let mut b = bytes.clone();
+        let region = if r.below(2) == 0 {
+            nodes_at..nodes_at + header.nodes.len as usize
+        } else {
+            16..b.len() - 8
+        };
+        for _ in 0..r.in_range(1..4) {
+            let i = r.in_range(region.clone());
+            b[i] = r.below(256) as u8;
+        }
+        rechecksum(&mut b);
+        match from_bytes(&b) {
+            Ok((t, _)) => t.validate().unwrap(),
+            Err(_) => rejected += 1,
+        }
+    }
+    assert!(rejected > 2000, "only {rejected} rejected");
+}
+
+#[test]
+fn cycles_backward_pointers_and_overflows_are_rejected() {
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let h = read_header(&bytes).unwrap();
+    let at = h.nodes.offset as usize;
+    let set_node = |b: &mut Vec<u8>, i: usize, info: u32, first: u32| {
+        b[at + 8 * i..at + 8 * i + 4].copy_from_slice(&info.to_le_bytes());
+        b[at + 8 * i + 4..at + 8 * i + 8].copy_from_slice(&first.to_le_bytes());
+    };
+    // Root pointing to itself (a cycle).
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info, 0);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("forward")));
+    // Child block past the end.
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info, u32::MAX - 2);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(_))));
+    // Reserved bits.
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info | 0x100, tree.nodes[0].first);
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("reserved")));
+}
+
+#[test]
+fn header_lies_about_counts() {
+    // Re-encode the header with inconsistent counts: the reader must refuse, not allocate.
+    let tree = small_tree();
+    let bytes = to_bytes(&tree, &info());
+    let mut h = read_header(&bytes).unwrap();
+    for lie in 0..3 {
+        let mut hh = h.clone();
+        match lie {
+            0 => hh.leaf_count = u64::MAX,
+            1 => hh.node_count = 1 << 60,
+            _ => hh.nodes.len += 8,
+        }
+        let enc = bincode::serde::encode_to_vec(&hh, bincode_config()).unwrap();
+        let mut b = bytes.clone();
+        b.splice(16..16 + enc.len(), enc.iter().copied());
+        rechecksum(&mut b);
+        assert!(from_bytes(&b).is_err(), "lie {lie} accepted");
+    }
+    h.depth = 0;
+    let enc = bincode::serde::encode_to_vec(&h, bincode_config()).unwrap();
+    let mut b = bytes.clone();
+    b.splice(16..16 + enc.len(), enc.iter().copied());
+    rechecksum(&mut b);
+    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("depth")));
+}

@@ -1,0 +1,39 @@
+//! Files: the versioned `.svo` format (read with every field validated before use: a
+//! corrupt, truncated or hostile file is an error, never a panic, a hang or an allocation
+//! larger than the file; written atomically, so a failed write leaves the previous file or
+//! none), the `.binvox` export and reader, the MagicaVoxel `.vox` export (feature `vox`), and
+//! [`describe`], the summary `svo-view --info` prints. `docs/format.md` gives every byte.
+//!
+//! ```
+//! use glam::{DVec3, UVec3};
+//! use svo::io::{BuildInfo, from_bytes, to_bytes};
+//! use svo::{Octree, RootCube, Voxel};
+//! let root = RootCube { origin: DVec3::ZERO, side: 1.0 };
+//! let tree = Octree::from_cells(root, 3, [(UVec3::ONE, Voxel::glass())])?;
+//! let bytes = to_bytes(&tree, &BuildInfo::new());
+//! let (back, info) = from_bytes(&bytes)?; // every field checked before use
+//! assert_eq!(back, tree);
+//! assert!(from_bytes(&bytes[..bytes.len() - 1]).is_err()); // truncated: an error, no panic
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Depends on [`crate::octree`] and [`crate::mesh`] (the lights and views a file stores).
+
+pub(crate) mod atomic_write;
+pub(crate) mod binvox;
+pub(crate) mod describe;
+pub(crate) mod header;
+#[cfg(test)]
+mod hostile_tests;
+pub(crate) mod read;
+#[cfg(feature = "vox")]
+pub(crate) mod vox;
+pub(crate) mod write;
+
+pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
+pub use describe::describe;
+pub use header::{BuildInfo, VERSION};
+pub use read::{from_bytes, read_file, read_from};
+#[cfg(feature = "vox")]
+pub use vox::write_vox;
+pub use write::{FormatError, to_bytes, write_file, write_to};

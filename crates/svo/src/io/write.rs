@@ -1,0 +1,212 @@
+//! Writing `.svo` files (see [`crate::io::header`] and `docs/format.md`).
+
+use crate::io::atomic_write::write_atomic;
+use crate::io::header::{
+    ArrayRef, BuildInfo, ChannelEntry, Header, MAGIC, PREAMBLE_LEN, Storage, VERSION,
+    bincode_config,
+};
+use crate::octree::tree::{Channel, Octree};
+use std::io::Write;
+use std::path::Path;
+use thiserror::Error;
+
+/// Errors of reading and writing `.svo` files.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum FormatError {
+    /// The file could not be read or written.
+    #[error("{path}: {cause}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's error.
+        cause: std::io::Error,
+    },
+    /// The file does not start with the `.svo` magic bytes.
+    #[error("not an .svo file (bad magic bytes)")]
+    NotSvo,
+    /// The file is from a newer format version.
+    #[error(
+        "file format version {found} is newer than this reader supports (version {supported}); upgrade svo"
+    )]
+    NewerVersion {
+        /// The file's version.
+        found: u32,
+        /// What this library reads.
+        supported: u32,
+    },
+    /// The file ends before its declared contents.
+    #[error("truncated file: {0}")]
+    Truncated(String),
+    /// The checksum does not match the contents.
+    #[error(
+        "checksum mismatch: the file is corrupt (stored {stored:#018x}, computed {computed:#018x})"
+    )]
+    Checksum {
+        /// Stored value.
+        stored: u64,
+        /// Computed value.
+        computed: u64,
+    },
+    /// The contents are inconsistent.
+    #[error("corrupt file: {0}")]
+    Corrupt(String),
+}
+
+/// A writer that hashes what passes through it and counts the bytes.
+struct Hashing<'a> {
+    inner: &'a mut dyn Write,
+    hash: xxhash_rust::xxh3::Xxh3,
+    len: u64,
+}
+
+impl Write for Hashing<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.update(&buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
+/// not copied into a buffer first) and returns the number of bytes written.
+pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
+    build.scene.validate().map_err(|e| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
+    })?;
+    let a = &tree.attributes;
+    let mut arrays: Vec<(Option<u8>, &[u8])> = vec![(None, bytemuck::cast_slice(&tree.nodes))];
+    let mut entries: Vec<ChannelEntry> = Vec::new();
+    fn add<'a, T: bytemuck::Pod + Into<u32>>(
+        kind: u8,
+        c: &'a Channel<T>,
+        entries: &mut Vec<ChannelEntry>,
+        arrays: &mut Vec<(Option<u8>, &'a [u8])>,
+    ) {
+        match c {
+            Channel::Absent => {}
+            Channel::Constant(v) => entries.push(ChannelEntry {
+                kind,
+                storage: Storage::Constant((*v).into()),
+            }),
+            Channel::PerLeaf(v) => {
+                entries.push(ChannelEntry {
+                    kind,
+                    storage: Storage::PerLeaf(ArrayRef::default()),
+                });
+                arrays.push((Some(kind), bytemuck::cast_slice(v)));
+            }
+        }
+    }
+    add(0, &a.normal, &mut entries, &mut arrays);
+    add(1, &a.contour, &mut entries, &mut arrays);
+    add(2, &a.colour, &mut entries, &mut arrays);
+    add(3, &a.reflectivity, &mut entries, &mut arrays);
+    add(4, &a.refractivity, &mut entries, &mut arrays);
+    add(5, &a.ior, &mut entries, &mut arrays);
+
+    let mut header = Header {
+        root_origin: tree.root.origin.to_array(),
+        root_side: tree.root.side,
+        depth: tree.depth,
+        node_count: tree.nodes.len() as u64,
+        leaf_count: u64::from(tree.leaf_count),
+        nodes: ArrayRef::default(),
+        channels: entries,
+        build: build.clone(),
+    };
+    let encode = |h: &Header| {
+        bincode::serde::encode_to_vec(h, bincode_config())
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+    };
+    // Fixed-width integers: the header's size does not depend on the offsets in it.
+    let hlen = encode(&header)?.len();
+    let pad8 = |x: usize| x.div_ceil(8) * 8;
+    let mut offset = pad8(PREAMBLE_LEN + hlen);
+    for (kind, bytes) in &arrays {
+        let r = ArrayRef {
+            offset: offset as u64,
+            len: bytes.len() as u64,
+        };
+        match kind {
+            None => header.nodes = r,
+            Some(k) => {
+                if let Some(e) = header.channels.iter_mut().find(|e| e.kind == *k) {
+                    e.storage = Storage::PerLeaf(r);
+                }
+            }
+        }
+        offset = pad8(offset + bytes.len());
+    }
+    let hbytes = encode(&header)?;
+    debug_assert_eq!(hbytes.len(), hlen);
+    let mut out = Hashing {
+        inner: w,
+        hash: xxhash_rust::xxh3::Xxh3::new(),
+        len: 0,
+    };
+    out.write_all(&MAGIC)?;
+    out.write_all(&VERSION.to_le_bytes())?;
+    out.write_all(&(hbytes.len() as u32).to_le_bytes())?;
+    out.write_all(&hbytes)?;
+    let zeros = [0u8; 8];
+    let pad = |out: &mut Hashing<'_>| -> std::io::Result<()> {
+        let n = pad8(out.len as usize) - out.len as usize;
+        out.write_all(&zeros[..n])
+    };
+    pad(&mut out)?;
+    for (_, bytes) in &arrays {
+        // Arrays are stored little-endian: on little-endian machines a plain copy.
+        #[cfg(target_endian = "big")]
+        compile_error!("svo's file writer assumes a little-endian target");
+        out.write_all(bytes)?;
+        pad(&mut out)?;
+    }
+    let sum = out.hash.digest();
+    let len = out.len;
+    out.inner.write_all(&sum.to_le_bytes())?;
+    Ok(len + 8)
+}
+
+/// Serializes an octree into the bytes of a `.svo` file (empty when `build.scene` fails
+/// [`SceneInfo::validate`](crate::mesh::SceneInfo::validate)).
+pub fn to_bytes(tree: &Octree, build: &BuildInfo) -> Vec<u8> {
+    let mut v = Vec::new();
+    // Writing to a Vec cannot fail, and the header always encodes; an invalid scene is
+    // refused before the first byte, which leaves the vector empty (not a readable file).
+    let _ = write_to(tree, build, &mut v);
+    v
+}
+
+/// Writes an octree with its [`BuildInfo`] to `path` atomically (a temporary file in the
+/// same folder, flushed to disk, then renamed over `path`), returning the bytes written.
+pub fn write_file(
+    tree: &Octree,
+    build: &BuildInfo,
+    path: impl AsRef<Path>,
+) -> Result<u64, FormatError> {
+    let path = path.as_ref();
+    let mut written = 0;
+    write_atomic(path, |w| {
+        written = write_to(tree, build, w)?;
+        Ok(())
+    })
+    .map_err(|cause| FormatError::Io {
+        path: path.display().to_string(),
+        cause,
+    })?;
+    Ok(written)
+}
+
+impl Octree {
+    /// Writes the tree to a `.svo` file atomically, with [`BuildInfo::new`] (no lights or
+    /// views; [`write_file`] stores a [`BuildInfo`] of the caller's), returning the bytes
+    /// written.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<u64, FormatError> {
+        write_file(self, &BuildInfo::new(), path)
+    }
+}

@@ -1,0 +1,25 @@
+//! The sparse voxel octree: packed nodes (an info byte of existing children, children
+//! packed after `first`, negative references for leaves), the per-leaf attribute channels
+//! as separate arrays (absent, constant, or one value per leaf), queries in scene units,
+//! the programmatic builder ([`Octree::from_cells`], [`Octree::from_fn`]), the checks of a
+//! tree's structure, and the encodings of the stored values (octahedral normals, contours,
+//! unorm8, sRGB colour, IOR). `docs/format.md` describes the layout byte for byte.
+//!
+//! Depends on [`crate::mesh`] (material presets for the builder) and the grid geometry (the
+//! root cube, child offsets). Everything that makes or reads trees depends on it.
+
+pub(crate) mod builder;
+pub(crate) mod contour;
+pub(crate) mod encoding;
+pub(crate) mod layout;
+pub(crate) mod normal_encoding;
+pub(crate) mod query;
+pub(crate) mod tree;
+pub(crate) mod validate;
+
+pub use crate::geometry::RootCube;
+pub use builder::{BuilderError, Voxel};
+pub use query::Leaf;
+pub use tree::{
+    Channel, ChannelKind, ChannelStorage, LeafAttributes, LeafValue, NO_NORMAL, Node, Octree,
+};

@@ -1,0 +1,247 @@
+//! Rendering an image: one primary ray per pixel through a [`Tracer`], in parallel over
+//! bands of rows (rayon, with the `parallel` feature), each band's primary rays first decided
+//! together by the prepass ([`crate::render::primary_prepass`]). Every pixel depends only on its own rays, so
+//! the image is the same whatever the thread count.
+//!
+//! Besides the colour, a render keeps the per-pixel outputs (AOVs) of the primary ray: the
+//! hit distance (scene units along the unit view ray, `+inf` on a miss), the shading
+//! normal, the leaf index and the traversal steps (the cost heat map).
+
+use crate::render::camera::{Camera, CameraError};
+use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
+use crate::render::surfaces::Surfaces;
+use crate::render::whitted::{PrimaryStart, SampleStats, Tracer};
+use glam::Vec3;
+use std::time::{Duration, Instant};
+
+/// The leaf AOV value of a pixel whose primary ray misses.
+pub const NO_LEAF: u32 = u32::MAX;
+
+/// Counters over a whole image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct RenderStats {
+    /// Primary rays (one per pixel).
+    pub primary_rays: u64,
+    /// Primary rays that hit a leaf.
+    pub primary_hits: u64,
+    /// Reflection and refraction rays.
+    pub secondary_rays: u64,
+    /// Shadow rays.
+    pub shadow_rays: u64,
+    /// Traversal steps of all rays.
+    pub steps: u64,
+    /// Traversal steps of the primary rays.
+    pub primary_steps: u64,
+    /// Largest primary-ray step count of a pixel.
+    pub max_primary_steps: u32,
+    /// Rays stopped by the step cap.
+    pub capped: u64,
+}
+
+impl RenderStats {
+    /// One line for reports: rays by kind, the share of primary hits, steps per primary
+    /// ray and per other ray, and the capped count.
+    pub fn summary(&self) -> String {
+        let others = self.secondary_rays + self.shadow_rays;
+        format!(
+            "rays: {} primary ({:.1}% hit), {} secondary, {} shadow; {:.1} steps per primary ray (max {}), {:.1} per other ray; {} capped",
+            self.primary_rays,
+            100.0 * self.primary_hits as f64 / self.primary_rays.max(1) as f64,
+            self.secondary_rays,
+            self.shadow_rays,
+            self.primary_steps as f64 / self.primary_rays.max(1) as f64,
+            self.max_primary_steps,
+            self.steps.saturating_sub(self.primary_steps) as f64 / others.max(1) as f64,
+            self.capped
+        )
+    }
+
+    fn add(&mut self, s: &SampleStats, primary_steps: u32, hit: bool) {
+        self.primary_rays += 1;
+        self.primary_hits += u64::from(hit);
+        self.secondary_rays += u64::from(s.rays.saturating_sub(1));
+        self.shadow_rays += u64::from(s.shadow_rays);
+        self.steps += u64::from(s.steps);
+        self.primary_steps += u64::from(primary_steps);
+        self.max_primary_steps = self.max_primary_steps.max(primary_steps);
+        self.capped += u64::from(s.capped);
+    }
+
+    fn merge(&mut self, o: &Self) {
+        self.primary_rays += o.primary_rays;
+        self.primary_hits += o.primary_hits;
+        self.secondary_rays += o.secondary_rays;
+        self.shadow_rays += o.shadow_rays;
+        self.steps += o.steps;
+        self.primary_steps += o.primary_steps;
+        self.max_primary_steps = self.max_primary_steps.max(o.max_primary_steps);
+        self.capped += o.capped;
+    }
+}
+
+/// A rendered image with its AOVs, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear RGB.
+    pub colour: Vec<Vec3>,
+    /// Primary hit distance in scene units, `+inf` on a miss.
+    pub depth: Vec<f32>,
+    /// Primary hit shading normal (zero on a miss).
+    pub normal: Vec<Vec3>,
+    /// Primary hit leaf index, [`NO_LEAF`] on a miss.
+    pub leaf: Vec<u32>,
+    /// Primary ray traversal steps.
+    pub cost: Vec<u32>,
+    /// Counters.
+    pub stats: RenderStats,
+    /// Wall time of the render.
+    pub elapsed: Duration,
+}
+
+/// Renders `camera`'s view through `tracer` into a new frame.
+pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame, CameraError> {
+    let mut f = Frame {
+        width: 0,
+        height: 0,
+        colour: Vec::new(),
+        depth: Vec::new(),
+        normal: Vec::new(),
+        leaf: Vec::new(),
+        cost: Vec::new(),
+        stats: RenderStats::default(),
+        elapsed: Duration::ZERO,
+    };
+    render_into(tracer, camera, &mut f)?;
+    Ok(f)
+}
+
+/// Renders once, or, with `frames`, once untimed and then that many timed frames into the
+/// same buffers (at least one): the last frame and the time of each counted frame, seconds.
+pub fn render_timed<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    frames: Option<u32>,
+) -> Result<(Frame, Vec<f64>), CameraError> {
+    let mut frame = render(tracer, camera)?;
+    let mut times = Vec::new();
+    match frames {
+        Some(n) => {
+            for _ in 0..n.max(1) {
+                render_into(tracer, camera, &mut frame)?;
+                times.push(frame.elapsed.as_secs_f64());
+            }
+        }
+        None => times.push(frame.elapsed.as_secs_f64()),
+    }
+    Ok((frame, times))
+}
+
+/// Renders into `f`, reusing its buffers (a benchmark loop then allocates nothing per
+/// frame). Rows are rendered in parallel, each written in place.
+pub fn render_into<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    f: &mut Frame,
+) -> Result<(), CameraError> {
+    let rays = camera.rays()?;
+    let start = Instant::now();
+    let (w, h) = (camera.width, camera.height);
+    let px = (w as usize) * (h as usize);
+    f.width = w;
+    f.height = h;
+    f.colour.resize(px, Vec3::ZERO);
+    f.depth.resize(px, f32::INFINITY);
+    f.normal.resize(px, Vec3::ZERO);
+    f.leaf.resize(px, NO_LEAF);
+    f.cost.resize(px, 0);
+    let eye = tracer.to_grid(camera.eye);
+    let view = PrimaryView::new(tracer, &rays);
+    // One band of rows: its primary rays decided together, then each pixel shaded.
+    let band = |scratch: &mut PrimaryScratch,
+                y0: u32,
+                colour: &mut [Vec3],
+                depth: &mut [f32],
+                normal: &mut [Vec3],
+                leaf: &mut [u32],
+                cost: &mut [u32]|
+     -> RenderStats {
+        let mut stats = RenderStats::default();
+        let rows = (colour.len() / w as usize) as u32;
+        let decided = view
+            .as_ref()
+            .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
+        let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
+        for (i, (x, y)) in pixels.enumerate() {
+            let start = decided
+                .as_ref()
+                .map_or(PrimaryStart::From(0.0), |b| b.start(i));
+            // The grid direction of a unit scene direction is the same unit vector (the
+            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
+            let dir = rays.dir_f32(x, y);
+            if let PrimaryStart::Miss { tests } = start {
+                // The prepass proved the ray hits nothing: the sky, without casting it.
+                colour[i] = tracer.miss_colour(dir);
+                depth[i] = f32::INFINITY;
+                normal[i] = Vec3::ZERO;
+                leaf[i] = NO_LEAF;
+                cost[i] = tests;
+                stats.primary_rays += 1;
+                stats.primary_steps += u64::from(tests);
+                stats.steps += u64::from(tests);
+                stats.max_primary_steps = stats.max_primary_steps.max(tests);
+                continue;
+            }
+            let s = tracer.trace_primary(eye, dir, start);
+            colour[i] = s.colour;
+            depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+            normal[i] = s.normal;
+            leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+            cost[i] = s.primary_steps;
+            stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+        }
+        stats
+    };
+    let chunk = w as usize * BAND as usize;
+    #[cfg(feature = "parallel")]
+    let stats = {
+        use rayon::prelude::*;
+        f.colour
+            .par_chunks_mut(chunk)
+            .zip(f.depth.par_chunks_mut(chunk))
+            .zip(f.normal.par_chunks_mut(chunk))
+            .zip(f.leaf.par_chunks_mut(chunk))
+            .zip(f.cost.par_chunks_mut(chunk))
+            .enumerate()
+            .map_init(Default::default, |scratch, (b, ((((c, d), n), l), k))| {
+                band(scratch, b as u32 * BAND, c, d, n, l, k)
+            })
+            .reduce(RenderStats::default, |mut a, b| {
+                a.merge(&b);
+                a
+            })
+    };
+    #[cfg(not(feature = "parallel"))]
+    let stats = {
+        let mut st = RenderStats::default();
+        let mut scratch = Default::default();
+        for ((((b, c), d), n), (l, k)) in f
+            .colour
+            .chunks_mut(chunk)
+            .enumerate()
+            .zip(f.depth.chunks_mut(chunk))
+            .zip(f.normal.chunks_mut(chunk))
+            .zip(f.leaf.chunks_mut(chunk).zip(f.cost.chunks_mut(chunk)))
+        {
+            st.merge(&band(&mut scratch, b as u32 * BAND, c, d, n, l, k));
+        }
+        st
+    };
+    f.stats = stats;
+    f.elapsed = start.elapsed();
+    Ok(())
+}

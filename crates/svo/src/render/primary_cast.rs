@@ -1,0 +1,159 @@
+//! Primary hits alone: per pixel, the first surface the camera ray meets and its distance,
+//! without shading, secondary rays or the other AOVs. This is what picking needs, and what a
+//! ray-casting library returns for a batch of camera rays (Embree's `rtcIntersect` gives the
+//! hit primitive and distance), so it is the figure to set beside such libraries.
+//!
+//! It casts exactly the primary rays of [`crate::render::frame`] (the same directions, the same
+//! prepass, the same first hits): its leaves and distances equal a render's leaf and depth
+//! AOVs.
+
+use crate::render::camera::{Camera, CameraError};
+use crate::render::frame::{NO_LEAF, RenderStats};
+use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
+use crate::render::surfaces::{FirstHit, Query, Surfaces};
+use crate::render::whitted::{PrimaryStart, Tracer};
+use crate::trace::grid_ray::GridRay;
+use std::time::{Duration, Instant};
+
+/// The primary hits of a view, row-major from the top-left pixel.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Hits {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The leaf (or triangle) hit, [`NO_LEAF`] on a miss.
+    pub leaf: Vec<u32>,
+    /// Hit distance in scene units along the unit ray, `+inf` on a miss.
+    pub depth: Vec<f32>,
+    /// Rays that hit.
+    pub hits: u64,
+    /// Traversal steps of all rays.
+    pub steps: u64,
+    /// Rays stopped by the step cap.
+    pub capped: u64,
+    /// The most steps of one ray.
+    pub max_steps: u32,
+    /// Wall time of the cast.
+    pub elapsed: Duration,
+}
+
+/// Casts `camera`'s primary rays through `tracer`'s surfaces into `out` (reusing its
+/// buffers), rows in parallel.
+pub fn cast_primary<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    out: &mut Hits,
+) -> Result<(), CameraError> {
+    let rays = camera.rays()?;
+    let start = Instant::now();
+    let (w, h) = (camera.width, camera.height);
+    let px = (w as usize) * (h as usize);
+    out.width = w;
+    out.height = h;
+    out.leaf.resize(px, NO_LEAF);
+    out.depth.resize(px, f32::INFINITY);
+    let view = PrimaryView::new(tracer, &rays);
+    let eye = tracer.to_grid(camera.eye);
+    let scale = tracer.scale();
+    let max_steps = tracer.options().max_steps;
+    let band =
+        |scratch: &mut PrimaryScratch, y0: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
+            let mut counts = [0u64; 4];
+            let rows = (leaf.len() / w as usize) as u32;
+            let decided = view
+                .as_ref()
+                .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
+            for i in 0..leaf.len() {
+                let start = decided
+                    .as_ref()
+                    .map_or(PrimaryStart::From(0.0), |b| b.start(i));
+                let r = FirstHit::decided(&start).unwrap_or_else(|| {
+                    // Left to the traversal, from the start's lower bound.
+                    let tmin = match start {
+                        PrimaryStart::From(t) => t,
+                        _ => 0.0,
+                    };
+                    let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
+                    let ray = GridRay {
+                        origin: eye,
+                        dir: rays.dir_f32(x, y) * scale,
+                    };
+                    let q = Query {
+                        tmin,
+                        ..Query::all(max_steps)
+                    };
+                    tracer.surfaces().first_hit(&ray, &q, &start)
+                });
+                leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
+                depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
+                counts[0] += u64::from(r.hit.is_some());
+                counts[1] += u64::from(r.steps);
+                counts[2] += u64::from(r.capped);
+                counts[3] = counts[3].max(u64::from(r.steps));
+            }
+            counts
+        };
+    let chunk = w as usize * BAND as usize;
+    let add = |a: [u64; 4], b: [u64; 4]| [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3].max(b[3])];
+    #[cfg(feature = "parallel")]
+    let counts = {
+        use rayon::prelude::*;
+        out.leaf
+            .par_chunks_mut(chunk)
+            .zip(out.depth.par_chunks_mut(chunk))
+            .enumerate()
+            .map_init(Default::default, |scratch, (b, (l, d))| {
+                band(scratch, b as u32 * BAND, l, d)
+            })
+            .reduce(|| [0; 4], add)
+    };
+    #[cfg(not(feature = "parallel"))]
+    let counts = {
+        let mut scratch = Default::default();
+        out.leaf
+            .chunks_mut(chunk)
+            .zip(out.depth.chunks_mut(chunk))
+            .enumerate()
+            .map(|(b, (l, d))| band(&mut scratch, b as u32 * BAND, l, d))
+            .fold([0; 4], add)
+    };
+    out.hits = counts[0];
+    out.steps = counts[1];
+    out.capped = counts[2];
+    out.max_steps = counts[3] as u32;
+    out.elapsed = start.elapsed();
+    Ok(())
+}
+
+/// Casts once, or, with `frames`, once untimed and then that many timed casts into the same
+/// buffers: the counters of a cast as [`RenderStats`] (primary rays only) and the seconds
+/// of each counted cast.
+pub fn cast_timed<S: Surfaces>(
+    tracer: &Tracer<S>,
+    camera: &Camera,
+    frames: Option<u32>,
+) -> Result<(RenderStats, Vec<f64>), CameraError> {
+    let mut hits = Hits::default();
+    cast_primary(tracer, camera, &mut hits)?;
+    let mut times = Vec::new();
+    match frames {
+        Some(n) => {
+            for _ in 0..n.max(1) {
+                cast_primary(tracer, camera, &mut hits)?;
+                times.push(hits.elapsed.as_secs_f64());
+            }
+        }
+        None => times.push(hits.elapsed.as_secs_f64()),
+    }
+    let stats = RenderStats {
+        primary_rays: u64::from(hits.width) * u64::from(hits.height),
+        primary_hits: hits.hits,
+        steps: hits.steps,
+        primary_steps: hits.steps,
+        capped: hits.capped,
+        max_primary_steps: hits.max_steps,
+        ..RenderStats::default()
+    };
+    Ok((stats, times))
+}

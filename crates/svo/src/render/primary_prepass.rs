@@ -1,0 +1,714 @@
+//! The primary-ray prepass of [`crate::render::frame`] and [`crate::render::primary_cast`]: the first hits
+//! of a band of camera rays, found by projecting the octree front to back onto the screen
+//! instead of walking it once per pixel.
+//!
+//! All primary rays start at the eye, so one order of the octree's cells is front to back
+//! for every one of them: at each node, the children on the eye's side of each mid-plane
+//! first (the child index `k ^ eye_octant` for `k = 0..8`; a ray from the eye crosses each
+//! mid-plane at most once, away from the eye, so the children it passes through come in that
+//! order). A band of [`BAND`] image rows is decided in one depth-first walk of the tree in
+//! that order. Each node is projected to a pixel rectangle (its cube grown by a margin that
+//! covers the `f32` rounding of the rays, then the bounds of its corners' projections) and
+//! skipped when no pixel of the rectangle is still open (every ray there has its hit already:
+//! the node is hidden) or when the rectangle misses the band. At a leaf, each open pixel of
+//! its rectangle gets the traversal's own plane test: the parameters `(p - o) * (1 / d)` of
+//! the cell's six planes, the very values [`crate::trace::traverse`] computes for that cell,
+//! so `enter < exit` holds exactly when the traversal would hand this leaf to its callback.
+//! The pixel's ray then gets the leaf's [`LeafEntry`], built as the traversal builds it, and
+//! the surfaces' hit test: the first leaf in this order that the ray enters and hits is the
+//! traversal's first hit, bit for bit.
+//!
+//! Where a node's rectangle holds few open pixels (eight or fewer), projecting its children
+//! would cull little: each of those rays walks the node's subtree instead
+//! ([`traverse_node`], which hands over the same leaves and entries as the walk from the
+//! root), and a hit there is its first hit for the same reason.
+//!
+//! A ray that only touches a cell or a walked node (`enter == exit`: through an edge or a
+//! corner, which the traversal skips except where a ray starts) is left to the ordinary
+//! traversal from the eye ([`PrimaryStart::From`]). Open pixels left when the walk ends hit
+//! nothing ([`PrimaryStart::Miss`]). Nodes that hold or touch the eye have no rectangle: they
+//! are opened for the whole band.
+
+use crate::geometry::child_classify::child_offset;
+use crate::octree::tree::Octree;
+use crate::render::camera::CameraRays;
+use crate::render::surfaces::Surfaces;
+use crate::render::whitted::{PrimaryStart, Tracer};
+use crate::trace::grid_ray::{GridRay, entry_normal_of, exit_normal_of, safe_inverse};
+use crate::trace::traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
+use glam::{DVec3, UVec3, Vec3, Vec3A};
+
+/// Rows per band: the unit of parallel work, and of the per-pixel state kept at once.
+pub const BAND: u32 = 32;
+
+/// How far outside its exact bounds a projected corner may land, in pixels (the rounding of
+/// the `f64` projection; the `f32` rounding of the rays is covered by the cube's margin).
+const PIXEL_SLACK: f64 = 1e-3;
+
+/// What the prepass of one view needs for every band: the camera, the eye in grid space and
+/// the projection. Made once per frame by the renderers.
+#[derive(Clone, Debug)]
+pub struct PrimaryView {
+    rays: CameraRays,
+    /// The rays' origin in grid units, as the traversal has it.
+    eye: Vec3,
+    eye_d: DVec3,
+    /// Grid units per scene unit.
+    scale: f32,
+    /// Margin around each cube, grid units.
+    pad: f64,
+    /// Points of a box nearer the eye's image plane than `gap * clip` are off the screen.
+    clip: f64,
+    /// Per grid axis, its unit vector in view space (right, up, forward components).
+    cols: [DVec3; 3],
+    /// Pixel coordinates from view space: `px = x / z * kx + bx`, `py = -y / z * ky + by`.
+    kx: f64,
+    bx: f64,
+    ky: f64,
+    by: f64,
+    width: u32,
+    height: u32,
+}
+
+impl PrimaryView {
+    /// The prepass of `rays` (the tracer's camera), when the tracer's options ask for one.
+    pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
+        if !tracer.options().prepass {
+            return None;
+        }
+        let (w, h) = rays.size();
+        let eye = tracer.to_grid(rays.eye());
+        let (_, depth) = tracer.surfaces().grid();
+        if !eye.is_finite() || !(1..=24).contains(&depth) {
+            return None;
+        }
+        // The margin covers the f32 rounding of the rays (direction and origin, relative
+        // 1e-7 of the coordinates and of the distance from the eye) with a wide berth.
+        let side = f64::from(1u32 << depth);
+        let eye_d = eye.as_dvec3();
+        let pad = 1e-3 + 1e-5 * side.max(eye_d.abs().max_element());
+        // Points of a box at distance `g` from the eye nearer its image plane than
+        // `zc = g * clip` are off the screen: such a point lies at least `g` from the eye, so
+        // its distance from the view axis is at least `g * sqrt(1 - clip^2) >= 0.86 g`,
+        // while a point on the screen at depth `z` is within `z * sqrt(2) * reach < 0.36 g`
+        // of the axis (`reach`: the larger half extent of the image plane at depth 1).
+        let half = rays.half_extent();
+        let clip = 1.0 / (4.0 * half.max_element() + 2.0);
+        let (right, up, fwd) = (rays.right(), rays.up(), rays.forward());
+        let cols = [
+            DVec3::new(right.x, up.x, fwd.x),
+            DVec3::new(right.y, up.y, fwd.y),
+            DVec3::new(right.z, up.z, fwd.z),
+        ];
+        Some(Self {
+            rays: *rays,
+            eye,
+            eye_d,
+            scale: tracer.scale(),
+            pad,
+            clip,
+            cols,
+            kx: 0.5 * f64::from(w) / half.x,
+            bx: 0.5 * f64::from(w) - 0.5,
+            ky: 0.5 * f64::from(h) / half.y,
+            by: 0.5 * f64::from(h) - 0.5,
+            width: w,
+            height: h,
+        })
+    }
+
+    /// The grid ray of pixel `(x, y)`, as the tracer makes it.
+    #[inline]
+    pub(crate) fn ray(&self, x: u32, y: u32) -> GridRay {
+        GridRay {
+            origin: self.eye,
+            dir: self.rays.dir_f32(x, y) * self.scale,
+        }
+    }
+
+    /// The pixel bounds `[x0, y0, x1, y1]` of the cube at `origin` with `side` cells, grown
+    /// by the margin: `Whole` when it holds or touches the eye, `Off` when it lies off the
+    /// screen or behind the eye.
+    fn project(&self, origin: UVec3, side: u32) -> Projection {
+        let lo = origin.as_dvec3() - self.pad;
+        let s = f64::from(side) + 2.0 * self.pad;
+        let v0 = lo - self.eye_d;
+        let c0 = self.cols[0] * v0.x + self.cols[1] * v0.y + self.cols[2] * v0.z;
+        let (ex, ey, ez) = (self.cols[0] * s, self.cols[1] * s, self.cols[2] * s);
+        // The corners in view space, one array per coordinate (corner `i` adds the edges of
+        // its bits: x = 4, y = 2, z = 1).
+        let mut cx = [c0.x; 8];
+        let mut cy = [c0.y; 8];
+        let mut cz = [c0.z; 8];
+        for (bit, e) in [(1, ez), (2, ey), (4, ex)] {
+            for i in 0..bit {
+                cx[i + bit] = cx[i] + e.x;
+                cy[i + bit] = cy[i] + e.y;
+                cz[i + bit] = cz[i] + e.z;
+            }
+        }
+        // Plain comparisons: no NaN arises here (finite inputs), and `f64::min` would pay
+        // for NaN handling.
+        let lt = |a: f64, b: f64| if a < b { a } else { b };
+        let gt = |a: f64, b: f64| if a > b { a } else { b };
+        let zmin = cz.iter().fold(f64::INFINITY, |m, &z| lt(m, z));
+        // Every corner well in front of the eye (by far more than the rounding of these
+        // sums): the bounds of the corners' projections bound the box's.
+        let size = v0.x.abs() + v0.y.abs() + v0.z.abs() + 3.0 * s;
+        if zmin > 1e-9 * size {
+            let (mut x0, mut y0, mut x1, mut y1) = (
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            );
+            for i in 0..8 {
+                let r = 1.0 / cz[i];
+                let (px, py) = (cx[i] * r, cy[i] * r);
+                (x0, y0, x1, y1) = (lt(x0, px), lt(y0, py), gt(x1, px), gt(y1, py));
+            }
+            return Projection::Bounds([
+                x0 * self.kx + self.bx,
+                -y1 * self.ky + self.by,
+                x1 * self.kx + self.bx,
+                -y0 * self.ky + self.by,
+            ]);
+        }
+        self.project_near(lo, s, [cx, cy, cz])
+    }
+
+    /// [`Self::project`] for a box (low corner `lo`, side `s`, corners in view space `c`)
+    /// that reaches near or behind the eye's image plane.
+    fn project_near(&self, lo: DVec3, s: f64, c: [[f64; 8]; 3]) -> Projection {
+        let hi = lo + s;
+        // The box's distance from the eye: a box that holds the eye or touches it has no
+        // rectangle.
+        let gap = (lo - self.eye_d)
+            .max(self.eye_d - hi)
+            .max(DVec3::ZERO)
+            .length();
+        if !(gap > 0.0) {
+            return Projection::Whole;
+        }
+        let zc = gap * self.clip;
+        let corners: [DVec3; 8] = std::array::from_fn(|i| DVec3::new(c[0][i], c[1][i], c[2][i]));
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut add = |c: DVec3| {
+            let px = c.x / c.z * self.kx + self.bx;
+            let py = -c.y / c.z * self.ky + self.by;
+            b = [b[0].min(px), b[1].min(py), b[2].max(px), b[3].max(py)];
+        };
+        // The part in front of the plane at `zc`: its corners there and where its edges
+        // cross the plane. The rest of the box is off the screen or behind the eye.
+        let mut any = false;
+        for (i, &a) in corners.iter().enumerate() {
+            if a.z >= zc {
+                add(a);
+                any = true;
+            }
+            for bit in [4, 2, 1] {
+                if i & bit == 0 {
+                    let c = corners[i | bit];
+                    if (a.z < zc) != (c.z < zc) {
+                        add(a + (c - a) * ((zc - a.z) / (c.z - a.z)));
+                        any = true;
+                    }
+                }
+            }
+        }
+        if !any {
+            return Projection::Off;
+        }
+        if b.iter().any(|v| v.is_nan()) {
+            return Projection::Whole;
+        }
+        Projection::Bounds(b)
+    }
+}
+
+/// A cube's place on the screen.
+enum Projection {
+    /// Off the screen or behind the eye.
+    Off,
+    /// Holds or touches the eye: every pixel may see it.
+    Whole,
+    /// Pixel bounds `[x0, y0, x1, y1]` (pixel centres are at integers).
+    Bounds([f64; 4]),
+}
+
+/// Pixels of a band: columns `x0..=x1`, band rows `r0..=r1`.
+#[derive(Clone, Copy, Debug)]
+struct Rect {
+    x0: u32,
+    x1: u32,
+    r0: u32,
+    r1: u32,
+}
+
+/// A node waiting on the walk's stack.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    index: u32,
+    origin: UVec3,
+    side: u32,
+}
+
+/// The slot of a pixel whose ray is still open (at the end: hits nothing).
+const OPEN: u32 = u32::MAX;
+
+/// The slot of a pixel left to the traversal from the eye.
+const DEFER: u32 = u32::MAX - 1;
+
+/// Open pixels of a node's rectangle at or below which their rays walk the node's subtree
+/// ([`traverse_node`]) rather than the node's children being projected: projecting pays
+/// while it culls many pixels at once.
+const WALK_PIXELS: u32 = 8;
+
+/// Per-band buffers, reused from band to band by one worker.
+#[derive(Debug, Default)]
+pub struct PrimaryScratch {
+    /// Per pixel, `1 / d` of its grid ray as the traversal makes it (per axis).
+    ix: Vec<f32>,
+    iy: Vec<f32>,
+    iz: Vec<f32>,
+    /// Per pixel, one bit: the inverse above is made.
+    ready: Vec<u64>,
+    /// Per pixel, one bit: the ray has no decided hit yet.
+    open: Vec<u64>,
+    /// Per pixel, [`OPEN`], [`DEFER`] or the index of its hit in `hits`.
+    slot: Vec<u32>,
+    /// Per pixel, leaf tests and walk steps made.
+    tests: Vec<u32>,
+    /// The decided hits: the leaf's entry and the hit's parameter.
+    hits: Vec<(LeafEntry, f32)>,
+    stack: Vec<Pending>,
+}
+
+/// How a pixel's ray meets a box whose planes are the grid's.
+enum Pass {
+    /// It misses it, or meets it only behind the eye.
+    Misses,
+    /// It only touches it (an edge, a corner, or a face it runs along).
+    Touches,
+    /// It passes through it with positive length: the parameters at its entry planes and
+    /// at its exit planes, and the ray's mirrored axes (x = 4, y = 2, z = 1).
+    Enters(Vec3A, Vec3A, u8),
+}
+
+impl PrimaryScratch {
+    /// The plane test of pixel `(x, y)` (band index `i`, bit `b` of word `at`) against the
+    /// box whose low and high planes, relative to the eye, are `lo` and `hi`: the
+    /// traversal's `(p - o) * (1 / d)` for each plane, so the traversal sees the same.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn planes(
+        &mut self,
+        view: &PrimaryView,
+        at: usize,
+        b: usize,
+        i: usize,
+        x: u32,
+        y: u32,
+        lo: Vec3A,
+        hi: Vec3A,
+    ) -> Pass {
+        if self.ready[at] >> b & 1 == 0 {
+            let inv = safe_inverse(view.ray(x, y).dir);
+            self.ix[i] = inv.x;
+            self.iy[i] = inv.y;
+            self.iz[i] = inv.z;
+            self.ready[at] |= 1 << b;
+        }
+        let (ix, iy, iz) = (self.ix[i], self.iy[i], self.iz[i]);
+        let (x0, x1) = (lo.x * ix, hi.x * ix);
+        let (y0, y1) = (lo.y * iy, hi.y * iy);
+        let (z0, z1) = (lo.z * iz, hi.z * iz);
+        let enter = max(max(max(min(x0, x1), min(y0, y1)), min(z0, z1)), 0.0);
+        let exit = min(min(max(x0, x1), max(y0, y1)), max(z0, z1));
+        if enter > exit {
+            Pass::Misses
+        } else if enter == exit {
+            Pass::Touches
+        } else {
+            // The entry plane of an axis is the low one where the direction is positive
+            // (the inverse keeps the direction's sign): the smaller parameter either way.
+            let t0 = Vec3A::new(min(x0, x1), min(y0, y1), min(z0, z1));
+            let t1 = Vec3A::new(max(x0, x1), max(y0, y1), max(z0, z1));
+            let mask = (u8::from(ix < 0.0) << 2) | (u8::from(iy < 0.0) << 1) | u8::from(iz < 0.0);
+            Pass::Enters(t0, t1, mask)
+        }
+    }
+
+    /// Closes pixel `i` (bit `b` of word `at`) with slot `slot`.
+    #[inline]
+    fn close(&mut self, at: usize, b: usize, i: usize, slot: u32) {
+        self.slot[i] = slot;
+        self.open[at] &= !(1u64 << b);
+    }
+
+    /// Closes pixel `i` with a hit: the leaf's entry and the hit's parameter.
+    #[inline]
+    fn close_hit(&mut self, at: usize, b: usize, i: usize, hit: (LeafEntry, f32)) {
+        let k = self.hits.len() as u32;
+        self.hits.push(hit);
+        self.close(at, b, i, k);
+    }
+}
+
+/// One band of image rows: the view, the band's first row and row count, and the buffers
+/// where the surfaces decide its primary rays ([`Surfaces::primary_band`]).
+pub struct PrimaryBand<'a> {
+    view: &'a PrimaryView,
+    y0: u32,
+    rows: u32,
+    /// Whether the surfaces decided the band (else every ray is traced from the eye).
+    decided: bool,
+    s: &'a mut PrimaryScratch,
+}
+
+impl<'a> PrimaryBand<'a> {
+    /// The band of `rows` rows from row `y0`, its primary rays decided by `surfaces`
+    /// ([`Surfaces::primary_band`]), as the renderer and the primary cast both start a band.
+    pub(crate) fn decided_by<S: Surfaces>(
+        view: &'a PrimaryView,
+        surfaces: &S,
+        y0: u32,
+        rows: u32,
+        s: &'a mut PrimaryScratch,
+    ) -> Self {
+        let mut band = Self {
+            view,
+            y0,
+            rows,
+            decided: false,
+            s,
+        };
+        surfaces.primary_band(&mut band);
+        band
+    }
+
+    /// What the prepass knows of pixel `i` of the band (row-major from the band's first
+    /// row): a decided hit or miss, or tracing from the eye.
+    #[inline]
+    pub(crate) fn start(&self, i: usize) -> PrimaryStart {
+        if !self.decided {
+            return PrimaryStart::From(0.0);
+        }
+        match self.s.slot[i] {
+            OPEN => PrimaryStart::Miss {
+                tests: self.s.tests[i],
+            },
+            DEFER => PrimaryStart::From(0.0),
+            k => {
+                let (entry, t) = self.s.hits[k as usize];
+                PrimaryStart::Leaf {
+                    entry,
+                    t,
+                    tests: self.s.tests[i],
+                }
+            }
+        }
+    }
+
+    /// Words of open (and ready) bits per row.
+    fn words(&self) -> usize {
+        (self.view.width as usize).div_ceil(64)
+    }
+
+    /// Decides the band's rays on `tree`, with `hit_t` the surfaces' hit test of a leaf
+    /// entry (the parameter of the hit, or `None` where the ray goes on through the leaf).
+    pub(crate) fn decide(
+        &mut self,
+        tree: &Octree,
+        hit_t: impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        let depth = tree.depth;
+        if !(1..=24).contains(&depth) {
+            return;
+        }
+        let n = 1u32 << depth;
+        let w = self.view.width as usize;
+        let px = w * self.rows as usize;
+        let words = self.words();
+        let s = &mut *self.s;
+        s.ix.resize(px, 0.0);
+        s.iy.resize(px, 0.0);
+        s.iz.resize(px, 0.0);
+        s.tests.clear();
+        s.tests.resize(px, 0);
+        s.slot.clear();
+        s.slot.resize(px, OPEN);
+        s.hits.clear();
+        s.ready.clear();
+        s.ready.resize(self.rows as usize * words, 0);
+        s.open.clear();
+        s.open.resize(self.rows as usize * words, u64::MAX);
+        if !w.is_multiple_of(64) {
+            let last = u64::MAX >> (64 - w % 64);
+            for r in 0..self.rows as usize {
+                s.open[r * words + words - 1] = last;
+            }
+        }
+        self.decided = true;
+        let mut stack = std::mem::take(&mut s.stack);
+        stack.clear();
+        if tree.nodes.first().is_some_and(|r| r.child_mask() != 0) {
+            stack.push(Pending {
+                index: 0,
+                origin: UVec3::ZERO,
+                side: n,
+            });
+        }
+        let eye = self.view.eye;
+        while let Some(p) = stack.pop() {
+            let Some(rect) = self.rect(p.origin, p.side) else {
+                continue;
+            };
+            let open = self.open_count(rect, WALK_PIXELS);
+            if open == 0 {
+                continue;
+            }
+            let Some(&node) = tree.nodes.get(p.index as usize) else {
+                continue;
+            };
+            if open <= WALK_PIXELS {
+                self.walk_node(tree, p, rect, &hit_t);
+                continue;
+            }
+            let half = p.side / 2;
+            let mid = (p.origin + UVec3::splat(half)).as_vec3();
+            // The children on the eye's side of each mid-plane first.
+            let near = (u8::from(eye.x >= mid.x) << 2)
+                | (u8::from(eye.y >= mid.y) << 1)
+                | u8::from(eye.z >= mid.z);
+            let child = |c: u8| p.origin + UVec3::from_array(child_offset(c)) * half;
+            if let Some(base) = node.leaf_base() {
+                if half != 1 {
+                    // Not a valid tree (leaves one cell wide only).
+                    continue;
+                }
+                for k in 0..8u8 {
+                    let c = k ^ near;
+                    let Some(rank) = node.child_rank(c) else {
+                        continue;
+                    };
+                    let cell = child(c);
+                    if let Some(r) = self.rect(cell, 1) {
+                        self.test_leaf(base + rank, cell, r, &hit_t);
+                    }
+                }
+            } else if half >= 2 {
+                // Pushed far to near, so the nearest comes off the stack first.
+                for k in (0..8u8).rev() {
+                    let c = k ^ near;
+                    if let Some(rank) = node.child_rank(c) {
+                        stack.push(Pending {
+                            index: node.first + rank,
+                            origin: child(c),
+                            side: half,
+                        });
+                    }
+                }
+            }
+        }
+        self.s.stack = stack;
+    }
+
+    /// The band's pixels that may see the cube at `origin` with `side` cells, `None` if
+    /// none.
+    fn rect(&self, origin: UVec3, side: u32) -> Option<Rect> {
+        let (w, rows) = (self.view.width, self.rows);
+        match self.view.project(origin, side) {
+            Projection::Off => None,
+            Projection::Whole => Some(Rect {
+                x0: 0,
+                x1: w - 1,
+                r0: 0,
+                r1: rows - 1,
+            }),
+            Projection::Bounds([x0, y0, x1, y1]) => {
+                // Pixel centres are at integers: the pixels whose centres lie in the bounds.
+                let x0 = ceil_within(x0 - PIXEL_SLACK, w).max(0);
+                let x1 = floor_within(x1 + PIXEL_SLACK, w).min(i64::from(w) - 1);
+                let y0 = ceil_within(y0 - PIXEL_SLACK, self.view.height);
+                let y1 = floor_within(y1 + PIXEL_SLACK, self.view.height);
+                let r0 = (y0 - i64::from(self.y0)).max(0);
+                let r1 = (y1 - i64::from(self.y0)).min(i64::from(rows) - 1);
+                (x0 <= x1 && r0 <= r1).then_some(Rect {
+                    x0: x0 as u32,
+                    x1: x1 as u32,
+                    r0: r0 as u32,
+                    r1: r1 as u32,
+                })
+            }
+        }
+    }
+
+    /// How many pixels of `r` are still open, counting no further than past `limit`.
+    fn open_count(&self, r: Rect, limit: u32) -> u32 {
+        let words = self.words();
+        let (w0, w1) = (r.x0 as usize / 64, r.x1 as usize / 64);
+        let mut count = 0;
+        for row in r.r0..=r.r1 {
+            let line = &self.s.open[row as usize * words + w0..=row as usize * words + w1];
+            for (k, word) in (w0..).zip(line) {
+                count += (word & span_mask(k, r.x0, r.x1)).count_ones();
+            }
+            if count > limit {
+                break;
+            }
+        }
+        count
+    }
+
+    /// Calls `f(at, b, i, x, y)` for each open pixel of `r`: its word and bit in the open
+    /// bits, its band index and its image coordinates. `f` may close the pixel it is given.
+    #[inline]
+    fn each_open(&mut self, r: Rect, mut f: impl FnMut(&mut Self, usize, usize, usize, u32, u32)) {
+        let words = self.words();
+        let w = self.view.width as usize;
+        let (w0, w1) = (r.x0 as usize / 64, r.x1 as usize / 64);
+        for row in r.r0..=r.r1 {
+            let y = self.y0 + row;
+            for k in w0..=w1 {
+                let at = row as usize * words + k;
+                let mut bits = self.s.open[at] & span_mask(k, r.x0, r.x1);
+                while bits != 0 {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let x = k * 64 + b;
+                    f(self, at, b, row as usize * w + x, x as u32, y);
+                }
+            }
+        }
+    }
+
+    /// Decides the open pixels of `r` by walking node `p`'s subtree along each one's ray
+    /// ([`traverse_node`]: the leaves and entries of the walk from the root, within it).
+    fn walk_node(
+        &mut self,
+        tree: &Octree,
+        p: Pending,
+        r: Rect,
+        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        let start = StartNode {
+            index: p.index,
+            origin: p.origin,
+            side: p.side,
+        };
+        self.each_open(r, |band, at, b, i, x, y| {
+            let ray = band.view.ray(x, y);
+            let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                hit_t(&ray, e).map(|t| (*e, t))
+            });
+            let s = &mut *band.s;
+            match walk {
+                Some(tr) => {
+                    s.tests[i] += tr.steps;
+                    if tr.capped {
+                        s.close(at, b, i, DEFER);
+                    } else if let Some(hit) = tr.hit {
+                        s.close_hit(at, b, i, hit);
+                    }
+                }
+                // The ray only touches the node: the traversal from the eye decides.
+                None => s.close(at, b, i, DEFER),
+            }
+        });
+    }
+
+    /// Tests leaf `leaf` at `cell` against the open pixels of `r`.
+    fn test_leaf(
+        &mut self,
+        leaf: u32,
+        cell: UVec3,
+        r: Rect,
+        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    ) {
+        // The cell's planes relative to the eye, as the traversal has them.
+        let eye = Vec3A::from(self.view.eye);
+        let lo = Vec3A::from(cell.as_vec3()) - eye;
+        let hi = Vec3A::from((cell + UVec3::ONE).as_vec3()) - eye;
+        self.each_open(r, |band, at, b, i, x, y| {
+            let view = band.view;
+            let s = &mut *band.s;
+            let pass = s.planes(view, at, b, i, x, y, lo, hi);
+            s.tests[i] += 1;
+            match pass {
+                Pass::Misses => {}
+                // It only touches the cell: the traversal from the eye decides.
+                Pass::Touches => s.close(at, b, i, DEFER),
+                Pass::Enters(t0, t1, mask) => {
+                    // The ray passes through the cell: the traversal's entry for it.
+                    let ray = view.ray(x, y);
+                    match leaf_entry(t0, t1, mask, leaf, cell) {
+                        Some(e) => {
+                            if let Some(t) = hit_t(&ray, &e) {
+                                s.close_hit(at, b, i, (e, t));
+                            }
+                        }
+                        None => s.close(at, b, i, DEFER),
+                    }
+                }
+            }
+        });
+    }
+}
+
+/// `ceil(v)` for `v` within `[-2, hi + 2]`, else the nearer end (NaN: `-2`).
+#[inline]
+fn ceil_within(v: f64, hi: u32) -> i64 {
+    let v = v.clamp(-2.0, f64::from(hi) + 2.0);
+    let i = v as i64;
+    if (i as f64) < v { i + 1 } else { i }
+}
+
+/// `floor(v)` for `v` within `[-2, hi + 2]`, else the nearer end (NaN: `-2`).
+#[inline]
+fn floor_within(v: f64, hi: u32) -> i64 {
+    let v = v.clamp(-2.0, f64::from(hi) + 2.0);
+    let i = v as i64;
+    if (i as f64) > v { i - 1 } else { i }
+}
+
+/// The bits of word `k` (pixels `64 k ..`) that lie in `x0..=x1`.
+#[inline]
+fn span_mask(k: usize, x0: u32, x1: u32) -> u64 {
+    let base = k as u32 * 64;
+    let lo = x0.saturating_sub(base);
+    let hi = (x1 - base).min(63);
+    (u64::MAX << lo) & (u64::MAX >> (63 - hi))
+}
+
+/// The traversal's [`LeafEntry`] (from parameter 0, unbounded) of leaf `leaf` at `cell`
+/// for a ray whose parameters at the cell's entry planes are `t0` and at its exit planes
+/// `t1` (the traversal's `(p - o) * (1 / d)`), and whose mirrored axes (negative direction
+/// components) are `mask`, when the ray passes through the cell with positive length.
+fn leaf_entry(t0: Vec3A, t1: Vec3A, mask: u8, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
+    let t_enter = max(t0.max_element(), 0.0);
+    let t_exit = t1.min_element();
+    (t_enter < t_exit).then(|| LeafEntry {
+        leaf,
+        cell,
+        t_enter,
+        t_exit,
+        entry_normal: entry_normal_of(mask, t0, 0.0),
+        exit_normal: exit_normal_of(mask, t1),
+    })
+}
+
+#[inline]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+#[inline]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}

@@ -1,0 +1,430 @@
+//! What the Whitted tracer traces: anything that can give the closest surface along a grid
+//! ray and walk the surfaces along a shadow ray. The octree ([`OctreeSurfaces`]) is one; the
+//! triangle reference ([`crate::render::mesh_reference`]) is the other, so both render through the
+//! same camera, lights and shading and their images can be compared pixel for pixel.
+
+use crate::geometry::grid::RootCube;
+use crate::mesh::triangle_mesh::srgb_to_linear;
+use crate::octree::encoding::ior_decode;
+use crate::octree::tree::Octree;
+use crate::render::primary_prepass::PrimaryBand;
+use crate::render::whitted::PrimaryStart;
+use crate::trace::grid_ray::GridRay;
+use crate::trace::leaf_hit::{HitMode, leaf_hit};
+use crate::trace::traverse::{LeafEntry, traverse};
+use glam::Vec3;
+
+/// The material at a hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    /// Linear albedo.
+    pub albedo: Vec3,
+    /// Reflectivity.
+    pub reflectivity: f32,
+    /// Refractivity.
+    pub refractivity: f32,
+    /// Index of refraction.
+    pub ior: f32,
+}
+
+/// A volumetric medium: the raw refractivity, IOR and colour of transparent leaves that
+/// carry no normal (solid blocks from the programmatic builder, as in the 2019 report's
+/// scene). A ray inside one passes through its cells and stops where it leaves them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Medium(pub u64);
+
+/// What a closest-hit query asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Query {
+    /// The parameter range.
+    pub tmin: f32,
+    /// The parameter range.
+    pub tmax: f32,
+    /// A primitive to ignore (the one a secondary ray starts on).
+    pub skip: Option<u32>,
+    /// The volumetric medium the ray travels in, if any.
+    pub medium: Option<Medium>,
+    /// The traversal step cap.
+    pub max_steps: u32,
+}
+
+impl Query {
+    /// The whole ray, nothing skipped, in the open.
+    pub fn all(max_steps: u32) -> Self {
+        Self {
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+            skip: None,
+            medium: None,
+            max_steps,
+        }
+    }
+}
+
+/// A ray's hit on a surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Ray parameter (scene units along a unit scene direction).
+    pub t: f32,
+    /// Where the ray leaves the primitive's cell (octree) or `t` (triangles).
+    pub t_exit: f32,
+    /// Leaf or triangle index.
+    pub id: u32,
+    /// The unit shading normal, oriented as the surface is (outwards for closed meshes), or
+    /// zero if unknown.
+    pub normal: Vec3,
+    /// The material.
+    pub material: SurfaceMaterial,
+    /// The volumetric medium the primitive belongs to (a refracted ray entering it travels
+    /// inside it), if any.
+    pub medium: Option<Medium>,
+}
+
+/// The outcome of a closest-hit query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traced {
+    /// The closest hit.
+    pub hit: Option<SurfaceHit>,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
+/// The outcome of a ray cast ([`Surfaces::first_hit`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstHit {
+    /// The primitive (leaf or triangle) hit and the hit's parameter.
+    pub hit: Option<(u32, f32)>,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
+impl FirstHit {
+    /// What a ray cast returns for a ray the prepass decided (its hit or its miss), `None`
+    /// for one it left to the traversal.
+    pub fn decided(start: &PrimaryStart) -> Option<Self> {
+        match *start {
+            PrimaryStart::From(_) => None,
+            PrimaryStart::Miss { tests } => Some(Self {
+                hit: None,
+                steps: tests,
+                capped: false,
+            }),
+            PrimaryStart::Leaf { entry, t, tests } => Some(Self {
+                hit: Some((entry.leaf, t)),
+                steps: tests,
+                capped: false,
+            }),
+        }
+    }
+}
+
+impl From<Traced> for FirstHit {
+    fn from(r: Traced) -> Self {
+        Self {
+            hit: r.hit.map(|h| (h.id, h.t)),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+}
+
+/// The outcome of a shadow walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Walked {
+    /// Whether the visitor stopped the walk (the light is blocked).
+    pub blocked: bool,
+    /// Traversal steps.
+    pub steps: u32,
+    /// Whether the step cap stopped the ray.
+    pub capped: bool,
+}
+
+/// Surfaces a [`Tracer`](crate::render::Tracer) can trace, in the grid space of a root cube:
+/// the octree ([`OctreeSurfaces`]) and the triangle reference
+/// ([`MeshSurfaces`](crate::render::MeshSurfaces)). Implement [`Self::grid`], [`Self::closest`]
+/// and [`Self::walk`] to render surfaces of one's own through the same camera, lights and
+/// shading.
+pub trait Surfaces: Sync {
+    /// The root cube and depth whose grid space the rays are in.
+    fn grid(&self) -> (RootCube, u8);
+
+    /// The closest hit (a boundary of the query's medium, when it has one).
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
+
+    /// Decides the primary rays of a band of image rows at once, where the surfaces know
+    /// how (the octree: its primary prepass); others leave the band's starts as they
+    /// are (every ray traced from the eye).
+    #[doc(hidden)]
+    fn primary_band(&self, band: &mut PrimaryBand<'_>) {
+        let _ = band;
+    }
+
+    /// The closest hit of a primary ray with what the render's prepass knows of it
+    /// (`start`): the same as [`Self::closest`] from the start's lower bound (which this
+    /// does by default: only surfaces that decide bands get decided starts).
+    #[doc(hidden)]
+    fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
+        let _ = start;
+        self.closest(ray, q)
+    }
+
+    /// [`Self::closest_primary`] reduced to what a ray cast returns: the primitive hit and
+    /// its parameter (the same as `closest_primary` gives; surfaces may skip the normal and
+    /// material).
+    #[doc(hidden)]
+    fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
+        self.closest_primary(ray, q, start).into()
+    }
+
+    /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
+    /// returns `true`.
+    fn walk(
+        &self,
+        ray: &GridRay,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
+    ) -> Walked;
+}
+
+/// How an octree's leaves are intersected: the leaf hit modes of [`crate::trace::leaf_hit`], or
+/// the leaves' triangles ([`crate::render::exact_surfaces::ExactLeaves`]).
+pub trait LeafShape: Sync {
+    /// The hit of `ray` inside leaf entry `e`: its parameter and unit shading normal (for a
+    /// mode without its own, the leaf's stored normal, else the geometric one).
+    fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)>;
+
+    /// The parameter of [`Self::hit`] alone.
+    fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
+        self.hit(tree, ray, e).map(|h| h.0)
+    }
+}
+
+impl LeafShape for HitMode {
+    #[inline]
+    fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)> {
+        let h = leaf_hit(tree, ray, e, *self)?;
+        let n = tree
+            .attributes
+            .normal
+            .get(e.leaf as usize)
+            .map_or(h.normal, crate::octree::normal_encoding::decode);
+        Some((h.t, n))
+    }
+
+    #[inline]
+    fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
+        leaf_hit(tree, ray, e, *self).map(|h| h.t)
+    }
+}
+
+/// An octree traced with a leaf shape: one of the hit modes by default.
+#[derive(Clone, Debug)]
+pub struct OctreeSurfaces<'a, L = HitMode> {
+    tree: &'a Octree,
+    shape: L,
+    srgb: [f32; 256],
+    /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
+    interior: bool,
+}
+
+impl<'a> OctreeSurfaces<'a> {
+    /// `tree` hit in `mode`.
+    pub fn new(tree: &'a Octree, mode: HitMode) -> Self {
+        Self::with_shape(tree, mode)
+    }
+}
+
+impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
+    /// `tree` hit as `shape` says.
+    pub fn with_shape(tree: &'a Octree, shape: L) -> Self {
+        Self {
+            tree,
+            shape,
+            srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
+            interior: tree.attributes.has_interior(),
+        }
+    }
+
+    /// The tree.
+    pub fn tree(&self) -> &'a Octree {
+        self.tree
+    }
+
+    /// The material of leaf `i`, with defaults for absent channels (grey 0.8, not
+    /// reflective, opaque, IOR 1.5).
+    #[inline]
+    pub fn material(&self, i: u32) -> SurfaceMaterial {
+        let a = &self.tree.attributes;
+        let i = i as usize;
+        let albedo = a.colour.get(i).map_or(Vec3::splat(0.8), |c| {
+            let b = c.to_le_bytes();
+            Vec3::new(
+                self.srgb[usize::from(b[0])],
+                self.srgb[usize::from(b[1])],
+                self.srgb[usize::from(b[2])],
+            )
+        });
+        SurfaceMaterial {
+            albedo,
+            reflectivity: a.reflectivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
+            refractivity: a.refractivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
+            ior: a.ior.get(i).map_or(1.5, ior_decode),
+        }
+    }
+
+    /// Whether rays pass through leaf `i`: an interior cell of a solid (the surface leaves
+    /// around it are the interfaces).
+    #[inline]
+    fn passes_through(&self, i: u32) -> bool {
+        self.interior && self.tree.attributes.is_interior(i as usize)
+    }
+
+    /// The surface hit of leaf entry `e`, if the shape is hit.
+    #[inline]
+    fn surface_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
+        if self.passes_through(e.leaf) {
+            return None;
+        }
+        let (t, normal) = self.shape.hit(self.tree, ray, e)?;
+        Some(SurfaceHit {
+            t,
+            t_exit: e.t_exit,
+            id: e.leaf,
+            normal,
+            material: self.material(e.leaf),
+            medium: self.medium_of(e.leaf),
+        })
+    }
+
+    /// The volumetric medium of leaf `i`: transparent and without a stored normal.
+    #[inline]
+    pub fn medium_of(&self, i: u32) -> Option<Medium> {
+        let a = &self.tree.attributes;
+        let i = i as usize;
+        if a.normal.get(i).is_some() {
+            return None;
+        }
+        let kt = a.refractivity.get(i).unwrap_or(0);
+        (kt > 0).then(|| {
+            Medium(
+                u64::from(kt)
+                    | u64::from(a.ior.get(i).unwrap_or(0)) << 8
+                    | u64::from(a.colour.get(i).unwrap_or(0)) << 24,
+            )
+        })
+    }
+}
+
+impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
+    fn grid(&self) -> (RootCube, u8) {
+        (self.tree.root, self.tree.depth)
+    }
+
+    fn primary_band(&self, band: &mut PrimaryBand<'_>) {
+        band.decide(self.tree, |ray, e| {
+            if self.passes_through(e.leaf) {
+                return None;
+            }
+            self.shape.hit_t(self.tree, ray, e)
+        });
+    }
+
+    fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
+        if q.medium.is_some() || q.skip.is_some() {
+            return self.closest(ray, q);
+        }
+        match *start {
+            PrimaryStart::From(_) => self.closest(ray, q),
+            PrimaryStart::Miss { tests } => Traced {
+                hit: None,
+                steps: tests,
+                capped: false,
+            },
+            PrimaryStart::Leaf { entry, tests, .. } => match self.surface_hit(ray, &entry) {
+                Some(h) => Traced {
+                    hit: Some(h),
+                    steps: tests,
+                    capped: false,
+                },
+                // Not reached: the prepass hit the same entry.
+                None => self.closest(ray, q),
+            },
+        }
+    }
+
+    fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
+        if q.medium.is_some() || q.skip.is_some() {
+            return self.closest(ray, q).into();
+        }
+        FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
+    }
+
+    fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
+        // Inside a medium, the run of its cells along the ray ends at `run`: the exit
+        // parameter and outward normal of the last cell, and its leaf.
+        let mut run: Option<(f32, Vec3, u32)> = None;
+        let exit_hit = |(t, n, leaf): (f32, Vec3, u32)| SurfaceHit {
+            t,
+            t_exit: t,
+            id: leaf,
+            normal: n,
+            material: self.material(leaf),
+            medium: q.medium,
+        };
+        let r = traverse(self.tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
+            if let Some(m) = q.medium {
+                if let Some(x) = run
+                    && e.t_enter > x.0
+                {
+                    // A gap after the medium's cells: the ray left it there.
+                    return Some(exit_hit(x));
+                }
+                if self.medium_of(e.leaf) == Some(m) {
+                    run = Some((e.t_exit, e.exit_normal, e.leaf));
+                    return None;
+                }
+            }
+            if Some(e.leaf) == q.skip {
+                return None;
+            }
+            self.surface_hit(ray, e)
+        });
+        let hit = match (r.hit, run) {
+            (None, Some(x)) if !r.capped => Some(exit_hit(x)),
+            (h, _) => h,
+        };
+        Traced {
+            hit,
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+
+    fn walk(
+        &self,
+        ray: &GridRay,
+        tmax: f32,
+        skip: Option<u32>,
+        max_steps: u32,
+        visit: &mut dyn FnMut(&SurfaceHit) -> bool,
+    ) -> Walked {
+        let r = traverse(self.tree, ray, 0.0, tmax, max_steps, |e| {
+            if Some(e.leaf) == skip {
+                return None;
+            }
+            let h = self.surface_hit(ray, e)?;
+            visit(&h).then_some(())
+        });
+        Walked {
+            blocked: r.hit.is_some(),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+}

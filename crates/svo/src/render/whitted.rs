@@ -1,0 +1,610 @@
+//! Whitted ray tracing over the octree with an explicit ray stack (no recursion: the shape
+//! the WGSL port needs, as in the 2019 report's iteration array).
+//!
+//! Each ray on the stack carries its *weight* (the product of the reflection and
+//! transmission factors that led to it), so a hit adds `weight * local` to the pixel at
+//! once and pushes its reflected and refracted rays with their weights: the same sum as the
+//! report's backward pass over its iteration tree, without storing the tree.
+//!
+//! ## Material model (per leaf: colour, reflectivity `kr`, refractivity `kt`, IOR)
+//! - Local (Phong) light weighs `1 - kr - kt`: ambient plus, for each point light that a
+//!   shadow ray reaches, diffuse and specular with inverse-square falloff.
+//! - Where `kt > 0` the boundary is a dielectric: Fresnel's reflectance `F` (exact or
+//!   Schlick) moves `kt * F` to the reflection, which weighs `kr + kt F`, and the refraction
+//!   (Snell) weighs `kt (1 - F)`, tinted by the leaf colour. Total internal reflection sends
+//!   it all to the reflection.
+//! - The medium: a ray arriving against the leaf normal enters, one arriving along it leaves.
+//!   Each ray carries the IORs of the media it is in, two deep (the one it travels in, and
+//!   the one around that; air outside): entering goes from the current medium's IOR to the
+//!   leaf's (`1 -> IOR` from air), leaving from the leaf's IOR to the surrounding medium's
+//!   (`IOR -> 1` into air). So glass in water refracts at `1.33 -> 1.5`. A third level of
+//!   nesting forgets the outermost medium (it is taken as air on the way out). Transparent leaves without a normal
+//!   (solid blocks from the builder) form volumetric media ([`crate::render::surfaces::Medium`]): a
+//!   ray refracted into one passes through its cells and meets the boundary where it leaves
+//!   them, as the 2019 report's "hit where the material changes" rule.
+//! - An opaque surface whose shading normal faces away from the viewer (a voxel normal at a
+//!   silhouette) is shaded with the normal turned until it just faces the viewer.
+//! - Separate limits for reflection and refraction depths.
+//!
+//! ## Shadows
+//! [`ShadowMode`]: none, opaque (any leaf blocks), the 2019 report's compromise (the light
+//! passes with the *largest* refractivity met, and not at all if an opaque leaf is met), or a
+//! transmittance product (each surface crossing multiplies by its refractivity; leaves
+//! closer than half a cell to the previous one belong to the same crossing).
+//!
+//! ## Self-intersection
+//! A secondary or shadow ray ignores the leaf it starts from and starts `bias` cells off
+//! the surface (along the facing normal, or against it for refraction): the offset scales
+//! with the cell size, as DESIGN.md asks.
+
+use crate::geometry::grid::RootCube;
+use crate::octree::encoding::{ior_decode, ior_encode};
+use crate::render::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
+use crate::render::sky::Sky;
+use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces};
+use crate::trace::grid_ray::GridRay;
+use crate::trace::leaf_hit::HitMode;
+use crate::trace::traverse::MAX_STEPS;
+use glam::Vec3;
+
+/// The most reflection (and, separately, refraction) bounces a ray may take.
+pub const MAX_BOUNCES: u8 = 16;
+
+/// How shadow rays treat semi-transparent leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum ShadowMode {
+    /// No shadow rays.
+    None,
+    /// Every leaf blocks the light.
+    Opaque,
+    /// The 2019 report's rule: the largest refractivity met along the ray.
+    MaxRefractivity,
+    /// The product of the refractivities of the surfaces crossed.
+    #[default]
+    Transmittance,
+}
+
+impl ShadowMode {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Opaque => "opaque",
+            Self::MaxRefractivity => "max",
+            Self::Transmittance => "product",
+        }
+    }
+}
+
+impl std::str::FromStr for ShadowMode {
+    type Err = String;
+
+    /// Parses a command-line name: `none`, `opaque`, `max` or `product`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "none" => Ok(Self::None),
+            "opaque" => Ok(Self::Opaque),
+            "max" => Ok(Self::MaxRefractivity),
+            "product" => Ok(Self::Transmittance),
+            _ => Err(format!(
+                "unknown shadow mode {s:?} (expected none, opaque, max or product)"
+            )),
+        }
+    }
+}
+
+/// Which Fresnel formula dielectric leaves use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum FresnelMode {
+    /// The exact unpolarized dielectric reflectance.
+    #[default]
+    Exact,
+    /// Schlick's approximation.
+    Schlick,
+}
+
+impl std::str::FromStr for FresnelMode {
+    type Err = String;
+
+    /// Parses a command-line name: `exact` or `schlick`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "exact" => Ok(Self::Exact),
+            "schlick" => Ok(Self::Schlick),
+            _ => Err(format!(
+                "unknown Fresnel formula {s:?} (expected exact or schlick)"
+            )),
+        }
+    }
+}
+
+/// Settings of the tracer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// How leaves are hit (octree scenes).
+    pub mode: HitMode,
+    /// Reflection depth limit (at most [`MAX_BOUNCES`]).
+    pub max_reflections: u8,
+    /// Refraction depth limit (at most [`MAX_BOUNCES`]).
+    pub max_refractions: u8,
+    /// The most reflections and refractions together along one path (the depth of the ray
+    /// tree). `1` is the 2015 thesis's tracer: a primary ray that hits a surface spawns its
+    /// reflection and refraction rays, and those spawn none. `u8::MAX` (the default): only
+    /// the two limits above apply.
+    pub max_path_bounces: u8,
+    /// Shadow rays.
+    pub shadows: ShadowMode,
+    /// Fresnel formula.
+    pub fresnel: FresnelMode,
+    /// Offset of secondary and shadow ray origins from the surface, in cells.
+    pub bias_cells: f32,
+    /// Traversal step cap per ray.
+    pub max_steps: u32,
+    /// Let renders decide primary rays a band of rows at a time by projecting the octree
+    /// front to back (the primary prepass) instead of walking it once per pixel. The
+    /// image is the same either way; only the work (and the steps counted) differ. (The GPU
+    /// viewer reads it too, for its own primary pass.)
+    pub prepass: bool,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        Self {
+            mode: HitMode::Contour,
+            max_reflections: 3,
+            max_refractions: 3,
+            max_path_bounces: u8::MAX,
+            shadows: ShadowMode::Transmittance,
+            fresnel: FresnelMode::Exact,
+            bias_cells: 0.75,
+            max_steps: MAX_STEPS,
+            prepass: true,
+        }
+    }
+}
+
+/// A scene ready to trace: its surfaces (the octree, or the triangle reference), lights in
+/// grid space, sky and options.
+#[derive(Clone, Debug)]
+pub struct Tracer<S> {
+    surfaces: S,
+    /// The grid the rays live in.
+    root: RootCube,
+    depth: u8,
+    /// Grid units per scene unit.
+    scale: f32,
+    lights: Vec<(Vec3, PointLight)>,
+    sky: Sky,
+    phong: Phong,
+    opts: TraceOptions,
+}
+
+/// Counters of one traced sample (all rays it spawned).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleStats {
+    /// Primary, reflection and refraction rays cast.
+    pub rays: u32,
+    /// Shadow rays cast.
+    pub shadow_rays: u32,
+    /// Traversal steps of all of them.
+    pub steps: u32,
+    /// Rays stopped by the step cap.
+    pub capped: u32,
+}
+
+/// What the render's prepass knows of a primary ray ([`Tracer::trace_primary`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimaryStart {
+    /// A lower bound of the first hit's parameter (scene units): the ray is traced from
+    /// there.
+    From(f32),
+    /// The first hit, decided by the prepass: the traversal's entry of the leaf hit, the
+    /// hit's parameter and the leaf tests and walk steps the prepass spent on this pixel.
+    Leaf {
+        /// The leaf as the traversal hands it to the leaf's hit test.
+        entry: crate::trace::traverse::LeafEntry,
+        /// The hit's parameter (scene units).
+        t: f32,
+        /// Leaf tests and walk steps made for this pixel.
+        tests: u32,
+    },
+    /// The ray hits nothing, decided by the prepass after this many leaf tests.
+    Miss {
+        /// Leaf tests made for this pixel.
+        tests: u32,
+    },
+}
+
+impl PrimaryStart {
+    /// Nothing known but a lower bound of the first hit.
+    pub fn from(tmin: f32) -> Self {
+        Self::From(tmin)
+    }
+
+    /// Whether the prepass proved that the ray hits nothing.
+    pub fn is_miss(&self) -> bool {
+        matches!(self, Self::Miss { .. })
+    }
+}
+
+/// What tracing one primary ray gives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Linear RGB radiance.
+    pub colour: Vec3,
+    /// The primary hit.
+    pub hit: Option<SurfaceHit>,
+    /// The primary hit's shading normal.
+    pub normal: Vec3,
+    /// Traversal steps of the primary ray alone.
+    pub primary_steps: u32,
+    /// Counters over all rays.
+    pub stats: SampleStats,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Task {
+    origin: Vec3,
+    dir: Vec3,
+    weight: Vec3,
+    refl: u8,
+    refr: u8,
+    /// The leaf or triangle the ray starts on, [`NO_SKIP`] for none.
+    skip: u32,
+    /// The volumetric medium the ray travels in, [`NO_MEDIUM`] for none.
+    medium: u64,
+    /// The IORs of the media the ray is in, as [`ior_encode`] codes: the current one in the
+    /// low 16 bits, the one around it in the high 16 (0: air).
+    iors: u32,
+}
+
+const NO_MEDIUM: u64 = u64::MAX;
+
+const NO_SKIP: u32 = u32::MAX;
+
+/// An all-zero task: the stack is initialized with it (one `memset`).
+const EMPTY: Task = Task {
+    origin: Vec3::ZERO,
+    dir: Vec3::ZERO,
+    weight: Vec3::ZERO,
+    refl: 0,
+    refr: 0,
+    skip: 0,
+    medium: 0,
+    iors: 0,
+};
+
+const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
+const SMALL_STACK: usize = 8;
+
+impl<S: Surfaces> Tracer<S> {
+    /// Prepares `surfaces` with `lights` (scene space) for tracing.
+    pub fn new(
+        surfaces: S,
+        lights: &[PointLight],
+        sky: Sky,
+        phong: Phong,
+        opts: TraceOptions,
+    ) -> Self {
+        let (root, depth) = surfaces.grid();
+        let scale = ((1u64 << depth) as f64 / root.side) as f32;
+        let lights = lights
+            .iter()
+            .map(|l| (root.to_grid(l.position, depth).as_vec3(), *l))
+            .collect();
+        let mut opts = opts;
+        opts.max_reflections = opts.max_reflections.min(MAX_BOUNCES);
+        opts.max_refractions = opts.max_refractions.min(MAX_BOUNCES);
+        Self {
+            surfaces,
+            root,
+            depth,
+            scale,
+            lights,
+            sky,
+            phong,
+            opts,
+        }
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &TraceOptions {
+        &self.opts
+    }
+
+    /// Grid units per scene unit.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// The surfaces traced.
+    pub fn surfaces(&self) -> &S {
+        &self.surfaces
+    }
+
+    /// The scene point of grid point `g`.
+    pub fn to_scene(&self, g: Vec3) -> glam::DVec3 {
+        self.root.to_scene(g.as_dvec3(), self.depth)
+    }
+
+    /// The colour of a primary ray in unit direction `dir` that is known to hit nothing
+    /// (what [`Self::trace`] returns for it, without casting it).
+    pub fn miss_colour(&self, dir: Vec3) -> Vec3 {
+        self.sky.colour(dir)
+    }
+
+    /// The grid point of scene point `p`.
+    pub fn to_grid(&self, p: glam::DVec3) -> Vec3 {
+        self.root.to_grid(p, self.depth).as_vec3()
+    }
+
+    /// Traces the ray from grid point `origin` in unit grid direction `dir`.
+    pub fn trace(&self, origin: Vec3, dir: Vec3) -> Sample {
+        self.trace_from(origin, dir, 0.0)
+    }
+
+    /// [`Self::trace`] with the primary ray starting at parameter `tmin` (a lower bound of
+    /// its first hit, from the render's prepass; secondary rays are not affected).
+    pub fn trace_from(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
+        self.trace_primary(origin, dir, PrimaryStart::from(tmin))
+    }
+
+    /// [`Self::trace`] with what the render's prepass knows of the primary ray (secondary
+    /// rays are not affected).
+    pub(crate) fn trace_primary(&self, origin: Vec3, dir: Vec3, start: PrimaryStart) -> Sample {
+        // A depth-first ray stack holds at most one pending ray per bounce plus two; a
+        // stack sized for the limits keeps its initialization small (without bounces it is
+        // the primary ray alone).
+        let bounces = (usize::from(self.opts.max_reflections)
+            + usize::from(self.opts.max_refractions))
+        .min(usize::from(self.opts.max_path_bounces));
+        if bounces == 0 {
+            self.trace_with::<1>(origin, dir, start)
+        } else if bounces + 2 <= SMALL_STACK {
+            self.trace_with::<SMALL_STACK>(origin, dir, start)
+        } else {
+            self.trace_with::<STACK>(origin, dir, start)
+        }
+    }
+
+    fn trace_with<const STACK: usize>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        start: PrimaryStart,
+    ) -> Sample {
+        let mut sample = Sample {
+            colour: Vec3::ZERO,
+            hit: None,
+            normal: Vec3::ZERO,
+            primary_steps: 0,
+            stats: SampleStats::default(),
+        };
+        let mut stack = [EMPTY; STACK];
+        stack[0] = Task {
+            origin,
+            dir,
+            weight: Vec3::ONE,
+            refl: 0,
+            refr: 0,
+            skip: NO_SKIP,
+            medium: NO_MEDIUM,
+            iors: 0,
+        };
+        let mut len = 1usize;
+        let mut first = true;
+        let bias = self.opts.bias_cells;
+        while len > 0 {
+            len -= 1;
+            let task = stack[len];
+            let ray = GridRay {
+                origin: task.origin,
+                dir: task.dir * self.scale,
+            };
+            let q = Query {
+                // A decided hit is rebuilt with the traversal's own entry from 0.
+                tmin: match start {
+                    PrimaryStart::From(t) if first => t,
+                    _ => 0.0,
+                },
+                tmax: f32::INFINITY,
+                skip: (task.skip != NO_SKIP).then_some(task.skip),
+                medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
+                max_steps: self.opts.max_steps,
+            };
+            let r = if first {
+                self.surfaces.closest_primary(&ray, &q, &start)
+            } else {
+                self.surfaces.closest(&ray, &q)
+            };
+            sample.stats.rays += 1;
+            sample.stats.steps += r.steps;
+            sample.stats.capped += u32::from(r.capped);
+            if first {
+                sample.primary_steps = r.steps;
+                sample.hit = r.hit;
+            }
+            let Some(h) = r.hit else {
+                sample.colour += task.weight * self.sky.colour(task.dir);
+                first = false;
+                continue;
+            };
+            let m = h.material;
+            let p = ray.at(h.t);
+            let n_s = if h.normal == Vec3::ZERO {
+                -task.dir
+            } else {
+                h.normal
+            };
+            if first {
+                sample.normal = n_s;
+                first = false;
+            }
+            let entering = n_s.dot(task.dir) < 0.0;
+            let n_f = if entering {
+                n_s
+            } else if m.refractivity > 0.0 {
+                -n_s
+            } else {
+                // An opaque surface seen from behind its shading normal (a voxel normal at a
+                // silhouette): turn the normal until it just faces the viewer, rather than
+                // shading the far side.
+                (n_s - task.dir * (n_s.dot(task.dir) + 1e-3)).normalize_or(-task.dir)
+            };
+            let v = -task.dir;
+
+            // Local light.
+            let kr = m.reflectivity;
+            let kt = m.refractivity;
+            let local_w = (1.0 - kr - kt).max(0.0);
+            if local_w > 0.0 {
+                let mut local = m.albedo * self.phong.ambient;
+                let from = p + n_f * bias;
+                for (lp, light) in &self.lights {
+                    // Direction and falloff from the hit point; the shadow ray starts off
+                    // the surface and stops at the light.
+                    let to = *lp - p;
+                    let dist_grid = to.length();
+                    if !(dist_grid > 0.0) {
+                        continue;
+                    }
+                    let l = to / dist_grid;
+                    if n_f.dot(l) <= 0.0 {
+                        continue;
+                    }
+                    let vis = self.shadow(from, *lp, h.id, &mut sample.stats);
+                    if vis > 0.0 {
+                        local += light.falloff(dist_grid / self.scale)
+                            * vis
+                            * self.phong.direct(m.albedo, n_f, l, v);
+                    }
+                }
+                sample.colour += task.weight * local_w * local;
+            }
+
+            // Reflection and refraction, while the path has bounces left.
+            let path_left =
+                u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
+            // From the medium the ray is in into the leaf's, or out of the leaf's into the
+            // one around it.
+            let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
+            let (n1, n2, iors_after) = if entering {
+                (
+                    ior_decode(here as u16),
+                    m.ior,
+                    u32::from(ior_encode(m.ior)) | here << 16,
+                )
+            } else {
+                (m.ior, ior_decode(around as u16), around)
+            };
+            let cos_i = n_f.dot(v);
+            let (mut fr, mut ft) = (kr, 0.0);
+            let mut t_dir = None;
+            if kt > 0.0 {
+                let f = match self.opts.fresnel {
+                    FresnelMode::Exact => fresnel_exact(cos_i, n1, n2),
+                    FresnelMode::Schlick => fresnel_schlick(cos_i, n1, n2),
+                };
+                t_dir = refract(task.dir, n_f, n1, n2);
+                if t_dir.is_some() {
+                    fr += kt * f;
+                    ft = kt * (1.0 - f);
+                } else {
+                    fr += kt;
+                }
+            }
+            if fr > 0.0 && path_left && task.refl < self.opts.max_reflections && len < STACK {
+                stack[len] = Task {
+                    origin: p + n_f * bias,
+                    dir: reflect(task.dir, n_f).normalize(),
+                    weight: task.weight * fr,
+                    refl: task.refl + 1,
+                    refr: task.refr,
+                    skip: h.id,
+                    // A reflection stays on its side of the boundary.
+                    medium: task.medium,
+                    iors: task.iors,
+                };
+                len += 1;
+            }
+            if let Some(td) = t_dir
+                && ft > 0.0
+                && path_left
+                && task.refr < self.opts.max_refractions
+                && len < STACK
+            {
+                stack[len] = Task {
+                    origin: p - n_f * bias,
+                    dir: td,
+                    weight: task.weight * ft * m.albedo,
+                    refl: task.refl,
+                    refr: task.refr + 1,
+                    skip: h.id,
+                    // Entering a volumetric medium puts the ray inside it; leaving one
+                    // puts it outside.
+                    medium: match h.medium {
+                        Some(m) if entering => m.0,
+                        _ => NO_MEDIUM,
+                    },
+                    iors: iors_after,
+                };
+                len += 1;
+            }
+        }
+        sample
+    }
+
+    /// The fraction of the light at grid point `light` that reaches grid point `from` (the
+    /// shadow ray's vector is only made when shadows are on).
+    fn shadow(&self, from: Vec3, light: Vec3, skip: u32, stats: &mut SampleStats) -> f32 {
+        if self.opts.shadows == ShadowMode::None {
+            return 1.0;
+        }
+        stats.shadow_rays += 1;
+        let to = light - from;
+        let l = to.normalize_or_zero();
+        let dist = to.length() / self.scale;
+        let ray = GridRay {
+            origin: from,
+            dir: l * self.scale,
+        };
+        let tmax = dist * (1.0 - 1e-5);
+        let half_cell = 0.5 / self.scale;
+        let mode = self.opts.shadows;
+        let mut any = false;
+        let mut max_kt = 0.0f32;
+        let mut trans = 1.0f32;
+        let mut last_exit = f32::NEG_INFINITY;
+        let r = self
+            .surfaces
+            .walk(&ray, tmax, Some(skip), self.opts.max_steps, &mut |h| {
+                if mode == ShadowMode::Opaque {
+                    return true;
+                }
+                let kt = h.material.refractivity;
+                if kt <= 0.0 {
+                    trans = 0.0;
+                    return true;
+                }
+                any = true;
+                max_kt = max_kt.max(kt);
+                if h.t > last_exit + half_cell {
+                    trans *= kt;
+                }
+                last_exit = h.t_exit;
+                false
+            });
+        stats.steps += r.steps;
+        stats.capped += u32::from(r.capped);
+        if r.blocked {
+            return 0.0;
+        }
+        match mode {
+            ShadowMode::MaxRefractivity if any => max_kt,
+            ShadowMode::Transmittance => trans,
+            _ => 1.0,
+        }
+    }
+}

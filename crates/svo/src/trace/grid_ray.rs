@@ -1,0 +1,258 @@
+//! Rays in grid space, and their octant-mirrored form that the traversals use.
+//!
+//! The tracer works in the tree's *grid space* (the root is `[0, 2^depth]^3`, a leaf the unit
+//! cube at its integer cell; see [`crate::geometry::grid`]) in `f32`, as the GPU does. A scene ray
+//! `o + t d` becomes the grid ray `G(o) + t (d * 2^depth / side)`: the direction is scaled
+//! with the grid, so the ray parameter `t` is the same in both spaces and every hit distance
+//! is in scene units along the caller's direction. The conversion runs in `f64`, so a scene
+//! far from its origin keeps its precision.
+//!
+//! ## Mirroring (thesis 1.4.4)
+//! The traversals need a direction with no negative component. Each axis whose direction has
+//! its *sign bit* set (so `-0.0` counts as negative) is mirrored about the root's centre, and
+//! the axis's child bit (x = 4, y = 2, z = 1) goes into a mask that maps mirrored child
+//! indices back with `xor`. A component that is zero, or tiny, is raised to [`TINY`]: the
+//! ray is then perturbed by less than any cell at any supported depth, and every plane
+//! distance `(p - o) / d` stays finite, so no NaN ever reaches a comparison.
+
+use crate::geometry::grid::RootCube;
+use glam::{BVec3A, DVec3, UVec3, Vec3, Vec3A};
+
+/// The smallest direction component the traversals use (`2^-60`): large enough that
+/// `(p - o) / TINY` stays finite for every grid coordinate, small enough that the
+/// perturbation is far below a cell.
+pub const TINY: f32 = 8.673_617e-19;
+
+/// A ray in grid space: `origin + t * dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridRay {
+    /// The origin, in grid units.
+    pub origin: Vec3,
+    /// The direction (any length; `t` is measured in its units).
+    pub dir: Vec3,
+}
+
+impl GridRay {
+    /// The grid ray of the scene ray `origin + t * dir` for a tree over `root` at `depth`.
+    pub fn from_scene(root: &RootCube, depth: u8, origin: DVec3, dir: DVec3) -> Self {
+        let scale = (1u64 << depth) as f64 / root.side;
+        Self {
+            origin: root.to_grid(origin, depth).as_vec3(),
+            dir: (dir * scale).as_vec3(),
+        }
+    }
+
+    /// The point at parameter `t`.
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+
+    /// Whether the ray can be traced: finite origin, finite non-zero direction.
+    pub fn is_valid(&self) -> bool {
+        self.origin.is_finite() && self.dir.is_finite() && self.dir != Vec3::ZERO
+    }
+}
+
+/// `1 / d` per axis with each component of `d` first moved away from zero to at least
+/// [`TINY`] in magnitude, keeping its sign bit (`-0.0` becomes `-TINY`): finite and non-zero
+/// for every finite `d`. Every traversal's plane parameters are `(p - o) * safe_inverse(d)`.
+#[inline]
+pub(crate) fn safe_inverse(d: Vec3) -> Vec3A {
+    let raise = |c: f32| {
+        if c.is_sign_negative() {
+            c.min(-TINY)
+        } else {
+            c.max(TINY)
+        }
+    };
+    Vec3A::new(raise(d.x), raise(d.y), raise(d.z)).recip()
+}
+
+/// A ray mirrored into the positive octant of a root of `n` cells per axis.
+///
+/// The origin itself is not mirrored (that would round it to the precision of the root's far
+/// side): the traversal works with mirrored *integer plane coordinates*, which are mapped back
+/// exactly (`n - p`) before the ray parameter `(p - o) / d` is computed in real space.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MirroredRay {
+    /// The real origin.
+    pub o: Vec3A,
+    /// `1 / d` of the real direction with tiny components raised to [`TINY`] in magnitude:
+    /// finite and non-zero.
+    pub inv: Vec3A,
+    /// Child bits of the mirrored axes (x = 4, y = 2, z = 1).
+    pub mask: u8,
+    /// Cells per axis.
+    pub n: u32,
+    /// Per axis, `-1` for mirrored axes and `1` for the others, and `n` or `0`: the real
+    /// plane of mirrored plane `p` is `off + sign * p`, exactly (integers below `2^24`).
+    sign: Vec3A,
+    off: Vec3A,
+}
+
+impl MirroredRay {
+    /// Mirrors `ray` for a root of `n` cells per axis; `None` for an invalid ray.
+    pub fn new(ray: &GridRay, n: u32) -> Option<Self> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let mut mask = 0u8;
+        for axis in 0..3 {
+            if ray.dir[axis].is_sign_negative() {
+                mask |= 4 >> axis;
+            }
+        }
+        let m = BVec3A::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
+        Some(Self {
+            o: ray.origin.into(),
+            inv: safe_inverse(ray.dir),
+            mask,
+            n,
+            sign: Vec3A::select(m, Vec3A::NEG_ONE, Vec3A::ONE),
+            off: Vec3A::select(m, Vec3A::splat(n as f32), Vec3A::ZERO),
+        })
+    }
+
+    /// The ray parameters where it crosses the mirrored planes `x = p.x`, `y = p.y`,
+    /// `z = p.z` (integer grid coordinates). The same plane always gives the same value,
+    /// which is what keeps neighbouring cells gap-free.
+    #[inline]
+    pub fn t_planes(&self, p: UVec3) -> Vec3A {
+        let real = self.off + self.sign * Vec3A::new(p.x as f32, p.y as f32, p.z as f32);
+        (real - self.o) * self.inv
+    }
+
+    /// Where the ray meets the root within `[tmin, tmax]`: the parameters of the root's low
+    /// and high planes and the entry parameter, or `None` when it misses (or the range is
+    /// empty or NaN).
+    #[inline]
+    pub fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
+        self.node_entry(UVec3::ZERO, self.n, tmin, tmax)
+    }
+
+    /// [`Self::root_entry`] for the node whose mirrored minimum cell is `origin` and whose
+    /// side is `side` cells.
+    #[inline]
+    pub fn node_entry(
+        &self,
+        origin: UVec3,
+        side: u32,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(Vec3A, Vec3A, f32)> {
+        if !(tmin <= tmax) {
+            return None;
+        }
+        let t0 = self.t_planes(origin);
+        let t1 = self.t_planes(origin + UVec3::splat(side));
+        let enter = t0.max_element().max(tmin);
+        (enter <= t1.min_element().min(tmax)).then_some((t0, t1, enter))
+    }
+
+    /// Maps a mirrored leaf cell back to the real cell.
+    #[inline]
+    pub fn unmirror_cell(&self, m: UVec3) -> UVec3 {
+        self.flip(m, 1)
+    }
+
+    /// The minimum corner, on the other side of the mirror, of the cube of `side` cells
+    /// whose minimum corner is `c` (real to mirrored or back: the map is its own inverse).
+    #[inline]
+    pub fn flip(&self, c: UVec3, side: u32) -> UVec3 {
+        let f = |axis: usize, v: u32| {
+            if self.mask & (4 >> axis) != 0 {
+                self.n - side - v
+            } else {
+                v
+            }
+        };
+        UVec3::new(f(0, c.x), f(1, c.y), f(2, c.z))
+    }
+
+    /// The real-space unit normal of the face through which the ray enters a cell whose
+    /// entry-plane parameters are `c0` (the latest of the three; ties prefer x, then y),
+    /// facing the ray; zero when the ray starts inside (`max(c0) < tmin`).
+    #[inline]
+    pub fn entry_normal_of(&self, c0: Vec3A, tmin: f32) -> Vec3 {
+        entry_normal_of(self.mask, c0, tmin)
+    }
+
+    /// The real-space outward unit normal of the face through which the ray leaves a cell
+    /// whose exit-plane parameters are `c1` (the earliest of the three; ties prefer x, then
+    /// y): it points along the ray.
+    #[inline]
+    pub fn exit_normal_of(&self, c1: Vec3A) -> Vec3 {
+        exit_normal_of(self.mask, c1)
+    }
+}
+
+/// [`MirroredRay::entry_normal_of`] for a ray whose mirrored axes are `mask`.
+#[inline]
+pub(crate) fn entry_normal_of(mask: u8, c0: Vec3A, tmin: f32) -> Vec3 {
+    if c0.max_element() < tmin {
+        return Vec3::ZERO;
+    }
+    let axis = if c0.x >= c0.y && c0.x >= c0.z {
+        0
+    } else if c0.y >= c0.z {
+        1
+    } else {
+        2
+    };
+    entry_normal(mask, axis)
+}
+
+/// [`MirroredRay::exit_normal_of`] for a ray whose mirrored axes are `mask`.
+#[inline]
+pub(crate) fn exit_normal_of(mask: u8, c1: Vec3A) -> Vec3 {
+    let axis = if c1.x <= c1.y && c1.x <= c1.z {
+        0
+    } else if c1.y <= c1.z {
+        1
+    } else {
+        2
+    };
+    -entry_normal(mask, axis)
+}
+
+/// The real-space unit normal of the face through which a ray whose mirrored axes are
+/// `mask` enters on `axis` (it faces the ray).
+#[inline]
+fn entry_normal(mask: u8, axis: usize) -> Vec3 {
+    let mut n = Vec3::ZERO;
+    n[axis] = if mask & (4 >> axis) != 0 { 1.0 } else { -1.0 };
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn negative_zero_is_mirrored_and_zero_is_raised() {
+        let r = GridRay {
+            origin: Vec3::new(1.0, 2.0, 3.0),
+            dir: Vec3::new(-0.0, 0.0, -1.0),
+        };
+        let m = MirroredRay::new(&r, 8).unwrap();
+        assert_eq!(m.mask, 0b101);
+        assert!(m.inv.is_finite());
+        // Mirrored planes: x = 8 - 7 = 1 and z = 8 - 5 = 3 are the origin's own planes, so
+        // t = 0 there, not NaN; the mirrored direction is positive on every axis.
+        assert_eq!(m.t_planes(UVec3::new(7, 2, 5)), Vec3A::ZERO);
+        let ahead = m.t_planes(UVec3::new(8, 3, 6));
+        assert!(ahead.cmpgt(Vec3A::ZERO).all(), "{ahead}");
+    }
+
+    #[test]
+    fn invalid_rays_are_refused() {
+        for (o, d) in [
+            (Vec3::ZERO, Vec3::ZERO),
+            (Vec3::NAN, Vec3::X),
+            (Vec3::ZERO, Vec3::new(f32::INFINITY, 0.0, 0.0)),
+        ] {
+            assert!(MirroredRay::new(&GridRay { origin: o, dir: d }, 4).is_none());
+        }
+    }
+}

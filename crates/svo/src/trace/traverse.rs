@@ -1,0 +1,515 @@
+//! Octree ray traversal: Revelles et al.'s parametric algorithm with the octant mirror mask
+//! (thesis 1.4.3-1.4.4), iterative with an explicit stack.
+//!
+//! The ray is mirrored into the positive octant ([`crate::trace::grid_ray`]). A node on the stack
+//! holds the ray parameters of its three low planes `t0`, its three mid planes `tm` and its
+//! three high planes `t1`; child `c` spans `[t0, tm]` or `[tm, t1]` on each axis by its bits.
+//! The first child is the one containing the entry point (bit set where `tm <= t_enter`,
+//! Revelles's `first_node`), and the next is found from the child's exit plane
+//! (`new_node`): the axes whose exit parameter is the smallest are crossed together, so a
+//! ray through an edge or a corner skips the neighbours it only touches, and when one of them
+//! is already the high half the ray leaves the parent.
+//!
+//! Every plane parameter is computed directly from the plane's integer grid coordinate as
+//! `(p - o) / d`, never as Revelles's midpoint `(t0 + t1) / 2` (which loses all precision for
+//! nearly parallel rays). Neighbouring cells therefore share their boundary parameters bit
+//! for bit, and the cells visited tile the ray with no gap: no leaf the ray enters is missed.
+//!
+//! The traversal visits leaves front to back and hands each existing one to a callback, which
+//! decides whether the ray stops there (a cube, a contour or triangles: [`crate::trace::leaf_hit`];
+//! shadow rays accumulate transmittance and go on). Each child examined is one step; a ray
+//! that needs more than the cap is reported as capped, never as a silent miss.
+
+use crate::octree::tree::{Node, Octree};
+use crate::trace::grid_ray::{GridRay, MirroredRay};
+use glam::{UVec3, Vec3, Vec3A};
+
+/// The default cap on traversal steps (children examined) per ray. A ray through a depth-10
+/// tree examines at most about `3 * 1024 * 8` children, so only a pathological callback
+/// (one that declines every leaf of a huge tree) reaches it.
+pub const MAX_STEPS: u32 = 1 << 16;
+
+/// A leaf the ray passes through, as handed to the callback.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafEntry {
+    /// Index into the leaf arrays.
+    pub leaf: u32,
+    /// Integer cell coordinates.
+    pub cell: UVec3,
+    /// Where the ray enters the cell (at least the ray's `tmin`).
+    pub t_enter: f32,
+    /// Where it leaves (at most the ray's `tmax`).
+    pub t_exit: f32,
+    /// The unit normal of the face the ray enters through, facing the ray; zero when the ray
+    /// starts inside the cell.
+    pub entry_normal: Vec3,
+    /// The outward unit normal of the face the ray leaves through.
+    pub exit_normal: Vec3,
+}
+
+/// The outcome of a traversal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traversal<T> {
+    /// What the callback returned for the leaf where the ray stopped.
+    pub hit: Option<T>,
+    /// Children examined.
+    pub steps: u32,
+    /// Whether the ray was stopped by the step cap (then `hit` is `None` but the ray was not
+    /// proven to miss).
+    pub capped: bool,
+}
+
+const DONE: u8 = 8;
+
+/// An all-zero frame: the stack is initialized with it, which compiles to one `memset`.
+const EMPTY: Frame = Frame {
+    node: Node { info: 0, first: 0 },
+    origin: UVec3::ZERO,
+    half: 0,
+    t0: Vec3A::ZERO,
+    tm: Vec3A::ZERO,
+    t1: Vec3A::ZERO,
+    next: 0,
+    enter: 0.0,
+};
+
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    node: Node,
+    /// Mirrored minimum corner, in leaf cells.
+    origin: UVec3,
+    /// Half the node's side, in leaf cells.
+    half: u32,
+    t0: Vec3A,
+    tm: Vec3A,
+    t1: Vec3A,
+    next: u8,
+    /// Where the ray enters child `next` (at least `tmin`). Tracked incrementally: the first
+    /// child starts where the node does, and each next child where the previous one ends
+    /// (its low planes on the crossed axes are the previous child's exit planes), which is
+    /// exactly `max(max(c0), tmin)` without recomputing it.
+    enter: f32,
+}
+
+/// SIMD comparison masks have x in bit 0; child indices have x in bit 2.
+const REVERSE3: [u8; 8] = [0, 4, 2, 6, 1, 5, 3, 7];
+
+/// Per child index, which axes are its high half.
+const HIGH: [glam::BVec3A; 8] = [
+    glam::BVec3A::new(false, false, false),
+    glam::BVec3A::new(false, false, true),
+    glam::BVec3A::new(false, true, false),
+    glam::BVec3A::new(false, true, true),
+    glam::BVec3A::new(true, false, false),
+    glam::BVec3A::new(true, false, true),
+    glam::BVec3A::new(true, true, false),
+    glam::BVec3A::new(true, true, true),
+];
+
+#[inline]
+fn first_child(tm: Vec3A, t: f32) -> u8 {
+    REVERSE3[tm.cmple(Vec3A::splat(t)).bitmask() as usize]
+}
+
+/// The child after `c`, whose exit parameters are `exit` with smallest `m`: the axes at `m`
+/// are crossed together; if one of them is already the high half the ray leaves the node.
+#[inline]
+fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
+    let tied = (u8::from(exit.x == m) << 2) | (u8::from(exit.y == m) << 1) | u8::from(exit.z == m);
+    if c & tied != 0 { DONE } else { c | tied }
+}
+
+#[inline]
+fn child_exit(f: &Frame, c: u8) -> Vec3A {
+    Vec3A::select(HIGH[usize::from(c & 7)], f.t1, f.tm)
+}
+
+#[inline]
+fn child_entry(f: &Frame, c: u8) -> Vec3A {
+    Vec3A::select(HIGH[usize::from(c & 7)], f.tm, f.t0)
+}
+
+#[inline]
+fn child_origin(f: &Frame, c: u8) -> UVec3 {
+    f.origin
+        + UVec3::new(
+            u32::from(c >> 2 & 1),
+            u32::from(c >> 1 & 1),
+            u32::from(c & 1),
+        ) * f.half
+}
+
+/// Traverses `tree` along `ray` for parameters in `[tmin, tmax]`, calling `on_leaf` for each
+/// existing leaf the ray passes through, front to back, until it returns `Some`.
+/// At most `max_steps` children are examined (see [`MAX_STEPS`]).
+pub fn traverse<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Traversal<T> {
+    // Only a walk from a node can be refused.
+    traverse_from(tree, ray, None, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
+        hit: None,
+        steps: 0,
+        capped: false,
+    })
+}
+
+/// An inner node to start a traversal at: its index in the node array, its minimum cell
+/// and its side in cells (a power of two, at least 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StartNode {
+    /// Index into the node array.
+    pub index: u32,
+    /// Minimum cell (real, not mirrored).
+    pub origin: UVec3,
+    /// Side in cells.
+    pub side: u32,
+}
+
+/// [`traverse`] within one inner node's cube: the leaves of `start`'s subtree that the ray
+/// passes through, front to back, with the same entries (parameters, cells, normals) as a
+/// traversal from the root would give them for the same `tmin`. A node that does not fit
+/// the tree is not traversed (no leaves). `None` when the ray only touches the node's cube
+/// at a point (an edge or a corner): a walk from the root crosses such points into the
+/// diagonal neighbour without handing over the cells it touches, except where it starts
+/// (at `tmin`, or where it only touches the root), so only that walk knows.
+pub fn traverse_node<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    start: StartNode,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Option<Traversal<T>> {
+    traverse_from(tree, ray, Some(start), tmin, tmax, max_steps, on_leaf)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn traverse_from<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    start: Option<StartNode>,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Option<Traversal<T>> {
+    // The stack holds one frame per level above the leaves; a stack sized for the tree
+    // keeps its initialization (a `memset` per ray) small.
+    let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
+    if levels <= 2 {
+        traverse_with::<2, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    } else if levels <= 4 {
+        traverse_with::<4, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    } else if levels <= 12 {
+        traverse_with::<12, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    } else {
+        traverse_with::<32, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn traverse_with<const STACK: usize, T>(
+    tree: &Octree,
+    ray: &GridRay,
+    start: Option<StartNode>,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    mut on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Option<Traversal<T>> {
+    let mut out = Traversal {
+        hit: None,
+        steps: 0,
+        capped: false,
+    };
+    let depth = usize::from(tree.depth);
+    if depth == 0 || depth > 31 {
+        return Some(out);
+    }
+    let n = 1u32 << depth;
+    let (node, origin, side) = match start {
+        None => match tree.nodes.first() {
+            Some(&root) => (root, UVec3::ZERO, n),
+            None => return Some(out),
+        },
+        Some(s) => {
+            let fits = s.side >= 2
+                && s.side.is_power_of_two()
+                && s.side <= n
+                && (s.origin % s.side) == UVec3::ZERO
+                && s.origin.max_element() < n;
+            match tree.nodes.get(s.index as usize) {
+                Some(&node) if fits && node.is_leaf_parent() == (s.side == 2) => {
+                    (node, s.origin, s.side)
+                }
+                _ => return Some(out),
+            }
+        }
+    };
+    if node.child_mask() == 0 {
+        return Some(out);
+    }
+    let Some(r) = MirroredRay::new(ray, n) else {
+        return Some(out);
+    };
+    // The node's minimum corner in mirrored cells.
+    let origin = r.flip(origin, side);
+    let Some((t0, t1, enter)) = r.node_entry(origin, side, tmin, tmax) else {
+        return Some(out);
+    };
+    if start.is_some() && enter >= t1.min_element() {
+        // The ray only touches the node's cube.
+        return None;
+    }
+    let half = side / 2;
+    let tm = r.t_planes(origin + UVec3::splat(half));
+    // The current node lives in locals (registers); the stack holds its ancestors.
+    let mut cur = Frame {
+        node,
+        origin,
+        half,
+        t0,
+        tm,
+        t1,
+        next: first_child(tm, enter),
+        enter,
+    };
+    let mut stack = [EMPTY; STACK];
+    let mut len = 0usize;
+    let mask = r.mask;
+    loop {
+        if cur.next == DONE {
+            if len == 0 {
+                break;
+            }
+            len -= 1;
+            cur = stack[len];
+            continue;
+        }
+        let c = cur.next;
+        let t_enter = cur.enter;
+        let c1 = child_exit(&cur, c);
+        let (x, y, z) = (c1.x, c1.y, c1.z);
+        let m = if x < y { x } else { y };
+        let m = if m < z { m } else { z };
+        cur.next = next_child(c, c1, m);
+        cur.enter = if m > tmin { m } else { tmin };
+        out.steps += 1;
+        if out.steps > max_steps {
+            out.capped = true;
+            return Some(out);
+        }
+        // Most children of a sparse tree are absent: test that before anything else.
+        let real = c ^ mask;
+        let child_mask = cur.node.child_mask();
+        if child_mask >> real & 1 == 0 {
+            continue;
+        }
+        if t_enter > tmax {
+            // Front to back: everything after this child is further still.
+            return Some(out);
+        }
+        let t_exit = if m < tmax { m } else { tmax };
+        if t_exit < t_enter {
+            continue;
+        }
+        let rank = (child_mask & ((1u16 << real) - 1) as u8).count_ones();
+        let origin = child_origin(&cur, c);
+        if let Some(base) = cur.node.leaf_base() {
+            let entry = LeafEntry {
+                leaf: base + rank,
+                cell: r.unmirror_cell(origin),
+                t_enter,
+                t_exit,
+                entry_normal: r.entry_normal_of(child_entry(&cur, c), tmin),
+                exit_normal: r.exit_normal_of(c1),
+            };
+            if let Some(h) = on_leaf(&entry) {
+                out.hit = Some(h);
+                return Some(out);
+            }
+        } else {
+            // A malformed tree deeper than its depth cannot overflow the stack.
+            if len == STACK || cur.half < 2 {
+                continue;
+            }
+            let Some(&child) = tree.nodes.get((cur.node.first + rank) as usize) else {
+                continue;
+            };
+            let half = cur.half / 2;
+            let tm = r.t_planes(origin + UVec3::splat(half));
+            let c0 = child_entry(&cur, c);
+            stack[len] = cur;
+            len += 1;
+            cur = Frame {
+                node: child,
+                origin,
+                half,
+                t0: c0,
+                tm,
+                t1: c1,
+                next: first_child(tm, t_enter),
+                enter: t_enter,
+            };
+        }
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::octree::{RootCube, Voxel};
+    use glam::DVec3;
+
+    /// A walk started at an inner node (what the primary-ray prepass does) hands over exactly
+    /// the leaves of that node that the walk from the root hands over, with the same entries,
+    /// for every node of every level, unless the ray only touches the node's cube at a point,
+    /// which the walk from the node reports as such (the walk from the root hands over touched
+    /// leaves where it starts, and crosses them elsewhere). Rays: from outside towards a point
+    /// inside, from inside (sometimes from a later `tmin`), axis-parallel with signed zeros on
+    /// cell faces, and between lattice points (through corners and edges).
+    #[test]
+    fn a_walk_from_a_node_sees_what_the_root_walk_sees_there() {
+        let mut next = crate::test_rng::xorshift(0x5_7A27);
+        let mut unit = crate::test_rng::unit_f64(0x9E37);
+        let (mut compared, mut touched) = (0usize, 0usize);
+        for depth in 2..=5u8 {
+            for density in [0.05, 0.3, 0.9] {
+                let side = 1u32 << depth;
+                let mut cells = Vec::new();
+                for x in 0..side {
+                    for y in 0..side {
+                        for z in 0..side {
+                            if unit() < density {
+                                cells.push((UVec3::new(x, y, z), Voxel::default()));
+                            }
+                        }
+                    }
+                }
+                if cells.is_empty() {
+                    continue;
+                }
+                let root = RootCube {
+                    origin: DVec3::ZERO,
+                    side: f64::from(side),
+                };
+                let tree = Octree::from_cells(root, depth, cells).unwrap();
+                let n = side as f32;
+                let nodes: Vec<StartNode> = (1..depth)
+                    .flat_map(|l| tree.nodes_at_level(l, usize::MAX).unwrap())
+                    .map(|(index, origin, side)| StartNode {
+                        index,
+                        origin,
+                        side,
+                    })
+                    .collect();
+                for _ in 0..200 {
+                    let mut f = || unit() as f32;
+                    let inside = Vec3::new(f() * n, f() * n, f() * n);
+                    let lattice = |k: u64| (k % (u64::from(side) + 5)) as f32 - 2.0;
+                    let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
+                    let (ray, tmin) = match next() % 4 {
+                        0 => {
+                            let o = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero()
+                                * n
+                                * 1.5
+                                + Vec3::splat(n * 0.5);
+                            (
+                                GridRay {
+                                    origin: o,
+                                    dir: inside - o,
+                                },
+                                0.0,
+                            )
+                        }
+                        1 => {
+                            let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
+                            let tmin = if next().is_multiple_of(3) {
+                                f() * n
+                            } else {
+                                0.0
+                            };
+                            (
+                                GridRay {
+                                    origin: inside,
+                                    dir: d,
+                                },
+                                tmin,
+                            )
+                        }
+                        2 => {
+                            let axis = (next() % 3) as usize;
+                            let mut d = Vec3::new(
+                                signed_zero(next()),
+                                signed_zero(next()),
+                                signed_zero(next()),
+                            );
+                            d[axis] = if next() & 1 == 0 { 1.0 } else { -1.0 };
+                            let mut o = inside.floor();
+                            o[axis] = if d[axis] > 0.0 { -1.0 } else { n + 1.0 };
+                            (GridRay { origin: o, dir: d }, 0.0)
+                        }
+                        _ => {
+                            let o = Vec3::new(lattice(next()), lattice(next()), lattice(next()));
+                            let mut d = Vec3::new(
+                                (next() % 5) as f32 - 2.0,
+                                (next() % 5) as f32 - 2.0,
+                                (next() % 5) as f32 - 2.0,
+                            );
+                            if d == Vec3::ZERO {
+                                d.x = 1.0;
+                            }
+                            for k in 0..3 {
+                                if d[k] == 0.0 {
+                                    d[k] = signed_zero(next());
+                                }
+                            }
+                            (GridRay { origin: o, dir: d }, 0.0)
+                        }
+                    };
+                    let mut all: Vec<LeafEntry> = Vec::new();
+                    traverse(&tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                        all.push(*e);
+                        None::<()>
+                    });
+                    for s in &nodes {
+                        let within = |c: UVec3| {
+                            c.cmpge(s.origin).all()
+                                && c.cmplt(s.origin + UVec3::splat(s.side)).all()
+                        };
+                        let want: Vec<LeafEntry> =
+                            all.iter().copied().filter(|e| within(e.cell)).collect();
+                        let mut got: Vec<LeafEntry> = Vec::new();
+                        let walked =
+                            traverse_node(&tree, &ray, *s, tmin, f32::INFINITY, MAX_STEPS, |e| {
+                                got.push(*e);
+                                None::<()>
+                            });
+                        if walked.is_none() {
+                            // Touched at one parameter: whatever the root walk handed over
+                            // there it entered and left at once.
+                            assert!(got.is_empty());
+                            assert!(
+                                want.iter().all(|e| e.t_enter == e.t_exit),
+                                "{ray:?} from {tmin}: node {s:?}: {want:?}"
+                            );
+                            touched += 1;
+                        } else {
+                            assert_eq!(got, want, "{ray:?} from {tmin}: node {s:?}");
+                            compared += usize::from(!want.is_empty());
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 10_000, "{compared} nodes with leaves compared");
+        assert!(touched > 0, "no ray only touched a node");
+    }
+}
