@@ -137,12 +137,20 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     plots::register_font()?;
     let mesh = Mesh::load(&opts.mesh).map_err(|e| {
         anyhow::anyhow!(
-            "cannot load the benchmark mesh {}: {e} (run from the repository root with \
-             ../shared/models beside it, or pass --mesh)",
+            "cannot load the benchmark mesh {}: {e} (set SVO_MODELS to the shared models \
+             folder, or pass --mesh)",
             opts.mesh.display()
         )
     })?;
-    let mesh_name = opts.mesh.display().to_string();
+    // Relative to the repository where it lies beside or inside it, so the report names no
+    // machine's folders.
+    let root = svo_tests::repo_root();
+    let mesh_name = opts
+        .mesh
+        .strip_prefix(&root)
+        .unwrap_or(&opts.mesh)
+        .display()
+        .to_string();
     log(
         start,
         &format!("{mesh_name}: {} triangles", mesh.triangles.len()),
