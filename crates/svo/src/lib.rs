@@ -73,7 +73,7 @@ pub mod prelude;
 
 // The differential checks of the importers, for the fuzz targets only (`cargo fuzz` builds
 // with `--cfg fuzzing`); not part of the API.
-#[cfg(fuzzing)]
+#[cfg(all(fuzzing, any(feature = "obj", feature = "ply")))]
 #[doc(hidden)]
 pub use import::differential as fuzz_import;
 

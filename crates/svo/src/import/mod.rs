@@ -7,7 +7,7 @@
 //!
 //! Depends on [`crate::mesh`] only.
 
-#[cfg(any(test, fuzzing))]
+#[cfg(all(any(test, fuzzing), any(feature = "obj", feature = "ply")))]
 pub mod differential;
 #[cfg(feature = "gltf")]
 pub(crate) mod gltf;

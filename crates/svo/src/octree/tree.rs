@@ -334,7 +334,7 @@ impl Octree {
     /// The nodes at `level` (0 = the root; below the depth, where the leaves are), as
     /// `(node index, minimum cell, side in cells)` at leaf resolution, in depth-first order;
     /// `None` when there are more than `cap`.
-    #[cfg(test)]
+    #[cfg(all(test, feature = "trace"))]
     pub(crate) fn nodes_at_level(&self, level: u8, cap: usize) -> Option<Vec<(u32, UVec3, u32)>> {
         let mut out = Vec::new();
         if level >= self.depth {

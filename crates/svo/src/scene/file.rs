@@ -791,7 +791,7 @@ mod tests {
             solid: Some(SolidMode::Closed),
             ..crate::BakeOptions::default()
         };
-        let (tree, _) = crate::bake_mesh(m, &opts, &|_, _| {}).unwrap();
+        let (tree, _) = crate::bake_mesh(m, &opts).unwrap();
         assert!(tree.leaf_at(glam::UVec3::splat(16)).is_none());
         assert!(tree.leaf_at(glam::UVec3::new(1, 16, 16)).is_some());
         // Manifold refuses open operands, named.
