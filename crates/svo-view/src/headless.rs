@@ -212,7 +212,10 @@ pub fn render_scene(
     for _ in 0..frames.unwrap_or(1) {
         times.push(renderer.render(ctx, &u)?.as_secs_f64());
     }
-    let frame = renderer.read_frame(ctx, std::time::Duration::from_secs_f64(median(&times)))?;
+    let frame = renderer.read_frame(
+        ctx,
+        std::time::Duration::from_secs_f64(FrameTiming::median(&times)),
+    )?;
     Ok(GpuFrame {
         frame,
         times,
@@ -265,7 +268,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
         Some(VsCpu {
             diff,
             leaf_mismatch,
-            cpu_ms: median(&cpu_times) * 1e3,
+            cpu_ms: FrameTiming::median(&cpu_times) * 1e3,
             cpu_threads: rayon_threads(),
         })
     } else {
@@ -312,11 +315,4 @@ fn stack_place(workgroup: bool, entries: u32) -> String {
         "{entries} ({})",
         if workgroup { "workgroup" } else { "private" }
     )
-}
-
-/// The median of `v` (the upper one of an even count); `v` must not be empty.
-fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[s.len() / 2]
 }

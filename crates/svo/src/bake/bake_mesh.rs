@@ -159,8 +159,9 @@ pub struct BakeStats {
     pub channels: Vec<(String, String)>,
 }
 
-/// Checks the options against the mesh and returns the root cube.
-pub(crate) fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64), BakeError> {
+/// Checks the options against the mesh and returns the root cube with the bake's estimated
+/// size (refused when it exceeds `opts.max_memory`).
+pub(crate) fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, Estimate), BakeError> {
     if !(1..=crate::MAX_DEPTH).contains(&opts.depth) {
         return Err(BakeError::Depth { depth: opts.depth });
     }
@@ -191,7 +192,7 @@ pub(crate) fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, f64)
             limit_gib: limit as f64 / GIB,
         });
     }
-    Ok((root, est.leaves))
+    Ok((root, est))
 }
 
 /// The leaves and peak memory a bake of `mesh` with `opts` would have, estimated (an upper
@@ -202,8 +203,7 @@ pub fn estimate_bake(mesh: &Mesh, opts: &BakeOptions) -> Result<Estimate, BakeEr
         max_memory: None,
         ..opts.clone()
     };
-    let (root, _) = prepare(mesh, &opts)?;
-    Ok(estimate(mesh, &root, opts.depth))
+    prepare(mesh, &opts).map(|(_, est)| est)
 }
 
 /// Voxelizes only: the root cube, and the leaf cells (in leaf order) with the mesh triangles
@@ -279,7 +279,7 @@ pub fn bake_mesh_with_progress(
     opts: &BakeOptions,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<(Octree, BakeStats), BakeError> {
-    let (root, estimated_leaves) = prepare(mesh, opts)?;
+    let (root, est) = prepare(mesh, opts)?;
     let t0 = Instant::now();
     let order = spatial_order(mesh, &root);
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
@@ -341,7 +341,7 @@ pub fn bake_mesh_with_progress(
         cell_size: root.cell_size(opts.depth),
         nodes: tree.nodes.len(),
         leaves: tree.leaf_count as usize,
-        estimated_leaves,
+        estimated_leaves: est.leaves,
         overlap_tests: tests,
         leaf_triangle_pairs: pairs as usize,
         false_positives,

@@ -558,8 +558,8 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
                 .ok_or_else(|| RenderJobError::Invalid("the two renders differ in size".into()))?;
             compare = Some(CompareReport {
                 diff,
-                svo_ms: median(&s.1) * 1e3,
-                reference_ms: median(&r.1) * 1e3,
+                svo_ms: FrameTiming::median(&s.1) * 1e3,
+                reference_ms: FrameTiming::median(&r.1) * 1e3,
                 reference_output: None,
             });
             if let Some(out) = &job.output {
@@ -642,7 +642,7 @@ impl FrameTiming {
     /// The timing of frames that took `times` seconds each (not empty) and cast the rays
     /// `stats` counts per frame.
     pub fn new(times: &[f64], stats: &RenderStats) -> Self {
-        let med = median(times);
+        let med = Self::median(times);
         let all = (stats.primary_rays + stats.secondary_rays + stats.shadow_rays) as f64;
         Self {
             frames: times.len() as u32,
@@ -652,13 +652,14 @@ impl FrameTiming {
             primary_mrays_per_s: stats.primary_rays as f64 / med / 1e6,
         }
     }
-}
 
-/// The median of `v` (the upper one of an even count); `v` must not be empty.
-pub(crate) fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[s.len() / 2]
+    /// The frame time a timing reports for frames of `times` seconds: their median (the
+    /// upper one of an even count); `times` must not be empty.
+    pub fn median(times: &[f64]) -> f64 {
+        let mut s = times.to_vec();
+        s.sort_by(f64::total_cmp);
+        s[s.len() / 2]
+    }
 }
 
 /// `dir/name.png` -> `dir/name.<tag>.png`.
