@@ -42,6 +42,19 @@ fn gpu() -> Option<std::sync::MutexGuard<'static, GpuContext>> {
         .map(|m| m.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
 }
 
+/// How many of `n` leaves or rays may differ between the GPU and the CPU: none on lavapipe,
+/// where the shader's `f32` arithmetic is the CPU's bit for bit (every comparison here finds 0
+/// differences there); on other adapters `n / per`, since WGSL lets a driver fuse a multiply
+/// and an add, which can move a ray that ties on a cell boundary by an ulp into the
+/// neighbouring leaf.
+fn allowed(ctx: &GpuContext, n: usize, per: usize) -> usize {
+    if ctx.adapter_name().contains("llvmpipe") {
+        0
+    } else {
+        n / per
+    }
+}
+
 /// The torus fixture's material made glass: 20% opacity, IOR 1.5, a little specular.
 const GLASS_MTL: &str = "newmtl copper\nKd 0.85 0.92 1.0\nKs 0.1 0.1 0.1\nNi 1.5\nd 0.2\nillum 7\n";
 
@@ -126,7 +139,10 @@ fn same_image(
         diff.hit_mismatch
     );
     assert_eq!(diff.hit_mismatch, 0.0, "hit/miss masks differ");
-    assert!(leaf_diff * 200 <= n, "{leaf_diff} of {n} leaves differ");
+    assert!(
+        leaf_diff <= allowed(&ctx, n, 200),
+        "{leaf_diff} of {n} leaves differ"
+    );
     assert!(diff.rmse <= max_rmse, "RMSE {} > {max_rmse}", diff.rmse);
     for i in 0..n {
         if g.frame.leaf[i] == c.leaf[i] && c.leaf[i] != NO_LEAF {
@@ -507,7 +523,10 @@ fn the_thesis_pool_views() {
             diff.rmse, g.stats.secondary_rays
         );
         assert_eq!(diff.hit_mismatch, 0.0, "{view}");
-        assert!(leaf_diff * 200 <= c.leaf.len(), "{view}");
+        assert!(
+            leaf_diff <= allowed(&ctx, c.leaf.len(), 200),
+            "{view}: {leaf_diff} leaves differ"
+        );
         assert!(diff.rmse <= 1.0, "{view}: RMSE {}", diff.rmse);
         assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{view}");
         assert!(g.stats.secondary_rays <= 2 * g.stats.primary_hits, "{view}");
@@ -786,7 +805,7 @@ fn check_batch(
         assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
     }
     assert!(
-        differ * 1000 <= rays.len(),
+        differ <= allowed(ctx, rays.len(), 1000),
         "{differ} of {} rays differ",
         rays.len()
     );
@@ -920,7 +939,10 @@ fn a_tree_split_over_bindings_renders_the_same() {
     assert_eq!(diff.hit_mismatch, 0.0);
     assert!(diff.rmse <= 0.5, "RMSE {}", diff.rmse);
     let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
-    assert!(leaf_diff * 200 <= c.leaf.len(), "{leaf_diff} leaves differ");
+    assert!(
+        leaf_diff <= allowed(&ctx, c.leaf.len(), 200),
+        "{leaf_diff} leaves differ"
+    );
     // Too small to fit in four bindings: a clear error, not a crash.
     let e = GpuRenderer::with_options(
         &ctx,

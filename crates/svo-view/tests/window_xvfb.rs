@@ -43,7 +43,8 @@ fn start_xvfb() -> Option<Xvfb> {
     let x = Xvfb(child, n);
     let t = Instant::now();
     while !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-        if t.elapsed() > Duration::from_secs(10) {
+        // Generous: a loaded machine may take a while to start a server.
+        if t.elapsed() > Duration::from_secs(60) {
             return None;
         }
         std::thread::sleep(Duration::from_millis(50));

@@ -37,44 +37,19 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
         .collect();
     let got: BTreeSet<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
     let want: BTreeSet<[u32; 3]> = expect.keys().copied().collect();
-    let extra: Vec<_> = got.difference(&want).collect();
+    // Both decide every doubtful contact exactly, so they agree cell for cell (and both
+    // agree with the exact oracle: `exact_oracle.rs`).
+    let extra: Vec<_> = got.difference(&want).take(5).collect();
+    let missing: Vec<_> = want.difference(&got).take(5).collect();
     assert!(
-        extra.is_empty(),
-        "{what}: cells beyond the voxelizer's at depth {depth}: {extra:?}"
+        extra.is_empty() && missing.is_empty(),
+        "{what} at depth {depth}: cells beyond the voxelizer's {extra:?}, missing {missing:?}"
     );
-    // The cell tests accept a cell within their rounding tolerance (about 1e-13 relative)
-    // of touching; slicing decides such near-contacts with the same test only where they
-    // are inside the block it works on. So the voxelizer may keep a few cells more, but
-    // only ones that no triangle reaches by more than a hair: every cell that a triangle
-    // overlaps after shrinking the cell by 1e-9 on every side must be in the tree.
-    let grid = |t: u32| {
-        let tri = mesh.triangles[t as usize];
-        svo::voxelize::GridTriangle::new(
-            root.to_grid(mesh.positions[tri[0] as usize], depth),
-            root.to_grid(mesh.positions[tri[1] as usize], depth),
-            root.to_grid(mesh.positions[tri[2] as usize], depth),
-        )
-    };
-    let mut hairs = 0;
-    for cell in want.difference(&got) {
-        let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
-        let solid = leaves
-            .triangles(expect[cell])
-            .iter()
-            .any(|&t| svo::voxelize::triangle_box_overlap(&grid(t), m + 1e-9, 1.0 - 2e-9));
-        assert!(
-            !solid,
-            "{what}: missed the touched cell {cell:?} at depth {depth}"
-        );
-        hairs += 1;
-    }
-    if hairs == 0 {
-        assert_eq!(
-            stats.leaf_triangle_pairs,
-            leaves.tris.len(),
-            "{what}: contacts differ at depth {depth}"
-        );
-    }
+    assert_eq!(
+        stats.leaf_triangle_pairs,
+        leaves.tris.len(),
+        "{what}: contacts differ at depth {depth}"
+    );
     // Normals: clip each contact to its cell and weigh the unit normals by the areas.
     let mut worst = 0.0f64;
     for leaf in tree.leaves() {

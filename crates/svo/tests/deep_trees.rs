@@ -1,12 +1,18 @@
 //! Depths 1 to 20 for a single small triangle, a thin sliver and a bundle of long thin
-//! triangles: the tree grows with the surface (leaves about 4x per level for a triangle wider
-//! than a cell, 2x for a sliver thinner than one), nodes stay a fraction of the leaves, and
-//! every leaf is a cell the triangles touch (checked with the conservative test on its own
-//! triangles, and against a direct count for the sliver). Memory and time are measured per
-//! leaf in the benchmark report; this checks that nothing but the leaves grows.
+//! triangles: at every depth the leaves are exactly the cells the triangles touch (the exact
+//! big-integer oracle of `common/oracle.rs`, which shares no code with the library, descends
+//! to depth 20 once and gives the touched cells of every level), the tree grows with the
+//! surface (leaves about 4x per level for a triangle wider than a cell, 2x for a sliver thinner
+//! than one), and nodes stay a fraction of the leaves. Memory and time are measured per leaf
+//! in the benchmark report; this checks that nothing but the leaves grows.
 
+mod common;
+use common::oracle::{grid_point, touched_cells};
 use glam::DVec3;
+use std::collections::BTreeSet;
 use svo::{BakeOptions, Mesh, bake_mesh};
+
+const DEEPEST: u8 = 20;
 
 /// `tris` plus a point-sized triangle at `(1, 1, 1)`, so the root is the unit cube whatever
 /// the triangles span (grid coordinates are then exact binary fractions).
@@ -28,18 +34,39 @@ fn anchored(tris: &[[DVec3; 3]]) -> Mesh {
     Mesh::from_triangles(positions, triangles)
 }
 
-/// Leaves of the mesh at depths 1..=20 (the two anchor cells excluded), with sanity checks
-/// of the tree's shape at each depth; `pieces` is how many separate parts the mesh has
-/// (each needs its own path of nodes from the root).
+/// Leaves of the mesh at depths 1..=20 (the two anchor cells excluded), each depth's leaf
+/// cells checked against the oracle's, with sanity checks of the tree's shape; `pieces` is
+/// how many separate parts the mesh has (each needs its own path of nodes from the root).
 fn leaves_per_depth(mesh: &Mesh, pieces: usize) -> Vec<usize> {
-    (1..=20u8)
+    // The root is the unit cube at every depth (the anchors), so grid coordinates at depth
+    // 20 hold every shallower grid's, scaled by a power of two.
+    let tris: Vec<[DVec3; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| grid_point(mesh.positions[i as usize], DVec3::ZERO, 1.0, DEEPEST)))
+        .collect();
+    let oracle = touched_cells(&tris, DEEPEST);
+    (1..=DEEPEST)
         .map(|depth| {
             let opts = BakeOptions {
                 depth,
                 ..Default::default()
             };
-            let (tree, stats) = bake_mesh(mesh, &opts).unwrap();
-            assert_eq!(stats.false_positives, 0);
+            let (tree, _) = bake_mesh(mesh, &opts).unwrap();
+            assert_eq!((tree.root.origin, tree.root.side), (DVec3::ZERO, 1.0));
+            let cells: BTreeSet<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
+            let want: BTreeSet<[u32; 3]> = oracle[usize::from(depth)].keys().copied().collect();
+            if cells != want {
+                let missing: Vec<_> = want.difference(&cells).take(4).collect();
+                let extra: Vec<_> = cells.difference(&want).take(4).collect();
+                panic!(
+                    "depth {depth}: {} touched cells missing ({missing:?}), {} leaves not \
+                     touched ({extra:?}), of {}",
+                    want.difference(&cells).count(),
+                    cells.difference(&want).count(),
+                    want.len()
+                );
+            }
             let leaves = tree.leaf_count as usize;
             // Inner nodes: at most about one per leaf (a line of cells has about one parent
             // per two leaves, a grandparent per four, ...), plus a path from the root to each

@@ -251,7 +251,27 @@ fn version_1_files_still_read() {
         depth: 4,
         ..BakeOptions::default()
     };
-    assert_eq!(tree, bake_mesh(&mesh, &opts).unwrap().0);
+    // The same tree as a bake today, but for the contours of four leaves: the version-1
+    // writer also fitted their slabs to triangles that pass them within rounding without
+    // touching them (the exact contact test drops those), so today's slabs are thinner and
+    // lie within the stored ones.
+    let now = bake_mesh(&mesh, &opts).unwrap().0;
+    assert!(
+        tree.nodes == now.nodes,
+        "the nodes differ from today's bake"
+    );
+    let mut thinner = 0;
+    for (old, new) in tree.leaves().zip(now.leaves()) {
+        let (mut a, b) = (old.attributes, new.attributes);
+        if a.contour != b.contour {
+            let ((lo0, hi0), (lo1, hi1)) = (a.contour.unwrap(), b.contour.unwrap());
+            assert!(lo0 <= lo1 && hi1 <= hi0, "leaf {}: {a:?} {b:?}", old.cell);
+            a.contour = b.contour;
+            thinner += 1;
+        }
+        assert!(a == b, "leaf {}: {a:?} {b:?}", old.cell);
+    }
+    assert_eq!(thinner, 4);
     let v2 = to_bytes(&tree, &build);
     assert_eq!(u32::from_le_bytes(v2[8..12].try_into().unwrap()), 2);
     assert_eq!(from_bytes(&v2).unwrap(), (tree, build));

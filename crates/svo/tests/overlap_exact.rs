@@ -116,7 +116,7 @@ fn exhaustive_small_lattice() {
 #[test]
 fn huge_and_tiny_magnitudes_stay_conservative() {
     // Far from the origin and tiny: the tests must still never reject a touching cell.
-    for &scale in &[1e-300, 1e-30, 1e-6, 1.0, 1e6, 1e15] {
+    for &scale in &[1e-300, 1e-30, 1e-6, 1.0, 1e6, 1e15, 1e100, 1e300] {
         let f = |x: f64, y: f64, z: f64| glam::DVec3::new(x, y, z) * scale;
         // Lies in the face x = 1 (cell [0, 1]).
         let t = GridTriangle::new(f(1.0, 0.2, 0.3), f(1.0, 0.9, 0.1), f(1.0, 0.5, 0.9));

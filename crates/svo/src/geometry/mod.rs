@@ -10,6 +10,7 @@
 
 pub(crate) mod child_classify;
 pub(crate) mod clip;
+pub(crate) mod exact_contact;
 pub(crate) mod grid;
 pub(crate) mod grid_slice;
 pub(crate) mod overlap;

@@ -12,12 +12,16 @@
 //! tests compute dot products, whose rounding could turn a touching contact into a reported
 //! separation. Each of them therefore only reports a separation when it exceeds a rigorous
 //! bound on the rounding error (a small multiple of machine epsilon times the magnitudes
-//! involved). The tests are thus *conservative*: a cell that the triangle touches is never
-//! rejected, and a cell is only wrongly accepted when it is within about `1e-13` relative of
-//! touching. Degenerate triangles (zero area: segments and points) are handled by the same
-//! code: their normal is (nearly) zero, so the plane test never separates, and the edge axes
-//! plus box normals are then the complete test for a segment.
+//! involved): [`plane_overlaps`] and [`edges_overlap`] alone are *conservative* (a cell that
+//! the triangle touches is never rejected; one within about `1e-13` relative of touching may
+//! be accepted). [`triangle_box_overlap`] is exact: where an axis's answer lies within its
+//! bound it decides the cell exactly, in integers
+//! ([`crate::geometry::exact_contact`]). Degenerate triangles (zero area: segments and
+//! points) are handled by the same code: their normal is (nearly) zero, so the plane test
+//! never separates, and the edge axes plus box normals are then the complete test for a
+//! segment.
 
+use crate::geometry::exact_contact::{PLANE_AXIS, touches_exactly};
 use crate::geometry::triangle_setup::{GridTriangle, edge_axis};
 use glam::DVec3;
 
@@ -55,17 +59,38 @@ pub fn plane_tolerance(t: &GridTriangle, reach: f64) -> f64 {
     TOLERANCE * 3.0 * t.n_scale * reach
 }
 
-/// Thesis Algorithm 2: whether the triangle's plane meets the closed cell `[m, m + s]`
-/// (the cell's two corners along the normal are not strictly on one side).
+/// What a floating-point test with rounding bound `tol` says about the interval
+/// `[lo, hi]` (computed) containing 0: `Some(true)` if it surely does, `Some(false)` if it
+/// surely does not, `None` if rounding could decide either way.
 #[inline]
-pub fn plane_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
+pub(crate) fn verdict(lo: f64, hi: f64, tol: f64) -> Option<bool> {
+    if lo > tol || hi < -tol {
+        Some(false)
+    } else if lo <= -tol && hi >= tol {
+        Some(true)
+    } else {
+        None
+    }
+}
+
+/// The plane test's computed interval `[base + neg, base + pos]` of signed distances (times
+/// the normal's length) of the cell `[m, m + s]`, and its rounding bound.
+#[inline]
+fn plane_interval(t: &GridTriangle, m: DVec3, s: f64) -> (f64, f64, f64) {
     let n = t.n;
     let d = m - t.v[0];
     let base = n.dot(d);
     let pos = s * (n.x.max(0.0) + n.y.max(0.0) + n.z.max(0.0));
     let neg = s * (n.x.min(0.0) + n.y.min(0.0) + n.z.min(0.0));
-    let tol = plane_tolerance(t, l1(d) + 3.0 * s);
-    base + neg <= tol && base + pos >= -tol
+    (base + neg, base + pos, plane_tolerance(t, l1(d) + 3.0 * s))
+}
+
+/// Thesis Algorithm 2: whether the triangle's plane meets the closed cell `[m, m + s]`
+/// (the cell's two corners along the normal are not strictly on one side). Conservative.
+#[inline]
+pub fn plane_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
+    let (lo, hi, tol) = plane_interval(t, m, s);
+    lo <= tol && hi >= -tol
 }
 
 /// The edge axis `e_j x unit_k` of triangle `t` as its two nonzero components `(a1, a2)`
@@ -86,32 +111,67 @@ pub fn edge_interval(
 
 /// Thesis Algorithm 3: whether no axis `edge x box axis` separates the triangle from the
 /// closed cell `[m, m + s]`: per axis, the triangle's projection interval against the
-/// cell's centre plus or minus its radius.
+/// cell's centre plus or minus its radius. Conservative.
 ///
 /// Rounding: the projections are dot products of coordinates of magnitude at most `M`
 /// with the axis, so each computed value is within a few `eps * |axis|_1 * M` of the exact
 /// one; separations smaller than [`GridTriangle::edge_tol`] times `|axis|_1` are not trusted.
 #[inline]
 pub fn edges_overlap(t: &GridTriangle, m: DVec3, s: f64) -> bool {
+    edges_doubt(t, m, s).is_some()
+}
+
+/// [`edges_overlap`] with its certainty: `None` if an edge axis surely separates, else the
+/// axes within their rounding bound of separating, as [`touches_exactly`]'s bits (`0`: none
+/// can separate).
+#[inline]
+pub(crate) fn edges_doubt(t: &GridTriangle, m: DVec3, s: f64) -> Option<u16> {
     let h = 0.5 * s;
     let c = m + DVec3::splat(h);
-    let r = h + t.edge_tol;
+    let mut doubt = 0u16;
     for j in 0..3 {
         for k in 0..3 {
             let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, j, k);
             let pc = a1 * c[i1] + a2 * c[i2];
-            let rad = r * w;
-            if lo > pc + rad || hi < pc - rad {
-                return false;
+            // The axis separates iff `lo - pc > h w` or `pc - hi > h w`.
+            let tol = t.edge_tol * w;
+            let rad = h * w;
+            if lo - pc - rad > tol || pc - hi - rad > tol {
+                return None;
+            }
+            if !(lo - pc - rad <= -tol && pc - hi - rad <= -tol) {
+                doubt |= 1 << (1 + 3 * j + k);
             }
         }
     }
-    true
+    Some(doubt)
 }
 
-/// The complete 13-axis test: whether the triangle touches the closed cell `[m, m + s]`.
+/// The complete 13-axis test: whether the triangle touches the closed cell `[m, m + s]`,
+/// exactly (cells that the `f64` plane or edge tests leave within their rounding bound are
+/// decided in integers).
 #[inline]
 pub fn triangle_box_overlap(t: &GridTriangle, m: DVec3, s: f64) -> bool {
-    aabb_overlaps(t, m, s)
-        && (vertex_inside(t, m, s) || (plane_overlaps(t, m, s) && edges_overlap(t, m, s)))
+    if !aabb_overlaps(t, m, s) {
+        return false;
+    }
+    if vertex_inside(t, m, s) {
+        return true;
+    }
+    let (lo, hi, tol) = plane_interval(t, m, s);
+    let plane = verdict(lo, hi, tol);
+    if plane == Some(false) {
+        return false;
+    }
+    decide(t, m, s, plane == Some(true))
+}
+
+/// The rest of the exact test for a cell that the box axes and the plane (surely, when
+/// `plane_sure`) do not separate: the edge axes, and the exact test of the axes in doubt.
+#[inline]
+pub(crate) fn decide(t: &GridTriangle, m: DVec3, s: f64, plane_sure: bool) -> bool {
+    edges_doubt(t, m, s).is_some_and(|edges| {
+        let doubt = edges | if plane_sure { 0 } else { PLANE_AXIS };
+        doubt == 0 || touches_exactly(&t.v, m, s, doubt)
+    })
 }

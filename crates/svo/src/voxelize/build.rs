@@ -19,7 +19,9 @@
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
 use crate::geometry::child_classify::{child_cell, child_offset, classify_children};
 use crate::geometry::grid::closed_cells;
-use crate::geometry::overlap::{edges_overlap, plane_tolerance, triangle_box_overlap};
+use crate::geometry::overlap::{
+    decide, edges_overlap, plane_tolerance, triangle_box_overlap, verdict,
+};
 use crate::geometry::triangle_setup::GridTriangle;
 use crate::octree::layout::{Chunk, LeafStore};
 use crate::octree::tree::Node;
@@ -272,9 +274,12 @@ impl Ctx<'_> {
     }
 
     /// Whether triangle `t` survives into the child cell `[m, m + s]` at `level`, given
-    /// whether a vertex lies in it and whether its plane meets it (both computed for all
-    /// children at once by [`split`]).
+    /// whether a vertex lies in it and whether its plane meets it, possibly (`plane`) and
+    /// surely (`plane_sure`; all computed for all children at once by [`split`]). Above the
+    /// leaves a test may keep a triangle that only rounding lets through (its subtree then
+    /// ends empty, or the leaves decide); at the leaves the exact strategies decide exactly.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn keep(
         &self,
         t: &GridTriangle,
@@ -283,8 +288,12 @@ impl Ctx<'_> {
         level: u8,
         vertex: bool,
         plane: bool,
+        plane_sure: bool,
     ) -> bool {
         let leaf = level == self.depth;
+        if leaf && self.strategy.is_exact() {
+            return vertex || (plane && decide(t, m, s, plane_sure));
+        }
         match self.strategy {
             Strategy::AabbPlane => plane,
             Strategy::AabbPlaneSat => vertex || (plane && edges_overlap(t, m, s)),
@@ -351,10 +360,11 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
             let o = child_offset(i);
             let (ox, oy, oz) = (f64::from(o[0]), f64::from(o[1]), f64::from(o[2]));
             let dist = base + hn.x * ox + hn.y * oy + hn.z * oz;
-            let plane = dist + neg <= tol && dist + pos >= -tol;
+            let plane = verdict(dist + neg, dist + pos, tol);
             let cm = m + DVec3::new(ox, oy, oz) * h;
             tests += 1;
-            if ctx.keep(t, cm, h, level + 1, vmask >> i & 1 == 1, plane) {
+            let (possible, sure) = (plane != Some(false), plane == Some(true));
+            if ctx.keep(t, cm, h, level + 1, vmask >> i & 1 == 1, possible, sure) {
                 out[i as usize].push(ti);
             }
         }

@@ -21,9 +21,10 @@
 use crate::attributes::leaf_attributes::{Contact, LeafValues};
 use crate::geometry::child_classify::child_cell;
 use crate::geometry::clip::clip_to_unit_cube;
+use crate::geometry::exact_contact::{PLANE_AXIS, touches_exactly};
 use crate::geometry::grid::{closed_cells, floor_i64};
 use crate::geometry::grid_slice::{Slicer, digest_part, dominant_axis, polygon_area, well_inside};
-use crate::geometry::overlap::{edge_interval, plane_tolerance, vertex_inside};
+use crate::geometry::overlap::{edge_interval, plane_tolerance, verdict, vertex_inside};
 use crate::geometry::triangle_setup::{GridTriangle, spread3};
 use crate::octree::layout::{Chunk, LeafStore};
 use crate::octree::tree::Node;
@@ -97,7 +98,7 @@ impl<'a> CellTest<'a> {
         let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
         for (i, axis) in axes.iter_mut().enumerate() {
             let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, i / 3, i % 3);
-            *axis = (a1, a2, i1, i2, lo, hi, (0.5 + t.edge_tol) * w);
+            *axis = (a1, a2, i1, i2, lo, hi, w);
         }
         let (t_lo, t_hi) = (t.lo(), t.hi());
         let bounds = [0, 1, 2].map(|a| {
@@ -131,17 +132,30 @@ impl<'a> CellTest<'a> {
         }
         let t = self.t;
         let m = self.node_min + DVec3::new(x as f64, y as f64, z as f64);
-        vertex_inside(t, m, 1.0) || {
-            let nn = t.n;
-            let dist = self.pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
-            dist + self.neg <= self.ptol && dist + self.pos >= -self.ptol && {
-                let c = m + DVec3::splat(0.5);
-                self.axes.iter().all(|&(a1, a2, i1, i2, lo, hi, rad)| {
-                    let pc = a1 * c[i1] + a2 * c[i2];
-                    lo <= pc + rad && hi >= pc - rad
-                })
+        if vertex_inside(t, m, 1.0) {
+            return true;
+        }
+        let nn = t.n;
+        let dist = self.pbase + nn.x * x as f64 + nn.y * y as f64 + nn.z * z as f64;
+        let plane = verdict(dist + self.neg, dist + self.pos, self.ptol);
+        if plane == Some(false) {
+            return false;
+        }
+        // The edge axes as in `overlap::edges_doubt`, with the intervals prepared once; the
+        // axes left in doubt are decided exactly.
+        let c = m + DVec3::splat(0.5);
+        let mut doubt = if plane == Some(true) { 0 } else { PLANE_AXIS };
+        for (i, &(a1, a2, i1, i2, lo, hi, w)) in self.axes.iter().enumerate() {
+            let pc = a1 * c[i1] + a2 * c[i2];
+            let (tol, rad) = (t.edge_tol * w, 0.5 * w);
+            if lo - pc - rad > tol || pc - hi - rad > tol {
+                return false;
+            }
+            if !(lo - pc - rad <= -tol && pc - hi - rad <= -tol) {
+                doubt |= 1 << (1 + i);
             }
         }
+        doubt == 0 || touches_exactly(&t.v, m, 1.0, doubt)
     }
 }
 

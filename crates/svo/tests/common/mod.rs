@@ -14,6 +14,7 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 }
 
 mod exact_sat;
+pub mod oracle;
 pub use exact_sat::*;
 #[cfg(feature = "io")]
 pub mod fuzz_cases;
