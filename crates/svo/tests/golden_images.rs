@@ -219,10 +219,16 @@ fn check(name: &str, f: &Frame) {
 /// through a leaf beside the surface, along the silhouette: fewer than `stray` of them. Every
 /// hit point lies in a leaf the surface touches: within a leaf's diagonal plus the longest
 /// edge of a mesh vertex.
-fn check_against_mesh(tree: &Octree, mode: HitMode, f: &Frame, slack: f32, stray: usize) {
+fn check_against_mesh(view: &TorusView, slack: f32, stray: usize) {
+    let TorusView {
+        tree,
+        mode,
+        cam,
+        frame: f,
+    } = view;
+    let (mode, cam) = (*mode, cam);
     let mesh = MeshSurfaces::new(torus_mesh(), tree.root, tree.depth);
-    let cam = camera(tree, DVec3::new(0.35, 0.6, 1.0).normalize(), 1.5);
-    let reference = render_with(mesh, tree, &cam, mode, 0);
+    let reference = render_with(mesh, tree, cam, mode, 0);
     let cell = tree.root.cell_size(tree.depth) as f32;
     let mut strays = 0;
     for (i, (&d, &r)) in f.depth.iter().zip(&reference.depth).enumerate() {
@@ -273,34 +279,41 @@ fn check_against_mesh(tree: &Octree, mode: HitMode, f: &Frame, slack: f32, stray
     eprintln!("{mode:?}: {strays} strays of {hits}");
 }
 
+/// The torus at depth 6 seen from above and aside in `mode`: the tree, the camera and the
+/// render.
+struct TorusView {
+    tree: Octree,
+    mode: HitMode,
+    cam: Camera,
+    frame: Frame,
+}
+
+fn torus_view(mode: HitMode) -> TorusView {
+    let tree = torus(6);
+    let cam = camera(&tree, DVec3::new(0.35, 0.6, 1.0).normalize(), 1.5);
+    let frame = render_with(OctreeSurfaces::new(&tree, mode), &tree, &cam, mode, 2);
+    TorusView {
+        tree,
+        mode,
+        cam,
+        frame,
+    }
+}
+
 #[test]
 fn golden_torus_contour() {
-    let t = torus(6);
-    let f = render_scene(
-        &t,
-        HitMode::Contour,
-        DVec3::new(0.35, 0.6, 1.0).normalize(),
-        1.5,
-        2,
-    );
-    check_against_mesh(&t, HitMode::Contour, &f, 1.0, 40);
-    check("torus_contour", &f);
+    let view = torus_view(HitMode::Contour);
+    check_against_mesh(&view, 1.0, 40);
+    check("torus_contour", &view.frame);
 }
 
 #[test]
 fn golden_torus_cube() {
-    let t = torus(6);
-    let f = render_scene(
-        &t,
-        HitMode::Cube,
-        DVec3::new(0.35, 0.6, 1.0).normalize(),
-        1.5,
-        2,
-    );
+    let view = torus_view(HitMode::Cube);
     // Cubes are entered up to a diagonal before the surface inside them, and a ray at a
     // grazing angle crosses several touched cubes before it meets the surface.
-    check_against_mesh(&t, HitMode::Cube, &f, 1.8, 1_000);
-    check("torus_cube", &f);
+    check_against_mesh(&view, 1.8, 1_000);
+    check("torus_cube", &view.frame);
 }
 
 /// The direction of pixel `(x, y)`'s ray through its centre, in `f64` (the renderer's own

@@ -73,6 +73,15 @@ pub(crate) fn verdict(lo: f64, hi: f64, tol: f64) -> Option<bool> {
     }
 }
 
+/// [`verdict`] for one edge axis: the triangle's projection `[lo, hi]` against the cell's,
+/// `pc` plus or minus `rad`, with rounding bound `tol`. The axis separates iff
+/// `lo - pc > rad` or `pc - hi > rad`: the interval `[lo - pc - rad, hi - pc + rad]` holds 0
+/// iff it does not.
+#[inline]
+pub(crate) fn edge_axis_verdict(lo: f64, hi: f64, pc: f64, rad: f64, tol: f64) -> Option<bool> {
+    verdict(lo - pc - rad, hi - pc + rad, tol)
+}
+
 /// The plane test's computed interval `[base + neg, base + pos]` of signed distances (times
 /// the normal's length) of the cell `[m, m + s]`, and its rounding bound.
 #[inline]
@@ -133,14 +142,10 @@ pub(crate) fn edges_doubt(t: &GridTriangle, m: DVec3, s: f64) -> Option<u16> {
         for k in 0..3 {
             let (a1, a2, i1, i2, lo, hi, w) = edge_interval(t, j, k);
             let pc = a1 * c[i1] + a2 * c[i2];
-            // The axis separates iff `lo - pc > h w` or `pc - hi > h w`.
-            let tol = t.edge_tol * w;
-            let rad = h * w;
-            if lo - pc - rad > tol || pc - hi - rad > tol {
-                return None;
-            }
-            if !(lo - pc - rad <= -tol && pc - hi - rad <= -tol) {
-                doubt |= 1 << (1 + 3 * j + k);
+            match edge_axis_verdict(lo, hi, pc, h * w, t.edge_tol * w) {
+                Some(false) => return None,
+                Some(true) => {}
+                None => doubt |= 1 << (1 + 3 * j + k),
             }
         }
     }

@@ -274,12 +274,12 @@ impl Ctx<'_> {
     }
 
     /// Whether triangle `t` survives into the child cell `[m, m + s]` at `level`, given
-    /// whether a vertex lies in it and whether its plane meets it, possibly (`plane`) and
-    /// surely (`plane_sure`; all computed for all children at once by [`split`]). Above the
-    /// leaves a test may keep a triangle that only rounding lets through (its subtree then
-    /// ends empty, or the leaves decide); at the leaves the exact strategies decide exactly.
+    /// whether a vertex lies in it and what the plane test says (`Some(true)`: it surely meets
+    /// the cell, `None`: within rounding; both computed for all children at once by
+    /// [`split`]). Above the leaves a test may keep a triangle that only rounding lets
+    /// through (its subtree then ends empty, or the leaves decide); at the leaves the exact
+    /// strategies decide exactly.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
     fn keep(
         &self,
         t: &GridTriangle,
@@ -287,26 +287,19 @@ impl Ctx<'_> {
         s: f64,
         level: u8,
         vertex: bool,
-        plane: bool,
-        plane_sure: bool,
+        plane_verdict: Option<bool>,
     ) -> bool {
         let leaf = level == self.depth;
+        let plane = plane_verdict != Some(false);
         if leaf && self.strategy.is_exact() {
-            return vertex || (plane && decide(t, m, s, plane_sure));
+            return vertex || (plane && decide(t, m, s, plane_verdict == Some(true)));
         }
+        // Here the exact strategies are above the leaves.
         match self.strategy {
-            Strategy::AabbPlane => plane,
-            Strategy::AabbPlaneSat => vertex || (plane && edges_overlap(t, m, s)),
+            Strategy::AabbPlane | Strategy::PlaneSatLeaf => plane,
             Strategy::SatLeaf => !leaf || vertex || edges_overlap(t, m, s),
-            Strategy::PlaneSatLeaf => {
-                if leaf {
-                    vertex || (plane && edges_overlap(t, m, s))
-                } else {
-                    plane
-                }
-            }
             // Measured fastest: pruning with the edge axes at every level pays for itself.
-            Strategy::Exact => vertex || (plane && edges_overlap(t, m, s)),
+            Strategy::AabbPlaneSat | Strategy::Exact => vertex || (plane && edges_overlap(t, m, s)),
         }
     }
 }
@@ -363,8 +356,7 @@ fn split(ctx: &Ctx<'_>, level: u8, m: DVec3, s: f64, list: &[u32], out: &mut [Ve
             let plane = verdict(dist + neg, dist + pos, tol);
             let cm = m + DVec3::new(ox, oy, oz) * h;
             tests += 1;
-            let (possible, sure) = (plane != Some(false), plane == Some(true));
-            if ctx.keep(t, cm, h, level + 1, vmask >> i & 1 == 1, possible, sure) {
+            if ctx.keep(t, cm, h, level + 1, vmask >> i & 1 == 1, plane) {
                 out[i as usize].push(ti);
             }
         }

@@ -24,7 +24,9 @@ use crate::geometry::clip::clip_to_unit_cube;
 use crate::geometry::exact_contact::{PLANE_AXIS, touches_exactly};
 use crate::geometry::grid::{closed_cells, floor_i64};
 use crate::geometry::grid_slice::{Slicer, digest_part, dominant_axis, polygon_area, well_inside};
-use crate::geometry::overlap::{edge_interval, plane_tolerance, verdict, vertex_inside};
+use crate::geometry::overlap::{
+    edge_axis_verdict, edge_interval, plane_tolerance, verdict, vertex_inside,
+};
 use crate::geometry::triangle_setup::{GridTriangle, spread3};
 use crate::octree::layout::{Chunk, LeafStore};
 use crate::octree::tree::Node;
@@ -147,12 +149,10 @@ impl<'a> CellTest<'a> {
         let mut doubt = if plane == Some(true) { 0 } else { PLANE_AXIS };
         for (i, &(a1, a2, i1, i2, lo, hi, w)) in self.axes.iter().enumerate() {
             let pc = a1 * c[i1] + a2 * c[i2];
-            let (tol, rad) = (t.edge_tol * w, 0.5 * w);
-            if lo - pc - rad > tol || pc - hi - rad > tol {
-                return false;
-            }
-            if !(lo - pc - rad <= -tol && pc - hi - rad <= -tol) {
-                doubt |= 1 << (1 + i);
+            match edge_axis_verdict(lo, hi, pc, 0.5 * w, t.edge_tol * w) {
+                Some(false) => return false,
+                Some(true) => {}
+                None => doubt |= 1 << (1 + i),
             }
         }
         doubt == 0 || touches_exactly(&t.v, m, 1.0, doubt)
