@@ -85,6 +85,52 @@ fn far_from_the_origin_and_at_extreme_scales_the_image_is_the_same() {
     }
 }
 
+/// Roots far larger and smaller than any scene (1e20, 3e21, 1e-20 and 1e-30 times the torus):
+/// the grid-space direction of a normalized scene ray is then tiny (about `2^6 / 1e20` per
+/// component at 1e20) or huge. The same pixels hit, at the same distance in the root's units
+/// to `1e-5` (no lights: at these scales the `f32` light falloff itself over- or underflows).
+#[test]
+fn roots_1e20_across_and_1e_20_hit_the_same_pixels_at_the_same_depth() {
+    let base = torus();
+    let depth_of = |m: &Mesh| {
+        let tree = bake(m, 6);
+        let (lo, hi) = tree.occupied_bounds();
+        let cam = Camera::framing(lo, hi, 64, 48, 40.0);
+        let t = Tracer::new(
+            OctreeSurfaces::new(&tree, HitMode::Contour),
+            &[],
+            Sky::default(),
+            Phong::default(),
+            TraceOptions {
+                mode: HitMode::Contour,
+                ..TraceOptions::default()
+            },
+        );
+        let f = render(&t, &cam).unwrap();
+        assert_eq!(f.stats.capped, 0);
+        f.depth
+    };
+    let reference = depth_of(&base);
+    assert!(reference.iter().filter(|t| t.is_finite()).count() > 300);
+    for scale in [1e20, 3e21, 1e-20, 1e-30] {
+        let d = depth_of(&transformed(&base, scale, DVec3::ZERO));
+        for (i, (a, b)) in d.iter().zip(&reference).enumerate() {
+            assert_eq!(
+                a.is_finite(),
+                b.is_finite(),
+                "scale {scale}: pixel {i} hit/miss"
+            );
+            if b.is_finite() {
+                let a = f64::from(*a) / scale;
+                assert!(
+                    (a - f64::from(*b)).abs() <= 1e-5 * f64::from(*b),
+                    "scale {scale}: pixel {i} at {a}, not {b}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn empty_shallow_and_deep_trees() {
     let root = RootCube {

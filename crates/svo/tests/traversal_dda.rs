@@ -1,51 +1,38 @@
 //! The dense-grid DDA against the octree traversal: both must hand the same leaf entries, in
 //! the same order, with the same parameters, to a callback that declines every leaf, and
 //! so agree on every cube and contour hit, on seeded random trees and rays (including
-//! axis-parallel rays with signed zeros and rays through lattice corners).
+//! axis-parallel rays with signed zeros and rays through lattice corners). The two walks
+//! share the mirrored ray, so each DDA hit is also checked on its own against the exact
+//! reference of `common/ray_check.rs`, built from the cell list.
 #![cfg(feature = "trace")]
 
 mod common;
 
+use common::ray_check::{Worst, check_hit};
+use common::ray_reference::{RefCell, tree_of, with_words};
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
+use std::collections::HashMap;
 use svo::RootCube;
-use svo::octree::{Channel, Octree, Voxel};
+use svo::octree::{Octree, Voxel};
 use svo::trace::{
     DenseGrid, GridRay, HitMode, LeafEntry, MAX_DDA_DEPTH, MAX_STEPS, leaf_hit, traverse,
     traverse_dda,
 };
 
-fn random_tree(rng: &mut impl Rng, depth: u8, density: f64) -> Octree {
+fn random_cells(rng: &mut impl Rng, depth: u8, density: f64) -> Vec<RefCell> {
     let side = 1u32 << depth;
-    let mut cells = Vec::new();
+    let mut cells = vec![UVec3::ZERO];
     for x in 0..side {
         for y in 0..side {
             for z in 0..side {
-                if rng.random_bool(density) {
-                    cells.push((UVec3::new(x, y, z), Voxel::default()));
+                if (x, y, z) != (0, 0, 0) && rng.random_bool(density) {
+                    cells.push(UVec3::new(x, y, z));
                 }
             }
         }
     }
-    cells.push((UVec3::ZERO, Voxel::default()));
-    let root = RootCube {
-        origin: DVec3::ZERO,
-        side: 1.0,
-    };
-    let mut tree = Octree::from_cells(root, depth, cells).unwrap();
-    let n = tree.leaf_count as usize;
-    let (mut normals, mut contours) = (Vec::new(), Vec::new());
-    for _ in 0..n {
-        // Octahedral normal words and unorm16 plane pairs (docs/format.md), near <= far.
-        let q = |v: f64| u32::from(((v * 32767.0).round() as i16) as u16);
-        normals.push(q(rng.random_range(-1.0..1.0)) | q(rng.random_range(-1.0..1.0)) << 16);
-        let a: f64 = rng.random_range(0.0..1.0);
-        let u = |t: f64| (t.min(1.0) * 65535.0).round() as u32;
-        contours.push(u(a) | u(a + 0.15) << 16);
-    }
-    tree.attributes.normal = Channel::PerLeaf(normals);
-    tree.attributes.contour = Channel::PerLeaf(contours);
-    tree
+    with_words(rng, &cells)
 }
 
 fn component(rng: &mut impl Rng) -> f32 {
@@ -79,9 +66,13 @@ fn dda_and_octree_visit_the_same_leaves() {
     let mut rng = common::rng(0xDDA);
     let mut compared = 0usize;
     let mut hits = 0usize;
+    let mut worst = Worst::default();
     for depth in 1..=6u8 {
         for &density in &[0.03, 0.3, 0.9] {
-            let tree = random_tree(&mut rng, depth, density);
+            let cells = random_cells(&mut rng, depth, density);
+            let index: HashMap<UVec3, usize> =
+                cells.iter().enumerate().map(|(i, c)| (c.lo, i)).collect();
+            let tree = tree_of(depth, &cells);
             let grid = DenseGrid::new(&tree).unwrap();
             let n = (1u32 << depth) as f32;
             for _ in 0..800 {
@@ -113,7 +104,16 @@ fn dda_and_octree_visit_the_same_leaves() {
                             leaf_hit(&tree, &ray, e, mode)
                         });
                     assert_eq!(ho.hit, hd.hit, "{mode:?} {ray:?}");
-                    hits += usize::from(ho.hit.is_some());
+                    hits += usize::from(check_hit(
+                        &cells,
+                        &index,
+                        &ray,
+                        tmin,
+                        n,
+                        mode,
+                        hd.hit.map(|h| (h.t, h.cell)),
+                        &mut worst,
+                    ));
                 }
             }
         }

@@ -72,7 +72,14 @@ impl Camera {
     /// fits the vertical and horizontal field of view.
     pub fn framing(lo: DVec3, hi: DVec3, width: u32, height: u32, fov_deg: f64) -> Self {
         let centre = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-12);
+        // Scale-free: a box of any size frames the same; only a point gets a radius, relative
+        // to its distance from the origin.
+        let half = (hi - lo).length() * 0.5;
+        let radius = if half > 0.0 {
+            half
+        } else {
+            (centre.abs().max_element() * 1e-9).max(f64::MIN_POSITIVE)
+        };
         let half_v = (fov_deg.to_radians() * 0.5).clamp(1e-3, 1.5);
         let aspect = f64::from(width.max(1)) / f64::from(height.max(1));
         let half_h = (half_v.tan() * aspect).atan();

@@ -11,17 +11,23 @@
 //! The traversals need a direction with no negative component. Each axis whose direction has
 //! its *sign bit* set (so `-0.0` counts as negative) is mirrored about the root's centre, and
 //! the axis's child bit (x = 4, y = 2, z = 1) goes into a mask that maps mirrored child
-//! indices back with `xor`. A component that is zero, or tiny, is raised to [`TINY`]: the
-//! ray is then perturbed by less than any cell at any supported depth, and every plane
-//! distance `(p - o) / d` stays finite, so no NaN ever reaches a comparison.
+//! indices back with `xor`. A component that is zero, or tiny, is raised to [`TINY`]
+//! (`2^-100`), so `1 / d` is finite and no NaN ever reaches a comparison. The raise moves a
+//! point at distance `D` cells from the origin by at most `D * TINY / max|d|` cells: below
+//! `2^-30 D`, far below `f32`'s own rounding, while the direction's largest component is at
+//! least `2^-69` (a normalized scene direction in a tree of depth `k` over a root of side
+//! `s`: `s` up to about `3e20 * 2^k`). Plane parameters `(p - o) / d` are finite while
+//! `|p - o| < 2^28` cells; farther, a near-parallel axis's are infinite, which still orders
+//! correctly (the axis's planes lie beyond every finite crossing).
 
 use crate::geometry::grid::RootCube;
 use glam::{BVec3A, DVec3, UVec3, Vec3, Vec3A};
 
-/// The smallest direction component the traversals use (`2^-60`): large enough that
-/// `(p - o) / TINY` stays finite for every grid coordinate, small enough that the
-/// perturbation is far below a cell.
-pub const TINY: f32 = 8.673_617e-19;
+/// The smallest direction component the traversals use (`2^-100`): large enough that
+/// `1 / TINY` is finite and `(p - o) / TINY` is for `|p - o| < 2^28` cells, small enough that
+/// a direction whose largest component is at least `2^-69` is perturbed by less than
+/// `2^-30` of the distance travelled (see the module overview).
+pub const TINY: f32 = 7.888_609e-31;
 
 /// A ray in grid space: `origin + t * dir`.
 #[derive(Clone, Copy, Debug, PartialEq)]

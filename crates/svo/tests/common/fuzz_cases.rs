@@ -2,9 +2,10 @@
 //! the fuzzer's inputs, and `crates/svo/tests/fuzz_regressions.rs` on the inputs kept in
 //! `fixtures/fuzz/` (every crash the fuzzer found, and seeds). Each panics when a property
 //! fails. The module's parent must also declare the `exact_sat` module (the integer
-//! reference); both files depend only on `svo`, `glam`, `xxhash-rust` and `std`.
+//! reference) and the `oracle` module (the exact voxelization oracle for any `f64` input);
+//! the three files depend only on `svo`, `glam`, `xxhash-rust`, `num-bigint` and `std`.
 
-use super::exact_sat;
+use super::{exact_sat, oracle};
 use glam::DVec3;
 use svo::io::{from_bytes, to_bytes};
 use svo::{BakeOptions, Mesh, MeshFormat, Strategy, bake_mesh};
@@ -79,8 +80,9 @@ const MAX_LATTICE_TRIANGLES: usize = 10;
 /// bake's 32^3 blocks are below the root, so contacts across block faces are exercised);
 /// an odd one reads
 /// raw `f64` coordinates (any bits: NaN, infinities, huge, tiny, denormal) and bakes at
-/// depth 1-6, which must give an error or a tree that survives the file format (and, with
-/// the `solid` feature, a vote-filled tree that keeps every surface leaf).
+/// depth 1-6, which must give an error or a tree whose leaves are exactly the cells the
+/// exact oracle finds touched (in the bake's own root), that survives the file format (and,
+/// with the `solid` feature, a vote-filled tree that keeps every surface leaf).
 pub fn bake(data: &[u8]) {
     let Some((&head, rest)) = data.split_first() else {
         return;
@@ -156,6 +158,23 @@ fn raw(depth: u8, bytes: &[u8]) {
         ..Default::default()
     };
     if let Ok((tree, _)) = bake_mesh(&mesh, &opts) {
+        // Grid coordinates from their definition in the bake's root; cells from the oracle.
+        let (origin, side) = (tree.root.origin, tree.root.side);
+        let tris: Vec<[DVec3; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| oracle::grid_point(mesh.positions[i as usize], origin, side, depth)))
+            .collect();
+        let want: Vec<[u32; 3]> = oracle::touched_cells(&tris, depth)[usize::from(depth)]
+            .keys()
+            .copied()
+            .collect();
+        let mut got: Vec<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
+        got.sort_unstable();
+        assert_eq!(
+            got, want,
+            "the bake's leaves are not the cells the oracle finds touched"
+        );
         let bytes = to_bytes(&tree, &Default::default());
         from_bytes(&bytes).expect("a baked tree reads back");
         // The same mesh filled by voting (these meshes are rarely closed): a valid tree

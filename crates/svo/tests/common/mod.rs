@@ -15,6 +15,10 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 
 mod exact_sat;
 pub mod oracle;
+#[cfg(feature = "trace")]
+pub mod ray_check;
+#[cfg(feature = "trace")]
+pub mod ray_reference;
 pub use exact_sat::*;
 #[cfg(feature = "io")]
 pub mod fuzz_cases;
