@@ -18,7 +18,8 @@ pub(crate) const BYTES_PER_TRIANGLE: f64 = 240.0;
 /// A bake's size, estimated before baking ([`crate::bake::estimate_bake`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
-    /// Leaves (an upper estimate).
+    /// Leaves: above the true count for general meshes; below it can happen where
+    /// triangles lie along cell faces and edges (they touch the cells on both sides).
     pub leaves: f64,
     /// Peak memory in bytes.
     pub bytes: f64,

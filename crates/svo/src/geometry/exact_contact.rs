@@ -191,6 +191,40 @@ mod tests {
         }
     }
 
+    /// Each bit decides its own axis: a triangle beside the cell along `y` only is separated
+    /// by the `y` box normal (bit 11) and by no other single axis among the box normals.
+    #[test]
+    fn each_axis_bit_tests_its_own_axis() {
+        let v = [
+            DVec3::new(0.2, 5.0, 0.2),
+            DVec3::new(0.8, 5.0, 0.3),
+            DVec3::new(0.5, 6.0, 0.9),
+        ];
+        for (bit, separated) in [(10, false), (11, true), (12, false)] {
+            assert_eq!(
+                touches_exactly(&v, DVec3::ZERO, 1.0, 1 << bit),
+                !separated,
+                "bit {bit}"
+            );
+        }
+    }
+
+    /// Every value an odd integer (so the same power of two, `2^0`), the largest `2^45 + 1`:
+    /// the plane test's products need about 140 bits, so the big integers must decide.
+    #[test]
+    fn long_odd_integers_are_decided_in_big_integers() {
+        let k = (1u64 << 45) as f64 + 1.0;
+        let v = [
+            DVec3::new(k, 1.0, 1.0),
+            DVec3::new(1.0, k, 1.0),
+            DVec3::new(1.0, 1.0, k),
+        ];
+        // The plane x + y + z = k + 2 passes far beyond the cell [1, 2]^3.
+        assert!(!touches_exactly(&v, DVec3::ONE, 1.0, ALL_AXES));
+        // A vertex's own cell.
+        assert!(touches_exactly(&v, DVec3::new(k, 1.0, 1.0), 1.0, ALL_AXES));
+    }
+
     #[test]
     fn small_and_big_integers_agree() {
         // Ties on a coarse lattice go through i128; the same cases offset by a value with a
@@ -234,6 +268,9 @@ mod tests {
             ),
         ];
         let expect = [true, true, true, false];
+        // The complete test is all 13 axes: the plane, 9 edge axes and 3 box normals.
+        assert_eq!(ALL_AXES.count_ones(), 13);
+        assert_eq!(ALL_AXES >> 13, 0);
         for ((v, m), want) in cases.iter().zip(expect) {
             assert_eq!(touches_exactly(v, *m, 1.0, ALL_AXES), want, "{v:?}");
             let off = DVec3::splat(1.0 / 3.0 * 1024.0).floor() + DVec3::splat(0.5f64.powi(40));
