@@ -14,12 +14,15 @@
 mod common;
 
 use common::ray_check::{Worst, check_hit};
-use common::ray_reference::{RefCell, tree_of, with_words};
+use common::ray_reference::{
+    ExactRay, Interval, Q, RefCell, contains, interval, tree_of, with_words,
+};
 use glam::{UVec3, Vec3};
+use num_bigint::Sign;
 use rand::Rng;
 use std::collections::HashMap;
 use svo::octree::Octree;
-use svo::trace::{GridRay, HitMode, MAX_STEPS, cast};
+use svo::trace::{GridRay, HitMode, LeafEntry, MAX_STEPS, cast};
 
 /// Checks one ray's cast against the reference; returns whether it hit.
 fn check_ray(
@@ -346,6 +349,185 @@ fn deep_sparse_tree() {
         "depth 16: worst hit point outside its cell: cube {:.2} u L, contour {:.2} u L",
         worst.ratio[0], worst.ratio[1]
     );
+}
+
+/// The exact per-axis entry and exit parameters of the cube at `lo` for an exact ray, and the
+/// axes they come from: `(t0, t1)` per axis, `None` for minus or plus infinity (a zero
+/// component: the ray runs along the axis's planes; on its entry plane it enters at 0, on
+/// its exit plane it leaves at 0).
+fn axis_params(er: &ExactRay, lo: UVec3) -> [(Option<Q>, Option<Q>); 3] {
+    std::array::from_fn(|k| {
+        let (a, b) = (Q::int(i64::from(lo[k])), Q::int(i64::from(lo[k]) + 1));
+        let (p_in, p_out) = if er.neg[k] { (b, a) } else { (a, b) };
+        if er.d[k].sign() == Sign::NoSign {
+            (
+                (er.o[k] == p_in).then(|| Q::int(0)),
+                (er.o[k] == p_out).then(|| Q::int(0)),
+            )
+        } else {
+            (
+                Some(p_in.sub(&er.o[k]).div(&er.d[k])),
+                Some(p_out.sub(&er.o[k]).div(&er.d[k])),
+            )
+        }
+    })
+}
+
+/// Every leaf entry an exact ray's walk hands over (integer origin, components `0`, `+-1`,
+/// `+-2`, integer `tmin`, so the `f32` arithmetic is exact), against the exact values: the
+/// entry parameter `max(max t0, tmin)` and the exit `min t1`, bit for bit; the entry face
+/// (the axis of the latest `t0`, ties to x then y, facing the ray; zero when the ray starts
+/// inside, `max t0 < tmin`) and the exit face (the earliest `t1`, ties likewise, pointing
+/// along the ray); entries front to back, each in the list and touched over its interval; and
+/// every cell the ray enters (a parameter interval of positive length) handed over.
+#[test]
+fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
+    let mut rng = common::rng(0xE7AC);
+    let mut entries = 0usize;
+    for depth in 1..=4u8 {
+        for &density in &[0.1, 0.5, 0.9] {
+            let cells = random_cells(&mut rng, depth, density);
+            if cells.is_empty() {
+                continue;
+            }
+            let cells = with_words(&mut rng, &cells);
+            let tree = tree_of(depth, &cells);
+            let index = index_of(&cells);
+            let n = 1i32 << depth;
+            for _ in 0..800 {
+                let mut o = [0.0f32; 3];
+                let mut d = [0.0f32; 3];
+                for k in 0..3 {
+                    o[k] = rng.random_range(-2..=n + 2) as f32;
+                    d[k] = rng.random_range(-2..=2) as f32;
+                    if d[k] == 0.0 {
+                        d[k] = signed_zero(&mut rng);
+                    }
+                }
+                if d.iter().all(|v| *v == 0.0) {
+                    d[rng.random_range(0..3)] = 1.0;
+                }
+                let tmin = if rng.random_bool(0.3) {
+                    rng.random_range(0..n) as f32
+                } else {
+                    0.0
+                };
+                let tmax = if rng.random_bool(0.3) {
+                    tmin + rng.random_range(0..=n) as f32
+                } else {
+                    f32::INFINITY
+                };
+                let ray = GridRay {
+                    origin: Vec3::from(o),
+                    dir: Vec3::from(d),
+                };
+                let er = ExactRay::new(o, d, tmin);
+                let qmax = tmax.is_finite().then(|| Q::of(f64::from(tmax)));
+                let mut got: Vec<LeafEntry> = Vec::new();
+                let walk = svo::trace::traverse(&tree, &ray, tmin, tmax, MAX_STEPS, |e| {
+                    got.push(*e);
+                    None::<()>
+                });
+                assert!(!walk.capped);
+                for w in got.windows(2) {
+                    assert!(w[0].t_enter <= w[1].t_enter, "not front to back: {ray:?}");
+                }
+                for e in &got {
+                    let what = format!("{ray:?} tmin {tmin} tmax {tmax}: cell {}", e.cell);
+                    assert!(e.t_enter <= tmax && e.t_exit <= tmax, "{what}: beyond tmax");
+                    let i = *index
+                        .get(&e.cell)
+                        .unwrap_or_else(|| panic!("{what}: not in the list"));
+                    assert_eq!(tree.leaf_at(e.cell), Some(e.leaf), "{what}");
+                    // Touched where it is handed over; entered over the whole interval when
+                    // that has positive length (a walk hands over cells it only touches
+                    // where it starts).
+                    let (t_in, t_out) = (Q::of(f64::from(e.t_enter)), Q::of(f64::from(e.t_exit)));
+                    assert!(
+                        contains(&er.at(&t_in), &cells[i], false, &Q::int(0)),
+                        "{what}: not touched at {}",
+                        e.t_enter
+                    );
+                    if t_in < t_out {
+                        let iv = interval(&er, &cells[i], false, &Q::int(0))
+                            .filter(Interval::entered)
+                            .unwrap_or_else(|| panic!("{what}: handed over but not entered"));
+                        let b = match (iv.b, &qmax) {
+                            (Some(b), Some(m)) => Some(b.min(m.clone())),
+                            (b, m) => b.or(m.clone()),
+                        };
+                        assert!(
+                            iv.a == t_in && b.is_none_or(|b| b == t_out),
+                            "{what}: interval"
+                        );
+                    }
+                    let p = axis_params(&er, e.cell);
+                    // Entry: the latest t0, ties to the first axis.
+                    let mut t0: Option<(Q, usize)> = None;
+                    for (k, (a, _)) in p.iter().enumerate() {
+                        if let Some(a) = a
+                            && t0.as_ref().is_none_or(|(b, _)| a > b)
+                        {
+                            t0 = Some((a.clone(), k));
+                        }
+                    }
+                    let starts_inside = t0.as_ref().is_none_or(|(a, _)| *a < er.tmin);
+                    let enter = if starts_inside {
+                        er.tmin.clone()
+                    } else {
+                        t0.clone().unwrap().0
+                    };
+                    assert!(
+                        Q::of(f64::from(e.t_enter)) == enter,
+                        "{what}: enters at {}, not {}",
+                        e.t_enter,
+                        enter.approx()
+                    );
+                    let mut want_in = Vec3::ZERO;
+                    if !starts_inside {
+                        let k = t0.unwrap().1;
+                        want_in[k] = if er.neg[k] { 1.0 } else { -1.0 };
+                    }
+                    assert_eq!(e.entry_normal, want_in, "{what}: entry face");
+                    // Exit: the earliest t1, ties to the first axis.
+                    let mut t1: Option<(Q, usize)> = None;
+                    for (k, (_, b)) in p.iter().enumerate() {
+                        if let Some(b) = b
+                            && t1.as_ref().is_none_or(|(c, _)| b < c)
+                        {
+                            t1 = Some((b.clone(), k));
+                        }
+                    }
+                    let (exit, k) = t1.expect("a non-zero component bounds the cell");
+                    let exit = qmax.as_ref().map_or(exit.clone(), |m| exit.min(m.clone()));
+                    assert!(
+                        Q::of(f64::from(e.t_exit)) == exit,
+                        "{what}: leaves at {}, not {}",
+                        e.t_exit,
+                        exit.approx()
+                    );
+                    let mut want_out = Vec3::ZERO;
+                    want_out[k] = if er.neg[k] { -1.0 } else { 1.0 };
+                    assert_eq!(e.exit_normal, want_out, "{what}: exit face");
+                    entries += 1;
+                }
+                // Every cell the ray enters is handed over, if it enters by `tmax` (at `tmax`
+                // itself it is touched there, the range being closed).
+                for c in &cells {
+                    let entered = interval(&er, c, false, &Q::int(0))
+                        .is_some_and(|iv| iv.entered() && qmax.as_ref().is_none_or(|m| iv.a <= *m));
+                    if entered {
+                        assert!(
+                            got.iter().any(|e| e.cell == c.lo),
+                            "{ray:?} tmin {tmin}: entered cell {} not handed over",
+                            c.lo
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(entries > 4_000, "{entries} entries checked");
 }
 
 #[test]

@@ -251,6 +251,28 @@ mod tests {
         assert!(ahead.cmpgt(Vec3A::ZERO).all(), "{ahead}");
     }
 
+    /// A scene ray in a root at `(1, 2, 3)` of side 4, at depth 3 (8 cells of side 0.5): the
+    /// origin maps to its cell coordinates and the direction scales by 2 cells per unit, so
+    /// the parameter is the same in both spaces.
+    #[test]
+    fn scene_rays_map_to_grid_rays_with_the_same_parameter() {
+        let root = RootCube {
+            origin: DVec3::new(1.0, 2.0, 3.0),
+            side: 4.0,
+        };
+        let r = GridRay::from_scene(
+            &root,
+            3,
+            DVec3::new(2.0, 2.5, -1.0),
+            DVec3::new(0.5, -1.0, 3.0),
+        );
+        assert_eq!(r.origin, Vec3::new(2.0, 1.0, -8.0));
+        assert_eq!(r.dir, Vec3::new(1.0, -2.0, 6.0));
+        // The scene point at t = 0.75 is the grid point at t = 0.75.
+        let scene = DVec3::new(2.0, 2.5, -1.0) + DVec3::new(0.5, -1.0, 3.0) * 0.75;
+        assert_eq!(root.to_grid(scene, 3).as_vec3(), r.at(0.75));
+    }
+
     #[test]
     fn invalid_rays_are_refused() {
         for (o, d) in [

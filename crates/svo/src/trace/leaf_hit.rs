@@ -203,6 +203,49 @@ mod tests {
         })
     }
 
+    /// Each mode's command-line name parses back to it; anything else is an error that
+    /// lists the names.
+    #[test]
+    fn names_round_trip() {
+        for mode in [HitMode::Cube, HitMode::Contour, HitMode::Exact] {
+            assert_eq!(mode.name().parse::<HitMode>(), Ok(mode));
+        }
+        let e = "cubes".parse::<HitMode>().unwrap_err();
+        assert!(e.contains("cube, contour or exact"), "{e}");
+    }
+
+    /// A plane met exactly where the ray leaves the cell is hit there: the slab touches the
+    /// cell's exit face (the hit is on the boundary, as a cube hit on the entry face is).
+    #[test]
+    fn a_plane_on_the_exit_face_is_hit_at_the_exit() {
+        let ray = GridRay {
+            origin: Vec3::new(-1.0, 0.5, 0.5),
+            dir: Vec3::X,
+        };
+        let en = entry(&ray).unwrap();
+        assert_eq!((en.t_enter, en.t_exit), (1.0, 2.0));
+        // The plane x = 1: offset 0.5 from the centre along +x.
+        let h = slab_hit(&ray, &en, Vec3::X, 0.5, 0.5).expect("the plane on the exit face");
+        assert_eq!((h.t, h.normal), (2.0, Vec3::NEG_X));
+    }
+
+    /// The slab is closed: a ray that enters the cell exactly on the near or the far plane,
+    /// running along it, is in the slab there and hits at its entry, through the cell face.
+    #[test]
+    fn a_ray_entering_on_a_plane_is_in_the_slab() {
+        let ray = GridRay {
+            origin: Vec3::new(-1.0, 0.5, 0.5),
+            dir: Vec3::X,
+        };
+        let en = entry(&ray).unwrap();
+        // The planes y = 0.5 (offset 0 along +y) on either side of the slab.
+        for (near, far) in [(0.0, 0.3), (-0.3, 0.0), (0.0, 0.0)] {
+            let h = slab_hit(&ray, &en, Vec3::Y, near, far)
+                .unwrap_or_else(|| panic!("missed the slab [{near}, {far}]"));
+            assert_eq!((h.t, h.normal), (1.0, en.entry_normal), "[{near}, {far}]");
+        }
+    }
+
     /// Zero-thickness and full-thickness contours, and rays parallel to the contour planes
     /// (with `+0.0` and `-0.0` components), grazing along them and crossing them: never a
     /// NaN parameter; a zero-thickness slab is hit where the `f64` plane is, within `1e-5`;

@@ -229,7 +229,7 @@ fn traverse_with<const STACK: usize, T>(
         capped: false,
     };
     let depth = usize::from(tree.depth);
-    if depth == 0 || depth > 31 {
+    if depth == 0 || depth > usize::from(crate::MAX_DEPTH) {
         return Some(out);
     }
     let n = 1u32 << depth;
@@ -366,7 +366,147 @@ fn traverse_with<const STACK: usize, T>(
 mod tests {
     use super::*;
     use crate::octree::{RootCube, Voxel};
-    use glam::DVec3;
+    use glam::{DVec3, Vec3};
+
+    fn one_cell_tree(depth: u8, cells: &[UVec3]) -> Octree {
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: 1.0,
+        };
+        Octree::from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default()))).unwrap()
+    }
+
+    fn handed_over(tree: &Octree, ray: &GridRay, start: Option<StartNode>) -> (Vec<UVec3>, u32) {
+        let mut cells = Vec::new();
+        let visit = |e: &LeafEntry| {
+            cells.push(e.cell);
+            None::<()>
+        };
+        let t = match start {
+            None => traverse(tree, ray, 0.0, f32::INFINITY, MAX_STEPS, visit),
+            Some(s) => traverse_node(tree, ray, s, 0.0, f32::INFINITY, MAX_STEPS, visit)
+                .expect("the ray enters the node's cube"),
+        };
+        (cells, t.steps)
+    }
+
+    /// The deepest tree the library builds (depth 30) is walked, to its far corner; a tree
+    /// whose depth was set to 0 or beyond that by hand is not walked at all.
+    #[test]
+    fn trees_of_depth_1_to_30_are_walked_and_others_are_not() {
+        let far = (1u32 << 30) - 1;
+        let mut tree = one_cell_tree(30, &[UVec3::ZERO, UVec3::new(far, 0, 0)]);
+        let ray = GridRay {
+            origin: Vec3::new(-1.0, 0.5, 0.5),
+            dir: Vec3::X,
+        };
+        let (cells, _) = handed_over(&tree, &ray, None);
+        assert_eq!(cells, [UVec3::ZERO, UVec3::new(far, 0, 0)]);
+        for depth in [0, 31, 40] {
+            tree.depth = depth;
+            assert_eq!(handed_over(&tree, &ray, None), (vec![], 0), "depth {depth}");
+        }
+    }
+
+    /// A malformed tree whose nodes go deeper than its depth says (a depth-2 tree relabelled
+    /// depth 1) is walked no deeper than its depth: the root's children are inner nodes where
+    /// leaves should be, and nothing is handed over.
+    #[test]
+    fn a_tree_deeper_than_its_depth_is_not_walked_below_it() {
+        let mut tree = one_cell_tree(2, &[UVec3::ONE, UVec3::splat(3)]);
+        let ray = |y: f32| GridRay {
+            origin: Vec3::new(-1.0, y, y),
+            dir: Vec3::X,
+        };
+        assert_eq!(handed_over(&tree, &ray(1.5), None).0, [UVec3::ONE]);
+        // Relabelled, the root's first child (the ray's cube at y = z = 0.5) holds the node
+        // whose last child is the leaf (1, 1, 1): a walk below the depth would reach it.
+        tree.depth = 1;
+        let (cells, steps) = handed_over(&tree, &ray(0.5), None);
+        assert!(cells.is_empty() && steps > 0, "{cells:?}");
+    }
+
+    /// A start node that does not fit the tree (side not a power of two, larger than the
+    /// root or below 2; corner not a multiple of the side or outside the root; an index out
+    /// of range or of a node at another level) is not walked: no leaves, no steps.
+    #[test]
+    fn start_nodes_that_do_not_fit_are_not_walked() {
+        // Depth 3: the root (index 0), its child at the low corner (side 4, index 1), and
+        // that child's child (side 2, a parent of leaves, index 2).
+        let tree = one_cell_tree(3, &[UVec3::ZERO, UVec3::ONE]);
+        let ray = GridRay {
+            origin: Vec3::new(-1.0, 0.5, 0.5),
+            dir: Vec3::X,
+        };
+        let fits = [
+            StartNode {
+                index: 1,
+                origin: UVec3::ZERO,
+                side: 4,
+            },
+            StartNode {
+                index: 2,
+                origin: UVec3::ZERO,
+                side: 2,
+            },
+        ];
+        for s in fits {
+            let (cells, steps) = handed_over(&tree, &ray, Some(s));
+            assert!(
+                steps > 0 && cells.contains(&UVec3::ZERO),
+                "{s:?}: {cells:?}"
+            );
+        }
+        for s in [
+            StartNode {
+                index: 1,
+                origin: UVec3::ZERO,
+                side: 3,
+            },
+            StartNode {
+                index: 1,
+                origin: UVec3::ZERO,
+                side: 16,
+            },
+            StartNode {
+                index: 2,
+                origin: UVec3::ZERO,
+                side: 1,
+            },
+            StartNode {
+                index: 1,
+                origin: UVec3::new(2, 0, 0),
+                side: 4,
+            },
+            StartNode {
+                index: 1,
+                origin: UVec3::new(8, 0, 0),
+                side: 4,
+            },
+            StartNode {
+                index: 9,
+                origin: UVec3::ZERO,
+                side: 4,
+            },
+            StartNode {
+                index: 2,
+                origin: UVec3::ZERO,
+                side: 4,
+            },
+            StartNode {
+                index: 1,
+                origin: UVec3::ZERO,
+                side: 2,
+            },
+        ] {
+            let mut any = false;
+            let t = traverse_node(&tree, &ray, s, 0.0, f32::INFINITY, MAX_STEPS, |_| {
+                any = true;
+                None::<()>
+            });
+            assert!(!any && t.is_none_or(|t| t.steps == 0), "{s:?} was walked");
+        }
+    }
 
     /// A walk started at an inner node (what the primary-ray prepass does) hands over exactly
     /// the leaves of that node that the walk from the root hands over, with the same entries,
