@@ -7,7 +7,7 @@
 //! in the benchmark report; this checks that nothing but the leaves grows.
 
 mod common;
-use common::oracle::{grid_point, touched_cells};
+use common::oracle::{grid_triangles, touched_cells};
 use glam::DVec3;
 use std::collections::BTreeSet;
 use svo::{BakeOptions, Mesh, bake_mesh};
@@ -40,11 +40,7 @@ fn anchored(tris: &[[DVec3; 3]]) -> Mesh {
 fn leaves_per_depth(mesh: &Mesh, pieces: usize) -> Vec<usize> {
     // The root is the unit cube at every depth (the anchors), so grid coordinates at depth
     // 20 hold every shallower grid's, scaled by a power of two.
-    let tris: Vec<[DVec3; 3]> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| grid_point(mesh.positions[i as usize], DVec3::ZERO, 1.0, DEEPEST)))
-        .collect();
+    let tris = grid_triangles(&mesh.positions, &mesh.triangles, DVec3::ZERO, 1.0, DEEPEST);
     let oracle = touched_cells(&tris, DEEPEST);
     (1..=DEEPEST)
         .map(|depth| {

@@ -6,7 +6,7 @@
 //! must equal the oracle's cell for cell; the inexact strategies must contain them.
 
 mod common;
-use common::oracle::{grid_point, touched_cells};
+use common::oracle::{grid_triangles, touched_cells};
 use common::rng;
 use glam::DVec3;
 use rand::Rng;
@@ -29,11 +29,7 @@ fn check(mesh: &Mesh, depth: u8, what: &str, bounded: bool) -> usize {
     )
     .unwrap_or_else(|e| panic!("{what}: {e}"));
     let (origin, side) = (tree.root.origin, tree.root.side);
-    let tris: Vec<[DVec3; 3]> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| grid_point(mesh.positions[i as usize], origin, side, depth)))
-        .collect();
+    let tris = grid_triangles(&mesh.positions, &mesh.triangles, origin, side, depth);
     let oracle = touched_cells(&tris, depth);
     let want = &oracle[usize::from(depth)];
     let got: BTreeSet<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();

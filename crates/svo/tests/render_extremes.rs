@@ -20,6 +20,11 @@ fn torus() -> Mesh {
 /// Renders `tree` from a camera placed relative to the model's bounds (so transformed
 /// copies of a scene get the transformed camera), with a light placed the same way.
 fn shoot(tree: &Octree, mode: HitMode) -> Frame {
+    shoot_lit(tree, mode, true)
+}
+
+/// [`shoot`], with the light or without any.
+fn shoot_lit(tree: &Octree, mode: HitMode, lit: bool) -> Frame {
     let (lo, hi) = tree.occupied_bounds();
     let cam = Camera::framing(lo, hi, 64, 48, 40.0);
     let size = (hi - lo).length();
@@ -28,9 +33,10 @@ fn shoot(tree: &Octree, mode: HitMode) -> Frame {
         colour: Vec3::ONE,
         intensity: (2.0 * size * size) as f32,
     };
+    let lights = if lit { &[light][..] } else { &[] };
     let t = Tracer::new(
         OctreeSurfaces::new(tree, mode),
-        &[light],
+        lights,
         Sky::default(),
         Phong::default(),
         TraceOptions {
@@ -93,20 +99,7 @@ fn far_from_the_origin_and_at_extreme_scales_the_image_is_the_same() {
 fn roots_1e20_across_and_1e_20_hit_the_same_pixels_at_the_same_depth() {
     let base = torus();
     let depth_of = |m: &Mesh| {
-        let tree = bake(m, 6);
-        let (lo, hi) = tree.occupied_bounds();
-        let cam = Camera::framing(lo, hi, 64, 48, 40.0);
-        let t = Tracer::new(
-            OctreeSurfaces::new(&tree, HitMode::Contour),
-            &[],
-            Sky::default(),
-            Phong::default(),
-            TraceOptions {
-                mode: HitMode::Contour,
-                ..TraceOptions::default()
-            },
-        );
-        let f = render(&t, &cam).unwrap();
+        let f = shoot_lit(&bake(m, 6), HitMode::Contour, false);
         assert_eq!(f.stats.capped, 0);
         f.depth
     };

@@ -15,7 +15,7 @@ mod common;
 
 use common::ray_check::{Worst, check_hit};
 use common::ray_reference::{
-    ExactRay, Interval, Q, RefCell, contains, interval, tree_of, with_words,
+    ExactRay, Interval, Q, RefCell, contains, index_of, interval, tree_of, with_words,
 };
 use glam::{UVec3, Vec3};
 use num_bigint::Sign;
@@ -66,8 +66,20 @@ fn plain_tree(depth: u8, cells: &[UVec3]) -> Octree {
     .unwrap()
 }
 
-fn index_of(cells: &[RefCell]) -> HashMap<UVec3, usize> {
-    cells.iter().enumerate().map(|(i, c)| (c.lo, i)).collect()
+/// Random cells at `depth` with random words, their tree and their indices; `None` when the
+/// draw is empty.
+fn random_scene(
+    rng: &mut impl Rng,
+    depth: u8,
+    density: f64,
+) -> Option<(Vec<RefCell>, Octree, HashMap<UVec3, usize>)> {
+    let cells = random_cells(rng, depth, density);
+    if cells.is_empty() {
+        return None;
+    }
+    let cells = with_words(rng, &cells);
+    let (tree, index) = (tree_of(depth, &cells), index_of(&cells));
+    Some((cells, tree, index))
 }
 
 fn random_cells(rng: &mut impl Rng, depth: u8, density: f64) -> Vec<UVec3> {
@@ -235,13 +247,9 @@ fn traversal_equals_the_exact_reference_on_random_trees() {
     let mut worst = Worst::default();
     for depth in 1..=5u8 {
         for &density in &[0.02, 0.15, 0.5, 0.95] {
-            let cells = random_cells(&mut rng, depth, density);
-            if cells.is_empty() {
+            let Some((cells, tree, index)) = random_scene(&mut rng, depth, density) else {
                 continue;
-            }
-            let cells = with_words(&mut rng, &cells);
-            let tree = tree_of(depth, &cells);
-            let index = index_of(&cells);
+            };
             let n = (1u32 << depth) as f32;
             for (mi, mode) in [HitMode::Cube, HitMode::Contour].into_iter().enumerate() {
                 let count = if depth == 5 { 300 } else { 600 };
@@ -373,6 +381,20 @@ fn axis_params(er: &ExactRay, lo: UVec3) -> [(Option<Q>, Option<Q>); 3] {
     })
 }
 
+/// The axis whose parameter is `better` than every earlier one's (so ties go to the first
+/// axis), with its parameter; `None` where no axis has one.
+fn extreme(params: [Option<&Q>; 3], better: fn(&Q, &Q) -> bool) -> Option<(Q, usize)> {
+    let mut best: Option<(Q, usize)> = None;
+    for (k, p) in params.into_iter().enumerate() {
+        if let Some(p) = p
+            && best.as_ref().is_none_or(|(b, _)| better(p, b))
+        {
+            best = Some((p.clone(), k));
+        }
+    }
+    best
+}
+
 /// Every leaf entry an exact ray's walk hands over (integer origin, components `0`, `+-1`,
 /// `+-2`, integer `tmin`, so the `f32` arithmetic is exact), against the exact values: the
 /// entry parameter `max(max t0, tmin)` and the exit `min t1`, bit for bit; the entry face
@@ -386,13 +408,9 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
     let mut entries = 0usize;
     for depth in 1..=4u8 {
         for &density in &[0.1, 0.5, 0.9] {
-            let cells = random_cells(&mut rng, depth, density);
-            if cells.is_empty() {
+            let Some((cells, tree, index)) = random_scene(&mut rng, depth, density) else {
                 continue;
-            }
-            let cells = with_words(&mut rng, &cells);
-            let tree = tree_of(depth, &cells);
-            let index = index_of(&cells);
+            };
             let n = 1i32 << depth;
             for _ in 0..800 {
                 let mut o = [0.0f32; 3];
@@ -463,14 +481,7 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
                     }
                     let p = axis_params(&er, e.cell);
                     // Entry: the latest t0, ties to the first axis.
-                    let mut t0: Option<(Q, usize)> = None;
-                    for (k, (a, _)) in p.iter().enumerate() {
-                        if let Some(a) = a
-                            && t0.as_ref().is_none_or(|(b, _)| a > b)
-                        {
-                            t0 = Some((a.clone(), k));
-                        }
-                    }
+                    let t0 = extreme(p.each_ref().map(|(a, _)| a.as_ref()), |a, b| a > b);
                     let starts_inside = t0.as_ref().is_none_or(|(a, _)| *a < er.tmin);
                     let enter = if starts_inside {
                         er.tmin.clone()
@@ -478,7 +489,7 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
                         t0.clone().unwrap().0
                     };
                     assert!(
-                        Q::of(f64::from(e.t_enter)) == enter,
+                        t_in == enter,
                         "{what}: enters at {}, not {}",
                         e.t_enter,
                         enter.approx()
@@ -490,18 +501,11 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
                     }
                     assert_eq!(e.entry_normal, want_in, "{what}: entry face");
                     // Exit: the earliest t1, ties to the first axis.
-                    let mut t1: Option<(Q, usize)> = None;
-                    for (k, (_, b)) in p.iter().enumerate() {
-                        if let Some(b) = b
-                            && t1.as_ref().is_none_or(|(c, _)| b < c)
-                        {
-                            t1 = Some((b.clone(), k));
-                        }
-                    }
-                    let (exit, k) = t1.expect("a non-zero component bounds the cell");
+                    let (exit, k) = extreme(p.each_ref().map(|(_, b)| b.as_ref()), |a, b| a < b)
+                        .expect("a non-zero component bounds the cell");
                     let exit = qmax.as_ref().map_or(exit.clone(), |m| exit.min(m.clone()));
                     assert!(
-                        Q::of(f64::from(e.t_exit)) == exit,
+                        t_out == exit,
                         "{what}: leaves at {}, not {}",
                         e.t_exit,
                         exit.approx()

@@ -9,10 +9,9 @@
 mod common;
 
 use common::ray_check::{Worst, check_hit};
-use common::ray_reference::{RefCell, tree_of, with_words};
+use common::ray_reference::{RefCell, index_of, tree_of, with_words};
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;
-use std::collections::HashMap;
 use svo::RootCube;
 use svo::octree::{Octree, Voxel};
 use svo::trace::{
@@ -70,8 +69,7 @@ fn dda_and_octree_visit_the_same_leaves() {
     for depth in 1..=6u8 {
         for &density in &[0.03, 0.3, 0.9] {
             let cells = random_cells(&mut rng, depth, density);
-            let index: HashMap<UVec3, usize> =
-                cells.iter().enumerate().map(|(i, c)| (c.lo, i)).collect();
+            let index = index_of(&cells);
             let tree = tree_of(depth, &cells);
             let grid = DenseGrid::new(&tree).unwrap();
             let n = (1u32 << depth) as f32;

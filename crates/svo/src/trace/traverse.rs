@@ -368,7 +368,7 @@ mod tests {
     use crate::octree::{RootCube, Voxel};
     use glam::{DVec3, Vec3};
 
-    fn one_cell_tree(depth: u8, cells: &[UVec3]) -> Octree {
+    fn tree_of_cells(depth: u8, cells: &[UVec3]) -> Octree {
         let root = RootCube {
             origin: DVec3::ZERO,
             side: 1.0,
@@ -395,7 +395,7 @@ mod tests {
     #[test]
     fn trees_of_depth_1_to_30_are_walked_and_others_are_not() {
         let far = (1u32 << 30) - 1;
-        let mut tree = one_cell_tree(30, &[UVec3::ZERO, UVec3::new(far, 0, 0)]);
+        let mut tree = tree_of_cells(30, &[UVec3::ZERO, UVec3::new(far, 0, 0)]);
         let ray = GridRay {
             origin: Vec3::new(-1.0, 0.5, 0.5),
             dir: Vec3::X,
@@ -413,7 +413,7 @@ mod tests {
     /// leaves should be, and nothing is handed over.
     #[test]
     fn a_tree_deeper_than_its_depth_is_not_walked_below_it() {
-        let mut tree = one_cell_tree(2, &[UVec3::ONE, UVec3::splat(3)]);
+        let mut tree = tree_of_cells(2, &[UVec3::ONE, UVec3::splat(3)]);
         let ray = |y: f32| GridRay {
             origin: Vec3::new(-1.0, y, y),
             dir: Vec3::X,
@@ -433,7 +433,7 @@ mod tests {
     fn start_nodes_that_do_not_fit_are_not_walked() {
         // Depth 3: the root (index 0), its child at the low corner (side 4, index 1), and
         // that child's child (side 2, a parent of leaves, index 2).
-        let tree = one_cell_tree(3, &[UVec3::ZERO, UVec3::ONE]);
+        let tree = tree_of_cells(3, &[UVec3::ZERO, UVec3::ONE]);
         let ray = GridRay {
             origin: Vec3::new(-1.0, 0.5, 0.5),
             dir: Vec3::X,

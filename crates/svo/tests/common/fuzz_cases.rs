@@ -160,11 +160,7 @@ fn raw(depth: u8, bytes: &[u8]) {
     if let Ok((tree, _)) = bake_mesh(&mesh, &opts) {
         // Grid coordinates from their definition in the bake's root; cells from the oracle.
         let (origin, side) = (tree.root.origin, tree.root.side);
-        let tris: Vec<[DVec3; 3]> = mesh
-            .triangles
-            .iter()
-            .map(|t| t.map(|i| oracle::grid_point(mesh.positions[i as usize], origin, side, depth)))
-            .collect();
+        let tris = oracle::grid_triangles(&mesh.positions, &mesh.triangles, origin, side, depth);
         let want: Vec<[u32; 3]> = oracle::touched_cells(&tris, depth)[usize::from(depth)]
             .keys()
             .copied()

@@ -198,3 +198,17 @@ fn descend(
 pub fn grid_point(p: DVec3, origin: DVec3, side: f64, depth: u8) -> DVec3 {
     (p - origin) / side * f64::from(1u32 << depth)
 }
+
+/// The grid coordinates ([`grid_point`]) of an indexed mesh's triangles.
+pub fn grid_triangles(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    origin: DVec3,
+    side: f64,
+    depth: u8,
+) -> Vec<[DVec3; 3]> {
+    triangles
+        .iter()
+        .map(|t| t.map(|i| grid_point(positions[i as usize], origin, side, depth)))
+        .collect()
+}

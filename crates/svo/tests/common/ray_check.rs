@@ -30,9 +30,8 @@ use svo::trace::{GridRay, HitMode};
 /// `f32`'s unit roundoff.
 pub const U: f64 = 1.0 / 16_777_216.0;
 
-/// The margin for `ray` in a root of `n` cells (module doc): `None` for none.
-pub fn margin(ray: &GridRay, tmin: f32, n: f32, mode: HitMode) -> f64 {
-    let l = delta_scale(ray, n);
+/// The margin for `ray` from `tmin` whose `L` is `l` (module doc); 0 for none.
+pub fn margin(ray: &GridRay, tmin: f32, l: f64, mode: HitMode) -> f64 {
     let exact = tmin == 0.0
         && ray.origin.to_array().iter().all(|v| v.fract() == 0.0)
         && ray
@@ -99,11 +98,11 @@ pub fn check_hit(
     worst: &mut Worst,
 ) -> bool {
     let contour = mode == HitMode::Contour;
-    let delta = margin(ray, tmin, n, mode);
+    let l = delta_scale(ray, n);
+    let delta = margin(ray, tmin, l, mode);
     let grow = Q::of(delta);
-    let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
-    let er = ExactRay::new(o, d, tmin);
-    let first = first_entry(&er, (o, d, tmin), cells, contour, &grow);
+    let er = ExactRay::new(ray.origin.to_array(), ray.dir.to_array(), tmin);
+    let first = first_entry(&er, cells, contour, &grow);
     let Some((t32, cell)) = hit else {
         let entered = first.map(|(t, i)| (t.approx(), cells[i].lo));
         assert!(
@@ -142,7 +141,6 @@ pub fn check_hit(
         );
         worst.exact += 1;
     } else {
-        let l = delta_scale(ray, n);
         let k = usize::from(contour);
         worst.ratio[k] = worst.ratio[k].max(outside(&p, &cells[i], contour) / (U * l));
     }

@@ -178,6 +178,11 @@ pub fn with_words(rng: &mut impl Rng, cells: &[UVec3]) -> Vec<RefCell> {
         .collect()
 }
 
+/// Each cell's index in the list.
+pub fn index_of(cells: &[RefCell]) -> HashMap<UVec3, usize> {
+    cells.iter().enumerate().map(|(i, c)| (c.lo, i)).collect()
+}
+
 /// The tree under test: the cells at `depth` in a root of side `2^depth` at the origin (so
 /// scene and grid coordinates agree), each leaf given its cell's words.
 pub fn tree_of(depth: u8, cells: &[RefCell]) -> Octree {
@@ -200,13 +205,15 @@ pub fn tree_of(depth: u8, cells: &[RefCell]) -> Octree {
     tree
 }
 
-/// A ray in exact form.
+/// A ray in exact form, with the `f32` values it was made from.
 pub struct ExactRay {
     pub o: [Q; 3],
     pub d: [Q; 3],
     /// Per axis, the sign of the direction component, zeros included (`true`: negative).
     pub neg: [bool; 3],
     pub tmin: Q,
+    /// The origin, direction and `tmin` as given.
+    f32s: ([f32; 3], [f32; 3], f32),
 }
 
 impl ExactRay {
@@ -216,6 +223,7 @@ impl ExactRay {
             d: d.map(|v| Q::of(f64::from(v))),
             neg: d.map(f32::is_sign_negative),
             tmin: Q::of(f64::from(tmin)),
+            f32s: (o, d, tmin),
         }
     }
 
@@ -238,13 +246,13 @@ impl Interval {
     }
 }
 
-/// The cell's region as linear constraints `lo <= s0 + t sd <= hi` along the ray.
-fn constraints(ray: &ExactRay, cell: &RefCell, contour: bool, grow: &Q) -> Vec<[Q; 4]> {
+/// The cell's region as linear constraints `lo <= s0 + t sd <= hi` along the line `o + t d`.
+fn constraints(o: &[Q; 3], d: &[Q; 3], cell: &RefCell, contour: bool, grow: &Q) -> Vec<[Q; 4]> {
     let mut out = Vec::with_capacity(4);
     for k in 0..3 {
         let lo = Q::int(i64::from(cell.lo[k])).sub(grow);
         let hi = Q::int(i64::from(cell.lo[k]) + 1).add(grow);
-        out.push([lo, hi, ray.o[k].clone(), ray.d[k].clone()]);
+        out.push([lo, hi, o[k].clone(), d[k].clone()]);
     }
     if contour {
         let m = octahedral(cell.words.0).map(Q::int);
@@ -253,10 +261,9 @@ fn constraints(ray: &ExactRay, cell: &RefCell, contour: bool, grow: &Q) -> Vec<[
         let near = frac(cell.words.1).mul(&l1).sub(&grow.mul(&l1));
         let far = frac(cell.words.1 >> 16).mul(&l1).add(&grow.mul(&l1));
         let half = Q::int(1).div(&Q::int(2));
-        let rel: [Q; 3] =
-            [0, 1, 2].map(|k| ray.o[k].sub(&Q::int(i64::from(cell.lo[k]))).sub(&half));
+        let rel: [Q; 3] = [0, 1, 2].map(|k| o[k].sub(&Q::int(i64::from(cell.lo[k]))).sub(&half));
         let dot = |v: &[Q; 3]| m[0].mul(&v[0]).add(&m[1].mul(&v[1])).add(&m[2].mul(&v[2]));
-        out.push([near, far, dot(&rel), dot(&ray.d)]);
+        out.push([near, far, dot(&rel), dot(d)]);
     }
     out
 }
@@ -267,7 +274,7 @@ fn constraints(ray: &ExactRay, cell: &RefCell, contour: bool, grow: &Q) -> Vec<[
 pub fn interval(ray: &ExactRay, cell: &RefCell, contour: bool, grow: &Q) -> Option<Interval> {
     let mut a = ray.tmin.clone();
     let mut b: Option<Q> = None;
-    for (k, [lo, hi, s0, sd]) in constraints(ray, cell, contour, grow)
+    for (k, [lo, hi, s0, sd]) in constraints(&ray.o, &ray.d, cell, contour, grow)
         .into_iter()
         .enumerate()
     {
@@ -308,14 +315,9 @@ pub fn interval(ray: &ExactRay, cell: &RefCell, contour: bool, grow: &Q) -> Opti
 
 /// Whether the point `p` lies in the region grown by `grow`.
 pub fn contains(p: &[Q; 3], cell: &RefCell, contour: bool, grow: &Q) -> bool {
-    let ray = ExactRay {
-        o: p.clone(),
-        d: [Q::int(0), Q::int(0), Q::int(0)],
-        neg: [false; 3],
-        tmin: Q::int(0),
-    };
-    // As a ray standing still: every constraint's value is its `s0`.
-    constraints(&ray, cell, contour, grow)
+    // As a line standing still: every constraint's value is its `s0`.
+    let still = [Q::int(0), Q::int(0), Q::int(0)];
+    constraints(p, &still, cell, contour, grow)
         .iter()
         .all(|[lo, hi, s0, _]| s0 >= lo && s0 <= hi)
 }
@@ -345,20 +347,19 @@ fn lower_bound(o: [f64; 3], d: [f64; 3], tmin: f64, lo: UVec3) -> Option<f64> {
 
 /// The exact first entry of a ray into the cells' regions shrunk by `margin`: the least
 /// entry parameter over the cells whose shrunk region the ray enters (a parameter interval
-/// of positive length), with the cell's index; `None` when it enters none. `rf` is the same
-/// ray in `f32` (origin, direction, `tmin`), for the search order.
+/// of positive length), with the cell's index; `None` when it enters none.
 pub fn first_entry(
     ray: &ExactRay,
-    rf: ([f32; 3], [f32; 3], f32),
     cells: &[RefCell],
     contour: bool,
     margin: &Q,
 ) -> Option<(Q, usize)> {
-    let (o, d) = (rf.0.map(f64::from), rf.1.map(f64::from));
+    let (o, d, tmin) = ray.f32s;
+    let (o, d, tmin) = (o.map(f64::from), d.map(f64::from), f64::from(tmin));
     let mut order: Vec<(f64, usize)> = cells
         .iter()
         .enumerate()
-        .filter_map(|(i, c)| lower_bound(o, d, f64::from(rf.2), c.lo).map(|lb| (lb, i)))
+        .filter_map(|(i, c)| lower_bound(o, d, tmin, c.lo).map(|lb| (lb, i)))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
     let shrink = Q::int(0).sub(margin);
