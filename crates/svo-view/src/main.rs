@@ -188,13 +188,9 @@ fn real_main() -> anyhow::Result<()> {
     if args.info {
         let bytes = std::fs::read(&args.file)
             .with_context(|| format!("cannot read {}", args.file.display()))?;
-        let (tree, build) = svo::io::from_bytes(&bytes)
+        let text = svo::io::describe(&bytes)
             .with_context(|| format!("loading {}", args.file.display()))?;
-        say!(
-            "{}\n{}",
-            args.file.display(),
-            svo::io::describe(&tree, &build, bytes.len() as u64)
-        );
+        say!("{}\n{}", args.file.display(), text);
         return Ok(());
     }
     let aov = args.aov.unwrap_or_default();

@@ -91,3 +91,56 @@ fn a_closed_stdout_ends_quietly() {
         o.status
     );
 }
+
+/// The conformance corpus (`fixtures/format/conformance/`): for every invalid file `--info`
+/// names the check it fails, by number and name, on one line; for a valid file it prints the
+/// header's fields: version, header length, where each array is, the checksum.
+#[test]
+fn info_names_the_failed_check_and_prints_the_header() {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/format/conformance");
+    let manifest = std::fs::read_to_string(dir.join("manifest.tsv")).unwrap();
+    let mut invalid = 0;
+    for line in manifest.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split('\t').collect();
+        let o = view(&[dir.join(f[0]).to_str().unwrap(), "--info"]);
+        if f[1] == "invalid" {
+            invalid += 1;
+            let err = String::from_utf8_lossy(&o.stderr);
+            let want = format!("check {} ({}): ", f[2], f[3]);
+            assert!(
+                !o.status.success() && err.contains(&want) && err.trim_end().lines().count() == 1,
+                "{}: {err}",
+                f[0]
+            );
+        } else {
+            assert!(
+                o.status.success(),
+                "{}: {}",
+                f[0],
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+    }
+    assert!(invalid >= 18, "{invalid} invalid files");
+    let o = view(&[dir.join("valid-bake.svo").to_str().unwrap(), "--info"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "format         version 2, header 211 bytes at 16, checksum 0x",
+        "arrays         nodes at 232 (1576 bytes)",
+        "               normal at 1808 (2656 bytes)",
+        "               contour at 4464 (2656 bytes)",
+        "               ior constant 0x2000",
+        "generator      svo conformance (strategy exact, 256 source triangles)",
+    ] {
+        assert!(out.contains(want), "missing {want:?} in\n{out}");
+    }
+    let o = view(&[dir.join("valid-scene.svo").to_str().unwrap(), "--info"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("light          (2, 3, -1.5)") && out.contains("view           \"front\""),
+        "{out}"
+    );
+    let o = view(&[dir.join("valid-version-1.svo").to_str().unwrap(), "--info"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("format         version 1,"));
+}

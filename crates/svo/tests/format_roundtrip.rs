@@ -122,9 +122,9 @@ fn truncation_at_every_byte_is_an_error() {
         assert!(
             matches!(
                 e,
-                FormatError::Truncated(_)
+                FormatError::Truncated { .. }
                     | FormatError::Checksum { .. }
-                    | FormatError::Corrupt(_)
+                    | FormatError::Corrupt { .. }
                     | FormatError::NotSvo
             ),
             "prefix {n}: {e}"

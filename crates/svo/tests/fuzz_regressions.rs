@@ -12,9 +12,15 @@ use std::path::Path;
 
 /// Runs `check` on every file of `fixtures/fuzz/<target>`, returning how many there were.
 fn run(target: &str, check: fn(&[u8])) -> usize {
+    run_in(&format!("fuzz/{target}"), check)
+}
+
+/// Runs `check` on every file of `fixtures/<folder>`, returning how many there were.
+fn run_in(folder: &str, check: fn(&[u8])) -> usize {
+    let target = folder;
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../fixtures/fuzz")
-        .join(target);
+        .join("../../fixtures")
+        .join(folder);
     let mut paths: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap().path())
@@ -31,6 +37,8 @@ fn run(target: &str, check: fn(&[u8])) -> usize {
 #[test]
 fn svo_reader_inputs() {
     assert!(run("svo_read", fuzz_cases::svo_read) >= 2);
+    // The format's conformance corpus, which the fuzzer also starts from (`.ci/run`).
+    assert!(run_in("format/conformance", fuzz_cases::svo_read) >= 60);
 }
 
 #[test]

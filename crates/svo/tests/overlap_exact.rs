@@ -147,3 +147,84 @@ fn huge_and_tiny_magnitudes_stay_conservative() {
     );
     assert!(triangle_box_overlap(&t, glam::DVec3::ZERO, 1.0));
 }
+
+/// Large triangles whose plane passes within rounding of a cell corner `P` far from their
+/// first vertex: `P` is the centroid of the vertices as written (`P + a`, `P + b`, `P - a - b`,
+/// each rounded to `f64`), with `a` and `b` up to half a million cells long. Only the plane
+/// decides the two cells of the eight around `P` that lie wholly on either side of it in
+/// exact arithmetic (the box axes, the vertices and the edges are far away), and there the
+/// computed plane value's rounding grows with the distance `|P - v0|`: a rounding bound that
+/// did not grow with it (the `reach` in the library's `plane_tolerance`) would
+/// let the float test decide these cells, sometimes wrongly. Every cell around `P` must equal
+/// the oracle, and the sample must contain cases where the plain float sign is wrong.
+#[test]
+fn near_ties_far_from_the_first_vertex_equal_the_oracle() {
+    use common::oracle::ExactTriangle;
+    use glam::DVec3;
+    let mut r = rng(0x5eed_0f4a);
+    let vec = |r: &mut rand_chacha::ChaCha8Rng| {
+        let mut d = DVec3::new(
+            r.random_range(-5.0e5..5.0e5),
+            r.random_range(-5.0e5..5.0e5),
+            r.random_range(-5.0e5..5.0e5),
+        );
+        // Now and then one or two short components, so that `|d|_1` and other combinations of
+        // the components (a sum of products, a product) differ.
+        match r.random_range(0..4) {
+            0 => d[r.random_range(0..3)] = r.random_range(-1.0..1.0),
+            1 => {
+                let keep = r.random_range(0..3);
+                for k in (0..3).filter(|&k| k != keep) {
+                    d[k] = r.random_range(-1e-6..1e-6);
+                }
+            }
+            _ => {}
+        }
+        d
+    };
+    let (mut cells, mut float_wrong, mut ties) = (0, 0, 0);
+    for _ in 0..600 {
+        let p = [0; 3].map(|_| r.random_range(0..1i64 << 20));
+        let pf = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+        let (a, b) = (vec(&mut r), vec(&mut r));
+        let v = [pf + a, pf + b, pf - a - b];
+        let t = GridTriangle::new(v[0], v[1], v[2]);
+        let exact = ExactTriangle::new(v);
+        for child in 0..8 {
+            let o = [0, 1, 2].map(|k| i64::from((child >> k) & 1));
+            let m = [0, 1, 2].map(|k| p[k] - o[k]);
+            let mf = DVec3::new(m[0] as f64, m[1] as f64, m[2] as f64);
+            let want = exact.touches(m, 1);
+            assert_eq!(
+                triangle_box_overlap(&t, mf, 1.0),
+                want,
+                "cell {m:?} of the triangle {v:?}"
+            );
+            assert!(
+                !want || plane_overlaps(&t, mf, 1.0),
+                "plane test rejects a touched cell {m:?} of {v:?}"
+            );
+            cells += 1;
+            // The cells wholly on one side of the plane but for the corner `P`: their
+            // plane interval ends at `n.(P - v0)`, computed here as the library's float
+            // test computes it, with no rounding bound.
+            let n = t.n;
+            let toward = (0..3).all(|k| (n[k] >= 0.0) == (o[k] == 0));
+            let away = (0..3).all(|k| (n[k] >= 0.0) == (o[k] == 1));
+            if toward || away {
+                ties += 1;
+                let base = n.dot(pf - v[0]);
+                let float = if toward { base <= 0.0 } else { base >= 0.0 };
+                float_wrong += usize::from(float != want);
+            }
+        }
+    }
+    assert_eq!(cells, 4800);
+    assert!(ties >= 1000, "{ties} tie cells");
+    // The sample must hold cells that the plain float sign decides wrongly (the ones a
+    // rounding bound too small for the distance would get wrong; 374 of 1,200 here).
+    assert!(
+        float_wrong >= 100,
+        "{float_wrong} of {ties} tie cells decided wrongly by floats"
+    );
+}

@@ -180,3 +180,35 @@ pub(crate) fn decide(t: &GridTriangle, m: DVec3, s: f64, plane_sure: bool) -> bo
         doubt == 0 || touches_exactly(&t.v, m, s, doubt)
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plane test's rounding bound against the error analysis of `docs/algorithms.md`
+    /// ("Exactness in floating point"): the computed ends of the plane interval of a cell
+    /// `[m, m + s]` lie within `9 u n_scale (|d|_1 + 3 s)` of the exact ones (`u = 2^-53`,
+    /// `d = m - v0`), so a bound below that could let a rounded value decide a cell wrongly.
+    /// The bound must cover it with room (16 u here; it is 1536 u). Cells from a hair off the
+    /// first vertex to far from it (each component of `d` of its own magnitude, 1e-9 to 1e3),
+    /// sides 1/8 to 1024.
+    #[test]
+    fn the_plane_bound_covers_the_rounding_error_analysis() {
+        let mut rnd = crate::test_rng::unit_f64(0x0bad_5eed_1234_5678);
+        let u = f64::EPSILON / 2.0;
+        for i in 0..20_000 {
+            let v = [0; 3].map(|_| DVec3::new(rnd(), rnd(), rnd()) * 2e3 - DVec3::splat(1e3));
+            let t = GridTriangle::new(v[0], v[1], v[2]);
+            let s = 2f64.powi(i % 14 - 3);
+            let mut d = DVec3::ZERO;
+            for k in 0..3 {
+                d[k] = (rnd() - 0.5) * 10f64.powf(rnd() * 12.0 - 9.0);
+            }
+            let m = t.v[0] + d;
+            let (_, _, tol) = plane_interval(&t, m, s);
+            let dm = m - t.v[0];
+            let need = 16.0 * u * t.n_scale * (dm.x.abs() + dm.y.abs() + dm.z.abs() + 3.0 * s);
+            assert!(tol >= need, "bound {tol:e} below {need:e}: d {d}, s {s}");
+        }
+    }
+}

@@ -1,7 +1,11 @@
-//! A human-readable description of an octree and its file header, for `svo-view --info`.
+//! A human-readable description of a `.svo` file, for `svo-view --info`: everything its
+//! header holds (version, lengths, where each array is, the checksum), the tree's counts per
+//! level and its channels.
 
-use crate::io::header::BuildInfo;
-use crate::octree::tree::{Channel, Octree};
+use crate::io::header::{PREAMBLE_LEN, Storage};
+use crate::io::read::read_with_header;
+use crate::io::write::FormatError;
+use crate::octree::tree::{Channel, ChannelKind, Octree};
 use std::fmt::Write;
 
 fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out: &mut String) {
@@ -12,9 +16,45 @@ fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out:
     };
 }
 
-/// Describes the tree: root, depth, counts per level, channels, sizes.
-pub fn describe(tree: &Octree, build: &BuildInfo, file_bytes: u64) -> String {
+/// Reads and validates the bytes of a `.svo` file and describes it: the header's every field
+/// (format version, header length, the arrays' offsets and lengths, the checksum, the build
+/// information, lights and views), the counts per level and the channels. An invalid file
+/// gives the reader's error, which names the check it failed.
+pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
+    let (tree, build, version, header) = read_with_header(bytes)?;
+    let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]);
     let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "format         version {version}, header {hlen} bytes at {PREAMBLE_LEN}, checksum {:#018x} (XXH3-64)",
+        u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]))
+    );
+    let _ = writeln!(
+        out,
+        "arrays         nodes at {} ({} bytes)",
+        header.nodes.offset, header.nodes.len
+    );
+    for e in &header.channels {
+        let name = ChannelKind::ALL
+            .get(usize::from(e.kind))
+            .map_or("?", |k| k.name());
+        let _ = match e.storage {
+            Storage::Constant(v) => writeln!(out, "               {name} constant {v:#x}"),
+            Storage::PerLeaf(r) => {
+                writeln!(
+                    out,
+                    "               {name} at {} ({} bytes)",
+                    r.offset, r.len
+                )
+            }
+        };
+    }
+    describe_tree(&mut out, &tree, &build, bytes.len() as u64);
+    Ok(out)
+}
+
+/// The tree's part of [`describe`]: root, depth, counts per level, channels, sizes.
+fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, file_bytes: u64) {
     let o = tree.root.origin;
     let _ = writeln!(
         out,
@@ -85,37 +125,37 @@ pub fn describe(tree: &Octree, build: &BuildInfo, file_bytes: u64) -> String {
         "normal",
         &a.normal,
         |v| format!("{:?}", crate::octree::normal_encoding::decode(v)),
-        &mut out,
+        out,
     );
     channel(
         "contour",
         &a.contour,
         |v| format!("{:?}", crate::octree::contour::unpack(v)),
-        &mut out,
+        out,
     );
     channel(
         "colour",
         &a.colour,
         |v| format!("RGBA8 sRGB {:?}", v.to_le_bytes()),
-        &mut out,
+        out,
     );
     channel(
         "reflectivity",
         &a.reflectivity,
         |v| format!("{:.3}", f32::from(v) / 255.0),
-        &mut out,
+        out,
     );
     channel(
         "refractivity",
         &a.refractivity,
         |v| format!("{:.3}", f32::from(v) / 255.0),
-        &mut out,
+        out,
     );
     channel(
         "ior",
         &a.ior,
         |v| format!("{:.4}", crate::octree::encoding::ior_decode(v)),
-        &mut out,
+        out,
     );
     let per_leaf = if tree.leaf_count > 0 {
         file_bytes as f64 / f64::from(tree.leaf_count)
@@ -126,5 +166,4 @@ pub fn describe(tree: &Octree, build: &BuildInfo, file_bytes: u64) -> String {
         out,
         "file           {file_bytes} bytes, {per_leaf:.2} bytes per leaf"
     );
-    out
 }

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 /// The file's first 8 bytes.
 pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
 /// The format version this library writes (and the newest it reads; it reads version 1 too).
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = crate::octree::format_check::CURRENT_VERSION;
 /// The largest header accepted.
 pub const MAX_HEADER_LEN: usize = 1 << 16;
 /// Bytes before the header: magic, version, header length.

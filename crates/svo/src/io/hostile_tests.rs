@@ -7,7 +7,8 @@
 use crate::io::BuildInfo;
 use crate::io::header::bincode_config;
 use crate::io::read::{from_bytes, read_header};
-use crate::io::write::{FormatError, to_bytes};
+use crate::io::write::to_bytes;
+use crate::octree::format_check::Check;
 use crate::octree::{Octree, RootCube, Voxel};
 use glam::{DVec3, UVec3};
 
@@ -33,6 +34,11 @@ fn info() -> BuildInfo {
         generator: "test".into(),
         ..BuildInfo::default()
     }
+}
+
+/// The check a file fails (`None` if it is read).
+fn check_of(b: &[u8]) -> Option<Check> {
+    from_bytes(b).err().and_then(|e| e.check())
 }
 
 fn rechecksum(b: &mut [u8]) {
@@ -61,7 +67,7 @@ fn hostile_contents_with_valid_checksum_never_panic() {
     // Corrupt the payload and fix the checksum, so the structural validation must catch it.
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let header = read_header(&bytes).unwrap();
+    let header = read_header(&bytes).unwrap().1;
     let nodes_at = header.nodes.offset as usize;
     let mut r = Rng::new(4);
     let mut rejected = 0;
@@ -89,7 +95,7 @@ fn hostile_contents_with_valid_checksum_never_panic() {
 fn cycles_backward_pointers_and_overflows_are_rejected() {
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let h = read_header(&bytes).unwrap();
+    let h = read_header(&bytes).unwrap().1;
     let at = h.nodes.offset as usize;
     let set_node = |b: &mut Vec<u8>, i: usize, info: u32, first: u32| {
         b[at + 8 * i..at + 8 * i + 4].copy_from_slice(&info.to_le_bytes());
@@ -99,17 +105,22 @@ fn cycles_backward_pointers_and_overflows_are_rejected() {
     let mut b = bytes.clone();
     set_node(&mut b, 0, tree.nodes[0].info, 0);
     rechecksum(&mut b);
-    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("forward")));
-    // Child block past the end.
+    assert_eq!(check_of(&b), Some(Check::NodeOrder));
+    // Child block past the end (as an `i32`, a leaf reference above the leaf level), and
+    // just past the node array.
     let mut b = bytes.clone();
     set_node(&mut b, 0, tree.nodes[0].info, u32::MAX - 2);
     rechecksum(&mut b);
-    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(_))));
+    assert_eq!(check_of(&b), Some(Check::TreeShape));
+    let mut b = bytes.clone();
+    set_node(&mut b, 0, tree.nodes[0].info, tree.nodes.len() as u32 - 1);
+    rechecksum(&mut b);
+    assert_eq!(check_of(&b), Some(Check::NodeOrder));
     // Reserved bits.
     let mut b = bytes.clone();
     set_node(&mut b, 0, tree.nodes[0].info | 0x100, tree.nodes[0].first);
     rechecksum(&mut b);
-    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("reserved")));
+    assert_eq!(check_of(&b), Some(Check::NodeWords));
 }
 
 #[test]
@@ -117,7 +128,7 @@ fn header_lies_about_counts() {
     // Re-encode the header with inconsistent counts: the reader must refuse, not allocate.
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let mut h = read_header(&bytes).unwrap();
+    let mut h = read_header(&bytes).unwrap().1;
     for lie in 0..3 {
         let mut hh = h.clone();
         match lie {
@@ -136,5 +147,33 @@ fn header_lies_about_counts() {
     let mut b = bytes.clone();
     b.splice(16..16 + enc.len(), enc.iter().copied());
     rechecksum(&mut b);
-    assert!(matches!(from_bytes(&b), Err(FormatError::Corrupt(m)) if m.contains("depth")));
+    assert_eq!(check_of(&b), Some(Check::Depth));
+}
+
+#[test]
+fn the_writer_refuses_a_tree_the_reader_would_refuse() {
+    // Reserved bits, a node out of the canonical order, a contour without a normal: nothing is
+    // written, and the error names the check.
+    let tree = small_tree();
+    let mut reserved = tree.clone();
+    reserved.nodes[0].info |= 0x100;
+    let mut moved = tree.clone();
+    moved.nodes.push(crate::octree::Node {
+        info: 1,
+        first: u32::MAX,
+    });
+    let mut contour = tree.clone();
+    contour.attributes.normal = crate::octree::Channel::Absent;
+    contour.attributes.contour = crate::octree::Channel::Constant(0xFFFF_0000);
+    for (t, want) in [
+        (reserved, "check 14 (node words)"),
+        (moved, "check 16 (node order)"),
+        (contour, "check 10 (channels)"),
+    ] {
+        let mut out = Vec::new();
+        let e = crate::io::write::write_to(&t, &info(), &mut out).unwrap_err();
+        assert!(e.to_string().starts_with(want), "{e}");
+        assert!(out.is_empty());
+        assert!(t.validate().unwrap_err().starts_with(want));
+    }
 }

@@ -30,6 +30,7 @@ pub(crate) mod read;
 pub(crate) mod vox;
 pub(crate) mod write;
 
+pub use crate::octree::format_check::Check;
 pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
 pub use describe::describe;
 pub use header::{BuildInfo, VERSION};

@@ -10,12 +10,24 @@ use crate::io::header::{
     bincode_config,
 };
 pub use crate::io::write::FormatError;
+use crate::octree::format_check::Check;
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
+use crate::octree::validate::{MAX_LEAVES, check_tree};
 use glam::DVec3;
 use std::path::Path;
 
-fn corrupt(msg: impl Into<String>) -> FormatError {
-    FormatError::Corrupt(msg.into())
+fn corrupt(check: Check, detail: impl Into<String>) -> FormatError {
+    FormatError::Corrupt {
+        check,
+        detail: detail.into(),
+    }
+}
+
+fn truncated(check: Check, detail: impl Into<String>) -> FormatError {
+    FormatError::Truncated {
+        check,
+        detail: detail.into(),
+    }
 }
 
 /// Reads and validates a `.svo` file: the tree and what accompanies it.
@@ -28,22 +40,31 @@ pub fn read_file(path: impl AsRef<Path>) -> Result<(Octree, BuildInfo), FormatEr
     from_bytes(&bytes)
 }
 
-/// Reads only the header (after checking magic, version and checksum).
-pub(crate) fn read_header(bytes: &[u8]) -> Result<Header, FormatError> {
+/// Checks 1 to 6: the preamble, the checksum and the header's encoding. Returns the version
+/// and the header.
+pub(crate) fn read_header(bytes: &[u8]) -> Result<(u32, Header), FormatError> {
+    // 1. The magic.
     if bytes.len() < 8 || bytes[..8] != MAGIC {
         return Err(if bytes.len() < 8 && MAGIC.starts_with(bytes) {
-            FormatError::Truncated(format!("{} bytes, the magic alone is 8", bytes.len()))
+            truncated(
+                Check::Magic,
+                format!("{} bytes, the magic alone is 8", bytes.len()),
+            )
         } else {
             FormatError::NotSvo
         });
     }
+    // 2. The preamble and the checksum fit.
     if bytes.len() < PREAMBLE_LEN + 8 {
-        return Err(FormatError::Truncated(format!(
-            "{} bytes, less than the smallest file",
-            bytes.len()
-        )));
+        return Err(truncated(
+            Check::Size,
+            format!("{} bytes, less than the smallest file (24)", bytes.len()),
+        ));
     }
-    let version = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+    // 3. The version.
+    let word =
+        |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    let version = word(8);
     if version > VERSION {
         return Err(FormatError::NewerVersion {
             found: version,
@@ -51,26 +72,33 @@ pub(crate) fn read_header(bytes: &[u8]) -> Result<Header, FormatError> {
         });
     }
     if version == 0 {
-        return Err(corrupt("format version 0"));
+        return Err(corrupt(Check::Version, "format version 0"));
     }
-    let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    // 4. The header length.
+    let hlen = word(12) as usize;
     if hlen > MAX_HEADER_LEN {
-        return Err(corrupt(format!(
-            "header length {hlen} exceeds {MAX_HEADER_LEN}"
-        )));
+        return Err(corrupt(
+            Check::HeaderLength,
+            format!("header length {hlen} exceeds {MAX_HEADER_LEN}"),
+        ));
     }
     if PREAMBLE_LEN + hlen + 8 > bytes.len() {
-        return Err(FormatError::Truncated(format!(
-            "header of {hlen} bytes does not fit in {} bytes",
-            bytes.len()
-        )));
+        return Err(truncated(
+            Check::HeaderLength,
+            format!(
+                "a header of {hlen} bytes does not end before the checksum of a file of {} bytes",
+                bytes.len()
+            ),
+        ));
     }
+    // 5. The checksum.
     let body = bytes.len() - 8;
     let stored = u64::from_le_bytes(bytes[body..].try_into().unwrap_or([0; 8]));
     let computed = xxhash_rust::xxh3::xxh3_64(&bytes[..body]);
     if stored != computed {
         return Err(FormatError::Checksum { stored, computed });
     }
+    // 6. The header decodes in exactly its length.
     let raw = &bytes[PREAMBLE_LEN..PREAMBLE_LEN + hlen];
     let (header, used): (Header, usize) = if version == 1 {
         bincode::serde::decode_from_slice::<HeaderV1, _>(raw, bincode_config())
@@ -78,18 +106,14 @@ pub(crate) fn read_header(bytes: &[u8]) -> Result<Header, FormatError> {
     } else {
         bincode::serde::decode_from_slice(raw, bincode_config())
     }
-    .map_err(|e| corrupt(format!("header: {e}")))?;
-    header
-        .build
-        .scene
-        .validate()
-        .map_err(|e| corrupt(format!("scene: {e}")))?;
+    .map_err(|e| corrupt(Check::Header, format!("header: {e}")))?;
     if used != hlen {
-        return Err(corrupt(format!(
-            "header holds {used} bytes, its length says {hlen}"
-        )));
+        return Err(corrupt(
+            Check::Header,
+            format!("the header holds {used} bytes, its length says {hlen}"),
+        ));
     }
-    Ok(header)
+    Ok((version, header))
 }
 
 /// Reads and validates a whole `.svo` file from `reader`.
@@ -104,95 +128,158 @@ pub fn read_from(mut reader: impl std::io::Read) -> Result<(Octree, BuildInfo), 
     from_bytes(&bytes)
 }
 
-/// Parses and validates the bytes of a `.svo` file.
+/// Parses and validates the bytes of a `.svo` file: the checks of `docs/format.md` in their
+/// order.
 pub fn from_bytes(bytes: &[u8]) -> Result<(Octree, BuildInfo), FormatError> {
-    let h = read_header(bytes)?;
-    let hlen = bytes.len().min(
-        PREAMBLE_LEN + u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize,
-    );
-    let data_start = hlen.div_ceil(8) as u64 * 8;
+    read_with_header(bytes).map(|(tree, build, _, _)| (tree, build))
+}
+
+/// [`from_bytes`], also returning the file's version and header.
+pub(crate) fn read_with_header(
+    bytes: &[u8],
+) -> Result<(Octree, BuildInfo, u32, Header), FormatError> {
+    let (version, h) = read_header(bytes)?;
+    let header_end = PREAMBLE_LEN as u64
+        + u64::from(u32::from_le_bytes([
+            bytes[12], bytes[13], bytes[14], bytes[15],
+        ]));
     let data_end = (bytes.len() - 8) as u64;
 
+    // 7. Depth; 8. root cube; 9. counts.
     if !(1..=crate::MAX_DEPTH).contains(&h.depth) {
-        return Err(corrupt(format!(
-            "depth {} is outside 1..={}",
-            h.depth,
-            crate::MAX_DEPTH
-        )));
+        return Err(corrupt(
+            Check::Depth,
+            format!("depth {} is outside 1..={}", h.depth, crate::MAX_DEPTH),
+        ));
     }
     let origin = DVec3::from_array(h.root_origin);
     if !origin.is_finite() || !h.root_side.is_finite() || h.root_side <= 0.0 {
-        return Err(corrupt("root cube is not finite and positive"));
+        return Err(corrupt(
+            Check::RootCube,
+            "root cube is not finite and positive",
+        ));
     }
     if h.node_count == 0 {
-        return Err(corrupt("no root node"));
+        return Err(corrupt(Check::Counts, "no root node"));
     }
-    let leaf_count = u32::try_from(h.leaf_count).map_err(|_| corrupt("leaf count exceeds u32"))?;
-
-    // Arrays: in bounds, 8-aligned, in increasing order without overlap, sized by the counts.
-    let mut refs: Vec<(ArrayRef, u64)> = vec![(
-        h.nodes,
-        h.node_count
-            .checked_mul(8)
-            .ok_or_else(|| corrupt("node count overflows"))?,
-    )];
+    if h.leaf_count > MAX_LEAVES || h.leaf_count > h.node_count.saturating_mul(8) {
+        return Err(corrupt(
+            Check::Counts,
+            format!(
+                "{} leaves: more than 2^31, or more than 8 for each of the {} nodes",
+                h.leaf_count, h.node_count
+            ),
+        ));
+    }
+    // 10. Channels: known kinds, increasing; constants that fit; a contour only with a normal.
     let mut last_kind: i16 = -1;
     for e in &h.channels {
         if i16::from(e.kind) <= last_kind || e.kind > 5 {
-            return Err(corrupt(format!(
-                "channel code {} unknown, repeated or out of order",
-                e.kind
-            )));
+            return Err(corrupt(
+                Check::Channels,
+                format!("channel code {} unknown, repeated or out of order", e.kind),
+            ));
         }
         last_kind = i16::from(e.kind);
+        let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
+        if let Storage::Constant(v) = e.storage
+            && size < 4
+            && v >> (8 * size) != 0
+        {
+            return Err(corrupt(
+                Check::Channels,
+                format!(
+                    "the constant {v} of channel {} does not fit {size} byte(s)",
+                    e.kind
+                ),
+            ));
+        }
+    }
+    if h.channels.iter().any(|e| e.kind == 1) && !h.channels.iter().any(|e| e.kind == 0) {
+        return Err(corrupt(
+            Check::Channels,
+            "a contour channel without a normal channel",
+        ));
+    }
+    // 11. The scene.
+    h.build
+        .scene
+        .validate()
+        .map_err(|e| corrupt(Check::Scene, format!("scene: {e}")))?;
+    // 12. The arrays where the canonical layout puts them: the nodes, then the per-leaf
+    // channels by kind, each at the next multiple of 8, and the checksum after the last.
+    let node_bytes = h
+        .node_count
+        .checked_mul(8)
+        .ok_or_else(|| corrupt(Check::ArrayLayout, "the node count overflows"))?;
+    let mut refs: Vec<(ArrayRef, u64)> = vec![(h.nodes, node_bytes)];
+    for e in &h.channels {
         if let Storage::PerLeaf(r) = e.storage {
-            // Codes are positions in `ChannelKind::ALL` (checked `<= 5` above).
             let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
             refs.push((r, h.leaf_count * size));
         }
     }
-    let mut prev_end = data_start;
+    let pad8 = |x: u64| x.div_ceil(8) * 8;
+    let mut at = pad8(header_end);
+    let mut gaps = vec![(header_end, at)];
     for (r, want) in &refs {
-        if r.len != *want {
-            return Err(corrupt(format!(
-                "array at {} has {} bytes, the counts need {want}",
-                r.offset, r.len
-            )));
+        if r.len != *want || r.offset != at {
+            return Err(corrupt(
+                Check::ArrayLayout,
+                format!(
+                    "an array at {} of {} bytes, where the layout needs one at {at} of {want}",
+                    r.offset, r.len
+                ),
+            ));
         }
-        let end = r
-            .offset
-            .checked_add(r.len)
-            .ok_or_else(|| corrupt("array length overflows"))?;
-        if r.offset % 8 != 0 || r.offset < prev_end || end > data_end {
-            return Err(if end > data_end && r.offset >= prev_end {
-                FormatError::Truncated(format!(
-                    "array at {}..{end} runs past the data end {data_end}",
-                    r.offset
-                ))
-            } else {
-                corrupt(format!(
-                    "array at {}..{end} is misaligned or overlaps",
-                    r.offset
-                ))
-            });
+        let end = at + r.len;
+        if end > data_end {
+            return Err(truncated(
+                Check::ArrayLayout,
+                format!("the array at {at}..{end} runs past the data end {data_end}"),
+            ));
         }
-        prev_end = end;
+        at = pad8(end);
+        gaps.push((end, at));
+    }
+    if at != data_end {
+        return Err(if at > data_end {
+            truncated(
+                Check::ArrayLayout,
+                format!("the padding after the last array runs past the data end {data_end}"),
+            )
+        } else {
+            corrupt(
+                Check::ArrayLayout,
+                format!(
+                    "{} bytes between the last array and the checksum",
+                    data_end - at
+                ),
+            )
+        });
+    }
+    // 13. Zero padding.
+    if let Some(&(from, to)) = gaps
+        .iter()
+        .find(|&&(from, to)| bytes[from as usize..to as usize].iter().any(|&b| b != 0))
+    {
+        return Err(corrupt(
+            Check::Padding,
+            format!("a padding byte in {from}..{to} is not zero"),
+        ));
     }
     let slice = |r: ArrayRef| &bytes[r.offset as usize..(r.offset + r.len) as usize];
     let nodes: Vec<Node> = bytemuck::pod_collect_to_vec(slice(h.nodes));
     let mut attributes = LeafAttributes::default();
     for e in &h.channels {
+        // Constants fit their element (check 10).
         match (e.kind, e.storage) {
             (0, Storage::Constant(v)) => attributes.normal = Channel::Constant(v),
             (1, Storage::Constant(v)) => attributes.contour = Channel::Constant(v),
             (2, Storage::Constant(v)) => attributes.colour = Channel::Constant(v),
-            (3, Storage::Constant(v)) => attributes.reflectivity = Channel::Constant(byte(v)?),
-            (4, Storage::Constant(v)) => attributes.refractivity = Channel::Constant(byte(v)?),
-            (5, Storage::Constant(v)) => {
-                attributes.ior = Channel::Constant(
-                    u16::try_from(v).map_err(|_| corrupt("IOR constant out of range"))?,
-                )
-            }
+            (3, Storage::Constant(v)) => attributes.reflectivity = Channel::Constant(v as u8),
+            (4, Storage::Constant(v)) => attributes.refractivity = Channel::Constant(v as u8),
+            (5, Storage::Constant(v)) => attributes.ior = Channel::Constant(v as u16),
             (0, Storage::PerLeaf(r)) => {
                 attributes.normal = Channel::PerLeaf(bytemuck::pod_collect_to_vec(slice(r)))
             }
@@ -211,7 +298,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<(Octree, BuildInfo), FormatError> {
             (5, Storage::PerLeaf(r)) => {
                 attributes.ior = Channel::PerLeaf(bytemuck::pod_collect_to_vec(slice(r)))
             }
-            _ => return Err(corrupt("unknown channel")),
+            _ => return Err(corrupt(Check::Channels, "unknown channel")),
         }
     }
     let tree = Octree {
@@ -220,16 +307,15 @@ pub fn from_bytes(bytes: &[u8]) -> Result<(Octree, BuildInfo), FormatError> {
             side: h.root_side,
         },
         depth: h.depth,
+        // Check 9 bounds the count by 2^31.
+        leaf_count: h.leaf_count as u32,
         nodes,
-        leaf_count,
         attributes,
     };
-    crate::octree::validate::validate(&tree).map_err(FormatError::Corrupt)?;
-    Ok((tree, h.build))
-}
-
-fn byte(v: u32) -> Result<u8, FormatError> {
-    u8::try_from(v).map_err(|_| corrupt(format!("constant {v} does not fit a byte")))
+    // 14 to 18: the node words, the tree's shape, the node and leaf order, the values.
+    check_tree(&tree, version).map_err(|(check, detail)| corrupt(check, detail))?;
+    let build = h.build.clone();
+    Ok((tree, build, version, h))
 }
 
 impl Octree {

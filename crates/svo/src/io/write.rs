@@ -5,12 +5,15 @@ use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, Header, MAGIC, PREAMBLE_LEN, Storage, VERSION,
     bincode_config,
 };
+use crate::octree::format_check::Check;
 use crate::octree::tree::{Channel, Octree};
+use crate::octree::validate::check_tree;
 use std::io::Write;
 use std::path::Path;
 use thiserror::Error;
 
-/// Errors of reading and writing `.svo` files.
+/// Errors of reading and writing `.svo` files. Every error about a file's contents names
+/// the numbered check of `docs/format.md` that failed ([`FormatError::check`]).
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum FormatError {
@@ -22,12 +25,13 @@ pub enum FormatError {
         /// The operating system's error.
         cause: std::io::Error,
     },
-    /// The file does not start with the `.svo` magic bytes.
-    #[error("not an .svo file (bad magic bytes)")]
+    /// The file does not start with the `.svo` magic bytes (check 1).
+    #[error("{}: not an .svo file (bad magic bytes)", Check::Magic)]
     NotSvo,
-    /// The file is from a newer format version.
+    /// The file is from a newer format version (check 3).
     #[error(
-        "file format version {found} is newer than this reader supports (version {supported}); upgrade svo"
+        "{}: file format version {found} is newer than this reader supports (version {supported}); upgrade svo",
+        Check::Version
     )]
     NewerVersion {
         /// The file's version.
@@ -36,11 +40,17 @@ pub enum FormatError {
         supported: u32,
     },
     /// The file ends before its declared contents.
-    #[error("truncated file: {0}")]
-    Truncated(String),
-    /// The checksum does not match the contents.
+    #[error("{check}: truncated file: {detail}")]
+    Truncated {
+        /// The check that found it.
+        check: Check,
+        /// What is missing.
+        detail: String,
+    },
+    /// The checksum does not match the contents (check 5).
     #[error(
-        "checksum mismatch: the file is corrupt (stored {stored:#018x}, computed {computed:#018x})"
+        "{}: checksum mismatch: the file is corrupt (stored {stored:#018x}, computed {computed:#018x})",
+        Check::Checksum
     )]
     Checksum {
         /// Stored value.
@@ -48,9 +58,27 @@ pub enum FormatError {
         /// Computed value.
         computed: u64,
     },
-    /// The contents are inconsistent.
-    #[error("corrupt file: {0}")]
-    Corrupt(String),
+    /// The contents fail a check.
+    #[error("{check}: corrupt file: {detail}")]
+    Corrupt {
+        /// The check that failed.
+        check: Check,
+        /// What is wrong, and where.
+        detail: String,
+    },
+}
+
+impl FormatError {
+    /// The numbered check of `docs/format.md` that the file failed (`None` for an I/O error).
+    pub fn check(&self) -> Option<Check> {
+        match self {
+            Self::Io { .. } => None,
+            Self::NotSvo => Some(Check::Magic),
+            Self::NewerVersion { .. } => Some(Check::Version),
+            Self::Checksum { .. } => Some(Check::Checksum),
+            Self::Truncated { check, .. } | Self::Corrupt { check, .. } => Some(*check),
+        }
+    }
 }
 
 /// A writer that hashes what passes through it and counts the bytes.
@@ -77,6 +105,13 @@ impl Write for Hashing<'_> {
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
     build.scene.validate().map_err(|e| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
+    })?;
+    // A tree a reader would refuse is not written (trees that svo builds pass).
+    check_tree(tree, VERSION).map_err(|(check, detail)| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{check}: {detail}"),
+        )
     })?;
     let a = &tree.attributes;
     let mut arrays: Vec<(Option<u8>, &[u8])> = vec![(None, bytemuck::cast_slice(&tree.nodes))];

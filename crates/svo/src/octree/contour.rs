@@ -13,7 +13,6 @@ use glam::{DVec3, Vec3};
 
 /// The contour of the whole cell (near plane at 0, far at 1): what interior leaves of a solid
 /// bake store.
-#[cfg_attr(not(feature = "solid"), allow(dead_code))]
 pub const FULL: u32 = 0xFFFF_0000;
 
 /// Packs the offsets `[dmin, dmax]` (along unit normal `n`, from the cell centre, in cells).

@@ -11,6 +11,7 @@
 pub(crate) mod builder;
 pub(crate) mod contour;
 pub(crate) mod encoding;
+pub(crate) mod format_check;
 pub(crate) mod layout;
 pub(crate) mod normal_encoding;
 pub(crate) mod query;

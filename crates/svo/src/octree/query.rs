@@ -87,10 +87,12 @@ impl Octree {
             .is_some_and(|c| self.leaf_at(c).is_some())
     }
 
-    /// Checks the tree's structure (what the `.svo` reader checks of every file): node
-    /// references inside the array and forward, every node with children, leaves counted
-    /// once each, channel lengths equal to the leaf count. Trees that `svo` builds pass; a
-    /// tree assembled by hand from its public fields should be checked before it is traced.
+    /// Checks the tree as the `.svo` reader checks every file (`docs/format.md`, checks 7 to
+    /// 10 and 14 to 18): depth, root cube, counts, channels, reserved bits, the tree's shape,
+    /// the canonical node order, leaves numbered depth-first, and the stored values. The error
+    /// names the check (`check 16 (node order): ...`). Trees that `svo` builds pass; a tree
+    /// assembled by hand from its public fields should be checked before it is traced, and
+    /// the writer refuses one that fails.
     pub fn validate(&self) -> Result<(), String> {
         crate::octree::validate::validate(self)
     }

@@ -1,113 +1,233 @@
-//! Structural validation of an octree: what the file reader runs on untrusted input before
-//! anything traverses it (a malicious file must not hang or crash a reader or the GPU).
+//! Validation of an octree: what the file reader runs on untrusted input before anything
+//! traverses it (a malicious file must not hang or crash a reader or the GPU), and what
+//! [`Octree::validate`] runs on a tree in memory. These are the checks 7 to 10 (as far as a
+//! tree in memory has them) and 14 to 18 of `docs/format.md`, each error naming its
+//! [`Check`].
 //!
-//! Checks: a root exists; reserved info bits are zero; only the root may have no children;
-//! leaf references appear exactly at the level above the leaves and stay in range; every
-//! child pointer points forward and in range; every node and every leaf is referenced
-//! exactly once (so there are no cycles, no sharing and no orphans); per-leaf channels have
-//! one value per leaf.
+//! The tree must be in the canonical layout: children blocks where the canonical node order
+//! puts them and leaves numbered in depth-first child order. Checking positions against
+//! counters of where the next block and the next leaf belong rules out cycles, sharing,
+//! orphans and out-of-range references at once, and needs no memory per node or leaf.
 
-use crate::octree::tree::{ChannelStorage, Octree};
+use crate::octree::contour::FULL;
+use crate::octree::format_check::CURRENT_VERSION;
+use crate::octree::format_check::Check;
+use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Octree};
 
-/// Validates the tree's structure; the error says what is wrong and where.
+/// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
+pub const MAX_LEAVES: u64 = 1 << 31;
+
+/// A failed check and what failed.
+pub type Failure = (Check, String);
+
+/// Validates a tree in memory (as a version-2 file would hold it); the error names the check
+/// and says what is wrong and where.
 pub fn validate(t: &Octree) -> Result<(), String> {
+    check_tree(t, CURRENT_VERSION).map_err(|(c, m)| format!("{c}: {m}"))
+}
+
+/// The checks of a tree read from a file of format `version`, in the document's order.
+pub fn check_tree(t: &Octree, version: u32) -> Result<(), Failure> {
+    let fail = |c: Check, m: String| Err((c, m));
     if !(1..=crate::MAX_DEPTH).contains(&t.depth) {
-        return Err(format!(
-            "depth {} is outside 1..={}",
-            t.depth,
-            crate::MAX_DEPTH
-        ));
+        return fail(
+            Check::Depth,
+            format!("depth {} is outside 1..={}", t.depth, crate::MAX_DEPTH),
+        );
     }
     if !(t.root.side.is_finite() && t.root.side > 0.0 && t.root.origin.is_finite()) {
-        return Err("root cube is not finite and positive".into());
+        return fail(
+            Check::RootCube,
+            "root cube is not finite and positive".into(),
+        );
     }
     let n = t.nodes.len();
     if n == 0 {
-        return Err("no root node".into());
+        return fail(Check::Counts, "no root node".into());
     }
-    let leaves = t.leaf_count as usize;
+    let leaves = u64::from(t.leaf_count);
+    if leaves > MAX_LEAVES || leaves > 8 * n as u64 {
+        return fail(
+            Check::Counts,
+            format!("{leaves} leaves: more than 2^31, or more than 8 for each of the {n} nodes"),
+        );
+    }
     let a = &t.attributes;
+    if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
+        return fail(
+            Check::Channels,
+            "a contour channel without a normal channel".into(),
+        );
+    }
     for (kind, storage) in a.storage() {
         if let ChannelStorage::PerLeaf(len) = storage
-            && len != leaves
+            && len as u64 != leaves
         {
-            return Err(format!(
-                "channel {} has {len} values for {leaves} leaves",
-                kind.name()
-            ));
+            return fail(
+                Check::ArrayLayout,
+                format!(
+                    "channel {} has {len} values for {leaves} leaves",
+                    kind.name()
+                ),
+            );
         }
     }
-    let mut seen_node = vec![false; n];
-    let mut seen_leaf = vec![false; leaves];
-    seen_node[0] = true;
+    for (i, node) in t.nodes.iter().enumerate() {
+        if node.info >> 8 != 0 {
+            return fail(
+                Check::NodeWords,
+                format!("node {i}: reserved info bits set ({:#x})", node.info),
+            );
+        }
+    }
+    check_shape_and_node_order(t)?;
+    check_leaf_order(t)?;
+    check_values(t, version)
+}
+
+/// Checks 15 and 16: walks the nodes in the canonical placement order (a node's children
+/// block, then the children's subtrees from the last child to the first), and requires each
+/// block where the next free index is.
+fn check_shape_and_node_order(t: &Octree) -> Result<(), Failure> {
+    let n = t.nodes.len();
+    let mut next = 1usize;
     let mut stack: Vec<(usize, u8)> = vec![(0, 0)];
     while let Some((i, level)) = stack.pop() {
         let node = t.nodes[i];
-        if node.info >> 8 != 0 {
-            return Err(format!(
-                "node {i}: reserved info bits set ({:#x})",
-                node.info
-            ));
-        }
         let mask = node.child_mask();
         let k = mask.count_ones() as usize;
         if mask == 0 {
             if i != 0 {
-                return Err(format!("node {i}: interior node without children"));
+                return Err((Check::TreeShape, format!("node {i} has no children")));
+            }
+            if node.first != 0 {
+                return Err((
+                    Check::NodeOrder,
+                    format!("the empty root's first is {}, not 0", node.first),
+                ));
             }
             continue;
         }
-        if level + 1 == t.depth {
-            let Some(base) = node.leaf_base() else {
-                return Err(format!(
-                    "node {i} at the level above the leaves does not point to leaves"
-                ));
-            };
-            let base = base as usize;
-            if base.checked_add(k).is_none_or(|e| e > leaves) {
-                return Err(format!(
-                    "node {i}: leaves {base}..{} out of range ({leaves} leaves)",
-                    base + k
+        let leaf_level = level + 1 == t.depth;
+        if leaf_level != node.is_leaf_parent() {
+            return Err((
+                Check::TreeShape,
+                if leaf_level {
+                    format!("node {i} at the level above the leaves does not point to leaves")
+                } else {
+                    format!("node {i} at level {level} points to leaves above the leaf level")
+                },
+            ));
+        }
+        if leaf_level {
+            continue;
+        }
+        let first = node.first as usize;
+        if first != next || first + k > n {
+            return Err((
+                Check::NodeOrder,
+                format!(
+                    "node {i}: its children are at {first}, the canonical order puts them at \
+                     {next} ({n} nodes)"
+                ),
+            ));
+        }
+        next += k;
+        stack.extend((first..first + k).map(|j| (j, level + 1)));
+    }
+    if next != n {
+        return Err((
+            Check::NodeOrder,
+            format!("nodes {next}..{n} are not in the tree"),
+        ));
+    }
+    Ok(())
+}
+
+/// Check 17: the leaf parents, visited depth-first in child order, number their leaves from 0
+/// without gaps, and their total is the leaf count. (Runs after check 16, so the walk is a
+/// tree.)
+fn check_leaf_order(t: &Octree) -> Result<(), Failure> {
+    let mut next = 0u64;
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let node = t.nodes[i];
+        let k = node.child_mask().count_ones();
+        if let Some(base) = node.leaf_base() {
+            if u64::from(base) != next {
+                return Err((
+                    Check::LeafOrder,
+                    format!(
+                        "node {i}: its leaves start at {base}, depth-first order puts them at {next}"
+                    ),
                 ));
             }
-            for s in &mut seen_leaf[base..base + k] {
-                if *s {
-                    return Err(format!("node {i}: leaf referenced twice"));
-                }
-                *s = true;
-            }
-        } else {
-            if node.is_leaf_parent() {
-                return Err(format!(
-                    "node {i} at level {level} points to leaves above the leaf level"
-                ));
-            }
+            next += u64::from(k);
+        } else if k > 0 {
             let first = node.first as usize;
-            if first <= i {
-                return Err(format!(
-                    "node {i}: child pointer {first} does not point forward"
+            stack.extend((first..first + k as usize).rev());
+        }
+    }
+    if next != u64::from(t.leaf_count) {
+        return Err((
+            Check::LeafOrder,
+            format!(
+                "the tree refers to {next} leaves, the count says {}",
+                t.leaf_count
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Check 18: normal words (a half `0x8000` only in the interior-leaf word, and that only from
+/// version 2), contours (near plane not beyond the far one; the whole cell for interior
+/// leaves). Constants are stored values too, whatever the leaf count.
+fn check_values(t: &Octree, version: u32) -> Result<(), Failure> {
+    let a = &t.attributes;
+    let bad_normal =
+        |w: u32| ((w & 0xFFFF) == 0x8000 || (w >> 16) == 0x8000) && (w != NO_NORMAL || version < 2);
+    if let Some((at, w)) = first_bad(&a.normal, bad_normal) {
+        return Err((
+            Check::Values,
+            format!(
+                "{at}: normal word {w:#010x} (a half 0x8000 is only allowed in the \
+                 interior-leaf word 0x80008000, from version 2)"
+            ),
+        ));
+    }
+    if let Some((at, c)) = first_bad(&a.contour, |c| (c & 0xFFFF) > (c >> 16)) {
+        return Err((
+            Check::Values,
+            format!("{at}: contour {c:#010x} has its near plane beyond its far plane"),
+        ));
+    }
+    if !matches!(a.contour, Channel::Absent) && a.has_interior() {
+        for i in 0..t.leaf_count as usize {
+            let c = a.contour.get(i).unwrap_or(FULL);
+            if a.normal.get(i) == Some(NO_NORMAL) && c != FULL {
+                return Err((
+                    Check::Values,
+                    format!(
+                        "leaf {i}: an interior leaf's contour is {c:#010x}, not the whole cell \
+                         0xffff0000"
+                    ),
                 ));
-            }
-            if first.checked_add(k).is_none_or(|e| e > n) {
-                return Err(format!(
-                    "node {i}: children {first}..{} out of range ({n} nodes)",
-                    first + k
-                ));
-            }
-            for (j, seen) in seen_node.iter_mut().enumerate().skip(first).take(k) {
-                if *seen {
-                    return Err(format!("node {i}: node {j} referenced twice"));
-                }
-                *seen = true;
-                stack.push((j, level + 1));
             }
         }
     }
-    if let Some(j) = seen_node.iter().position(|s| !s) {
-        return Err(format!("node {j} is not reachable from the root"));
-    }
-    if let Some(j) = seen_leaf.iter().position(|s| !s) {
-        return Err(format!("leaf {j} is not referenced by any node"));
-    }
     Ok(())
+}
+
+/// The first stored value of a channel (the constant, or a per-leaf value) for which `bad`
+/// holds, with where it is.
+fn first_bad(c: &Channel<u32>, bad: impl Fn(u32) -> bool) -> Option<(String, u32)> {
+    match c {
+        Channel::Constant(w) if bad(*w) => Some(("the constant".into(), *w)),
+        Channel::PerLeaf(v) => v
+            .iter()
+            .position(|&w| bad(w))
+            .map(|i| (format!("leaf {i}"), v[i])),
+        _ => None,
+    }
 }

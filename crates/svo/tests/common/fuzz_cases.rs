@@ -11,7 +11,8 @@ use svo::io::{from_bytes, to_bytes};
 use svo::{BakeOptions, Mesh, MeshFormat, Strategy, bake_mesh};
 
 /// The `.svo` reader on arbitrary bytes: an error or a valid tree, never a panic, a hang or
-/// a huge allocation; a tree it accepts writes back to bytes that read as the same tree.
+/// a huge allocation; a tree it accepts writes back to bytes that read as the same tree, and
+/// a version-2 file it accepts writes back byte for byte (only canonical files are valid).
 /// Each input is read twice: as it is, and with its last 8 bytes replaced by the right
 /// checksum, so that mutations reach the checks behind the checksum (header, arrays, tree
 /// structure) instead of all failing at it.
@@ -32,6 +33,11 @@ fn read_one(data: &[u8]) {
         let (back, _) = from_bytes(&again).expect("a tree we accepted must write back readably");
         assert_eq!(back.nodes, tree.nodes);
         assert_eq!(back.leaf_count, tree.leaf_count);
+        // The reader accepts only canonical files (docs/format.md): a version-2 file it
+        // accepts is what the writer writes for its tree, byte for byte.
+        if data[8] == 2 {
+            assert!(again == data, "an accepted version-2 file is not canonical");
+        }
     }
 }
 

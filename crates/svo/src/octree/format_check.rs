@@ -1,0 +1,140 @@
+//! The numbered checks of a `.svo` file, in the order a reader applies them
+//! (`docs/format.md`, "What a reader checks"). Every [`crate::io::FormatError`] about a file's
+//! contents names the check that failed; the tree checks (14 to 18) are also what
+//! [`crate::Octree::validate`] runs on a tree in memory.
+
+use std::fmt;
+
+/// The format version this library writes (and the newest it reads).
+pub const CURRENT_VERSION: u32 = 2;
+
+/// One of the reader's checks of a `.svo` file, numbered as in `docs/format.md`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[non_exhaustive]
+pub enum Check {
+    /// 1: the file starts with the 8 magic bytes.
+    Magic,
+    /// 2: the file holds at least the preamble and the checksum (24 bytes).
+    Size,
+    /// 3: the version is 1 or 2 (a newer one is reported as such).
+    Version,
+    /// 4: the header length is at most 65,536 and the header ends before the checksum.
+    HeaderLength,
+    /// 5: the checksum (XXH3-64, seed 0) over every byte before it.
+    Checksum,
+    /// 6: the header decodes in exactly its length.
+    Header,
+    /// 7: the depth is 1 to 30.
+    Depth,
+    /// 8: the root cube's origin is finite and its side finite and positive.
+    RootCube,
+    /// 9: at least one node; at most 2^31 leaves and at most 8 per node.
+    Counts,
+    /// 10: channel kinds known, increasing; constants that fit their element; a contour
+    /// only with a normal.
+    Channels,
+    /// 11: the stored lights and camera views.
+    Scene,
+    /// 12: the arrays where the canonical layout puts them, with the lengths the counts give,
+    /// and the checksum right after the last.
+    ArrayLayout,
+    /// 13: every padding byte is zero.
+    Padding,
+    /// 14: the reserved bits of every node's `info` are zero.
+    NodeWords,
+    /// 15: only the root may have no children; exactly the nodes one level above the leaves
+    /// refer to leaves.
+    TreeShape,
+    /// 16: every children block where the canonical node order puts it, and no other node.
+    NodeOrder,
+    /// 17: leaves numbered in depth-first child order, each referenced once.
+    LeafOrder,
+    /// 18: the stored values: normal words, contours, interior leaves.
+    Values,
+}
+
+impl Check {
+    /// Every check, in the order a reader applies them.
+    pub const ALL: [Check; 18] = [
+        Self::Magic,
+        Self::Size,
+        Self::Version,
+        Self::HeaderLength,
+        Self::Checksum,
+        Self::Header,
+        Self::Depth,
+        Self::RootCube,
+        Self::Counts,
+        Self::Channels,
+        Self::Scene,
+        Self::ArrayLayout,
+        Self::Padding,
+        Self::NodeWords,
+        Self::TreeShape,
+        Self::NodeOrder,
+        Self::LeafOrder,
+        Self::Values,
+    ];
+
+    /// The check's number in `docs/format.md` (1 to 18).
+    pub fn number(self) -> u8 {
+        Self::ALL
+            .iter()
+            .position(|&c| c == self)
+            .map_or(0, |i| i as u8 + 1)
+    }
+
+    /// The check's short name, as `docs/format.md` and the corpus manifest spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Magic => "magic",
+            Self::Size => "size",
+            Self::Version => "version",
+            Self::HeaderLength => "header length",
+            Self::Checksum => "checksum",
+            Self::Header => "header",
+            Self::Depth => "depth",
+            Self::RootCube => "root cube",
+            Self::Counts => "counts",
+            Self::Channels => "channels",
+            Self::Scene => "scene",
+            Self::ArrayLayout => "array layout",
+            Self::Padding => "padding",
+            Self::NodeWords => "node words",
+            Self::TreeShape => "tree shape",
+            Self::NodeOrder => "node order",
+            Self::LeafOrder => "leaf order",
+            Self::Values => "values",
+        }
+    }
+
+    /// The check with number `n`.
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    pub fn from_number(n: u8) -> Option<Check> {
+        Self::ALL.get(usize::from(n).checked_sub(1)?).copied()
+    }
+}
+
+impl fmt::Display for Check {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "check {} ({})", self.number(), self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_and_names_round_trip() {
+        for (i, c) in Check::ALL.iter().enumerate() {
+            assert_eq!(usize::from(c.number()), i + 1);
+            assert_eq!(Check::from_number(c.number()), Some(*c));
+        }
+        assert_eq!(Check::from_number(0), None);
+        assert_eq!(Check::from_number(19), None);
+        assert_eq!(Check::Checksum.to_string(), "check 5 (checksum)");
+        let names: std::collections::BTreeSet<_> = Check::ALL.iter().map(|c| c.name()).collect();
+        assert_eq!(names.len(), Check::ALL.len());
+    }
+}

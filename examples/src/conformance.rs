@@ -1,0 +1,969 @@
+//! The `.svo` conformance corpus (`fixtures/format/conformance/`, written by
+//! `cargo run -p svo-examples --example format_corpus`): valid files covering every channel
+//! kind and storage, both versions, an empty tree, a single leaf, the deepest depth, a solid
+//! tree with interior leaves and stored lights and views; and invalid files, each failing one
+//! numbered check of `docs/format.md`, named by it.
+//!
+//! The files are encoded here from `docs/format.md` ([`Parts::encode`]), not by svo's writer:
+//! for every valid tree that svo can write, the test `tests/tests/format_conformance.rs`
+//! requires svo's writer to give the same bytes, so the canonical layout is stated and
+//! followed twice.
+
+use glam::{DVec3, UVec3, Vec3};
+use svo::io::BuildInfo;
+use svo::mesh::{Mesh, SceneInfo, StoredCamera, StoredLight};
+use svo::{BakeOptions, Channel, Node, Octree, RootCube, SolidMode, Voxel, bake_mesh};
+
+/// A stored channel: one value for every leaf, or an array of elements (little-endian bytes).
+#[derive(Clone, Debug)]
+pub enum Stored {
+    /// `Constant(u32)`: variant 0.
+    Constant(u32),
+    /// `PerLeaf { offset, len }`: variant 1, with the array's bytes.
+    PerLeaf(Vec<u8>),
+}
+
+/// A file's contents, field by field as `docs/format.md` lists them, before encoding.
+#[derive(Clone, Debug)]
+pub struct Parts {
+    /// Format version (1 or 2).
+    pub version: u32,
+    /// Root cube minimum corner.
+    pub origin: [f64; 3],
+    /// Root cube side.
+    pub side: f64,
+    /// Levels below the root.
+    pub depth: u8,
+    /// `node_count` as stored.
+    pub node_count: u64,
+    /// `leaf_count` as stored.
+    pub leaf_count: u64,
+    /// The node array: `(info, first)` words.
+    pub nodes: Vec<[u32; 2]>,
+    /// The channels by kind code.
+    pub channels: Vec<(u8, Stored)>,
+    /// `build.generator`.
+    pub generator: String,
+    /// `build.strategy`.
+    pub strategy: String,
+    /// `build.source_triangles`.
+    pub source_triangles: u64,
+    /// Lights and cameras (version 2).
+    pub scene: SceneInfo,
+}
+
+fn channel_bytes<T: Copy>(
+    kind: u8,
+    c: &Channel<T>,
+    le: impl Fn(T) -> Vec<u8>,
+    out: &mut Vec<(u8, Stored)>,
+) where
+    u32: From<T>,
+{
+    match c {
+        Channel::Absent => {}
+        Channel::Constant(v) => out.push((kind, Stored::Constant(u32::from(*v)))),
+        Channel::PerLeaf(v) => out.push((
+            kind,
+            Stored::PerLeaf(v.iter().flat_map(|&x| le(x)).collect()),
+        )),
+    }
+}
+
+fn pad8(x: usize) -> usize {
+    x.div_ceil(8) * 8
+}
+
+impl Parts {
+    /// The parts of a tree and its build information, as a version-2 file stores them.
+    pub fn of(tree: &Octree, build: &BuildInfo) -> Self {
+        let a = &tree.attributes;
+        let mut channels = Vec::new();
+        channel_bytes(
+            0,
+            &a.normal,
+            |v: u32| v.to_le_bytes().to_vec(),
+            &mut channels,
+        );
+        channel_bytes(
+            1,
+            &a.contour,
+            |v: u32| v.to_le_bytes().to_vec(),
+            &mut channels,
+        );
+        channel_bytes(
+            2,
+            &a.colour,
+            |v: u32| v.to_le_bytes().to_vec(),
+            &mut channels,
+        );
+        channel_bytes(3, &a.reflectivity, |v: u8| vec![v], &mut channels);
+        channel_bytes(4, &a.refractivity, |v: u8| vec![v], &mut channels);
+        channel_bytes(5, &a.ior, |v: u16| v.to_le_bytes().to_vec(), &mut channels);
+        Self {
+            version: 2,
+            origin: tree.root.origin.to_array(),
+            side: tree.root.side,
+            depth: tree.depth,
+            node_count: tree.nodes.len() as u64,
+            leaf_count: u64::from(tree.leaf_count),
+            nodes: tree.nodes.iter().map(|n| [n.info, n.first]).collect(),
+            channels,
+            generator: build.generator.clone(),
+            strategy: build.strategy.clone(),
+            source_triangles: build.source_triangles,
+            scene: build.scene.clone(),
+        }
+    }
+
+    /// The arrays in file order: the nodes, then the per-leaf channels by kind.
+    fn arrays(&self) -> Vec<Vec<u8>> {
+        let nodes = self
+            .nodes
+            .iter()
+            .flat_map(|w| w.iter().flat_map(|x| x.to_le_bytes()))
+            .collect();
+        let mut out = vec![nodes];
+        for (_, s) in &self.channels {
+            if let Stored::PerLeaf(b) = s {
+                out.push(b.clone());
+            }
+        }
+        out
+    }
+
+    /// The header with the arrays at `refs` (`(offset, len)` in file order).
+    pub fn header(&self, refs: &[(u64, u64)]) -> Vec<u8> {
+        let mut h = Vec::new();
+        let u64s = |h: &mut Vec<u8>, v: u64| h.extend(v.to_le_bytes());
+        let f64s = |h: &mut Vec<u8>, v: &[f64]| v.iter().for_each(|x| h.extend(x.to_le_bytes()));
+        let string = |h: &mut Vec<u8>, s: &str| {
+            h.extend((s.len() as u64).to_le_bytes());
+            h.extend(s.as_bytes());
+        };
+        f64s(&mut h, &self.origin);
+        f64s(&mut h, &[self.side]);
+        h.push(self.depth);
+        u64s(&mut h, self.node_count);
+        u64s(&mut h, self.leaf_count);
+        u64s(&mut h, refs[0].0);
+        u64s(&mut h, refs[0].1);
+        u64s(&mut h, self.channels.len() as u64);
+        let mut next = 1;
+        for (kind, s) in &self.channels {
+            h.push(*kind);
+            match s {
+                Stored::Constant(v) => {
+                    h.extend(0u32.to_le_bytes());
+                    h.extend(v.to_le_bytes());
+                }
+                Stored::PerLeaf(_) => {
+                    h.extend(1u32.to_le_bytes());
+                    u64s(&mut h, refs[next].0);
+                    u64s(&mut h, refs[next].1);
+                    next += 1;
+                }
+            }
+        }
+        string(&mut h, &self.generator);
+        string(&mut h, &self.strategy);
+        u64s(&mut h, self.source_triangles);
+        if self.version >= 2 {
+            u64s(&mut h, self.scene.lights.len() as u64);
+            for l in &self.scene.lights {
+                f64s(&mut h, &l.position);
+                l.colour.iter().for_each(|c| h.extend(c.to_le_bytes()));
+                h.extend(l.intensity.to_le_bytes());
+            }
+            u64s(&mut h, self.scene.cameras.len() as u64);
+            for c in &self.scene.cameras {
+                string(&mut h, &c.name);
+                f64s(&mut h, &c.eye);
+                f64s(&mut h, &c.target);
+                f64s(&mut h, &c.up);
+                f64s(&mut h, &[c.fov_deg]);
+            }
+        }
+        h
+    }
+
+    /// The canonical file: preamble, header, zero padding to 8, each array at the next
+    /// multiple of 8 with zero padding after it, and the XXH3-64 checksum of everything
+    /// before it.
+    pub fn encode(&self) -> Vec<u8> {
+        let arrays = self.arrays();
+        // The header's length does not depend on the offsets in it (fixed-width integers).
+        let hlen = self.header(&vec![(0, 0); arrays.len()]).len();
+        let mut at = pad8(16 + hlen);
+        let refs: Vec<(u64, u64)> = arrays
+            .iter()
+            .map(|a| {
+                let r = (at as u64, a.len() as u64);
+                at = pad8(at + a.len());
+                r
+            })
+            .collect();
+        let header = self.header(&refs);
+        let mut out = Vec::new();
+        out.extend(MAGIC);
+        out.extend(self.version.to_le_bytes());
+        out.extend((header.len() as u32).to_le_bytes());
+        out.extend(&header);
+        for a in &arrays {
+            out.resize(pad8(out.len()), 0);
+            out.extend(a);
+        }
+        out.resize(pad8(out.len()), 0);
+        seal(&mut out);
+        out
+    }
+}
+
+/// The magic bytes.
+pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
+
+/// Appends the checksum: XXH3-64 (seed 0) of every byte, little-endian.
+pub fn seal(bytes: &mut Vec<u8>) {
+    let sum = xxhash_rust::xxh3::xxh3_64(bytes);
+    bytes.extend(sum.to_le_bytes());
+}
+
+/// Replaces the last 8 bytes with the checksum of the bytes before them.
+pub fn reseal(bytes: &mut Vec<u8>) {
+    bytes.truncate(bytes.len() - 8);
+    seal(bytes);
+}
+
+/// One file of the corpus.
+pub struct Entry {
+    /// File name, `valid-...` or `check-NN-...`.
+    pub name: String,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+    /// The check it fails (`None`: valid).
+    pub check: Option<u8>,
+    /// What it holds or breaks.
+    pub what: String,
+}
+
+fn root() -> RootCube {
+    RootCube {
+        origin: DVec3::new(-1.0, -0.5, 0.25),
+        side: 2.0,
+    }
+}
+
+/// A depth-3 tree of 12 cells whose every attribute varies, with contours.
+fn varied_tree() -> Octree {
+    let cells = (0..12u32).map(|i| {
+        let c = UVec3::new(i % 4 * 2, i / 4 * 2 + 1, (i * 3) % 8);
+        let t = i as f32 / 11.0;
+        let v = Voxel {
+            colour: [t, 1.0 - t, 0.5, 0.25 + 0.5 * t],
+            reflectivity: t,
+            refractivity: 1.0 - t,
+            ior: 1.0 + 2.0 * t,
+            normal: Some(Vec3::new(t - 0.5, 0.3, -0.7 + t)),
+        };
+        (c, v)
+    });
+    let mut tree = Octree::from_cells(root(), 3, cells).expect("a valid tree");
+    let contours = (0..tree.leaf_count)
+        .map(|i| (i * 1000) | ((40_000 + i * 2000) << 16))
+        .collect();
+    tree.attributes.contour = Channel::PerLeaf(contours);
+    tree
+}
+
+/// A depth-2 tree of 5 cells, every channel a constant (a contour too).
+fn constant_tree() -> Octree {
+    let v = Voxel {
+        normal: Some(Vec3::new(0.0, 1.0, 0.0)),
+        ..Voxel::glass()
+    };
+    let cells =
+        [[0, 0, 0], [1, 2, 3], [3, 3, 3], [2, 0, 1], [0, 3, 1]].map(|c| (UVec3::from_array(c), v));
+    let mut tree = Octree::from_cells(root(), 2, cells).expect("a valid tree");
+    tree.attributes.contour = Channel::Constant(0x9000_7000);
+    tree
+}
+
+fn closed_torus() -> Mesh {
+    let (rings, sides) = (16, 8);
+    let mut m = Mesh::default();
+    for i in 0..rings {
+        for j in 0..sides {
+            let (u, v) = (
+                std::f64::consts::TAU * f64::from(i) / f64::from(rings),
+                std::f64::consts::TAU * f64::from(j) / f64::from(sides),
+            );
+            let r = 1.0 + 0.4 * v.cos();
+            m.positions
+                .push(DVec3::new(r * u.cos(), 0.4 * v.sin(), r * u.sin()));
+        }
+    }
+    let at = |i: u32, j: u32| (i % rings) * sides + (j % sides);
+    for i in 0..rings {
+        for j in 0..sides {
+            m.triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            m.triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    m
+}
+
+fn baked(solid: bool) -> (Octree, BuildInfo) {
+    let opts = BakeOptions {
+        depth: 4,
+        solid: solid.then_some(SolidMode::Closed),
+        ..BakeOptions::default()
+    };
+    let (tree, _) = bake_mesh(&closed_torus(), &opts).expect("the torus bakes");
+    let build = BuildInfo {
+        generator: "svo conformance".into(),
+        strategy: "exact".into(),
+        source_triangles: 256,
+        scene: SceneInfo::default(),
+    };
+    (tree, build)
+}
+
+fn build(scene: SceneInfo) -> BuildInfo {
+    BuildInfo {
+        generator: "svo conformance".into(),
+        strategy: "builder".into(),
+        source_triangles: 0,
+        scene,
+    }
+}
+
+fn scene() -> SceneInfo {
+    SceneInfo {
+        lights: vec![
+            StoredLight {
+                position: [2.0, 3.0, -1.5],
+                colour: [1.0, 0.9, 0.8],
+                intensity: 12.5,
+            },
+            StoredLight {
+                position: [-4.0, 0.5, 0.0],
+                colour: [0.0, 0.0, 0.5],
+                intensity: 0.0,
+            },
+        ],
+        cameras: vec![
+            StoredCamera {
+                name: "front".into(),
+                eye: [0.0, 0.5, 4.0],
+                target: [0.0, 0.5, 0.0],
+                up: [0.0, 1.0, 0.0],
+                fov_deg: 45.0,
+            },
+            StoredCamera {
+                name: "".into(),
+                eye: [3.0, 3.0, 3.0],
+                target: [0.0, 0.0, 0.0],
+                up: [0.0, 0.0, 1.0],
+                fov_deg: 0.5,
+            },
+        ],
+    }
+}
+
+/// Rebuilds the node array with the children blocks in breadth-first order: a valid tree in
+/// another order than the canonical one.
+fn forward_order(nodes: &[[u32; 2]], depth: u8) -> Vec<[u32; 2]> {
+    let mut out = vec![nodes[0]];
+    // (old index, new index, level)
+    let mut queue = std::collections::VecDeque::from([(0usize, 0usize, 0u8)]);
+    while let Some((old, new, level)) = queue.pop_front() {
+        let [info, first] = nodes[old];
+        let k = (info & 0xFF).count_ones() as usize;
+        if k == 0 || level + 1 == depth {
+            continue;
+        }
+        let start = out.len();
+        out[new][1] = start as u32;
+        for c in 0..k {
+            out.push(nodes[first as usize + c]);
+            queue.push_back((first as usize + c, start + c, level + 1));
+        }
+    }
+    out
+}
+
+/// The leaf parents in depth-first child order, with their leaf bases and counts.
+fn leaf_parents(nodes: &[[u32; 2]]) -> Vec<(usize, u32, u32)> {
+    let mut out = Vec::new();
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let [info, first] = nodes[i];
+        let k = (info & 0xFF).count_ones();
+        if (first as i32) < 0 {
+            out.push((i, (-i64::from(first as i32) - 1) as u32, k));
+        } else if k > 0 {
+            stack.extend((first as usize..first as usize + k as usize).rev());
+        }
+    }
+    out
+}
+
+/// The byte offset of a header field (version-2 layout; the fixed part is the same in both).
+mod at {
+    pub const DEPTH: usize = 16 + 32;
+    pub const NODE_COUNT: usize = DEPTH + 1;
+    pub const LEAF_COUNT: usize = NODE_COUNT + 8;
+    pub const NODES_OFFSET: usize = LEAF_COUNT + 8;
+    pub const NODES_LEN: usize = NODES_OFFSET + 8;
+    pub const CHANNELS: usize = NODES_LEN + 8;
+    /// The first channel entry.
+    pub const FIRST_CHANNEL: usize = CHANNELS + 8;
+}
+
+fn put(bytes: &mut [u8], at: usize, v: &[u8]) {
+    bytes[at..at + v.len()].copy_from_slice(v);
+}
+
+fn header_len(bytes: &[u8]) -> usize {
+    u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize
+}
+
+/// The corpus, in manifest order.
+pub fn corpus() -> Vec<Entry> {
+    let mut out = Vec::new();
+    let mut valid = |name: &str, what: &str, parts: &Parts| {
+        out.push(Entry {
+            name: format!("valid-{name}.svo"),
+            bytes: parts.encode(),
+            check: None,
+            what: what.into(),
+        });
+    };
+    let varied = Parts::of(&varied_tree(), &build(SceneInfo::default()));
+    let constant = Parts::of(&constant_tree(), &build(SceneInfo::default()));
+    let (surface, surface_build) = baked(false);
+    let (solid, solid_build) = baked(true);
+    let torus = Parts::of(&surface, &surface_build);
+    let solid = Parts::of(&solid, &solid_build);
+    let mut none = varied.clone();
+    none.channels.clear();
+    let empty = Parts::of(
+        &Octree::from_cells(root(), 3, []).expect("empty"),
+        &build(SceneInfo::default()),
+    );
+    let single = Parts::of(
+        &Octree::from_cells(root(), 1, [(UVec3::new(1, 0, 1), Voxel::water())]).expect("one leaf"),
+        &build(SceneInfo::default()),
+    );
+    let deepest = Parts::of(
+        &Octree::from_cells(
+            root(),
+            30,
+            [
+                UVec3::ZERO,
+                UVec3::splat((1 << 30) - 1),
+                UVec3::new(5, (1 << 29) + 3, 12345),
+            ]
+            .map(|c| (c, Voxel::solid([0.2, 0.4, 0.6, 1.0]))),
+        )
+        .expect("depth 30"),
+        &build(SceneInfo::default()),
+    );
+    let with_scene = Parts::of(&constant_tree(), &build(scene()));
+    let mut v1 = varied.clone();
+    v1.version = 1;
+    valid(
+        "per-leaf",
+        "every channel per leaf (normals, contours, colours, reflectivity, refractivity, IOR), depth 3, 12 leaves",
+        &varied,
+    );
+    valid(
+        "constant",
+        "every channel a constant, depth 2, 5 leaves",
+        &constant,
+    );
+    valid(
+        "absent",
+        "no channel at all: every leaf takes the defaults",
+        &none,
+    );
+    valid(
+        "bake",
+        "a torus of 256 triangles baked at depth 4: per-leaf normals and contours, constant colour and materials",
+        &torus,
+    );
+    valid(
+        "solid",
+        "the same torus filled: interior leaves (normal word 0x80008000, whole-cell contour)",
+        &solid,
+    );
+    valid(
+        "empty",
+        "an empty tree: one root node without children, no leaves",
+        &empty,
+    );
+    valid(
+        "single-leaf",
+        "depth 1, one leaf: the root refers to it",
+        &single,
+    );
+    valid(
+        "depth-30",
+        "the deepest tree: depth 30, three leaves at opposite corners",
+        &deepest,
+    );
+    valid("scene", "two lights and two camera views", &with_scene);
+    valid(
+        "version-1",
+        "version 1 (no lights or views in the header)",
+        &v1,
+    );
+
+    let mut invalid = |check: u8, name: &str, what: &str, bytes: Vec<u8>| {
+        out.push(Entry {
+            name: format!("check-{check:02}-{name}.svo"),
+            bytes,
+            check: Some(check),
+            what: what.into(),
+        });
+    };
+    let base = varied.encode();
+    let sealed = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = base.clone();
+        f(&mut b);
+        reseal(&mut b);
+        b
+    };
+    let from = |p: &Parts, f: &dyn Fn(&mut Parts)| {
+        let mut p = p.clone();
+        f(&mut p);
+        p.encode()
+    };
+    // 1-5: preamble and checksum.
+    invalid(
+        1,
+        "magic",
+        "the second magic byte is `s`",
+        sealed(&|b| b[1] = b's'),
+    );
+    invalid(
+        1,
+        "magic-prefix",
+        "the first 5 bytes of the magic alone",
+        base[..5].to_vec(),
+    );
+    invalid(
+        2,
+        "size",
+        "the first 20 bytes of a file",
+        base[..20].to_vec(),
+    );
+    invalid(
+        3,
+        "version-newer",
+        "version 3",
+        sealed(&|b| put(b, 8, &3u32.to_le_bytes())),
+    );
+    invalid(
+        3,
+        "version-zero",
+        "version 0",
+        sealed(&|b| put(b, 8, &0u32.to_le_bytes())),
+    );
+    invalid(
+        4,
+        "header-length-limit",
+        "a header length of 65,537",
+        sealed(&|b| put(b, 12, &65_537u32.to_le_bytes())),
+    );
+    invalid(
+        4,
+        "header-length-past-checksum",
+        "a header that would end inside the checksum",
+        sealed(&|b| {
+            let h = (b.len() - 16 - 8 + 1) as u32;
+            put(b, 12, &h.to_le_bytes());
+        }),
+    );
+    let mut flipped = base.clone();
+    flipped[pad8(16 + header_len(&base)) + 3] ^= 0x10;
+    invalid(5, "checksum", "one bit of the node array flipped", flipped);
+    // 6: the header's encoding.
+    invalid(
+        6,
+        "storage-variant",
+        "a channel's storage variant is 2",
+        sealed(&|b| put(b, at::FIRST_CHANNEL + 1, &2u32.to_le_bytes())),
+    );
+    invalid(
+        6,
+        "header-length-long",
+        "the header length counts one byte more than the header holds",
+        sealed(&|b| {
+            let h = header_len(b);
+            b.insert(16 + h, 0);
+            put(b, 12, &(h as u32 + 1).to_le_bytes());
+        }),
+    );
+    invalid(6, "string-utf8", "the generator string is not UTF-8", {
+        let mut p = varied.clone();
+        p.generator = "svo \u{7f}".into();
+        let mut b = p.encode();
+        let h = header_len(&b);
+        let at = b[16..16 + h]
+            .windows(5)
+            .position(|w| w == b"svo \x7f")
+            .expect("generator")
+            + 16;
+        b[at + 4] = 0xff;
+        reseal(&mut b);
+        b
+    });
+    // 7-11: header values.
+    invalid(7, "depth-zero", "depth 0", sealed(&|b| b[at::DEPTH] = 0));
+    invalid(7, "depth-31", "depth 31", sealed(&|b| b[at::DEPTH] = 31));
+    invalid(
+        8,
+        "side-zero",
+        "a root side of 0",
+        from(&varied, &|p| p.side = 0.0),
+    );
+    invalid(
+        8,
+        "origin-nan",
+        "a NaN in the root origin",
+        from(&varied, &|p| p.origin[1] = f64::NAN),
+    );
+    invalid(
+        8,
+        "side-infinite",
+        "an infinite root side",
+        from(&varied, &|p| p.side = f64::INFINITY),
+    );
+    invalid(
+        9,
+        "no-nodes",
+        "a node count of 0",
+        sealed(&|b| put(b, at::NODE_COUNT, &0u64.to_le_bytes())),
+    );
+    invalid(
+        9,
+        "leaves-per-node",
+        "more than 8 leaves for each node (every channel constant, so no array grows)",
+        from(&constant, &|p| p.leaf_count = 8 * p.node_count + 1),
+    );
+    invalid(
+        9,
+        "leaves-2-31",
+        "2^31 + 1 leaves",
+        from(&constant, &|p| p.leaf_count = (1 << 31) + 1),
+    );
+    invalid(
+        10,
+        "kind-unknown",
+        "channel kind 6",
+        from(&constant, &|p| p.channels.push((6, Stored::Constant(0)))),
+    );
+    invalid(
+        10,
+        "kind-order",
+        "the colour channel listed before the contour",
+        from(&constant, &|p| p.channels.swap(1, 2)),
+    );
+    invalid(
+        10,
+        "kind-repeated",
+        "the IOR channel twice",
+        from(&constant, &|p| p.channels.push((5, Stored::Constant(1)))),
+    );
+    invalid(
+        10,
+        "constant-range",
+        "a reflectivity constant of 256",
+        from(&constant, &|p| p.channels[3].1 = Stored::Constant(256)),
+    );
+    invalid(
+        10,
+        "contour-without-normal",
+        "a contour channel and no normal channel",
+        from(&constant, &|p| {
+            p.channels.remove(0);
+        }),
+    );
+    invalid(
+        11,
+        "light-nan",
+        "a light at a NaN position",
+        from(&with_scene, &|p| p.scene.lights[0].position[2] = f64::NAN),
+    );
+    invalid(
+        11,
+        "light-negative",
+        "a light of negative intensity",
+        from(&with_scene, &|p| p.scene.lights[1].intensity = -1.0),
+    );
+    invalid(
+        11,
+        "camera-up",
+        "a view whose up is along its view direction",
+        from(&with_scene, &|p| p.scene.cameras[0].up = [0.0, 0.0, -2.0]),
+    );
+    invalid(
+        11,
+        "camera-eye",
+        "a view whose eye is its target",
+        from(&with_scene, &|p| {
+            p.scene.cameras[1].target = p.scene.cameras[1].eye
+        }),
+    );
+    invalid(
+        11,
+        "camera-fov",
+        "a field of view of 180 degrees",
+        from(&with_scene, &|p| p.scene.cameras[0].fov_deg = 180.0),
+    );
+    invalid(
+        11,
+        "camera-name",
+        "a view name of 257 bytes",
+        from(&with_scene, &|p| p.scene.cameras[0].name = "v".repeat(257)),
+    );
+    // 12-13: layout.
+    invalid(
+        12,
+        "gap",
+        "8 zero bytes between the header and the node array",
+        sealed(&|b| {
+            let first = pad8(16 + header_len(b));
+            b.splice(first..first, [0; 8]);
+            for r in 0..7 {
+                // every array moves by 8: the nodes and the six per-leaf channels
+                let field = if r == 0 {
+                    at::NODES_OFFSET
+                } else {
+                    at::FIRST_CHANNEL + 5 + (r - 1) * 21
+                };
+                let old = u64::from_le_bytes(b[field..field + 8].try_into().expect("8 bytes"));
+                put(b, field, &(old + 8).to_le_bytes());
+            }
+        }),
+    );
+    invalid(
+        12,
+        "trailing",
+        "8 zero bytes between the last array and the checksum",
+        sealed(&|b| {
+            let end = b.len() - 8;
+            b.splice(end..end, [0; 8]);
+        }),
+    );
+    invalid(
+        12,
+        "node-length",
+        "the node array's length is not 8 times the node count",
+        sealed(&|b| put(b, at::NODE_COUNT, &(varied.node_count - 1).to_le_bytes())),
+    );
+    invalid(
+        12,
+        "order",
+        "the normal and contour arrays swapped",
+        sealed(&|b| {
+            let (n, c) = (at::FIRST_CHANNEL + 5, at::FIRST_CHANNEL + 5 + 21);
+            let no = b[n..n + 8].to_vec();
+            let co = b[c..c + 8].to_vec();
+            put(b, n, &co);
+            put(b, c, &no);
+        }),
+    );
+    invalid(
+        12,
+        "truncated",
+        "the file cut in its last array, its checksum recomputed",
+        {
+            let mut b = base[..base.len() - 8 - 16].to_vec();
+            seal(&mut b);
+            b
+        },
+    );
+    invalid(
+        13,
+        "padding-header",
+        "a padding byte after the header is 1",
+        {
+            let h = header_len(&base);
+            assert!(
+                pad8(16 + h) > 16 + h,
+                "the per-leaf file's header needs padding"
+            );
+            sealed(&|b| b[16 + h] = 1)
+        },
+    );
+    invalid(
+        13,
+        "padding-array",
+        "a padding byte after the reflectivity array is 1",
+        {
+            let refl = at::FIRST_CHANNEL + 5 + 3 * 21;
+            let off =
+                u64::from_le_bytes(base[refl..refl + 8].try_into().expect("8 bytes")) as usize;
+            sealed(&|b| b[off + 12] = 1)
+        },
+    );
+    // 14-17: the tree.
+    invalid(
+        14,
+        "reserved-bits",
+        "bit 8 of the root's info set",
+        from(&varied, &|p| p.nodes[0][0] |= 0x100),
+    );
+    invalid(
+        15,
+        "childless",
+        "a node other than the root without children",
+        from(&varied, &|p| {
+            let (i, _, _) = leaf_parents(&p.nodes)[0];
+            p.nodes[i][0] = 0;
+        }),
+    );
+    invalid(
+        15,
+        "leaves-too-high",
+        "the root refers to leaves in a depth-3 tree",
+        from(&varied, &|p| p.nodes[0][1] = (-1i32) as u32),
+    );
+    invalid(
+        16,
+        "forward-order",
+        "a valid tree with its children blocks in breadth-first order instead of the canonical order",
+        from(&varied, &|p| p.nodes = forward_order(&p.nodes, p.depth)),
+    );
+    invalid(
+        16,
+        "cycle",
+        "the root's children block starts at the root",
+        from(&varied, &|p| p.nodes[0][1] = 0),
+    );
+    invalid(
+        16,
+        "orphan",
+        "an extra node that nothing refers to",
+        from(&varied, &|p| {
+            p.nodes.push([1, (-1i32) as u32]);
+            p.node_count += 1;
+        }),
+    );
+    invalid(
+        17,
+        "leaf-order",
+        "the first two leaf parents' leaves swapped, with their values, so every leaf keeps its data",
+        from(&varied, &|p| {
+            let lp = leaf_parents(&p.nodes);
+            let ((ia, ba, ka), (ib, bb, kb)) = (lp[0], lp[1]);
+            assert!(bb == ba + ka, "the first two leaf parents are adjacent");
+            // b's leaves first, then a's.
+            p.nodes[ib][1] = (-(i64::from(ba)) - 1) as i32 as u32;
+            p.nodes[ia][1] = (-(i64::from(ba + kb)) - 1) as i32 as u32;
+            for (_, s) in &mut p.channels {
+                if let Stored::PerLeaf(bytes) = s {
+                    let size = bytes.len() / p.leaf_count as usize;
+                    let (a0, b0, b1) = (
+                        ba as usize * size,
+                        bb as usize * size,
+                        (bb + kb) as usize * size,
+                    );
+                    bytes[a0..b1].rotate_left(b0 - a0);
+                }
+            }
+        }),
+    );
+    invalid(
+        17,
+        "leaf-count",
+        "one leaf more than the tree refers to (and one more value in each array)",
+        from(&varied, &|p| {
+            p.leaf_count += 1;
+            for (_, s) in &mut p.channels {
+                if let Stored::PerLeaf(bytes) = s {
+                    let size = bytes.len() / (p.leaf_count as usize - 1);
+                    let last = bytes[bytes.len() - size..].to_vec();
+                    bytes.extend(last);
+                }
+            }
+        }),
+    );
+    // 18: values.
+    let set_leaf = |p: &mut Parts, kind: u8, leaf: usize, v: u32| {
+        for (k, s) in &mut p.channels {
+            if *k == kind
+                && let Stored::PerLeaf(bytes) = s
+            {
+                put(bytes, 4 * leaf, &v.to_le_bytes());
+            }
+        }
+    };
+    invalid(
+        18,
+        "normal-half",
+        "a normal word with one half 0x8000",
+        from(&varied, &|p| set_leaf(p, 0, 3, 0x1234_8000)),
+    );
+    invalid(
+        18,
+        "interior-in-version-1",
+        "the interior-leaf word 0x80008000 in a version-1 file",
+        from(&v1, &|p| set_leaf(p, 0, 3, 0x8000_8000)),
+    );
+    invalid(
+        18,
+        "contour-reversed",
+        "a contour whose near plane is beyond its far plane",
+        from(&varied, &|p| set_leaf(p, 1, 5, 0x1000_2000)),
+    );
+    invalid(
+        18,
+        "interior-contour",
+        "an interior leaf whose contour is not the whole cell",
+        from(&varied, &|p| {
+            set_leaf(p, 0, 2, 0x8000_8000);
+            set_leaf(p, 1, 2, 0xF000_0000);
+        }),
+    );
+    invalid(
+        18,
+        "constant-normal-half",
+        "a constant normal word with one half 0x8000",
+        from(&constant, &|p| {
+            p.channels[0].1 = Stored::Constant(0x8000_0000)
+        }),
+    );
+    out
+}
+
+/// The manifest: one line a file, tab-separated: name, `valid` or `invalid`, the check's
+/// number and name (`-` for valid files), what the file holds or breaks.
+pub fn manifest(corpus: &[Entry]) -> String {
+    let mut s = String::from("# file\toutcome\tcheck\tcheck name\twhat\n");
+    for e in corpus {
+        let (outcome, number, name) = match e.check {
+            None => ("valid", "-".to_string(), "-"),
+            Some(n) => (
+                "invalid",
+                n.to_string(),
+                svo::io::Check::from_number(n).map_or("?", |c| c.name()),
+            ),
+        };
+        s.push_str(&format!(
+            "{}\t{outcome}\t{number}\t{name}\t{}\n",
+            e.name, e.what
+        ));
+    }
+    s
+}
+
+/// A node record as the library holds it (for building trees from [`Parts`] in tests).
+pub fn node(w: [u32; 2]) -> Node {
+    Node {
+        info: w[0],
+        first: w[1],
+    }
+}

@@ -1,0 +1,123 @@
+//! The `.svo` conformance corpus (`fixtures/format/conformance/`, `docs/format.md`): the
+//! committed files are what the generator (`svo_examples::conformance`, an encoder written
+//! from the document) makes; svo's reader accepts exactly the valid ones and rejects each
+//! invalid one at the check its manifest names, with the check's number and name in the
+//! message; and svo's writer, given a valid tree back, writes the same bytes as the
+//! document's encoder (the canonical layout). A second reader, written from the document
+//! alone (`support/spec_reader.rs`), gives every file the same outcome and check.
+
+#[path = "support/spec_reader.rs"]
+mod spec_reader;
+
+use std::collections::BTreeMap;
+use svo::io::{Check, FormatError, from_bytes, to_bytes};
+use svo_examples::conformance::{corpus, manifest};
+
+fn corpus_dir() -> std::path::PathBuf {
+    svo_tests::repo_root().join("fixtures/format/conformance")
+}
+
+#[test]
+fn committed_corpus_is_what_the_generator_makes() {
+    let dir = corpus_dir();
+    let made = corpus();
+    let mut committed: BTreeMap<String, Vec<u8>> = BTreeMap::new();
+    for f in std::fs::read_dir(&dir).expect("the corpus folder") {
+        let p = f.expect("an entry").path();
+        if p.extension().is_some_and(|e| e == "svo") {
+            let name = p
+                .file_name()
+                .expect("a name")
+                .to_string_lossy()
+                .into_owned();
+            committed.insert(name, std::fs::read(&p).expect("readable"));
+        }
+    }
+    let regenerate = "regenerate with `cargo run -p svo-examples --example format_corpus`";
+    assert_eq!(
+        committed.keys().cloned().collect::<Vec<_>>(),
+        {
+            let mut names: Vec<String> = made.iter().map(|e| e.name.clone()).collect();
+            names.sort();
+            names
+        },
+        "the corpus's files differ from the generator's; {regenerate}"
+    );
+    for e in &made {
+        assert!(
+            committed[&e.name] == e.bytes,
+            "{} differs; {regenerate}",
+            e.name
+        );
+    }
+    let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
+    assert_eq!(text, manifest(&made), "manifest.tsv differs; {regenerate}");
+}
+
+#[test]
+fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
+    let dir = corpus_dir();
+    let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
+    let mut per_check = BTreeMap::new();
+    let mut valid = 0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let f: Vec<&str> = line.split('\t').collect();
+        let bytes = std::fs::read(dir.join(f[0])).expect("a corpus file");
+        // The reader written from the document alone agrees with the manifest.
+        let want = (f[1] == "invalid").then(|| f[2].parse::<u8>().expect("a number"));
+        assert_eq!(
+            spec_reader::check(&bytes).err(),
+            want,
+            "{}: the document's reader",
+            f[0]
+        );
+        match (f[1], from_bytes(&bytes)) {
+            ("valid", Ok((tree, build))) => {
+                valid += 1;
+                // The canonical writer: the same bytes back (version 2; the library writes
+                // no version 1).
+                if bytes[8] == 2 {
+                    assert!(
+                        to_bytes(&tree, &build) == bytes,
+                        "{}: written differently",
+                        f[0]
+                    );
+                }
+            }
+            ("valid", Err(e)) => panic!("{}: refused: {e}", f[0]),
+            ("invalid", Ok(_)) => panic!("{}: accepted, but it breaks check {}", f[0], f[2]),
+            ("invalid", Err(e)) => {
+                let want = Check::from_number(f[2].parse().expect("a number")).expect("a check");
+                assert_eq!(want.name(), f[3], "{}", f[0]);
+                assert_eq!(e.check(), Some(want), "{}: {e}", f[0]);
+                let msg = e.to_string();
+                assert!(
+                    msg.starts_with(&format!("check {} ({}): ", want.number(), want.name())),
+                    "{}: {msg}",
+                    f[0]
+                );
+                if matches!(e, FormatError::Truncated { .. }) {
+                    assert!(msg.contains("truncated"), "{msg}");
+                }
+                *per_check.entry(want.number()).or_insert(0) += 1;
+            }
+            (o, _) => panic!("{}: unknown outcome {o}", f[0]),
+        }
+    }
+    assert_eq!(valid, 10);
+    // Every check has at least one file that fails it.
+    let numbers: Vec<u8> = per_check.keys().copied().collect();
+    assert_eq!(numbers, (1..=18).collect::<Vec<u8>>());
+}
+
+#[test]
+fn the_version_1_file_holds_the_same_tree_as_its_version_2_twin() {
+    let dir = corpus_dir();
+    let read = |name: &str| {
+        from_bytes(&std::fs::read(dir.join(name)).expect("a corpus file")).expect("valid")
+    };
+    let (v1, b1) = read("valid-version-1.svo");
+    let (v2, b2) = read("valid-per-leaf.svo");
+    assert_eq!(v1, v2);
+    assert_eq!(b1, b2);
+}

@@ -1,0 +1,326 @@
+//! A `.svo` reader written from `docs/format.md` alone, sharing no code with svo (only the
+//! xxHash crate for the checksum): it applies the document's 18 checks in order and returns
+//! the number of the first one a file fails. The conformance test requires it to agree with
+//! the corpus's manifest, which shows that the document says enough to write a reader.
+
+const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
+
+struct Cursor<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.b.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    fn u8(&mut self) -> Option<u8> {
+        Some(self.take(1)?[0])
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn f32(&mut self) -> Option<f32> {
+        Some(f32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn f64(&mut self) -> Option<f64> {
+        Some(f64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn v3(&mut self) -> Option<[f64; 3]> {
+        Some([self.f64()?, self.f64()?, self.f64()?])
+    }
+    fn string(&mut self) -> Option<&'a str> {
+        let n = usize::try_from(self.u64()?).ok()?;
+        std::str::from_utf8(self.take(n)?).ok()
+    }
+}
+
+enum Storage {
+    Constant(u32),
+    PerLeaf(u64, u64),
+}
+
+struct Camera {
+    name_len: usize,
+    eye: [f64; 3],
+    target: [f64; 3],
+    up: [f64; 3],
+    fov: f64,
+}
+
+struct Header {
+    origin: [f64; 3],
+    side: f64,
+    depth: u8,
+    node_count: u64,
+    leaf_count: u64,
+    nodes: (u64, u64),
+    channels: Vec<(u8, Storage)>,
+    lights: Vec<([f64; 3], [f32; 3], f32)>,
+    cameras: Vec<Camera>,
+}
+
+/// Section 3: the header in `raw` (exactly), by the version's layout.
+fn decode(raw: &[u8], version: u32) -> Option<Header> {
+    let mut c = Cursor { b: raw, at: 0 };
+    let (origin, side, depth) = (c.v3()?, c.f64()?, c.u8()?);
+    let (node_count, leaf_count) = (c.u64()?, c.u64()?);
+    let nodes = (c.u64()?, c.u64()?);
+    let mut channels = Vec::new();
+    for _ in 0..c.u64()? {
+        let kind = c.u8()?;
+        let storage = match c.u32()? {
+            0 => Storage::Constant(c.u32()?),
+            1 => Storage::PerLeaf(c.u64()?, c.u64()?),
+            _ => return None,
+        };
+        channels.push((kind, storage));
+    }
+    c.string()?;
+    c.string()?;
+    c.u64()?;
+    let (mut lights, mut cameras) = (Vec::new(), Vec::new());
+    if version >= 2 {
+        for _ in 0..c.u64()? {
+            lights.push((c.v3()?, [c.f32()?, c.f32()?, c.f32()?], c.f32()?));
+        }
+        for _ in 0..c.u64()? {
+            let name_len = c.string()?.len();
+            let (eye, target, up, fov) = (c.v3()?, c.v3()?, c.v3()?, c.f64()?);
+            cameras.push(Camera {
+                name_len,
+                eye,
+                target,
+                up,
+                fov,
+            });
+        }
+    }
+    (c.at == raw.len()).then_some(Header {
+        origin,
+        side,
+        depth,
+        node_count,
+        leaf_count,
+        nodes,
+        channels,
+        lights,
+        cameras,
+    })
+}
+
+fn pad8(x: u64) -> u64 {
+    x.div_ceil(8) * 8
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn scene_ok(h: &Header) -> bool {
+    let fin = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+    let lights = h.lights.iter().all(|(p, c, i)| {
+        fin(p) && c.iter().all(|x| x.is_finite() && *x >= 0.0) && i.is_finite() && *i >= 0.0
+    });
+    let cameras = h.cameras.iter().all(|c| {
+        let d = [0, 1, 2].map(|k| c.target[k] - c.eye[k]);
+        let dd = dot(d, d);
+        if !(c.name_len <= 256
+            && fin(&c.eye)
+            && fin(&c.target)
+            && fin(&c.up)
+            && dd.is_finite()
+            && dd > 0.0)
+        {
+            return false;
+        }
+        let u = d.map(|x| x * (1.0 / dd.sqrt()));
+        let r = 1.0 / dot(c.up, c.up).sqrt();
+        let w = if r.is_finite() && r > 0.0 {
+            c.up.map(|x| x * r)
+        } else {
+            [0.0; 3]
+        };
+        let x = [
+            u[1] * w[2] - u[2] * w[1],
+            u[2] * w[0] - u[0] * w[2],
+            u[0] * w[1] - u[1] * w[0],
+        ];
+        dot(x, x).sqrt() > 1e-9 && c.fov > 0.0 && c.fov < 180.0
+    });
+    lights && cameras
+}
+
+/// `Ok` for a valid file, else the number of the first check it fails.
+pub fn check(b: &[u8]) -> Result<(), u8> {
+    let l = b.len();
+    let u32at = |i: usize| u32::from_le_bytes(b[i..i + 4].try_into().unwrap());
+    if l < 8 || b[..8] != MAGIC {
+        return Err(1);
+    }
+    if l < 24 {
+        return Err(2);
+    }
+    let version = u32at(8);
+    if version != 1 && version != 2 {
+        return Err(3);
+    }
+    let hl = u32at(12) as usize;
+    if hl > 65_536 || 16 + hl > l - 8 {
+        return Err(4);
+    }
+    if u64::from_le_bytes(b[l - 8..].try_into().unwrap()) != xxhash_rust::xxh3::xxh3_64(&b[..l - 8])
+    {
+        return Err(5);
+    }
+    let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
+    if !(1..=30).contains(&h.depth) {
+        return Err(7);
+    }
+    if !(h.origin.iter().all(|x| x.is_finite()) && h.side.is_finite() && h.side > 0.0) {
+        return Err(8);
+    }
+    if h.node_count == 0 || h.leaf_count > 1 << 31 || h.leaf_count > h.node_count.saturating_mul(8)
+    {
+        return Err(9);
+    }
+    let size = |kind: u8| [4u64, 4, 4, 1, 1, 2][usize::from(kind)];
+    let mut last = -1i16;
+    for (kind, s) in &h.channels {
+        if *kind > 5 || i16::from(*kind) <= last {
+            return Err(10);
+        }
+        last = i16::from(*kind);
+        if let Storage::Constant(v) = s
+            && size(*kind) < 4
+            && u64::from(*v) >> (8 * size(*kind)) != 0
+        {
+            return Err(10);
+        }
+    }
+    let has = |k: u8| h.channels.iter().any(|(kind, _)| *kind == k);
+    if has(1) && !has(0) {
+        return Err(10);
+    }
+    if !scene_ok(&h) {
+        return Err(11);
+    }
+    // 12, 13: the layout and its padding.
+    let data_end = (l - 8) as u64;
+    let mut arrays = vec![(h.nodes, h.node_count.checked_mul(8).ok_or(12u8)?)];
+    for (kind, s) in &h.channels {
+        if let Storage::PerLeaf(o, n) = s {
+            arrays.push(((*o, *n), h.leaf_count * size(*kind)));
+        }
+    }
+    let mut at = pad8(16 + hl as u64);
+    let mut gaps = vec![(16 + hl as u64, at)];
+    for ((off, len), want) in &arrays {
+        if len != want || *off != at || off + len > data_end {
+            return Err(12);
+        }
+        gaps.push((off + len, pad8(off + len)));
+        at = pad8(off + len);
+    }
+    if at != data_end {
+        return Err(12);
+    }
+    if gaps
+        .iter()
+        .any(|&(a, z)| b[a as usize..z as usize].iter().any(|&x| x != 0))
+    {
+        return Err(13);
+    }
+    // 14-17: the tree, read from the node array in place.
+    let base = h.nodes.0 as usize;
+    let n = h.node_count as usize;
+    let info = |i: usize| u32at(base + 8 * i);
+    let first = |i: usize| u32at(base + 8 * i + 4);
+    if (0..n).any(|i| info(i) >> 8 != 0) {
+        return Err(14);
+    }
+    let mut next = 1usize;
+    let mut stack = vec![(0usize, 0u8)];
+    while let Some((i, lv)) = stack.pop() {
+        let k = (info(i) & 0xFF).count_ones() as usize;
+        if k == 0 {
+            if i != 0 {
+                return Err(15);
+            }
+            if first(i) != 0 {
+                return Err(16);
+            }
+            continue;
+        }
+        let leafy = lv + 1 == h.depth;
+        if leafy != ((first(i) as i32) < 0) {
+            return Err(15);
+        }
+        if leafy {
+            continue;
+        }
+        if first(i) as usize != next || next + k > n {
+            return Err(16);
+        }
+        stack.extend((next..next + k).map(|j| (j, lv + 1)));
+        next += k;
+    }
+    if next != n {
+        return Err(16);
+    }
+    let mut seen = 0u64;
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let k = (info(i) & 0xFF).count_ones() as usize;
+        if (first(i) as i32) < 0 {
+            if (-i64::from(first(i) as i32) - 1) as u64 != seen {
+                return Err(17);
+            }
+            seen += k as u64;
+        } else {
+            stack.extend((first(i) as usize..first(i) as usize + k).rev());
+        }
+    }
+    if seen != h.leaf_count {
+        return Err(17);
+    }
+    // 18: the values, constant or per leaf.
+    let word = |kind: u8, leaf: u64| -> Option<u32> {
+        h.channels
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, s)| match s {
+                Storage::Constant(v) => *v,
+                Storage::PerLeaf(o, _) => u32at(*o as usize + 4 * leaf as usize),
+            })
+    };
+    let constant = |kind: u8| {
+        h.channels.iter().find_map(|(k, s)| match s {
+            Storage::Constant(v) if *k == kind => Some(*v),
+            _ => None,
+        })
+    };
+    let normal_ok = |w: u32| {
+        !((w & 0xFFFF == 0x8000 || w >> 16 == 0x8000) && (w != 0x8000_8000 || version < 2))
+    };
+    let contour_ok = |c: u32| c & 0xFFFF <= c >> 16;
+    if constant(0).is_some_and(|w| !normal_ok(w)) || constant(1).is_some_and(|c| !contour_ok(c)) {
+        return Err(18);
+    }
+    for leaf in 0..h.leaf_count {
+        let (nw, cw) = (word(0, leaf), word(1, leaf));
+        if nw.is_some_and(|w| !normal_ok(w))
+            || cw.is_some_and(|c| !contour_ok(c))
+            || (nw == Some(0x8000_8000) && cw.is_some_and(|c| c != 0xFFFF_0000))
+        {
+            return Err(18);
+        }
+    }
+    Ok(())
+}
