@@ -372,7 +372,7 @@ fn scene() -> SceneInfo {
 
 /// Rebuilds the node array with the children blocks in breadth-first order: a valid tree in
 /// another order than the canonical one.
-fn forward_order(nodes: &[[u32; 2]], depth: u8) -> Vec<[u32; 2]> {
+fn breadth_first_order(nodes: &[[u32; 2]], depth: u8) -> Vec<[u32; 2]> {
     let mut out = vec![nodes[0]];
     // (old index, new index, level)
     let mut queue = std::collections::VecDeque::from([(0usize, 0usize, 0u8)]);
@@ -833,9 +833,11 @@ pub fn corpus() -> Vec<Entry> {
     );
     invalid(
         16,
-        "forward-order",
+        "breadth-first-order",
         "a valid tree with its children blocks in breadth-first order instead of the canonical order",
-        from(&varied, &|p| p.nodes = forward_order(&p.nodes, p.depth)),
+        from(&varied, &|p| {
+            p.nodes = breadth_first_order(&p.nodes, p.depth)
+        }),
     );
     invalid(
         16,
