@@ -493,6 +493,91 @@ mod tests {
         assert_eq!((lo.n, hi.n), (4, 3));
     }
 
+    /// The cut's rule at its boundaries, vertex by vertex: a vertex within `eps` of the plane
+    /// (`|dp| <= eps`, exactly `eps` included) goes to both sides moved onto the plane; an edge
+    /// adds its crossing only when it runs from more than `eps` below to more than `eps` above,
+    /// or back. Polygons with vertices exactly `eps` and `-eps` from the plane, in every order
+    /// around the polygon, against the rule written out here.
+    #[test]
+    fn cut_decides_vertices_exactly_eps_from_the_plane() {
+        let (c, eps) = (2.0, 2f64.powi(-10));
+        let expected = |v: &[DVec3]| {
+            let (mut lo, mut hi) = (Vec::new(), Vec::new());
+            for (i, &p) in v.iter().enumerate() {
+                let q = v[(i + 1) % v.len()];
+                let (dp, dq) = (p.x - c, q.x - c);
+                if dp.abs() <= eps {
+                    let on = DVec3::new(c, p.y, p.z);
+                    lo.push(on);
+                    hi.push(on);
+                } else if dp < 0.0 {
+                    lo.push(p);
+                } else {
+                    hi.push(p);
+                }
+                let (below, above) = (|d: f64| d < -eps, |d: f64| d > eps);
+                if (below(dp) && above(dq)) || (above(dp) && below(dq)) {
+                    let mut x = p + (q - p) * (dp / (dp - dq));
+                    x.x = c;
+                    lo.push(x);
+                    hi.push(x);
+                }
+            }
+            (lo, hi)
+        };
+        // Offsets from the plane: exactly -eps and +eps, beside clear ones on both sides.
+        let offsets = [-eps, eps, -0.5, 0.5, -0.25, 0.75];
+        let mut checked = 0;
+        for a in offsets {
+            for b in offsets {
+                for d in offsets {
+                    let v = [
+                        DVec3::new(c + a, 0.1, 0.2),
+                        DVec3::new(c + b, 0.9, 0.3),
+                        DVec3::new(c + d, 0.4, 0.8),
+                    ];
+                    let mut poly = Poly::default();
+                    v.iter().for_each(|&p| poly.push(p));
+                    let (mut lo, mut hi) = (Poly::default(), Poly::default());
+                    cut::<0>(&poly, c, eps, &mut lo, &mut hi);
+                    let (want_lo, want_hi) = expected(&v);
+                    assert_eq!(lo.points(), &want_lo[..], "below: offsets {a} {b} {d}");
+                    assert_eq!(hi.points(), &want_hi[..], "above: offsets {a} {b} {d}");
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 216);
+    }
+
+    /// Closed slabs: a triangle whose lowest vertex lies exactly on a cutting plane (after
+    /// the `eps` widening: `min - eps` an integer) touches the slab below it, and the cell there
+    /// gets a part, with `eps` zero and positive, along every axis.
+    #[test]
+    fn a_vertex_on_a_plane_reaches_the_slab_below() {
+        for eps in [0.0, 2f64.powi(-10)] {
+            for axis in 0..3 {
+                let along = |x: f64, a: f64, b: f64| {
+                    let mut p = DVec3::new(a, b, a);
+                    p[axis] = x;
+                    p
+                };
+                let v = [
+                    along(2.0 + eps, 0.5, 0.5),
+                    along(3.5, 0.6, 0.7),
+                    along(3.2, 1.5, 0.4),
+                ];
+                let mut cells = std::collections::BTreeSet::new();
+                Slicer::default().slice(v, 4, eps, &mut |c, _| {
+                    cells.insert(c);
+                });
+                let mut below = [0, 0, 0];
+                below[axis] = 1;
+                assert!(cells.contains(&below), "eps {eps}, axis {axis}: {cells:?}");
+            }
+        }
+    }
+
     #[test]
     fn floor_small_is_floor() {
         let mut xs = vec![
