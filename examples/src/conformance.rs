@@ -12,7 +12,7 @@
 use glam::{DVec3, UVec3, Vec3};
 use svo::io::BuildInfo;
 use svo::mesh::{Mesh, SceneInfo, StoredCamera, StoredLight};
-use svo::{BakeOptions, Channel, Node, Octree, RootCube, SolidMode, Voxel, bake_mesh};
+use svo::{BakeOptions, Channel, Octree, RootCube, SolidMode, Voxel, bake_mesh};
 
 /// A stored channel: one value for every leaf, or an array of elements (little-endian bytes).
 #[derive(Clone, Debug)]
@@ -960,12 +960,4 @@ pub fn manifest(corpus: &[Entry]) -> String {
         ));
     }
     s
-}
-
-/// A node record as the library holds it (for building trees from [`Parts`] in tests).
-pub fn node(w: [u32; 2]) -> Node {
-    Node {
-        info: w[0],
-        first: w[1],
-    }
 }

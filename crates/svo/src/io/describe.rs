@@ -21,8 +21,8 @@ fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out:
 /// information, lights and views), the counts per level and the channels. An invalid file
 /// gives the reader's error, which names the check it failed.
 pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
-    let (tree, build, version, header) = read_with_header(bytes)?;
-    let hlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]);
+    let (tree, p) = read_with_header(bytes)?;
+    let (version, hlen, header) = (p.version, p.header_len, &p.header);
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -49,7 +49,7 @@ pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
             }
         };
     }
-    describe_tree(&mut out, &tree, &build, bytes.len() as u64);
+    describe_tree(&mut out, &tree, &header.build, bytes.len() as u64);
     Ok(out)
 }
 

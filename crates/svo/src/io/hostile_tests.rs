@@ -67,7 +67,7 @@ fn hostile_contents_with_valid_checksum_never_panic() {
     // Corrupt the payload and fix the checksum, so the structural validation must catch it.
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let header = read_header(&bytes).unwrap().1;
+    let header = read_header(&bytes).unwrap().header;
     let nodes_at = header.nodes.offset as usize;
     let mut r = Rng::new(4);
     let mut rejected = 0;
@@ -95,7 +95,7 @@ fn hostile_contents_with_valid_checksum_never_panic() {
 fn cycles_backward_pointers_and_overflows_are_rejected() {
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let h = read_header(&bytes).unwrap().1;
+    let h = read_header(&bytes).unwrap().header;
     let at = h.nodes.offset as usize;
     let set_node = |b: &mut Vec<u8>, i: usize, info: u32, first: u32| {
         b[at + 8 * i..at + 8 * i + 4].copy_from_slice(&info.to_le_bytes());
@@ -128,7 +128,7 @@ fn header_lies_about_counts() {
     // Re-encode the header with inconsistent counts: the reader must refuse, not allocate.
     let tree = small_tree();
     let bytes = to_bytes(&tree, &info());
-    let mut h = read_header(&bytes).unwrap().1;
+    let mut h = read_header(&bytes).unwrap().header;
     for lie in 0..3 {
         let mut hh = h.clone();
         match lie {

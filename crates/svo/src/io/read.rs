@@ -12,7 +12,7 @@ use crate::io::header::{
 pub use crate::io::write::FormatError;
 use crate::octree::format_check::Check;
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
-use crate::octree::validate::{MAX_LEAVES, check_tree};
+use crate::octree::validate::{check_root_and_counts, check_tree};
 use glam::DVec3;
 use std::path::Path;
 
@@ -40,9 +40,15 @@ pub fn read_file(path: impl AsRef<Path>) -> Result<(Octree, BuildInfo), FormatEr
     from_bytes(&bytes)
 }
 
-/// Checks 1 to 6: the preamble, the checksum and the header's encoding. Returns the version
-/// and the header.
-pub(crate) fn read_header(bytes: &[u8]) -> Result<(u32, Header), FormatError> {
+/// What checks 1 to 6 read: the format version, the header's length in bytes and the header.
+pub(crate) struct Preamble {
+    pub version: u32,
+    pub header_len: usize,
+    pub header: Header,
+}
+
+/// Checks 1 to 6: the preamble, the checksum and the header's encoding.
+pub(crate) fn read_header(bytes: &[u8]) -> Result<Preamble, FormatError> {
     // 1. The magic.
     if bytes.len() < 8 || bytes[..8] != MAGIC {
         return Err(if bytes.len() < 8 && MAGIC.starts_with(bytes) {
@@ -113,7 +119,11 @@ pub(crate) fn read_header(bytes: &[u8]) -> Result<(u32, Header), FormatError> {
             format!("the header holds {used} bytes, its length says {hlen}"),
         ));
     }
-    Ok((version, header))
+    Ok(Preamble {
+        version,
+        header_len: hlen,
+        header,
+    })
 }
 
 /// Reads and validates a whole `.svo` file from `reader`.
@@ -131,46 +141,20 @@ pub fn read_from(mut reader: impl std::io::Read) -> Result<(Octree, BuildInfo), 
 /// Parses and validates the bytes of a `.svo` file: the checks of `docs/format.md` in their
 /// order.
 pub fn from_bytes(bytes: &[u8]) -> Result<(Octree, BuildInfo), FormatError> {
-    read_with_header(bytes).map(|(tree, build, _, _)| (tree, build))
+    read_with_header(bytes).map(|(tree, p)| (tree, p.header.build))
 }
 
-/// [`from_bytes`], also returning the file's version and header.
-pub(crate) fn read_with_header(
-    bytes: &[u8],
-) -> Result<(Octree, BuildInfo, u32, Header), FormatError> {
-    let (version, h) = read_header(bytes)?;
-    let header_end = PREAMBLE_LEN as u64
-        + u64::from(u32::from_le_bytes([
-            bytes[12], bytes[13], bytes[14], bytes[15],
-        ]));
+/// [`from_bytes`], also returning what the preamble and the header hold.
+pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), FormatError> {
+    let p = read_header(bytes)?;
+    let h = &p.header;
+    let header_end = (PREAMBLE_LEN + p.header_len) as u64;
     let data_end = (bytes.len() - 8) as u64;
 
     // 7. Depth; 8. root cube; 9. counts.
-    if !(1..=crate::MAX_DEPTH).contains(&h.depth) {
-        return Err(corrupt(
-            Check::Depth,
-            format!("depth {} is outside 1..={}", h.depth, crate::MAX_DEPTH),
-        ));
-    }
     let origin = DVec3::from_array(h.root_origin);
-    if !origin.is_finite() || !h.root_side.is_finite() || h.root_side <= 0.0 {
-        return Err(corrupt(
-            Check::RootCube,
-            "root cube is not finite and positive",
-        ));
-    }
-    if h.node_count == 0 {
-        return Err(corrupt(Check::Counts, "no root node"));
-    }
-    if h.leaf_count > MAX_LEAVES || h.leaf_count > h.node_count.saturating_mul(8) {
-        return Err(corrupt(
-            Check::Counts,
-            format!(
-                "{} leaves: more than 2^31, or more than 8 for each of the {} nodes",
-                h.leaf_count, h.node_count
-            ),
-        ));
-    }
+    check_root_and_counts(h.depth, origin, h.root_side, h.node_count, h.leaf_count)
+        .map_err(|(check, detail)| corrupt(check, detail))?;
     // 10. Channels: known kinds, increasing; constants that fit; a contour only with a normal.
     let mut last_kind: i16 = -1;
     for e in &h.channels {
@@ -313,9 +297,8 @@ pub(crate) fn read_with_header(
         attributes,
     };
     // 14 to 18: the node words, the tree's shape, the node and leaf order, the values.
-    check_tree(&tree, version).map_err(|(check, detail)| corrupt(check, detail))?;
-    let build = h.build.clone();
-    Ok((tree, build, version, h))
+    check_tree(&tree, p.version).map_err(|(check, detail)| corrupt(check, detail))?;
+    Ok((tree, p))
 }
 
 impl Octree {

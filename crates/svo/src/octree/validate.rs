@@ -13,6 +13,7 @@ use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
 use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Octree};
+use glam::DVec3;
 
 /// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
 pub const MAX_LEAVES: u64 = 1 << 31;
@@ -26,32 +27,47 @@ pub fn validate(t: &Octree) -> Result<(), String> {
     check_tree(t, CURRENT_VERSION).map_err(|(c, m)| format!("{c}: {m}"))
 }
 
+/// Checks 7 to 9 on the values a file's header and a tree in memory both have: the depth,
+/// the root cube, and the node and leaf counts.
+pub fn check_root_and_counts(
+    depth: u8,
+    origin: DVec3,
+    side: f64,
+    node_count: u64,
+    leaf_count: u64,
+) -> Result<(), Failure> {
+    if !(1..=crate::MAX_DEPTH).contains(&depth) {
+        return Err((
+            Check::Depth,
+            format!("depth {depth} is outside 1..={}", crate::MAX_DEPTH),
+        ));
+    }
+    if !(side.is_finite() && side > 0.0 && origin.is_finite()) {
+        return Err((
+            Check::RootCube,
+            "root cube is not finite and positive".into(),
+        ));
+    }
+    if node_count == 0 {
+        return Err((Check::Counts, "no root node".into()));
+    }
+    if leaf_count > MAX_LEAVES || leaf_count > node_count.saturating_mul(8) {
+        return Err((
+            Check::Counts,
+            format!(
+                "{leaf_count} leaves: more than 2^31, or more than 8 for each of the \
+                 {node_count} nodes"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The checks of a tree read from a file of format `version`, in the document's order.
 pub fn check_tree(t: &Octree, version: u32) -> Result<(), Failure> {
     let fail = |c: Check, m: String| Err((c, m));
-    if !(1..=crate::MAX_DEPTH).contains(&t.depth) {
-        return fail(
-            Check::Depth,
-            format!("depth {} is outside 1..={}", t.depth, crate::MAX_DEPTH),
-        );
-    }
-    if !(t.root.side.is_finite() && t.root.side > 0.0 && t.root.origin.is_finite()) {
-        return fail(
-            Check::RootCube,
-            "root cube is not finite and positive".into(),
-        );
-    }
-    let n = t.nodes.len();
-    if n == 0 {
-        return fail(Check::Counts, "no root node".into());
-    }
-    let leaves = u64::from(t.leaf_count);
-    if leaves > MAX_LEAVES || leaves > 8 * n as u64 {
-        return fail(
-            Check::Counts,
-            format!("{leaves} leaves: more than 2^31, or more than 8 for each of the {n} nodes"),
-        );
-    }
+    let (n, leaves) = (t.nodes.len(), u64::from(t.leaf_count));
+    check_root_and_counts(t.depth, t.root.origin, t.root.side, n as u64, leaves)?;
     let a = &t.attributes;
     if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
         return fail(
