@@ -9,9 +9,9 @@
 # every ray hits the water, "requiring two more traversals for the reflection and
 # refraction rays"). "each" runs repeat the depth-8 1920x1200 ones with one reflection and
 # one refraction allowed on each path (--bounces 1 alone, the setting of the tables before
-# 2026-11-25, which also traces a refracted ray's reflection); "no-tiles" runs repeat them
-# without the primary tiles pass (--no-prepass), and with hit paths (--hit-paths, off by
-# default), for what each saves side by side. "stacks" runs
+# 2026-11-25, which also traces a refracted ray's reflection); "tiles" runs repeat them
+# with the primary tiles pass (--tiles, off by default), and "hit-paths" runs with hit paths
+# (--hit-paths, off by default), for what each costs or saves side by side. "stacks" runs
 # repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so
@@ -43,8 +43,8 @@ done
 for v in water bunny parallel; do
   echo "--- each depth 8 view $v size 1920x1200"
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none
-  echo "--- no-tiles depth 8 view $v size 1920x1200"
-  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --no-prepass
+  echo "--- tiles depth 8 view $v size 1920x1200"
+  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --tiles
   echo "--- hit-paths depth 8 view $v size 1920x1200"
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --hit-paths
 done

@@ -263,6 +263,81 @@ pub fn throughput(
     Ok(out)
 }
 
+/// General rays: the first hits of primary rays traced from the eye without the prepass,
+/// so that every ray goes through the general traversal as reflection, refraction and shadow
+/// rays do (`svo-view --cpu --bench --cast --no-prepass --threads 1`).
+#[derive(Clone, Debug)]
+pub struct GeneralRays {
+    /// Camera: `framed` or `close-up`.
+    pub camera: &'static str,
+    /// Depth.
+    pub depth: u8,
+    /// Hit mode.
+    pub mode: &'static str,
+    /// Median seconds per frame, one thread.
+    pub seconds: f64,
+    /// Millions of rays per second, one thread.
+    pub mrays: f64,
+    /// Traversal steps per ray.
+    pub steps: f64,
+    /// Share of rays that hit.
+    pub hit: f64,
+}
+
+/// The cameras of [`general_rays`]: the framed view and a close-up (the framed camera moved
+/// to 0.6 of its distance from the target, about a third of the pixels on the model).
+pub fn general_cameras(
+    mesh: &Mesh,
+    (width, height): (u32, u32),
+) -> anyhow::Result<[(&'static str, Camera); 2]> {
+    let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+    let framed = View::Framed.camera(lo, hi, width, height);
+    let close = Camera {
+        eye: framed.target + (framed.eye - framed.target) * 0.6,
+        ..framed
+    };
+    Ok([("framed", framed), ("close-up", close)])
+}
+
+/// [`GeneralRays`] for both [`general_cameras`], cube and contour hits, on one thread.
+pub fn general_rays(
+    tree: &Octree,
+    mesh: &Mesh,
+    size: (u32, u32),
+    runs: u32,
+) -> anyhow::Result<Vec<GeneralRays>> {
+    let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let mut out = Vec::new();
+    for (name, cam) in general_cameras(mesh, size)? {
+        let light = View::Framed.light(lo, hi, &cam);
+        for mode in [HitMode::Cube, HitMode::Contour] {
+            let o = TraceOptions {
+                mode,
+                max_reflections: 0,
+                max_refractions: 0,
+                shadows: ShadowMode::None,
+                prepass: false,
+                ..TraceOptions::default()
+            };
+            let t = tracer(OctreeSurfaces::new(tree, mode), light, o);
+            let (st, times) = one.install(|| cast_timed(&t, &cam, Some(runs)))?;
+            let s = median(&times);
+            let n = st.primary_rays.max(1) as f64;
+            out.push(GeneralRays {
+                camera: name,
+                depth: tree.depth,
+                mode: mode.name(),
+                seconds: s,
+                mrays: n / s / 1e6,
+                steps: st.primary_steps as f64 / n,
+                hit: st.primary_hits as f64 / n,
+            });
+        }
+    }
+    Ok(out)
+}
+
 /// The octree walk against the dense-grid DDA on the same primary rays (framed view, cube
 /// hits, no shading).
 #[derive(Clone, Debug)]

@@ -250,7 +250,8 @@ pub struct ShaderVariant {
     pub ray_stack: u32,
     /// Primary rays start where the primary tiles pass puts them (the renderer runs it
     /// first): past the empty space before the nearest leaf cell of their 8x8 block. The
-    /// image is the same; only the work differs. `TraceOptions::prepass`.
+    /// image is the same; only the work differs. Off unless set: on an H200 the pass cost
+    /// more than it saved on every scene measured (docs/gpu-benchmarks.md).
     pub primary_tiles: bool,
 }
 
@@ -283,7 +284,7 @@ impl ShaderVariant {
             } else {
                 1
             },
-            primary_tiles: opts.prepass,
+            primary_tiles: false,
             channels: [
                 channel_kind(&a.normal),
                 channel_kind(&a.contour),

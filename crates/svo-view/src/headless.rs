@@ -130,6 +130,8 @@ pub struct HeadlessOptions {
     pub everything: bool,
     /// Where the stacks live and the workgroup shape (the chunk limit is the adapter's).
     pub layout: GpuLayout,
+    /// Run the primary tiles pass first ([`ShaderVariant::primary_tiles`]).
+    pub tiles: bool,
 }
 
 /// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
@@ -195,6 +197,7 @@ pub fn render_scene(
     } = scene;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
+    variant.primary_tiles = opts.tiles;
     if opts.everything {
         variant = variant.everything();
     }

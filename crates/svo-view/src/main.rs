@@ -122,12 +122,16 @@ struct Args {
     /// leaf, cost (traversal steps heat map).
     #[arg(long)]
     aov: Option<Aov>,
-    /// Trace every primary ray from the eye: no prepass (on the CPU, the projection of the
-    /// octree front to back that decides the primary rays of a band of rows at once; on the
-    /// GPU, the pass that starts each 8x8 block's rays at the nearest leaf cell in its cone).
+    /// With --cpu: trace every primary ray from the eye, without the prepass (the projection
+    /// of the octree front to back that decides the primary rays of a band of rows at once).
     /// The image is the same.
     #[arg(long)]
     no_prepass: bool,
+    /// With --headless: run the primary tiles pass first, which starts each 8x8 block's
+    /// rays at the nearest leaf cell in its cone (for measuring: slower on an H200 for every
+    /// scene measured; the image is the same).
+    #[arg(long, requires = "headless")]
+    tiles: bool,
     /// Offset of secondary and shadow rays from the surface, in cells.
     #[arg(long, default_value_t = TraceOptions::default().bias_cells)]
     bias: f32,
@@ -248,6 +252,7 @@ fn real_main() -> anyhow::Result<()> {
                 hit_paths: args.hit_paths,
                 ..Default::default()
             },
+            tiles: args.tiles,
         };
         let report = svo_view::headless::run(&job, &opts)
             .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;

@@ -246,11 +246,8 @@ fn primary_tiles_change_nothing_but_the_steps() {
     ];
     let (mut with_steps, mut without_steps) = (0u64, 0u64);
     for (k, (eye, target, fov, (w, h))) in views.into_iter().enumerate() {
-        let frame = |prepass: bool| {
-            let trace = TraceOptions {
-                prepass,
-                ..TraceOptions::default()
-            };
+        let frame = |tiles: bool| {
+            let trace = TraceOptions::default();
             let j = RenderJob {
                 width: w,
                 height: h,
@@ -261,8 +258,9 @@ fn primary_tiles_change_nothing_but_the_steps() {
                 ..RenderJob::default()
             };
             let s = scene(tree.clone(), &j).unwrap();
-            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-            assert_eq!(variant.primary_tiles, prepass);
+            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            assert!(!variant.primary_tiles, "the tiles are off unless set");
+            variant.primary_tiles = tiles;
             let r = GpuRenderer::new(&ctx, &s.tree, variant, w, h).unwrap();
             render_with(&ctx, &s, &trace, &r)
         };
@@ -325,9 +323,8 @@ fn primary_tiles_change_nothing_on_random_views() {
         let (lo, hi) = tree.occupied_bounds();
         let ext = hi - lo;
         let mut sides = Vec::new();
-        for prepass in [true, false] {
+        for tiles in [true, false] {
             let trace = TraceOptions {
-                prepass,
                 shadows: ShadowMode::None,
                 ..TraceOptions::default()
             };
@@ -338,7 +335,8 @@ fn primary_tiles_change_nothing_on_random_views() {
                 ..RenderJob::default()
             };
             let s = scene(tree.clone(), &j).unwrap();
-            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            variant.primary_tiles = tiles;
             let r = GpuRenderer::new(&ctx, &s.tree, variant, w, h).unwrap();
             sides.push((s, trace, r));
         }
@@ -506,8 +504,9 @@ fn the_thesis_pool_views() {
         };
         let s = svo::render::prepare(&j).unwrap();
         let c = cpu_frame(&s, &trace);
-        let gpu_frame = |trace: TraceOptions, hit_paths: bool| {
-            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+        let gpu_frame = |tiles: bool, hit_paths: bool| {
+            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            variant.primary_tiles = tiles;
             let layout = GpuLayout {
                 hit_paths,
                 ..GpuLayout::default()
@@ -515,7 +514,7 @@ fn the_thesis_pool_views() {
             let r = GpuRenderer::with_options(&ctx, &s.tree, variant, 120, 75, &layout).unwrap();
             render_with(&ctx, &s, &trace, &r)
         };
-        let g = gpu_frame(trace, false);
+        let g = gpu_frame(true, false);
         let diff = svo::render::compare(&g, &c).unwrap();
         let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
         eprintln!(
@@ -530,14 +529,8 @@ fn the_thesis_pool_views() {
         assert!(diff.rmse <= 1.0, "{view}: RMSE {}", diff.rmse);
         assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{view}");
         assert!(g.stats.secondary_rays <= 2 * g.stats.primary_hits, "{view}");
-        let no_tiles = gpu_frame(
-            TraceOptions {
-                prepass: false,
-                ..trace
-            },
-            false,
-        );
-        let paths = gpu_frame(trace, true);
+        let no_tiles = gpu_frame(false, false);
+        let paths = gpu_frame(true, true);
         for (what, other) in [("without tiles", &no_tiles), ("with hit paths", &paths)] {
             assert_eq!(g.colour, other.colour, "{view} {what}");
             assert_eq!(g.depth, other.depth, "{view} {what}");

@@ -342,8 +342,9 @@ struct MRay {
     inv: vec3<f32>,
     mask: u32,
     n: u32,
-    sgn: vec3<f32>,
-    off: vec3<f32>,
+    // Mirrored plane p is real plane (p ^ flip) + add: n - p on mirrored axes, in integers.
+    flip: vec3<u32>,
+    add: vec3<u32>,
     valid: bool,
 }
 
@@ -365,14 +366,14 @@ fn mirror(origin: vec3<f32>, dir: vec3<f32>, n: u32) -> MRay {
     r.inv = vec3<f32>(1.0) / d;
     r.mask = mask;
     r.n = n;
-    r.sgn = select(vec3<f32>(1.0), vec3<f32>(-1.0), neg);
-    r.off = select(vec3<f32>(0.0), vec3<f32>(f32(n)), neg);
+    r.flip = select(vec3<u32>(0u), vec3<u32>(0xffffffffu), neg);
+    r.add = select(vec3<u32>(0u), vec3<u32>(n + 1u), neg);
     return r;
 }
 
 // MirroredRay::t_planes
 fn t_planes(r: MRay, p: vec3<u32>) -> vec3<f32> {
-    let real = r.off + r.sgn * vec3<f32>(p);
+    let real = vec3<f32>(bitcast<vec3<i32>>((p ^ r.flip) + r.add));
     return (real - r.o) * r.inv;
 }
 

@@ -13,6 +13,7 @@ use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryV
 use crate::render::surfaces::{FirstHit, Query, Surfaces};
 use crate::render::whitted::{PrimaryStart, Tracer};
 use crate::trace::grid_ray::GridRay;
+use crate::trace::packet::LANES;
 use std::time::{Duration, Instant};
 
 /// The primary hits of a view, row-major from the top-left pixel.
@@ -60,37 +61,54 @@ pub fn cast_primary<S: Surfaces>(
     let band =
         |scratch: &mut PrimaryScratch, y0: u32, leaf: &mut [u32], depth: &mut [f32]| -> [u64; 4] {
             let mut counts = [0u64; 4];
-            let rows = (leaf.len() / w as usize) as u32;
+            let px = leaf.len();
+            let rows = (px / w as usize) as u32;
             let decided = view
                 .as_ref()
                 .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
-            for i in 0..leaf.len() {
-                let start = decided
-                    .as_ref()
-                    .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-                let r = FirstHit::decided(&start).unwrap_or_else(|| {
-                    // Left to the traversal, from the start's lower bound.
-                    let tmin = match start {
-                        PrimaryStart::From(t) => t,
-                        _ => 0.0,
-                    };
-                    let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
-                    let ray = GridRay {
-                        origin: eye,
-                        dir: rays.dir_f32(x, y) * scale,
-                    };
-                    let q = Query {
-                        tmin,
-                        ..Query::all(max_steps)
-                    };
-                    tracer.surfaces().first_hit(&ray, &q, &start)
-                });
+            let mut record = |i: usize, r: FirstHit| {
                 leaf[i] = r.hit.map_or(NO_LEAF, |h| h.0);
                 depth[i] = r.hit.map_or(f32::INFINITY, |h| h.1);
                 counts[0] += u64::from(r.hit.is_some());
                 counts[1] += u64::from(r.steps);
                 counts[2] += u64::from(r.capped);
                 counts[3] = counts[3].max(u64::from(r.steps));
+            };
+            let ray_of = |i: usize| {
+                let (x, y) = ((i % w as usize) as u32, y0 + (i / w as usize) as u32);
+                GridRay {
+                    origin: eye,
+                    dir: rays.dir_f32(x, y) * scale,
+                }
+            };
+            let Some(decided) = decided else {
+                // Every ray from the eye: neighbouring pixels in packets.
+                let q = Query::all(max_steps);
+                for i in (0..px).step_by(LANES) {
+                    let n = (px - i).min(LANES);
+                    let packet = std::array::from_fn(|l| ray_of(i + l.min(n - 1)));
+                    let hits = tracer.surfaces().first_hits(&packet, n, &q);
+                    for (l, h) in hits.into_iter().take(n).enumerate() {
+                        record(i + l, h);
+                    }
+                }
+                return counts;
+            };
+            for i in 0..px {
+                let start = decided.start(i);
+                let r = FirstHit::decided(&start).unwrap_or_else(|| {
+                    // Left to the traversal, from the start's lower bound.
+                    let tmin = match start {
+                        PrimaryStart::From(t) => t,
+                        _ => 0.0,
+                    };
+                    let q = Query {
+                        tmin,
+                        ..Query::all(max_steps)
+                    };
+                    tracer.surfaces().first_hit(&ray_of(i), &q, &start)
+                });
+                record(i, r);
             }
             counts
         };

@@ -11,6 +11,7 @@ use crate::render::primary_prepass::PrimaryBand;
 use crate::render::whitted::PrimaryStart;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, leaf_hit};
+use crate::trace::packet::{LANES, traverse_packet};
 use crate::trace::traverse::{LeafEntry, traverse};
 use glam::Vec3;
 
@@ -122,6 +123,15 @@ impl FirstHit {
     }
 }
 
+impl FirstHit {
+    /// No hit, no step.
+    pub const MISS: Self = Self {
+        hit: None,
+        steps: 0,
+        capped: false,
+    };
+}
+
 impl From<Traced> for FirstHit {
     fn from(r: Traced) -> Self {
         Self {
@@ -178,6 +188,21 @@ pub trait Surfaces: Sync {
     #[doc(hidden)]
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
         self.closest_primary(ray, q, start).into()
+    }
+
+    /// [`Self::first_hit`] for the first `n` of up to [`LANES`] rays traced from `q.tmin`
+    /// (no prepass start): the same outcome per ray. Surfaces that walk rays in packets
+    /// (the octree: [`crate::trace::traverse_packet`]) trace them together; lanes from `n`
+    /// on are missed without a step.
+    #[doc(hidden)]
+    fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
+        std::array::from_fn(|l| {
+            if l < n {
+                self.first_hit(&rays[l], q, &PrimaryStart::From(q.tmin))
+            } else {
+                FirstHit::MISS
+            }
+        })
     }
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
@@ -363,6 +388,40 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             return self.closest(ray, q).into();
         }
         FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
+    }
+
+    fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
+        if q.medium.is_some() || q.skip.is_some() {
+            return std::array::from_fn(|l| {
+                if l < n {
+                    self.closest(&rays[l], q).into()
+                } else {
+                    FirstHit::MISS
+                }
+            });
+        }
+        let active = ((1u16 << n.min(LANES)) - 1) as u8;
+        let walks = traverse_packet(
+            self.tree,
+            rays,
+            [q.tmin; LANES],
+            [q.tmax; LANES],
+            active,
+            q.max_steps,
+            |l, e| {
+                if self.passes_through(e.leaf) {
+                    return None;
+                }
+                self.shape
+                    .hit_t(self.tree, &rays[l], e)
+                    .map(|t| (e.leaf, t))
+            },
+        );
+        walks.map(|w| FirstHit {
+            hit: w.hit,
+            steps: w.steps,
+            capped: w.capped,
+        })
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {

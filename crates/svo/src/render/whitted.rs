@@ -144,8 +144,7 @@ pub struct TraceOptions {
     pub max_steps: u32,
     /// Let renders decide primary rays a band of rows at a time by projecting the octree
     /// front to back (the primary prepass) instead of walking it once per pixel. The
-    /// image is the same either way; only the work (and the steps counted) differ. (The GPU
-    /// viewer reads it too, for its own primary pass.)
+    /// image is the same either way; only the work (and the steps counted) differ.
     pub prepass: bool,
 }
 

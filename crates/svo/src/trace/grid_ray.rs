@@ -21,7 +21,7 @@
 //! correctly (the axis's planes lie beyond every finite crossing).
 
 use crate::geometry::grid::RootCube;
-use glam::{BVec3A, DVec3, UVec3, Vec3, Vec3A};
+use glam::{DVec3, UVec3, Vec3, Vec3A};
 
 /// The smallest direction component the traversals use (`2^-100`): large enough that
 /// `1 / TINY` is finite and `(p - o) / TINY` is for `|p - o| < 2^28` cells, small enough that
@@ -91,10 +91,13 @@ pub(crate) struct MirroredRay {
     pub mask: u8,
     /// Cells per axis.
     pub n: u32,
-    /// Per axis, `-1` for mirrored axes and `1` for the others, and `n` or `0`: the real
-    /// plane of mirrored plane `p` is `off + sign * p`, exactly (integers below `2^24`).
-    sign: Vec3A,
-    off: Vec3A,
+    /// Per axis, all ones and `n + 1` for mirrored axes, zeros for the others: the real
+    /// plane of mirrored plane `p` is `(p ^ flip) + add` (wrapping), `n - p` or `p`, in
+    /// integers. Its conversion to `f32` is then exact wherever the real coordinate is below
+    /// `2^24`, on mirrored axes too (mirroring in floats, `n - p` would lose its low bits
+    /// once `n` is above `2^24`, near the low faces of trees deeper than 24).
+    flip: UVec3,
+    add: UVec3,
 }
 
 impl MirroredRay {
@@ -109,14 +112,14 @@ impl MirroredRay {
                 mask |= 4 >> axis;
             }
         }
-        let m = BVec3A::new(mask & 4 != 0, mask & 2 != 0, mask & 1 != 0);
+        let m = |bit: u8, v: u32| if mask & bit != 0 { v } else { 0 };
         Some(Self {
             o: ray.origin.into(),
             inv: safe_inverse(ray.dir),
             mask,
             n,
-            sign: Vec3A::select(m, Vec3A::NEG_ONE, Vec3A::ONE),
-            off: Vec3A::select(m, Vec3A::splat(n as f32), Vec3A::ZERO),
+            flip: UVec3::new(m(4, u32::MAX), m(2, u32::MAX), m(1, u32::MAX)),
+            add: UVec3::new(m(4, n + 1), m(2, n + 1), m(1, n + 1)),
         })
     }
 
@@ -125,8 +128,14 @@ impl MirroredRay {
     /// which is what keeps neighbouring cells gap-free.
     #[inline]
     pub fn t_planes(&self, p: UVec3) -> Vec3A {
-        let real = self.off + self.sign * Vec3A::new(p.x as f32, p.y as f32, p.z as f32);
-        (real - self.o) * self.inv
+        (self.real_planes(p) - self.o) * self.inv
+    }
+
+    /// The real coordinates of mirrored planes `p`, as `f32`.
+    #[inline]
+    pub fn real_planes(&self, p: UVec3) -> Vec3A {
+        // At most n <= 2^30: the signed conversion is exact below 2^24 and rounds above.
+        (p ^ self.flip).wrapping_add(self.add).as_ivec3().as_vec3a()
     }
 
     /// Where the ray meets the root within `[tmin, tmax]`: the parameters of the root's low

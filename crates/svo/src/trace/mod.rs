@@ -42,10 +42,12 @@ pub(crate) mod cast;
 pub(crate) mod dda;
 pub(crate) mod grid_ray;
 pub(crate) mod leaf_hit;
+pub(crate) mod packet;
 pub(crate) mod traverse;
 
 pub use cast::{Hit, Ray};
 pub use dda::{DdaError, DenseGrid, MAX_DDA_DEPTH, traverse_dda};
 pub use grid_ray::GridRay;
 pub use leaf_hit::{HitMode, LeafHit, cast, leaf_hit};
+pub use packet::{LANES, traverse_packet};
 pub use traverse::{LeafEntry, MAX_STEPS, Traversal, traverse};

@@ -59,43 +59,33 @@ pub struct Traversal<T> {
     pub capped: bool,
 }
 
-const DONE: u8 = 8;
+pub(crate) const DONE: u8 = 8;
 
-/// An all-zero frame: the stack is initialized with it, which compiles to one `memset`.
-const EMPTY: Frame = Frame {
-    node: Node { info: 0, first: 0 },
-    origin: UVec3::ZERO,
-    half: 0,
-    t0: Vec3A::ZERO,
-    tm: Vec3A::ZERO,
-    t1: Vec3A::ZERO,
+/// An ancestor on the stack: what the walk cannot recompute when it returns to it. Its
+/// corner is the current cell's corner with the bits below its side cleared, its side
+/// follows from its level, and its planes from both, so only the node, the child to visit
+/// next and where the ray enters that child are kept (12 bytes).
+#[derive(Clone, Copy, Debug)]
+struct Saved {
+    first: u32,
+    info: u8,
+    next: u8,
+    enter: f32,
+}
+
+/// An all-zero ancestor: the stack is initialized with it, which compiles to one `memset`.
+const EMPTY: Saved = Saved {
+    first: 0,
+    info: 0,
     next: 0,
     enter: 0.0,
 };
-
-#[derive(Clone, Copy, Debug)]
-struct Frame {
-    node: Node,
-    /// Mirrored minimum corner, in leaf cells.
-    origin: UVec3,
-    /// Half the node's side, in leaf cells.
-    half: u32,
-    t0: Vec3A,
-    tm: Vec3A,
-    t1: Vec3A,
-    next: u8,
-    /// Where the ray enters child `next` (at least `tmin`). Tracked incrementally: the first
-    /// child starts where the node does, and each next child where the previous one ends
-    /// (its low planes on the crossed axes are the previous child's exit planes), which is
-    /// exactly `max(max(c0), tmin)` without recomputing it.
-    enter: f32,
-}
 
 /// SIMD comparison masks have x in bit 0; child indices have x in bit 2.
 const REVERSE3: [u8; 8] = [0, 4, 2, 6, 1, 5, 3, 7];
 
 /// Per child index, which axes are its high half.
-const HIGH: [glam::BVec3A; 8] = [
+pub(crate) const HIGH: [glam::BVec3A; 8] = [
     glam::BVec3A::new(false, false, false),
     glam::BVec3A::new(false, false, true),
     glam::BVec3A::new(false, true, false),
@@ -107,36 +97,27 @@ const HIGH: [glam::BVec3A; 8] = [
 ];
 
 #[inline]
-fn first_child(tm: Vec3A, t: f32) -> u8 {
+pub(crate) fn first_child(tm: Vec3A, t: f32) -> u8 {
     REVERSE3[tm.cmple(Vec3A::splat(t)).bitmask() as usize]
 }
 
 /// The child after `c`, whose exit parameters are `exit` with smallest `m`: the axes at `m`
 /// are crossed together; if one of them is already the high half the ray leaves the node.
 #[inline]
-fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
-    let tied = (u8::from(exit.x == m) << 2) | (u8::from(exit.y == m) << 1) | u8::from(exit.z == m);
+pub(crate) fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
+    // The parameters are never NaN (finite planes times a finite inverse), so the SIMD
+    // equality is the scalar one, `-0.0 == 0.0` included.
+    let tied = REVERSE3[exit.cmpeq(Vec3A::splat(m)).bitmask() as usize];
     if c & tied != 0 { DONE } else { c | tied }
 }
 
 #[inline]
-fn child_exit(f: &Frame, c: u8) -> Vec3A {
-    Vec3A::select(HIGH[usize::from(c & 7)], f.t1, f.tm)
-}
-
-#[inline]
-fn child_entry(f: &Frame, c: u8) -> Vec3A {
-    Vec3A::select(HIGH[usize::from(c & 7)], f.tm, f.t0)
-}
-
-#[inline]
-fn child_origin(f: &Frame, c: u8) -> UVec3 {
-    f.origin
-        + UVec3::new(
-            u32::from(c >> 2 & 1),
-            u32::from(c >> 1 & 1),
-            u32::from(c & 1),
-        ) * f.half
+pub(crate) fn child_bits(c: u8) -> UVec3 {
+    UVec3::new(
+        u32::from(c >> 2 & 1),
+        u32::from(c >> 1 & 1),
+        u32::from(c & 1),
+    )
 }
 
 /// Traverses `tree` along `ray` for parameters in `[tmin, tmax]`, calling `on_leaf` for each
@@ -260,54 +241,72 @@ fn traverse_with<const STACK: usize, T>(
     };
     // The node's minimum corner in mirrored cells.
     let origin = r.flip(origin, side);
-    let Some((t0, t1, enter)) = r.node_entry(origin, side, tmin, tmax) else {
+    let Some((_, t1, enter)) = r.node_entry(origin, side, tmin, tmax) else {
         return Some(out);
     };
     if start.is_some() && enter >= t1.min_element() {
         // The ray only touches the node's cube.
         return None;
     }
-    let half = side / 2;
-    let tm = r.t_planes(origin + UVec3::splat(half));
     // The current node lives in locals (registers); the stack holds its ancestors.
-    let mut cur = Frame {
-        node,
-        origin,
-        half,
-        t0,
-        tm,
-        t1,
-        next: first_child(tm, enter),
-        enter,
-    };
+    let mut node = node;
+    let mut corner = origin;
+    let mut half = side / 2;
+    let mut t1 = t1;
+    let mut tm = r.t_planes(origin + UVec3::splat(half));
+    let mut next = first_child(tm, enter);
+    let mut enter = enter;
     let mut stack = [EMPTY; STACK];
     let mut len = 0usize;
     let mask = r.mask;
     loop {
-        if cur.next == DONE {
-            if len == 0 {
-                break;
+        if next == DONE {
+            // Pop to the nearest ancestor with a child left (one whose next child is DONE
+            // would only be popped in turn), and visit that child in this same pass.
+            loop {
+                if len == 0 {
+                    return Some(out);
+                }
+                len -= 1;
+                let s = stack[len];
+                if s.next != DONE {
+                    node = Node {
+                        info: u32::from(s.info),
+                        first: s.first,
+                    };
+                    next = s.next;
+                    enter = s.enter;
+                    break;
+                }
             }
-            len -= 1;
-            cur = stack[len];
-            continue;
+            half = side >> (len + 1);
+            corner &= UVec3::splat(!(2 * half - 1));
+            tm = r.t_planes(corner + UVec3::splat(half));
+            t1 = r.t_planes(corner + UVec3::splat(2 * half));
         }
-        let c = cur.next;
-        let t_enter = cur.enter;
-        let c1 = child_exit(&cur, c);
-        let (x, y, z) = (c1.x, c1.y, c1.z);
-        let m = if x < y { x } else { y };
-        let m = if m < z { m } else { z };
-        cur.next = next_child(c, c1, m);
-        cur.enter = if m > tmin { m } else { tmin };
-        out.steps += 1;
-        if out.steps > max_steps {
-            out.capped = true;
-            return Some(out);
-        }
-        // Most children of a sparse tree are absent: test that before anything else.
-        let real = c ^ mask;
-        let child_mask = cur.node.child_mask();
+        // Step over the node's children in the ray's order until one exists or none is
+        // left: most children of a sparse tree are absent, and this is the cheap part of a
+        // step.
+        let child_mask = node.child_mask();
+        let (c, t_enter, c1, m, real) = loop {
+            let c = next;
+            let t_enter = enter;
+            let c1 = Vec3A::select(HIGH[usize::from(c)], t1, tm);
+            let (x, y, z) = (c1.x, c1.y, c1.z);
+            let m = if x < y { x } else { y };
+            let m = if m < z { m } else { z };
+            next = next_child(c, c1, m);
+            enter = if m > tmin { m } else { tmin };
+            out.steps += 1;
+            if out.steps > max_steps {
+                out.capped = true;
+                return Some(out);
+            }
+            let real = c ^ mask;
+            if child_mask >> real & 1 != 0 || next == DONE {
+                break (c, t_enter, c1, m, real);
+            }
+        };
         if child_mask >> real & 1 == 0 {
             continue;
         }
@@ -320,14 +319,16 @@ fn traverse_with<const STACK: usize, T>(
             continue;
         }
         let rank = (child_mask & ((1u16 << real) - 1) as u8).count_ones();
-        let origin = child_origin(&cur, c);
-        if let Some(base) = cur.node.leaf_base() {
+        let origin = corner + child_bits(c) * half;
+        if let Some(base) = node.leaf_base() {
+            // The cell's entry planes are its integer low planes: the values a walk that
+            // carried them down would have, bit for bit.
             let entry = LeafEntry {
                 leaf: base + rank,
                 cell: r.unmirror_cell(origin),
                 t_enter,
                 t_exit,
-                entry_normal: r.entry_normal_of(child_entry(&cur, c), tmin),
+                entry_normal: r.entry_normal_of(r.t_planes(origin), tmin),
                 exit_normal: r.exit_normal_of(c1),
             };
             if let Some(h) = on_leaf(&entry) {
@@ -336,30 +337,28 @@ fn traverse_with<const STACK: usize, T>(
             }
         } else {
             // A malformed tree deeper than its depth cannot overflow the stack.
-            if len == STACK || cur.half < 2 {
+            if len == STACK || half < 2 {
                 continue;
             }
-            let Some(&child) = tree.nodes.get((cur.node.first + rank) as usize) else {
+            let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
                 continue;
             };
-            let half = cur.half / 2;
-            let tm = r.t_planes(origin + UVec3::splat(half));
-            let c0 = child_entry(&cur, c);
-            stack[len] = cur;
-            len += 1;
-            cur = Frame {
-                node: child,
-                origin,
-                half,
-                t0: c0,
-                tm,
-                t1: c1,
-                next: first_child(tm, t_enter),
-                enter: t_enter,
+            stack[len] = Saved {
+                first: node.first,
+                info: node.child_mask(),
+                next,
+                enter,
             };
+            len += 1;
+            node = child;
+            corner = origin;
+            half /= 2;
+            t1 = c1;
+            tm = r.t_planes(origin + UVec3::splat(half));
+            next = first_child(tm, t_enter);
+            enter = t_enter;
         }
     }
-    Some(out)
 }
 
 #[cfg(test)]
@@ -405,6 +404,43 @@ mod tests {
         for depth in [0, 31, 40] {
             tree.depth = depth;
             assert_eq!(handed_over(&tree, &ray, None), (vec![], 0), "depth {depth}");
+        }
+    }
+
+    /// In a depth-30 tree, rays along each axis next to the low faces see the same cells
+    /// whatever the sign of their zero components: an axis with a negative (or `-0.0`)
+    /// direction is mirrored, and its planes are mirrored in integers, so the planes of cells
+    /// near the low faces stay exact there (mirrored in floats, `2^30 - p` lost its low bits
+    /// and the cells next to the low faces collapsed to nothing).
+    #[test]
+    fn mirrored_axes_keep_the_low_cells_of_deep_trees() {
+        let far = (1u32 << 30) - 1;
+        let cells = [
+            UVec3::ZERO,
+            UVec3::new(1, 0, 0),
+            UVec3::new(0, 1, 0),
+            UVec3::new(0, 0, 1),
+            UVec3::new(far, 0, 0),
+            UVec3::new(0, far, 0),
+            UVec3::new(0, 0, far),
+        ];
+        let tree = tree_of_cells(30, &cells);
+        for axis in 0..3 {
+            let mut want = None;
+            for signs in 0..4u32 {
+                let zero = |bit: u32| if signs >> bit & 1 == 0 { 0.0 } else { -0.0 };
+                let (mut o, mut d) = (Vec3::splat(0.5), Vec3::ZERO);
+                o[axis] = -1.0;
+                d[axis] = 1.0;
+                d[(axis + 1) % 3] = zero(0);
+                d[(axis + 2) % 3] = zero(1);
+                let (seen, _) = handed_over(&tree, &GridRay { origin: o, dir: d }, None);
+                let mut along = vec![UVec3::ZERO, UVec3::ZERO, UVec3::ZERO];
+                along[1][axis] = 1;
+                along[2][axis] = far;
+                assert_eq!(seen, along, "axis {axis}, direction {d:?}");
+                assert_eq!(*want.get_or_insert(seen.clone()), seen);
+            }
         }
     }
 

@@ -1,0 +1,588 @@
+//! Four rays through the octree in one walk: [`traverse_packet`] hands each ray (lane) the
+//! leaves, entries, step counts and cap that [`crate::trace::traverse`] would hand it alone,
+//! but reads each node once for all the lanes that enter it.
+//!
+//! The lanes must share the mirror mask (the signs of their directions: rays of neighbouring
+//! pixels, shadow rays toward one light, reflections off one flat surface); a packet whose
+//! lanes do not is walked one ray after another. In the mirrored space every lane's walk
+//! through a node visits a chain of children whose indices only gain bits
+//! ([`crate::trace::traverse`]: the next child sets the crossed axes' bits), so the increasing
+//! numeric order of child indices is front to back for every lane at once. A node's
+//! children are therefore visited in that order, each by the lanes whose chain contains it:
+//!
+//! - each lane's chain through the node (which children it visits, where it enters and
+//!   leaves each) is computed when the packet enters the node, by the single walk's own
+//!   steps (`first_child`, `next_child`) on that lane's planes, so every parameter is the
+//!   same bit for bit;
+//! - a lane counts a step for each child of its chain as the single walk does (absent
+//!   children included), stops at the step cap, past its `tmax`, or when its callback returns
+//!   a value, and the packet goes on with the others.
+//!
+//! The independent lanes also give the processor four chains of dependent arithmetic to
+//! overlap where a single ray has one.
+
+use crate::octree::tree::{Node, Octree};
+use crate::trace::grid_ray::{GridRay, MirroredRay};
+use crate::trace::traverse::{LeafEntry, Traversal};
+use glam::{BVec4A, UVec3, Vec3A, Vec4};
+
+/// Rays in a packet.
+pub const LANES: usize = 4;
+
+/// A node being walked by the packet, one SIMD lane per ray.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    node: Node,
+    /// Mirrored minimum corner, in leaf cells.
+    corner: UVec3,
+    /// The lanes whose chain through the node has a child left ...
+    chain: BVec4A,
+    /// ... that child's bits (x, y, z) ...
+    bx: BVec4A,
+    by: BVec4A,
+    bz: BVec4A,
+    /// ... and where the lane enters it (at least its tmin).
+    enter: Vec4,
+}
+
+const EMPTY: Frame = Frame {
+    node: Node { info: 0, first: 0 },
+    corner: UVec3::ZERO,
+    chain: BVec4A::FALSE,
+    bx: BVec4A::FALSE,
+    by: BVec4A::FALSE,
+    bz: BVec4A::FALSE,
+    enter: Vec4::ZERO,
+};
+
+/// Plane parameters of the lanes on the three axes.
+#[derive(Clone, Copy, Debug)]
+struct Planes {
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+}
+
+/// The lanes' rays in the shared mirrored space.
+struct Lanes {
+    /// A lane's mirrored ray, for what is done per lane (the mirror mask is shared).
+    rays: [Option<MirroredRay>; LANES],
+    ox: Vec4,
+    oy: Vec4,
+    oz: Vec4,
+    ix: Vec4,
+    iy: Vec4,
+    iz: Vec4,
+    tmin: Vec4,
+    tmax: Vec4,
+}
+
+impl Lanes {
+    /// Every lane's [`MirroredRay::t_planes`] at mirrored planes `p`, bit for bit.
+    #[inline]
+    fn planes(&self, any: &MirroredRay, p: UVec3) -> Planes {
+        let real = any.real_planes(p);
+        Planes {
+            x: (Vec4::splat(real.x) - self.ox) * self.ix,
+            y: (Vec4::splat(real.y) - self.oy) * self.iy,
+            z: (Vec4::splat(real.z) - self.oz) * self.iz,
+        }
+    }
+}
+
+/// Traverses `tree` along each lane of `rays` in `active` (bit `l` for lane `l`) for
+/// parameters in `[tmin[l], tmax[l]]`, calling `on_leaf(l, entry)` for the leaves that lane
+/// passes through, front to back, until it returns `Some`; at most `max_steps` children
+/// examined per lane. Lane `l`'s outcome, its callbacks and their order equal those of
+/// [`crate::trace::traverse`] for ray `l` alone; callbacks of different lanes interleave.
+/// Lanes outside `active` are not traced (no hit, no steps).
+pub fn traverse_packet<T>(
+    tree: &Octree,
+    rays: &[GridRay; LANES],
+    tmin: [f32; LANES],
+    tmax: [f32; LANES],
+    active: u8,
+    max_steps: u32,
+    on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
+) -> [Traversal<T>; LANES] {
+    if tree.depth <= 4 {
+        walk::<4, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+    } else if tree.depth <= 12 {
+        walk::<12, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+    } else {
+        walk::<32, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+    }
+}
+
+fn nothing<T>() -> [Traversal<T>; LANES] {
+    std::array::from_fn(|_| Traversal {
+        hit: None,
+        steps: 0,
+        capped: false,
+    })
+}
+
+#[inline]
+fn lane(v: Vec4, l: usize) -> f32 {
+    v.to_array()[l]
+}
+
+/// The first child of every lane entering at `t` (`first_child` per lane): the axes whose
+/// mid plane is at or before `t`.
+#[inline]
+fn first_bits(f: &mut Frame, tm: &Planes, t: Vec4) {
+    f.bx = tm.x.cmple(t);
+    f.by = tm.y.cmple(t);
+    f.bz = tm.z.cmple(t);
+}
+
+#[allow(clippy::too_many_arguments)]
+fn walk<const STACK: usize, T>(
+    tree: &Octree,
+    rays: &[GridRay; LANES],
+    tmin: [f32; LANES],
+    tmax: [f32; LANES],
+    active: u8,
+    max_steps: u32,
+    mut on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
+) -> [Traversal<T>; LANES] {
+    let mut out = nothing();
+    let depth = usize::from(tree.depth);
+    if depth == 0 || depth > usize::from(crate::MAX_DEPTH) {
+        return out;
+    }
+    let n = 1u32 << depth;
+    let Some(&root) = tree.nodes.first() else {
+        return out;
+    };
+    if root.child_mask() == 0 {
+        return out;
+    }
+    // The lanes that enter the root, with their mirrored rays and entries.
+    let mut r: [Option<MirroredRay>; LANES] = [None; LANES];
+    let mut enter = [0.0f32; LANES];
+    let mut lanes = 0u8;
+    let mut first: Option<MirroredRay> = None;
+    let mut mixed = false;
+    for l in 0..LANES {
+        if active >> l & 1 == 0 {
+            continue;
+        }
+        let Some(m) = MirroredRay::new(&rays[l], n) else {
+            continue;
+        };
+        let Some((_, _, e)) = m.root_entry(tmin[l], tmax[l]) else {
+            continue;
+        };
+        mixed |= first.is_some_and(|f| f.mask != m.mask);
+        first.get_or_insert(m);
+        r[l] = Some(m);
+        enter[l] = e;
+        lanes |= 1 << l;
+    }
+    let Some(any) = first else {
+        return out;
+    };
+    if mixed {
+        // Lanes in different octants have different front-to-back orders: one at a time.
+        for (l, o) in out.iter_mut().enumerate() {
+            if lanes >> l & 1 != 0 {
+                *o = crate::trace::traverse(tree, &rays[l], tmin[l], tmax[l], max_steps, |e| {
+                    on_leaf(l, e)
+                });
+            }
+        }
+        return out;
+    }
+    let mask = any.mask;
+    // Lanes not traced get a harmless ray (the first lane's), masked out of every decision.
+    let get = |l: usize| r[l].unwrap_or(any);
+    let v =
+        |f: &dyn Fn(&MirroredRay) -> f32| Vec4::new(f(&get(0)), f(&get(1)), f(&get(2)), f(&get(3)));
+    let ls = Lanes {
+        rays: r,
+        ox: v(&|m| m.o.x),
+        oy: v(&|m| m.o.y),
+        oz: v(&|m| m.o.z),
+        ix: v(&|m| m.inv.x),
+        iy: v(&|m| m.inv.y),
+        iz: v(&|m| m.inv.z),
+        tmin: Vec4::from_array(tmin),
+        tmax: Vec4::from_array(tmax),
+    };
+    let bits = |b: u8| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
+    let mut alive = bits(lanes);
+    let mut stack = [EMPTY; STACK];
+    let mut half = n / 2;
+    let mut tm = ls.planes(&any, UVec3::splat(half));
+    let mut t1 = ls.planes(&any, UVec3::splat(n));
+    stack[0].node = root;
+    stack[0].chain = alive;
+    stack[0].enter = Vec4::from_array(enter);
+    first_bits(&mut stack[0], &tm, Vec4::from_array(enter));
+    let mut len = 1usize;
+    let four = Vec4::splat(4.0);
+    let two = Vec4::splat(2.0);
+    loop {
+        let f = &mut stack[len - 1];
+        let walking = f.chain & alive;
+        if !walking.any() {
+            len -= 1;
+            if len == 0 {
+                break;
+            }
+            half *= 2;
+            let corner = stack[len - 1].corner;
+            tm = ls.planes(&any, corner + UVec3::splat(half));
+            t1 = ls.planes(&any, corner + UVec3::splat(2 * half));
+            continue;
+        }
+        // The lowest child a walking lane visits next: the lanes at it step together.
+        let index = Vec4::select(f.bx, four, Vec4::ZERO)
+            + Vec4::select(f.by, two, Vec4::ZERO)
+            + Vec4::select(f.bz, Vec4::ONE, Vec4::ZERO);
+        let k = Vec4::select(walking, index, Vec4::splat(8.0)).min_element();
+        let at = walking & index.cmpeq(Vec4::splat(k));
+        let c = k as u8;
+        // The single walk's step, on every lane (used where `at`).
+        let c1 = Planes {
+            x: Vec4::select(f.bx, t1.x, tm.x),
+            y: Vec4::select(f.by, t1.y, tm.y),
+            z: Vec4::select(f.bz, t1.z, tm.z),
+        };
+        let m = Vec4::select(c1.x.cmplt(c1.y), c1.x, c1.y);
+        let m = Vec4::select(m.cmplt(c1.z), m, c1.z);
+        let (tx, ty, tz) = (c1.x.cmpeq(m), c1.y.cmpeq(m), c1.z.cmpeq(m));
+        let leaves_node = (f.bx & tx) | (f.by & ty) | (f.bz & tz);
+        let t_enter = f.enter;
+        f.bx |= at & tx;
+        f.by |= at & ty;
+        f.bz |= at & tz;
+        f.chain &= !(at & leaves_node);
+        f.enter = Vec4::select(at, Vec4::select(m.cmpgt(ls.tmin), m, ls.tmin), f.enter);
+        let at_bits = at.bitmask();
+        let mut over = false;
+        for (l, o) in out.iter_mut().enumerate() {
+            o.steps += at_bits >> l & 1;
+            over |= o.steps > max_steps;
+        }
+        if over {
+            for (l, o) in out.iter_mut().enumerate() {
+                if o.steps > max_steps && !o.capped {
+                    o.capped = true;
+                    alive &= !bits(1 << l);
+                }
+            }
+        }
+        let real = c ^ mask;
+        let node = f.node;
+        let child_mask = node.child_mask();
+        if child_mask >> real & 1 == 0 {
+            continue;
+        }
+        let stepping = at & alive;
+        // Front to back: a lane past its tmax is done.
+        let past = stepping & t_enter.cmpgt(ls.tmax);
+        alive &= !past;
+        let t_exit = Vec4::select(m.cmplt(ls.tmax), m, ls.tmax);
+        let enters = stepping & !past & !t_exit.cmplt(t_enter);
+        if !enters.any() {
+            continue;
+        }
+        let rank = (child_mask & ((1u16 << real) - 1) as u8).count_ones();
+        let origin = f.corner + super::traverse::child_bits(c) * half;
+        if let Some(base) = node.leaf_base() {
+            let enters = enters.bitmask();
+            for l in 0..LANES {
+                let Some(ray) = ls.rays[l].as_ref().filter(|_| enters >> l & 1 != 0) else {
+                    continue;
+                };
+                let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
+                let entry = LeafEntry {
+                    leaf: base + rank,
+                    cell: ray.unmirror_cell(origin),
+                    t_enter: lane(t_enter, l),
+                    t_exit: lane(t_exit, l),
+                    entry_normal: ray.entry_normal_of(ray.t_planes(origin), tmin[l]),
+                    exit_normal: ray.exit_normal_of(c1),
+                };
+                if let Some(h) = on_leaf(l, &entry) {
+                    out[l].hit = Some(h);
+                    alive &= !bits(1 << l);
+                }
+            }
+            continue;
+        }
+        // A malformed tree deeper than its depth cannot overflow the stack.
+        if len == STACK || half < 2 {
+            continue;
+        }
+        let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
+            continue;
+        };
+        half /= 2;
+        t1 = c1;
+        tm = ls.planes(&any, origin + UVec3::splat(half));
+        let g = &mut stack[len];
+        g.node = child;
+        g.corner = origin;
+        g.chain = enters;
+        g.enter = t_enter;
+        first_bits(g, &tm, t_enter);
+        len += 1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::octree::{RootCube, Voxel};
+    use crate::trace::traverse::{MAX_STEPS, traverse};
+    use glam::{DVec3, Vec3};
+
+    /// What a lane saw: its entries in order, and its outcome.
+    type Seen = (Vec<LeafEntry>, Option<u32>, u32, bool);
+
+    fn alone(
+        tree: &Octree,
+        ray: &GridRay,
+        tmin: f32,
+        tmax: f32,
+        max_steps: u32,
+        stop: &dyn Fn(&LeafEntry) -> bool,
+    ) -> Seen {
+        let mut seen = Vec::new();
+        let t = traverse(tree, ray, tmin, tmax, max_steps, |e| {
+            seen.push(*e);
+            stop(e).then_some(e.leaf)
+        });
+        (seen, t.hit, t.steps, t.capped)
+    }
+
+    fn packed(
+        tree: &Octree,
+        rays: &[GridRay; LANES],
+        tmin: [f32; LANES],
+        tmax: [f32; LANES],
+        active: u8,
+        max_steps: u32,
+        stop: &dyn Fn(&LeafEntry) -> bool,
+    ) -> [Seen; LANES] {
+        let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
+        let t = traverse_packet(tree, rays, tmin, tmax, active, max_steps, |l, e| {
+            seen[l].push(*e);
+            stop(e).then_some(e.leaf)
+        });
+        std::array::from_fn(|l| {
+            (
+                std::mem::take(&mut seen[l]),
+                t[l].hit,
+                t[l].steps,
+                t[l].capped,
+            )
+        })
+    }
+
+    fn random_tree(depth: u8, density: f64, unit: &mut impl FnMut() -> f64) -> Option<Octree> {
+        let side = 1u32 << depth;
+        let mut cells = Vec::new();
+        for x in 0..side {
+            for y in 0..side {
+                for z in 0..side {
+                    if unit() < density {
+                        cells.push((UVec3::new(x, y, z), Voxel::default()));
+                    }
+                }
+            }
+        }
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: f64::from(side),
+        };
+        (!cells.is_empty()).then(|| Octree::from_cells(root, depth, cells).unwrap())
+    }
+
+    /// Every lane of seeded random packets sees what the single walk sees: the same entries
+    /// in the same order (parameters, cells, normals bit for bit), the same hit, steps and
+    /// cap. Packets of rays from one point (primary rays), from nearby points toward one
+    /// point (shadow rays), axis-parallel rays with signed zeros on cell faces, rays between
+    /// lattice points (through edges and corners), rays from inside with later `tmin` and
+    /// nearer `tmax`, lanes switched off, lanes in other octants (walked one at a time),
+    /// step caps that stop lanes midway, and callbacks that stop at chosen leaves.
+    #[test]
+    fn every_lane_sees_what_the_single_walk_sees() {
+        let mut next = crate::test_rng::xorshift(0xBA_C4E7);
+        let mut unit = crate::test_rng::unit_f64(0x51_DE);
+        let mut compared = 0usize;
+        let mut hits = 0usize;
+        for depth in 1..=6u8 {
+            for density in [0.02, 0.2, 0.7] {
+                let Some(tree) = random_tree(depth, density, &mut unit) else {
+                    continue;
+                };
+                let n = (1u32 << depth) as f32;
+                for _ in 0..150 {
+                    let mut f = || unit() as f32;
+                    let point = |f: &mut dyn FnMut() -> f32| Vec3::new(f() * n, f() * n, f() * n);
+                    let lattice = |k: u64| (k % ((1u64 << depth) + 5)) as f32 - 2.0;
+                    let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
+                    let kind = next() % 5;
+                    let eye =
+                        Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero() * n * 1.7
+                            + Vec3::splat(n * 0.5);
+                    let target = point(&mut f);
+                    let mut rays = [GridRay {
+                        origin: Vec3::ZERO,
+                        dir: Vec3::X,
+                    }; LANES];
+                    let mut tmin = [0.0f32; LANES];
+                    let mut tmax = [f32::INFINITY; LANES];
+                    for l in 0..LANES {
+                        rays[l] = match kind {
+                            // Primary rays: one eye, nearby directions.
+                            0 => GridRay {
+                                origin: eye,
+                                dir: target - eye
+                                    + Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5) * n * 0.1,
+                            },
+                            // Shadow rays: nearby origins inside, toward one point.
+                            1 => {
+                                let o = target + Vec3::new(f(), f(), f()) * 2.0;
+                                GridRay {
+                                    origin: o,
+                                    dir: eye - o,
+                                }
+                            }
+                            // Axis-parallel with signed zeros.
+                            2 => {
+                                let mut d = Vec3::new(
+                                    signed_zero(next()),
+                                    signed_zero(next()),
+                                    signed_zero(next()),
+                                );
+                                d.x = if kind & 1 == 0 { 1.0 } else { -1.0 };
+                                let o = Vec3::new(-1.0, lattice(next()), lattice(next()));
+                                GridRay { origin: o, dir: d }
+                            }
+                            // Lattice points to lattice points: edges and corners.
+                            3 => {
+                                let o =
+                                    Vec3::new(lattice(next()), lattice(next()), lattice(next()));
+                                let mut d = Vec3::new(
+                                    1.0 + (next() % 3) as f32,
+                                    1.0 + (next() % 3) as f32,
+                                    (next() % 3) as f32,
+                                );
+                                if d.z == 0.0 {
+                                    d.z = signed_zero(next());
+                                }
+                                GridRay { origin: o, dir: d }
+                            }
+                            // Anything: random origins and directions (often mixed octants).
+                            _ => GridRay {
+                                origin: point(&mut f),
+                                dir: Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5),
+                            },
+                        };
+                        if next().is_multiple_of(4) {
+                            tmin[l] = f() * 0.5;
+                        }
+                        if next().is_multiple_of(4) {
+                            tmax[l] = tmin[l] + f() * 2.0;
+                        }
+                    }
+                    let active = if next().is_multiple_of(5) {
+                        (next() % 16) as u8
+                    } else {
+                        0b1111
+                    };
+                    let max_steps = if next().is_multiple_of(6) {
+                        (next() % 12) as u32
+                    } else {
+                        MAX_STEPS
+                    };
+                    let k = next() % 4;
+                    let stop = move |e: &LeafEntry| k != 0 && u64::from(e.leaf) % 4 == k;
+                    let got = packed(&tree, &rays, tmin, tmax, active, max_steps, &stop);
+                    for l in 0..LANES {
+                        let want = if active >> l & 1 != 0 {
+                            alone(&tree, &rays[l], tmin[l], tmax[l], max_steps, &stop)
+                        } else {
+                            (Vec::new(), None, 0, false)
+                        };
+                        assert_eq!(
+                            got[l], want,
+                            "depth {depth}, lane {l} of {rays:?} in [{tmin:?}, {tmax:?}], \
+                             {max_steps} steps"
+                        );
+                        compared += 1;
+                        hits += usize::from(want.1.is_some());
+                    }
+                }
+            }
+        }
+        assert!(
+            compared > 8_000 && hits > 500,
+            "{compared} lanes, {hits} hits"
+        );
+    }
+
+    /// Deep trees (depth 30, cells at far corners) and rays from far outside with tiny
+    /// direction components: every lane equals the single walk.
+    #[test]
+    fn deep_trees_and_extreme_rays_equal_the_single_walk() {
+        let far = (1u32 << 30) - 1;
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: f64::from(1u32 << 30),
+        };
+        let cells = [
+            UVec3::ZERO,
+            UVec3::new(far, 0, 0),
+            UVec3::new(far, far, far),
+            UVec3::new(1, 0, 0),
+            UVec3::new(far / 2, far / 2 + 1, far / 2),
+        ];
+        let tree =
+            Octree::from_cells(root, 30, cells.iter().map(|&c| (c, Voxel::default()))).unwrap();
+        let big = (1u64 << 30) as f32;
+        let rays = [
+            GridRay {
+                origin: Vec3::new(-1.0, 0.5, 0.5),
+                dir: Vec3::new(1.0, 1e-30, -0.0),
+            },
+            GridRay {
+                origin: Vec3::new(-1e6, 0.25, 0.75),
+                dir: Vec3::new(1.0, 1e-12, 1e-12),
+            },
+            GridRay {
+                origin: Vec3::new(-big, -big, -big),
+                dir: Vec3::new(1.0, 1.0, 1.0),
+            },
+            GridRay {
+                origin: Vec3::new(-2.0, big * 0.5, big * 0.5),
+                dir: Vec3::new(1.0, 0.0, 0.0),
+            },
+        ];
+        let stop = |_: &LeafEntry| false;
+        let got = packed(
+            &tree,
+            &rays,
+            [0.0; LANES],
+            [f32::INFINITY; LANES],
+            0b1111,
+            MAX_STEPS,
+            &stop,
+        );
+        for l in 0..LANES {
+            let want = alone(&tree, &rays[l], 0.0, f32::INFINITY, MAX_STEPS, &stop);
+            assert_eq!(got[l], want, "lane {l}");
+        }
+        assert!(
+            !got[0].0.is_empty(),
+            "the first lane sees the cells along x: {:?}",
+            got
+        );
+    }
+}
