@@ -127,6 +127,11 @@ struct Args {
     /// The image is the same.
     #[arg(long)]
     no_prepass: bool,
+    /// With --cpu: walk every ray alone, instead of the rays of four neighbouring pixels
+    /// together where that applies (primary rays without the prepass; shadow rays where no
+    /// ray bounces). The image is the same.
+    #[arg(long)]
+    no_packets: bool,
     /// With --headless: run the primary tiles pass first, which starts each 8x8 block's
     /// rays at the nearest leaf cell in its cone (for measuring: slower on an H200 for every
     /// scene measured; the image is the same).
@@ -222,6 +227,7 @@ fn real_main() -> anyhow::Result<()> {
             fresnel: args.fresnel,
             bias_cells: args.bias,
             prepass: !args.no_prepass,
+            packets: !args.no_packets,
             ..TraceOptions::default()
         },
         lights: args.light.clone(),

@@ -910,3 +910,125 @@ fn a_light_inside_closed_geometry_lights_only_the_inside() {
         assert!(c.x > 0.01 && c.is_finite(), "wall towards {to} is {c}");
     }
 }
+
+/// Where no ray bounces, a render walks the shadow rays of four neighbouring pixels together
+/// (and a cast without the prepass its primary rays): the same image, AOVs and counters bit
+/// for bit as walking every ray alone. Glass panes over a floor in every shadow mode (shadow
+/// rays that pass through surfaces and multiply, or stop), and the torus at depth 7 with cube
+/// and contour hits, two lights (one inside the tube's ring), with and without the prepass,
+/// at sizes whose rows do not split into fours.
+#[test]
+fn packets_change_nothing() {
+    let pane = Voxel {
+        colour: [1.0, 1.0, 1.0, 1.0],
+        reflectivity: 0.0,
+        refractivity: 0.5,
+        ior: 1.0,
+        normal: None,
+    };
+    let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
+    for x in 0..16 {
+        for z in 0..16 {
+            cells.push((UVec3::new(x, 0, z), grey(0.5)));
+            if x < 8 && z % 5 != 0 {
+                cells.push((UVec3::new(x, 5, z), pane));
+                cells.push((UVec3::new(x, 10 + z % 3, z), pane));
+            }
+        }
+    }
+    let panes = grid16(cells);
+    let torus = torus_tree(7);
+    let (lo, hi) = torus.occupied_bounds();
+    let c = (lo + hi) * 0.5;
+    type Case<'a> = (&'a Octree, Vec<PointLight>, Camera, HitMode);
+    let cases: Vec<Case> = vec![
+        (
+            &panes,
+            vec![PointLight {
+                position: DVec3::new(4.5, 15.5, 8.5),
+                colour: Vec3::ONE,
+                intensity: 200.0,
+            }],
+            Camera {
+                eye: DVec3::new(15.5, 3.0, 8.5),
+                target: DVec3::new(4.5, 1.0, 8.5),
+                up: DVec3::Y,
+                fov_deg: 70.0,
+                width: 61,
+                height: 47,
+            },
+            HitMode::Cube,
+        ),
+        (
+            &torus,
+            vec![
+                PointLight {
+                    position: c + (hi - lo) * DVec3::new(0.3, 1.5, 0.8),
+                    colour: Vec3::ONE,
+                    intensity: 2.0,
+                },
+                PointLight {
+                    position: c,
+                    colour: Vec3::new(1.0, 0.5, 0.2),
+                    intensity: 0.5,
+                },
+            ],
+            Camera::framing(lo, hi, 83, 29, 40.0),
+            HitMode::Contour,
+        ),
+    ];
+    let mut shadow_rays = 0;
+    for (tree, lights, cam, first_mode) in cases {
+        for mode in [first_mode, HitMode::Cube] {
+            for shadows in [
+                ShadowMode::None,
+                ShadowMode::Opaque,
+                ShadowMode::MaxRefractivity,
+                ShadowMode::Transmittance,
+            ] {
+                for prepass in [true, false] {
+                    let frame = |packets: bool| {
+                        let t = Tracer::new(
+                            OctreeSurfaces::new(tree, mode),
+                            &lights,
+                            Sky::default(),
+                            Phong::default(),
+                            TraceOptions {
+                                mode,
+                                shadows,
+                                prepass,
+                                packets,
+                                max_reflections: 0,
+                                max_refractions: 0,
+                                ..TraceOptions::default()
+                            },
+                        );
+                        let mut hits = svo::render::Hits::default();
+                        svo::render::cast_primary(&t, &cam, &mut hits).unwrap();
+                        (render(&t, &cam).unwrap(), hits)
+                    };
+                    let ((a, ca), (b, cb)) = (frame(true), frame(false));
+                    let what = format!("{mode:?} {shadows:?} prepass {prepass}");
+                    let bits = |c: Vec3| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+                    let differs = (0..a.colour.len()).find(|&i| {
+                        bits(a.colour[i]) != bits(b.colour[i])
+                            || bits(a.normal[i]) != bits(b.normal[i])
+                            || a.depth[i].to_bits() != b.depth[i].to_bits()
+                            || a.leaf[i] != b.leaf[i]
+                            || a.cost[i] != b.cost[i]
+                    });
+                    if let Some(i) = differs {
+                        panic!(
+                            "{what}: pixel {i} differs: colour {} / {}, leaf {} / {}",
+                            a.colour[i], b.colour[i], a.leaf[i], b.leaf[i]
+                        );
+                    }
+                    assert_eq!(a.stats, b.stats, "{what}");
+                    assert_eq!((&ca.leaf, ca.steps), (&cb.leaf, cb.steps), "{what}");
+                    shadow_rays += a.stats.shadow_rays;
+                }
+            }
+        }
+    }
+    assert!(shadow_rays > 10_000, "{shadow_rays} shadow rays compared");
+}

@@ -10,7 +10,8 @@
 use crate::render::camera::{Camera, CameraError};
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::Surfaces;
-use crate::render::whitted::{PrimaryStart, SampleStats, Tracer};
+use crate::render::whitted::{PrimaryStart, Sample, SampleStats, Tracer};
+use crate::trace::packet::LANES;
 use glam::Vec3;
 use std::time::{Duration, Instant};
 
@@ -176,15 +177,15 @@ pub fn render_into<S: Surfaces>(
             .as_ref()
             .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
         let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
-        for (i, (x, y)) in pixels.enumerate() {
-            let start = decided
+        let start_of = |i: usize| {
+            decided
                 .as_ref()
-                .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-            // The grid direction of a unit scene direction is the same unit vector (the
-            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-            let dir = rays.dir_f32(x, y);
-            if let PrimaryStart::Miss { tests } = start {
-                // The prepass proved the ray hits nothing: the sky, without casting it.
+                .map_or(PrimaryStart::From(0.0), |b| b.start(i))
+        };
+        // What a pixel gets: the sky where the prepass proved the ray hits nothing (without
+        // casting it), else the sample traced.
+        let mut put = |i: usize, dir: Vec3, got: Result<&Sample, u32>| match got {
+            Err(tests) => {
                 colour[i] = tracer.miss_colour(dir);
                 depth[i] = f32::INFINITY;
                 normal[i] = Vec3::ZERO;
@@ -194,15 +195,55 @@ pub fn render_into<S: Surfaces>(
                 stats.primary_steps += u64::from(tests);
                 stats.steps += u64::from(tests);
                 stats.max_primary_steps = stats.max_primary_steps.max(tests);
-                continue;
             }
-            let s = tracer.trace_primary(eye, dir, start);
-            colour[i] = s.colour;
-            depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
-            normal[i] = s.normal;
-            leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
-            cost[i] = s.primary_steps;
-            stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+            Ok(s) => {
+                colour[i] = s.colour;
+                depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+                normal[i] = s.normal;
+                leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+                cost[i] = s.primary_steps;
+                stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+            }
+        };
+        if tracer.packs_shadows() {
+            // No ray bounces: four neighbouring pixels at a time, their shadow rays walked
+            // together.
+            let mut group = [(0usize, Vec3::ZERO, PrimaryStart::From(0.0)); LANES];
+            let mut n = 0;
+            let trace = |group: &[(usize, Vec3, PrimaryStart); LANES], n: usize| {
+                tracer.trace_primary4(eye, &group.map(|g| g.1), &group.map(|g| g.2), n)
+            };
+            for (i, (x, y)) in pixels.enumerate() {
+                let (start, dir) = (start_of(i), rays.dir_f32(x, y));
+                if let PrimaryStart::Miss { tests } = start {
+                    put(i, dir, Err(tests));
+                    continue;
+                }
+                group[n] = (i, dir, start);
+                n += 1;
+                if n == LANES {
+                    for (s, g) in trace(&group, n).iter().zip(&group).take(n) {
+                        put(g.0, g.1, Ok(s));
+                    }
+                    n = 0;
+                }
+            }
+            if n > 0 {
+                for (s, g) in trace(&group, n).iter().zip(&group).take(n) {
+                    put(g.0, g.1, Ok(s));
+                }
+            }
+            return stats;
+        }
+        for (i, (x, y)) in pixels.enumerate() {
+            let start = start_of(i);
+            // The grid direction of a unit scene direction is the same unit vector (the
+            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
+            let dir = rays.dir_f32(x, y);
+            match start {
+                PrimaryStart::Miss { tests } => put(i, dir, Err(tests)),
+                _ => put(i, dir, Ok(&tracer.trace_primary(eye, dir, start))),
+            }
         }
         stats
     };

@@ -82,6 +82,17 @@ pub fn cast_primary<S: Surfaces>(
                 }
             };
             let Some(decided) = decided else {
+                if !tracer.options().packets {
+                    for i in 0..px {
+                        let q = Query::all(max_steps);
+                        let r =
+                            tracer
+                                .surfaces()
+                                .first_hit(&ray_of(i), &q, &PrimaryStart::From(0.0));
+                        record(i, r);
+                    }
+                    return counts;
+                }
                 // Every ray from the eye: neighbouring pixels in packets.
                 let q = Query::all(max_steps);
                 for i in (0..px).step_by(LANES) {

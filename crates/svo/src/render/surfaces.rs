@@ -215,6 +215,31 @@ pub trait Surfaces: Sync {
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked;
+
+    /// [`Self::walk`] for the lanes of `rays` in `active` (bit `l` for lane `l`), with
+    /// `visit(l, hit)` per lane: the same outcome per lane as `walk` alone. Surfaces that walk
+    /// rays in packets (the octree) walk them together; lanes outside `active` are not walked.
+    #[doc(hidden)]
+    fn walks(
+        &self,
+        rays: &[GridRay; LANES],
+        tmax: [f32; LANES],
+        skip: [Option<u32>; LANES],
+        active: u8,
+        max_steps: u32,
+        visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
+    ) -> [Walked; LANES] {
+        std::array::from_fn(|l| {
+            if active >> l & 1 == 0 {
+                return Walked {
+                    blocked: false,
+                    steps: 0,
+                    capped: false,
+                };
+            }
+            self.walk(&rays[l], tmax[l], skip[l], max_steps, &mut |h| visit(l, h))
+        })
+    }
 }
 
 /// How an octree's leaves are intersected: the leaf hit modes of [`crate::trace::leaf_hit`], or
@@ -485,5 +510,36 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             steps: r.steps,
             capped: r.capped,
         }
+    }
+
+    fn walks(
+        &self,
+        rays: &[GridRay; LANES],
+        tmax: [f32; LANES],
+        skip: [Option<u32>; LANES],
+        active: u8,
+        max_steps: u32,
+        visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
+    ) -> [Walked; LANES] {
+        let r = traverse_packet(
+            self.tree,
+            rays,
+            [0.0; LANES],
+            tmax,
+            active,
+            max_steps,
+            |l, e| {
+                if Some(e.leaf) == skip[l] {
+                    return None;
+                }
+                let h = self.surface_hit(&rays[l], e)?;
+                visit(l, &h).then_some(())
+            },
+        );
+        r.map(|w| Walked {
+            blocked: w.hit.is_some(),
+            steps: w.steps,
+            capped: w.capped,
+        })
     }
 }

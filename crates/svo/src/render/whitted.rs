@@ -41,9 +41,10 @@ use crate::geometry::grid::RootCube;
 use crate::octree::encoding::{ior_decode, ior_encode};
 use crate::render::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::render::sky::Sky;
-use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces};
+use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces, Walked};
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
+use crate::trace::packet::LANES;
 use crate::trace::traverse::MAX_STEPS;
 use glam::Vec3;
 
@@ -146,6 +147,11 @@ pub struct TraceOptions {
     /// front to back (the primary prepass) instead of walking it once per pixel. The
     /// image is the same either way; only the work (and the steps counted) differ.
     pub prepass: bool,
+    /// Walk rays of neighbouring pixels four at a time ([`crate::trace::traverse_packet`])
+    /// where that applies: primary rays cast without the prepass, and the shadow rays of a
+    /// render in which no ray bounces. The image, the hits and the steps are the same either
+    /// way.
+    pub packets: bool,
 }
 
 impl Default for TraceOptions {
@@ -160,6 +166,7 @@ impl Default for TraceOptions {
             bias_cells: 0.75,
             max_steps: MAX_STEPS,
             prepass: true,
+            packets: true,
         }
     }
 }
@@ -274,6 +281,111 @@ const EMPTY: Task = Task {
     medium: 0,
     iors: 0,
 };
+
+/// The normal that faces a ray in direction `dir` at a surface with shading normal `n_s`:
+/// `n_s` where the ray enters, its opposite where it leaves a refractive surface.
+#[inline]
+fn facing(n_s: Vec3, dir: Vec3, refractivity: f32) -> Vec3 {
+    if n_s.dot(dir) < 0.0 {
+        n_s
+    } else if refractivity > 0.0 {
+        -n_s
+    } else {
+        // An opaque surface seen from behind its shading normal (a voxel normal at a
+        // silhouette): turn the normal until it just faces the viewer, rather than shading
+        // the far side.
+        (n_s - dir * (n_s.dot(dir) + 1e-3)).normalize_or(-dir)
+    }
+}
+
+/// The direction and grid distance from hit point `p` to light `lp`, unless the light is
+/// behind the facing normal `n_f` (or at the point).
+#[inline]
+fn toward(p: Vec3, n_f: Vec3, lp: Vec3) -> Option<(Vec3, f32)> {
+    let to = lp - p;
+    let dist_grid = to.length();
+    if !(dist_grid > 0.0) {
+        return None;
+    }
+    let l = to / dist_grid;
+    if n_f.dot(l) <= 0.0 {
+        return None;
+    }
+    Some((l, dist_grid))
+}
+
+/// What the local light at a primary hit needs ([`Tracer::trace_primary4`]).
+#[derive(Clone, Copy, Debug)]
+struct Lit {
+    albedo: Vec3,
+    /// The hit point.
+    p: Vec3,
+    /// The normal facing the ray.
+    n_f: Vec3,
+    /// Toward the eye.
+    v: Vec3,
+    /// The local light's weight (`1 - reflectivity - refractivity`).
+    local_w: f32,
+    /// Where its shadow rays start, and the leaf they skip.
+    from: Vec3,
+    id: u32,
+}
+
+/// A shadow ray's walk through the surfaces it meets, front to back, under a shadow mode.
+#[derive(Clone, Copy, Debug)]
+struct ShadowWalk {
+    mode: ShadowMode,
+    half_cell: f32,
+    any: bool,
+    max_kt: f32,
+    trans: f32,
+    last_exit: f32,
+}
+
+impl ShadowWalk {
+    fn new(mode: ShadowMode, half_cell: f32) -> Self {
+        Self {
+            mode,
+            half_cell,
+            any: false,
+            max_kt: 0.0,
+            trans: 1.0,
+            last_exit: f32::NEG_INFINITY,
+        }
+    }
+
+    /// Takes the next surface; `true` when it blocks the light.
+    #[inline]
+    fn visit(&mut self, h: &SurfaceHit) -> bool {
+        if self.mode == ShadowMode::Opaque {
+            return true;
+        }
+        let kt = h.material.refractivity;
+        if kt <= 0.0 {
+            self.trans = 0.0;
+            return true;
+        }
+        self.any = true;
+        self.max_kt = self.max_kt.max(kt);
+        if h.t > self.last_exit + self.half_cell {
+            self.trans *= kt;
+        }
+        self.last_exit = h.t_exit;
+        false
+    }
+
+    /// The light's fraction that gets through, once the walk is over.
+    fn visibility(&self, blocked: bool) -> f32 {
+        if blocked {
+            return 0.0;
+        }
+        match self.mode {
+            ShadowMode::MaxRefractivity if self.any => self.max_kt,
+            ShadowMode::Transmittance => self.trans,
+            _ => 1.0,
+        }
+    }
+}
 
 const STACK: usize = 2 * MAX_BOUNCES as usize + 2;
 const SMALL_STACK: usize = 8;
@@ -442,16 +554,7 @@ impl<S: Surfaces> Tracer<S> {
                 first = false;
             }
             let entering = n_s.dot(task.dir) < 0.0;
-            let n_f = if entering {
-                n_s
-            } else if m.refractivity > 0.0 {
-                -n_s
-            } else {
-                // An opaque surface seen from behind its shading normal (a voxel normal at a
-                // silhouette): turn the normal until it just faces the viewer, rather than
-                // shading the far side.
-                (n_s - task.dir * (n_s.dot(task.dir) + 1e-3)).normalize_or(-task.dir)
-            };
+            let n_f = facing(n_s, task.dir, m.refractivity);
             let v = -task.dir;
 
             // Local light.
@@ -462,22 +565,12 @@ impl<S: Surfaces> Tracer<S> {
                 let mut local = m.albedo * self.phong.ambient;
                 let from = p + n_f * bias;
                 for (lp, light) in &self.lights {
-                    // Direction and falloff from the hit point; the shadow ray starts off
-                    // the surface and stops at the light.
-                    let to = *lp - p;
-                    let dist_grid = to.length();
-                    if !(dist_grid > 0.0) {
+                    let Some((l, dist_grid)) = toward(p, n_f, *lp) else {
                         continue;
-                    }
-                    let l = to / dist_grid;
-                    if n_f.dot(l) <= 0.0 {
-                        continue;
-                    }
+                    };
                     let vis = self.shadow(from, *lp, h.id, &mut sample.stats);
                     if vis > 0.0 {
-                        local += light.falloff(dist_grid / self.scale)
-                            * vis
-                            * self.phong.direct(m.albedo, n_f, l, v);
+                        local += self.light_term(light, dist_grid, vis, m.albedo, n_f, l, v);
                     }
                 }
                 sample.colour += task.weight * local_w * local;
@@ -555,13 +648,27 @@ impl<S: Surfaces> Tracer<S> {
         sample
     }
 
-    /// The fraction of the light at grid point `light` that reaches grid point `from` (the
-    /// shadow ray's vector is only made when shadows are on).
-    fn shadow(&self, from: Vec3, light: Vec3, skip: u32, stats: &mut SampleStats) -> f32 {
-        if self.opts.shadows == ShadowMode::None {
-            return 1.0;
-        }
-        stats.shadow_rays += 1;
+    /// The contribution of `light`, seen from a hit in direction `l` at grid distance
+    /// `dist_grid` through visibility `vis`, to the local light.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn light_term(
+        &self,
+        light: &PointLight,
+        dist_grid: f32,
+        vis: f32,
+        albedo: Vec3,
+        n_f: Vec3,
+        l: Vec3,
+        v: Vec3,
+    ) -> Vec3 {
+        light.falloff(dist_grid / self.scale) * vis * self.phong.direct(albedo, n_f, l, v)
+    }
+
+    /// The shadow ray from grid point `from` to grid point `light`, and where it stops
+    /// (just short of the light).
+    #[inline]
+    fn shadow_ray(&self, from: Vec3, light: Vec3) -> (GridRay, f32) {
         let to = light - from;
         let l = to.normalize_or_zero();
         let dist = to.length() / self.scale;
@@ -569,41 +676,167 @@ impl<S: Surfaces> Tracer<S> {
             origin: from,
             dir: l * self.scale,
         };
-        let tmax = dist * (1.0 - 1e-5);
-        let half_cell = 0.5 / self.scale;
-        let mode = self.opts.shadows;
-        let mut any = false;
-        let mut max_kt = 0.0f32;
-        let mut trans = 1.0f32;
-        let mut last_exit = f32::NEG_INFINITY;
+        (ray, dist * (1.0 - 1e-5))
+    }
+
+    /// The fraction of the light at grid point `light` that reaches grid point `from` (the
+    /// shadow ray's vector is only made when shadows are on).
+    fn shadow(&self, from: Vec3, light: Vec3, skip: u32, stats: &mut SampleStats) -> f32 {
+        if self.opts.shadows == ShadowMode::None {
+            return 1.0;
+        }
+        stats.shadow_rays += 1;
+        let (ray, tmax) = self.shadow_ray(from, light);
+        let mut w = ShadowWalk::new(self.opts.shadows, 0.5 / self.scale);
         let r = self
             .surfaces
             .walk(&ray, tmax, Some(skip), self.opts.max_steps, &mut |h| {
-                if mode == ShadowMode::Opaque {
-                    return true;
-                }
-                let kt = h.material.refractivity;
-                if kt <= 0.0 {
-                    trans = 0.0;
-                    return true;
-                }
-                any = true;
-                max_kt = max_kt.max(kt);
-                if h.t > last_exit + half_cell {
-                    trans *= kt;
-                }
-                last_exit = h.t_exit;
-                false
+                w.visit(h)
             });
         stats.steps += r.steps;
         stats.capped += u32::from(r.capped);
-        if r.blocked {
-            return 0.0;
+        w.visibility(r.blocked)
+    }
+
+    /// Whether [`Self::trace_primary4`] applies: no ray can bounce, so a pixel is its primary
+    /// ray and the shadow rays from its hit, and packets are on.
+    pub(crate) fn packs_shadows(&self) -> bool {
+        self.opts.packets
+            && (self.opts.max_path_bounces == 0
+                || (self.opts.max_reflections == 0 && self.opts.max_refractions == 0))
+    }
+
+    /// [`Self::trace_primary`] for the first `n` of four primary rays from grid point
+    /// `origin` where no ray bounces ([`Self::packs_shadows`]): the rays are traced one by
+    /// one, and the lanes' shadow rays toward each light walk as a packet. The same samples
+    /// bit for bit (colours, hits, normals and counters).
+    pub(crate) fn trace_primary4(
+        &self,
+        origin: Vec3,
+        dirs: &[Vec3; LANES],
+        starts: &[PrimaryStart; LANES],
+        n: usize,
+    ) -> [Sample; LANES] {
+        let mut out = [Sample {
+            colour: Vec3::ZERO,
+            hit: None,
+            normal: Vec3::ZERO,
+            primary_steps: 0,
+            stats: SampleStats::default(),
+        }; LANES];
+        let mut lit: [Option<Lit>; LANES] = [None; LANES];
+        let bias = self.opts.bias_cells;
+        for l in 0..n.min(LANES) {
+            // The first pass of `trace_with`'s loop, for the primary ray.
+            let (dir, start, sample) = (dirs[l], starts[l], &mut out[l]);
+            let ray = GridRay {
+                origin,
+                dir: dir * self.scale,
+            };
+            let q = Query {
+                tmin: match start {
+                    PrimaryStart::From(t) => t,
+                    _ => 0.0,
+                },
+                tmax: f32::INFINITY,
+                skip: None,
+                medium: None,
+                max_steps: self.opts.max_steps,
+            };
+            let r = self.surfaces.closest_primary(&ray, &q, &start);
+            sample.stats.rays += 1;
+            sample.stats.steps += r.steps;
+            sample.stats.capped += u32::from(r.capped);
+            sample.primary_steps = r.steps;
+            sample.hit = r.hit;
+            let Some(h) = r.hit else {
+                sample.colour += Vec3::ONE * self.sky.colour(dir);
+                continue;
+            };
+            let m = h.material;
+            let p = ray.at(h.t);
+            let n_s = if h.normal == Vec3::ZERO {
+                -dir
+            } else {
+                h.normal
+            };
+            sample.normal = n_s;
+            let n_f = facing(n_s, dir, m.refractivity);
+            let local_w = (1.0 - m.reflectivity - m.refractivity).max(0.0);
+            if local_w > 0.0 {
+                lit[l] = Some(Lit {
+                    albedo: m.albedo,
+                    p,
+                    n_f,
+                    v: -dir,
+                    local_w,
+                    from: p + n_f * bias,
+                    id: h.id,
+                });
+            }
         }
-        match mode {
-            ShadowMode::MaxRefractivity if any => max_kt,
-            ShadowMode::Transmittance => trans,
-            _ => 1.0,
+        let mut local: [Vec3; LANES] =
+            std::array::from_fn(|l| lit[l].map_or(Vec3::ZERO, |x| x.albedo * self.phong.ambient));
+        let mode = self.opts.shadows;
+        for (lp, light) in &self.lights {
+            let mut seen: [Option<(Vec3, f32)>; LANES] = [None; LANES];
+            let mut rays = [GridRay {
+                origin: Vec3::ZERO,
+                dir: Vec3::X,
+            }; LANES];
+            let mut tmax = [0.0f32; LANES];
+            let mut skip = [None; LANES];
+            let mut active = 0u8;
+            for l in 0..LANES {
+                let Some(x) = lit[l] else {
+                    continue;
+                };
+                seen[l] = toward(x.p, x.n_f, *lp);
+                if seen[l].is_some() && mode != ShadowMode::None {
+                    out[l].stats.shadow_rays += 1;
+                    (rays[l], tmax[l]) = self.shadow_ray(x.from, *lp);
+                    skip[l] = Some(x.id);
+                    active |= 1 << l;
+                }
+            }
+            let mut walks = [ShadowWalk::new(mode, 0.5 / self.scale); LANES];
+            let walked = if active == 0 {
+                [Walked {
+                    blocked: false,
+                    steps: 0,
+                    capped: false,
+                }; LANES]
+            } else {
+                self.surfaces.walks(
+                    &rays,
+                    tmax,
+                    skip,
+                    active,
+                    self.opts.max_steps,
+                    &mut |l, h| walks[l].visit(h),
+                )
+            };
+            for l in 0..LANES {
+                let (Some(x), Some((dir_l, dist_grid))) = (lit[l], seen[l]) else {
+                    continue;
+                };
+                let vis = if mode == ShadowMode::None {
+                    1.0
+                } else {
+                    out[l].stats.steps += walked[l].steps;
+                    out[l].stats.capped += u32::from(walked[l].capped);
+                    walks[l].visibility(walked[l].blocked)
+                };
+                if vis > 0.0 {
+                    local[l] += self.light_term(light, dist_grid, vis, x.albedo, x.n_f, dir_l, x.v);
+                }
+            }
         }
+        for l in 0..LANES {
+            if let Some(x) = lit[l] {
+                out[l].colour += Vec3::ONE * x.local_w * local[l];
+            }
+        }
+        out
     }
 }
