@@ -911,12 +911,14 @@ fn a_light_inside_closed_geometry_lights_only_the_inside() {
     }
 }
 
-/// Where no ray bounces, a render walks the shadow rays of four neighbouring pixels together
-/// (and a cast without the prepass its primary rays): the same image, AOVs and counters bit
-/// for bit as walking every ray alone. Glass panes over a floor in every shadow mode (shadow
-/// rays that pass through surfaces and multiply, or stop), and the torus at depth 7 with cube
-/// and contour hits, two lights (one inside the tube's ring), with and without the prepass,
-/// at sizes whose rows do not split into fours.
+/// A render traces four neighbouring pixels in lockstep and walks their rays after the
+/// primary ones, and their shadow rays, as packets (and a cast without the prepass its
+/// primary rays): the same image, AOVs and counters bit for bit as walking every ray alone.
+/// Glass panes and mirrors over a floor in every shadow mode (shadow rays that pass through
+/// surfaces and multiply, or stop), a glass block without normals (a medium), and the torus
+/// at depth 7 with cube and contour hits, two lights (one inside the tube's ring); without
+/// bounces, with one, and with svo-view's default limits; with and without the prepass, at
+/// sizes whose rows do not split into fours.
 #[test]
 fn packets_change_nothing() {
     let pane = Voxel {
@@ -929,7 +931,14 @@ fn packets_change_nothing() {
     let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
     for x in 0..16 {
         for z in 0..16 {
-            cells.push((UVec3::new(x, 0, z), grey(0.5)));
+            cells.push((
+                UVec3::new(x, 0, z),
+                if (x + z) % 7 == 0 {
+                    mirror(0.6)
+                } else {
+                    grey(0.5)
+                },
+            ));
             if x < 8 && z % 5 != 0 {
                 cells.push((UVec3::new(x, 5, z), pane));
                 cells.push((UVec3::new(x, 10 + z % 3, z), pane));
@@ -937,6 +946,16 @@ fn packets_change_nothing() {
         }
     }
     let panes = grid16(cells);
+    let glass = Voxel {
+        colour: [0.9, 0.95, 1.0, 1.0],
+        reflectivity: 0.1,
+        refractivity: 0.8,
+        ior: 1.5,
+        normal: None,
+    };
+    let block = grid16((0..16).flat_map(|x| {
+        (0..16).flat_map(move |z| (4..8).map(move |y| (UVec3::new(x, y, z), glass)))
+    }));
     let torus = torus_tree(7);
     let (lo, hi) = torus.occupied_bounds();
     let c = (lo + hi) * 0.5;
@@ -960,6 +979,23 @@ fn packets_change_nothing() {
             HitMode::Cube,
         ),
         (
+            &block,
+            vec![PointLight {
+                position: DVec3::new(8.5, 14.5, 8.5),
+                colour: Vec3::ONE,
+                intensity: 100.0,
+            }],
+            Camera {
+                eye: DVec3::new(2.5, 1.0, 3.5),
+                target: DVec3::new(9.5, 6.0, 10.5),
+                up: DVec3::Y,
+                fov_deg: 80.0,
+                width: 45,
+                height: 31,
+            },
+            HitMode::Cube,
+        ),
+        (
             &torus,
             vec![
                 PointLight {
@@ -977,7 +1013,7 @@ fn packets_change_nothing() {
             HitMode::Contour,
         ),
     ];
-    let mut shadow_rays = 0;
+    let (mut shadow_rays, mut secondary) = (0, 0);
     for (tree, lights, cam, first_mode) in cases {
         for mode in [first_mode, HitMode::Cube] {
             for shadows in [
@@ -986,7 +1022,7 @@ fn packets_change_nothing() {
                 ShadowMode::MaxRefractivity,
                 ShadowMode::Transmittance,
             ] {
-                for prepass in [true, false] {
+                for (prepass, bounces) in [(true, 0), (false, 0), (true, 1), (false, 3)] {
                     let frame = |packets: bool| {
                         let t = Tracer::new(
                             OctreeSurfaces::new(tree, mode),
@@ -998,8 +1034,9 @@ fn packets_change_nothing() {
                                 shadows,
                                 prepass,
                                 packets,
-                                max_reflections: 0,
-                                max_refractions: 0,
+                                max_reflections: bounces,
+                                max_refractions: bounces,
+                                max_path_bounces: if bounces == 1 { 1 } else { u8::MAX },
                                 ..TraceOptions::default()
                             },
                         );
@@ -1008,7 +1045,7 @@ fn packets_change_nothing() {
                         (render(&t, &cam).unwrap(), hits)
                     };
                     let ((a, ca), (b, cb)) = (frame(true), frame(false));
-                    let what = format!("{mode:?} {shadows:?} prepass {prepass}");
+                    let what = format!("{mode:?} {shadows:?} prepass {prepass} bounces {bounces}");
                     let bits = |c: Vec3| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
                     let differs = (0..a.colour.len()).find(|&i| {
                         bits(a.colour[i]) != bits(b.colour[i])
@@ -1026,9 +1063,13 @@ fn packets_change_nothing() {
                     assert_eq!(a.stats, b.stats, "{what}");
                     assert_eq!((&ca.leaf, ca.steps), (&cb.leaf, cb.steps), "{what}");
                     shadow_rays += a.stats.shadow_rays;
+                    secondary += a.stats.secondary_rays;
                 }
             }
         }
     }
-    assert!(shadow_rays > 10_000, "{shadow_rays} shadow rays compared");
+    assert!(
+        shadow_rays > 10_000 && secondary > 10_000,
+        "{shadow_rays} shadow and {secondary} secondary rays compared"
+    );
 }

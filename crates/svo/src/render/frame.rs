@@ -205,8 +205,8 @@ pub fn render_into<S: Surfaces>(
                 stats.add(&s.stats, s.primary_steps, s.hit.is_some());
             }
         };
-        if tracer.packs_shadows() {
-            // No ray bounces: four neighbouring pixels at a time, their shadow rays walked
+        if tracer.packs() {
+            // Four neighbouring pixels at a time, their rays after the primary ones walked
             // together.
             let mut group = [(0usize, Vec3::ZERO, PrimaryStart::From(0.0)); LANES];
             let mut n = 0;

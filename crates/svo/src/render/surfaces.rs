@@ -165,6 +165,33 @@ pub trait Surfaces: Sync {
     /// The closest hit (a boundary of the query's medium, when it has one).
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced;
 
+    /// [`Self::closest`] for the lanes of `rays` in `active` (bit `l` for lane `l`), lane
+    /// `l` under query `q[l]`: the same outcome per lane. Surfaces that walk rays in packets
+    /// (the octree) walk them together; lanes outside `active` are missed without a step.
+    #[doc(hidden)]
+    fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
+        std::array::from_fn(|l| self.closest_lane(rays, q, active, l))
+    }
+
+    /// Lane `l` of [`Self::closest4`], alone.
+    #[doc(hidden)]
+    fn closest_lane(
+        &self,
+        rays: &[GridRay; LANES],
+        q: &[Query; LANES],
+        active: u8,
+        l: usize,
+    ) -> Traced {
+        if active >> l & 1 == 0 {
+            return Traced {
+                hit: None,
+                steps: 0,
+                capped: false,
+            };
+        }
+        self.closest(&rays[l], &q[l])
+    }
+
     /// Decides the primary rays of a band of image rows at once, where the surfaces know
     /// how (the octree: its primary prepass); others leave the band's starts as they
     /// are (every ray traced from the eye).
@@ -352,6 +379,63 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         })
     }
 
+    /// The closest-hit walk's callback for leaf entry `e` of `ray` under query `q`.
+    /// Inside a medium, the run of its cells along the ray ends at `run`: the exit parameter
+    /// and outward normal of the last cell, and its leaf.
+    #[inline]
+    fn closest_at(
+        &self,
+        ray: &GridRay,
+        q: &Query,
+        run: &mut Option<(f32, Vec3, u32)>,
+        e: &LeafEntry,
+    ) -> Option<SurfaceHit> {
+        if let Some(m) = q.medium {
+            if let Some(x) = *run
+                && e.t_enter > x.0
+            {
+                // A gap after the medium's cells: the ray left it there.
+                return Some(self.medium_exit(q, x));
+            }
+            if self.medium_of(e.leaf) == Some(m) {
+                *run = Some((e.t_exit, e.exit_normal, e.leaf));
+                return None;
+            }
+        }
+        if Some(e.leaf) == q.skip {
+            return None;
+        }
+        self.surface_hit(ray, e)
+    }
+
+    /// Where a ray inside `q`'s medium leaves it: the end of the run of its cells.
+    fn medium_exit(&self, q: &Query, (t, n, leaf): (f32, Vec3, u32)) -> SurfaceHit {
+        SurfaceHit {
+            t,
+            t_exit: t,
+            id: leaf,
+            normal: n,
+            material: self.material(leaf),
+            medium: q.medium,
+        }
+    }
+
+    /// The closest-hit walk's outcome: its hit, or where the medium's run ended.
+    fn closest_of(
+        &self,
+        q: &Query,
+        run: Option<(f32, Vec3, u32)>,
+        hit: Option<SurfaceHit>,
+        steps: u32,
+        capped: bool,
+    ) -> Traced {
+        let hit = match (hit, run) {
+            (None, Some(x)) if !capped => Some(self.medium_exit(q, x)),
+            (h, _) => h,
+        };
+        Traced { hit, steps, capped }
+    }
+
     /// The volumetric medium of leaf `i`: transparent and without a stored normal.
     #[inline]
     pub fn medium_of(&self, i: u32) -> Option<Medium> {
@@ -450,44 +534,29 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
-        // Inside a medium, the run of its cells along the ray ends at `run`: the exit
-        // parameter and outward normal of the last cell, and its leaf.
-        let mut run: Option<(f32, Vec3, u32)> = None;
-        let exit_hit = |(t, n, leaf): (f32, Vec3, u32)| SurfaceHit {
-            t,
-            t_exit: t,
-            id: leaf,
-            normal: n,
-            material: self.material(leaf),
-            medium: q.medium,
-        };
+        let mut run = None;
         let r = traverse(self.tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
-            if let Some(m) = q.medium {
-                if let Some(x) = run
-                    && e.t_enter > x.0
-                {
-                    // A gap after the medium's cells: the ray left it there.
-                    return Some(exit_hit(x));
-                }
-                if self.medium_of(e.leaf) == Some(m) {
-                    run = Some((e.t_exit, e.exit_normal, e.leaf));
-                    return None;
-                }
-            }
-            if Some(e.leaf) == q.skip {
-                return None;
-            }
-            self.surface_hit(ray, e)
+            self.closest_at(ray, q, &mut run, e)
         });
-        let hit = match (r.hit, run) {
-            (None, Some(x)) if !r.capped => Some(exit_hit(x)),
-            (h, _) => h,
-        };
-        Traced {
-            hit,
-            steps: r.steps,
-            capped: r.capped,
+        self.closest_of(q, run, r.hit, r.steps, r.capped)
+    }
+
+    fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
+        let max_steps = q.iter().map(|q| q.max_steps).max().unwrap_or(0);
+        if q.iter().any(|x| x.max_steps != max_steps) {
+            return std::array::from_fn(|l| self.closest_lane(rays, q, active, l));
         }
+        let mut run = [None; LANES];
+        let r = traverse_packet(
+            self.tree,
+            rays,
+            q.map(|q| q.tmin),
+            q.map(|q| q.tmax),
+            active,
+            max_steps,
+            |l, e| self.closest_at(&rays[l], &q[l], &mut run[l], e),
+        );
+        std::array::from_fn(|l| self.closest_of(&q[l], run[l], r[l].hit, r[l].steps, r[l].capped))
     }
 
     fn walk(

@@ -41,7 +41,7 @@ use crate::geometry::grid::RootCube;
 use crate::octree::encoding::{ior_decode, ior_encode};
 use crate::render::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::render::sky::Sky;
-use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces, Walked};
+use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces, Traced, Walked};
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
 use crate::trace::packet::LANES;
@@ -576,76 +576,97 @@ impl<S: Surfaces> Tracer<S> {
                 sample.colour += task.weight * local_w * local;
             }
 
-            // Reflection and refraction, while the path has bounces left.
-            let path_left =
-                u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
-            // From the medium the ray is in into the leaf's, or out of the leaf's into the
-            // one around it.
-            let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
-            let (n1, n2, iors_after) = if entering {
-                (
-                    ior_decode(here as u16),
-                    m.ior,
-                    u32::from(ior_encode(m.ior)) | here << 16,
-                )
-            } else {
-                (m.ior, ior_decode(around as u16), around)
-            };
-            let cos_i = n_f.dot(v);
-            let (mut fr, mut ft) = (kr, 0.0);
-            let mut t_dir = None;
-            if kt > 0.0 {
-                let f = match self.opts.fresnel {
-                    FresnelMode::Exact => fresnel_exact(cos_i, n1, n2),
-                    FresnelMode::Schlick => fresnel_schlick(cos_i, n1, n2),
-                };
-                t_dir = refract(task.dir, n_f, n1, n2);
-                if t_dir.is_some() {
-                    fr += kt * f;
-                    ft = kt * (1.0 - f);
-                } else {
-                    fr += kt;
-                }
-            }
-            if fr > 0.0 && path_left && task.refl < self.opts.max_reflections && len < STACK {
-                stack[len] = Task {
-                    origin: p + n_f * bias,
-                    dir: reflect(task.dir, n_f).normalize(),
-                    weight: task.weight * fr,
-                    refl: task.refl + 1,
-                    refr: task.refr,
-                    skip: h.id,
-                    // A reflection stays on its side of the boundary.
-                    medium: task.medium,
-                    iors: task.iors,
-                };
-                len += 1;
-            }
-            if let Some(td) = t_dir
-                && ft > 0.0
-                && path_left
-                && task.refr < self.opts.max_refractions
-                && len < STACK
-            {
-                stack[len] = Task {
-                    origin: p - n_f * bias,
-                    dir: td,
-                    weight: task.weight * ft * m.albedo,
-                    refl: task.refl,
-                    refr: task.refr + 1,
-                    skip: h.id,
-                    // Entering a volumetric medium puts the ray inside it; leaving one
-                    // puts it outside.
-                    medium: match h.medium {
-                        Some(m) if entering => m.0,
-                        _ => NO_MEDIUM,
-                    },
-                    iors: iors_after,
-                };
-                len += 1;
-            }
+            self.spawn(&task, &h, p, n_f, entering, &mut stack, &mut len);
         }
         sample
+    }
+
+    /// The reflection and refraction rays of `task`'s hit `h` at `p` (facing normal `n_f`),
+    /// pushed onto `stack` while the path has bounces left.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn spawn<const STACK: usize>(
+        &self,
+        task: &Task,
+        h: &SurfaceHit,
+        p: Vec3,
+        n_f: Vec3,
+        entering: bool,
+        stack: &mut [Task; STACK],
+        len: &mut usize,
+    ) {
+        let m = h.material;
+        let (kr, kt) = (m.reflectivity, m.refractivity);
+        let v = -task.dir;
+        let bias = self.opts.bias_cells;
+        // Reflection and refraction, while the path has bounces left.
+        let path_left =
+            u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
+        // From the medium the ray is in into the leaf's, or out of the leaf's into the
+        // one around it.
+        let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
+        let (n1, n2, iors_after) = if entering {
+            (
+                ior_decode(here as u16),
+                m.ior,
+                u32::from(ior_encode(m.ior)) | here << 16,
+            )
+        } else {
+            (m.ior, ior_decode(around as u16), around)
+        };
+        let cos_i = n_f.dot(v);
+        let (mut fr, mut ft) = (kr, 0.0);
+        let mut t_dir = None;
+        if kt > 0.0 {
+            let f = match self.opts.fresnel {
+                FresnelMode::Exact => fresnel_exact(cos_i, n1, n2),
+                FresnelMode::Schlick => fresnel_schlick(cos_i, n1, n2),
+            };
+            t_dir = refract(task.dir, n_f, n1, n2);
+            if t_dir.is_some() {
+                fr += kt * f;
+                ft = kt * (1.0 - f);
+            } else {
+                fr += kt;
+            }
+        }
+        if fr > 0.0 && path_left && task.refl < self.opts.max_reflections && *len < STACK {
+            stack[*len] = Task {
+                origin: p + n_f * bias,
+                dir: reflect(task.dir, n_f).normalize(),
+                weight: task.weight * fr,
+                refl: task.refl + 1,
+                refr: task.refr,
+                skip: h.id,
+                // A reflection stays on its side of the boundary.
+                medium: task.medium,
+                iors: task.iors,
+            };
+            *len += 1;
+        }
+        if let Some(td) = t_dir
+            && ft > 0.0
+            && path_left
+            && task.refr < self.opts.max_refractions
+            && *len < STACK
+        {
+            stack[*len] = Task {
+                origin: p - n_f * bias,
+                dir: td,
+                weight: task.weight * ft * m.albedo,
+                refl: task.refl,
+                refr: task.refr + 1,
+                skip: h.id,
+                // Entering a volumetric medium puts the ray inside it; leaving one
+                // puts it outside.
+                medium: match h.medium {
+                    Some(m) if entering => m.0,
+                    _ => NO_MEDIUM,
+                },
+                iors: iors_after,
+            };
+            *len += 1;
+        }
     }
 
     /// The contribution of `light`, seen from a hit in direction `l` at grid distance
@@ -698,19 +719,38 @@ impl<S: Surfaces> Tracer<S> {
         w.visibility(r.blocked)
     }
 
-    /// Whether [`Self::trace_primary4`] applies: no ray can bounce, so a pixel is its primary
-    /// ray and the shadow rays from its hit, and packets are on.
-    pub(crate) fn packs_shadows(&self) -> bool {
+    /// Whether renders trace four neighbouring pixels at a time ([`Self::trace_primary4`]).
+    pub(crate) fn packs(&self) -> bool {
         self.opts.packets
-            && (self.opts.max_path_bounces == 0
-                || (self.opts.max_reflections == 0 && self.opts.max_refractions == 0))
     }
 
     /// [`Self::trace_primary`] for the first `n` of four primary rays from grid point
-    /// `origin` where no ray bounces ([`Self::packs_shadows`]): the rays are traced one by
-    /// one, and the lanes' shadow rays toward each light walk as a packet. The same samples
-    /// bit for bit (colours, hits, normals and counters).
+    /// `origin`: the four pixels' ray trees are traced in lockstep, each lane popping its
+    /// next ray from its own stack, and the rays of a round (after the primary rays, which
+    /// the prepass decides one by one) and their shadow rays toward each light walk as
+    /// packets. Each lane takes its own rays in its own order and sums its light as the
+    /// single path does, so the samples are the same bit for bit (colours, hits, normals and
+    /// counters).
     pub(crate) fn trace_primary4(
+        &self,
+        origin: Vec3,
+        dirs: &[Vec3; LANES],
+        starts: &[PrimaryStart; LANES],
+        n: usize,
+    ) -> [Sample; LANES] {
+        let bounces = (usize::from(self.opts.max_reflections)
+            + usize::from(self.opts.max_refractions))
+        .min(usize::from(self.opts.max_path_bounces));
+        if bounces == 0 {
+            self.trace4::<1>(origin, dirs, starts, n)
+        } else if bounces + 2 <= SMALL_STACK {
+            self.trace4::<SMALL_STACK>(origin, dirs, starts, n)
+        } else {
+            self.trace4::<STACK>(origin, dirs, starts, n)
+        }
+    }
+
+    fn trace4<const STACK: usize>(
         &self,
         origin: Vec3,
         dirs: &[Vec3; LANES],
@@ -724,117 +764,195 @@ impl<S: Surfaces> Tracer<S> {
             primary_steps: 0,
             stats: SampleStats::default(),
         }; LANES];
-        let mut lit: [Option<Lit>; LANES] = [None; LANES];
-        let bias = self.opts.bias_cells;
+        let mut stacks = [[EMPTY; STACK]; LANES];
+        let mut lens = [0usize; LANES];
+        let mut first = [false; LANES];
         for l in 0..n.min(LANES) {
-            // The first pass of `trace_with`'s loop, for the primary ray.
-            let (dir, start, sample) = (dirs[l], starts[l], &mut out[l]);
-            let ray = GridRay {
+            stacks[l][0] = Task {
                 origin,
-                dir: dir * self.scale,
+                dir: dirs[l],
+                weight: Vec3::ONE,
+                refl: 0,
+                refr: 0,
+                skip: NO_SKIP,
+                medium: NO_MEDIUM,
+                iors: 0,
             };
-            let q = Query {
-                tmin: match start {
-                    PrimaryStart::From(t) => t,
-                    _ => 0.0,
-                },
-                tmax: f32::INFINITY,
-                skip: None,
-                medium: None,
-                max_steps: self.opts.max_steps,
-            };
-            let r = self.surfaces.closest_primary(&ray, &q, &start);
-            sample.stats.rays += 1;
-            sample.stats.steps += r.steps;
-            sample.stats.capped += u32::from(r.capped);
-            sample.primary_steps = r.steps;
-            sample.hit = r.hit;
-            let Some(h) = r.hit else {
-                sample.colour += Vec3::ONE * self.sky.colour(dir);
-                continue;
-            };
-            let m = h.material;
-            let p = ray.at(h.t);
-            let n_s = if h.normal == Vec3::ZERO {
-                -dir
-            } else {
-                h.normal
-            };
-            sample.normal = n_s;
-            let n_f = facing(n_s, dir, m.refractivity);
-            let local_w = (1.0 - m.reflectivity - m.refractivity).max(0.0);
-            if local_w > 0.0 {
-                lit[l] = Some(Lit {
-                    albedo: m.albedo,
-                    p,
-                    n_f,
-                    v: -dir,
-                    local_w,
-                    from: p + n_f * bias,
-                    id: h.id,
-                });
-            }
+            lens[l] = 1;
+            first[l] = true;
         }
-        let mut local: [Vec3; LANES] =
-            std::array::from_fn(|l| lit[l].map_or(Vec3::ZERO, |x| x.albedo * self.phong.ambient));
-        let mode = self.opts.shadows;
-        for (lp, light) in &self.lights {
-            let mut seen: [Option<(Vec3, f32)>; LANES] = [None; LANES];
-            let mut rays = [GridRay {
-                origin: Vec3::ZERO,
-                dir: Vec3::X,
-            }; LANES];
-            let mut tmax = [0.0f32; LANES];
-            let mut skip = [None; LANES];
+        let bias = self.opts.bias_cells;
+        let unused = GridRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+        };
+        loop {
+            // Each lane's next ray.
+            let mut tasks = [EMPTY; LANES];
             let mut active = 0u8;
             for l in 0..LANES {
-                let Some(x) = lit[l] else {
-                    continue;
-                };
-                seen[l] = toward(x.p, x.n_f, *lp);
-                if seen[l].is_some() && mode != ShadowMode::None {
-                    out[l].stats.shadow_rays += 1;
-                    (rays[l], tmax[l]) = self.shadow_ray(x.from, *lp);
-                    skip[l] = Some(x.id);
+                if lens[l] > 0 {
+                    lens[l] -= 1;
+                    tasks[l] = stacks[l][lens[l]];
                     active |= 1 << l;
                 }
             }
-            let mut walks = [ShadowWalk::new(mode, 0.5 / self.scale); LANES];
-            let walked = if active == 0 {
-                [Walked {
-                    blocked: false,
+            if active == 0 {
+                break;
+            }
+            let rays: [GridRay; LANES] = std::array::from_fn(|l| GridRay {
+                origin: tasks[l].origin,
+                dir: tasks[l].dir * self.scale,
+            });
+            let q: [Query; LANES] = std::array::from_fn(|l| Query {
+                // A decided hit is rebuilt with the traversal's own entry from 0.
+                tmin: match starts[l] {
+                    PrimaryStart::From(t) if first[l] => t,
+                    _ => 0.0,
+                },
+                tmax: f32::INFINITY,
+                skip: (tasks[l].skip != NO_SKIP).then_some(tasks[l].skip),
+                medium: (tasks[l].medium != NO_MEDIUM).then_some(Medium(tasks[l].medium)),
+                max_steps: self.opts.max_steps,
+            });
+            // Primary rays one by one (the prepass decides most), the others together.
+            let primary = (0..LANES)
+                .filter(|&l| first[l] && active >> l & 1 != 0)
+                .fold(0u8, |m, l| m | 1 << l);
+            let mut traced = if active & !primary != 0 {
+                self.surfaces.closest4(&rays, &q, active & !primary)
+            } else {
+                [Traced {
+                    hit: None,
                     steps: 0,
                     capped: false,
                 }; LANES]
-            } else {
-                self.surfaces.walks(
-                    &rays,
-                    tmax,
-                    skip,
-                    active,
-                    self.opts.max_steps,
-                    &mut |l, h| walks[l].visit(h),
-                )
             };
             for l in 0..LANES {
-                let (Some(x), Some((dir_l, dist_grid))) = (lit[l], seen[l]) else {
-                    continue;
-                };
-                let vis = if mode == ShadowMode::None {
-                    1.0
-                } else {
-                    out[l].stats.steps += walked[l].steps;
-                    out[l].stats.capped += u32::from(walked[l].capped);
-                    walks[l].visibility(walked[l].blocked)
-                };
-                if vis > 0.0 {
-                    local[l] += self.light_term(light, dist_grid, vis, x.albedo, x.n_f, dir_l, x.v);
+                if primary >> l & 1 != 0 {
+                    traced[l] = self.surfaces.closest_primary(&rays[l], &q[l], &starts[l]);
                 }
             }
-        }
-        for l in 0..LANES {
-            if let Some(x) = lit[l] {
-                out[l].colour += Vec3::ONE * x.local_w * local[l];
+            // Each lane's hit, up to its local light.
+            let mut lit: [Option<Lit>; LANES] = [None; LANES];
+            let mut hits: [Option<(SurfaceHit, Vec3, Vec3, bool)>; LANES] = [None; LANES];
+            for l in 0..LANES {
+                if active >> l & 1 == 0 {
+                    continue;
+                }
+                let (task, r, sample) = (&tasks[l], traced[l], &mut out[l]);
+                sample.stats.rays += 1;
+                sample.stats.steps += r.steps;
+                sample.stats.capped += u32::from(r.capped);
+                if first[l] {
+                    sample.primary_steps = r.steps;
+                    sample.hit = r.hit;
+                }
+                let Some(h) = r.hit else {
+                    sample.colour += task.weight * self.sky.colour(task.dir);
+                    first[l] = false;
+                    continue;
+                };
+                let m = h.material;
+                let p = rays[l].at(h.t);
+                let n_s = if h.normal == Vec3::ZERO {
+                    -task.dir
+                } else {
+                    h.normal
+                };
+                if first[l] {
+                    sample.normal = n_s;
+                    first[l] = false;
+                }
+                let entering = n_s.dot(task.dir) < 0.0;
+                let n_f = facing(n_s, task.dir, m.refractivity);
+                let local_w = (1.0 - m.reflectivity - m.refractivity).max(0.0);
+                if local_w > 0.0 {
+                    lit[l] = Some(Lit {
+                        albedo: m.albedo,
+                        p,
+                        n_f,
+                        v: -task.dir,
+                        local_w,
+                        from: p + n_f * bias,
+                        id: h.id,
+                    });
+                }
+                hits[l] = Some((h, p, n_f, entering));
+            }
+            // The local lights, their shadow rays toward each light together.
+            let mut local: [Vec3; LANES] = std::array::from_fn(|l| {
+                lit[l].map_or(Vec3::ZERO, |x| x.albedo * self.phong.ambient)
+            });
+            let mode = self.opts.shadows;
+            for (lp, light) in &self.lights {
+                let mut seen: [Option<(Vec3, f32)>; LANES] = [None; LANES];
+                let mut shadow_rays = [unused; LANES];
+                let mut tmax = [0.0f32; LANES];
+                let mut skip = [None; LANES];
+                let mut walking = 0u8;
+                for l in 0..LANES {
+                    let Some(x) = lit[l] else {
+                        continue;
+                    };
+                    seen[l] = toward(x.p, x.n_f, *lp);
+                    if seen[l].is_some() && mode != ShadowMode::None {
+                        out[l].stats.shadow_rays += 1;
+                        (shadow_rays[l], tmax[l]) = self.shadow_ray(x.from, *lp);
+                        skip[l] = Some(x.id);
+                        walking |= 1 << l;
+                    }
+                }
+                let mut walks = [ShadowWalk::new(mode, 0.5 / self.scale); LANES];
+                let walked = if walking == 0 {
+                    [Walked {
+                        blocked: false,
+                        steps: 0,
+                        capped: false,
+                    }; LANES]
+                } else {
+                    self.surfaces.walks(
+                        &shadow_rays,
+                        tmax,
+                        skip,
+                        walking,
+                        self.opts.max_steps,
+                        &mut |l, h| walks[l].visit(h),
+                    )
+                };
+                for l in 0..LANES {
+                    let (Some(x), Some((dir_l, dist_grid))) = (lit[l], seen[l]) else {
+                        continue;
+                    };
+                    let vis = if mode == ShadowMode::None {
+                        1.0
+                    } else {
+                        out[l].stats.steps += walked[l].steps;
+                        out[l].stats.capped += u32::from(walked[l].capped);
+                        walks[l].visibility(walked[l].blocked)
+                    };
+                    if vis > 0.0 {
+                        local[l] +=
+                            self.light_term(light, dist_grid, vis, x.albedo, x.n_f, dir_l, x.v);
+                    }
+                }
+            }
+            // Each lane's light, and the rays its hit spawns.
+            for l in 0..LANES {
+                if let Some(x) = lit[l] {
+                    out[l].colour += tasks[l].weight * x.local_w * local[l];
+                }
+                if let Some((h, p, n_f, entering)) = hits[l] {
+                    self.spawn(
+                        &tasks[l],
+                        &h,
+                        p,
+                        n_f,
+                        entering,
+                        &mut stacks[l],
+                        &mut lens[l],
+                    );
+                }
             }
         }
         out
