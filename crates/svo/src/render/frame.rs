@@ -10,7 +10,7 @@
 use crate::render::camera::{Camera, CameraError};
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::Surfaces;
-use crate::render::whitted::{PrimaryStart, Sample, SampleStats, Tracer};
+use crate::render::whitted::{PrimaryStart, SampleStats, Tracer};
 use crate::trace::packet::LANES;
 use glam::Vec3;
 use std::time::{Duration, Instant};
@@ -56,6 +56,15 @@ impl RenderStats {
             self.steps.saturating_sub(self.primary_steps) as f64 / others.max(1) as f64,
             self.capped
         )
+    }
+
+    /// A primary ray the prepass proved to miss after `tests` leaf tests.
+    #[inline]
+    fn add_decided_miss(&mut self, tests: u32) {
+        self.primary_rays += 1;
+        self.primary_steps += u64::from(tests);
+        self.steps += u64::from(tests);
+        self.max_primary_steps = self.max_primary_steps.max(tests);
     }
 
     fn add(&mut self, s: &SampleStats, primary_steps: u32, hit: bool) {
@@ -177,73 +186,73 @@ pub fn render_into<S: Surfaces>(
             .as_ref()
             .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
         let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
-        let start_of = |i: usize| {
-            decided
-                .as_ref()
-                .map_or(PrimaryStart::From(0.0), |b| b.start(i))
-        };
-        // What a pixel gets: the sky where the prepass proved the ray hits nothing (without
-        // casting it), else the sample traced.
-        let mut put = |i: usize, dir: Vec3, got: Result<&Sample, u32>| match got {
-            Err(tests) => {
-                colour[i] = tracer.miss_colour(dir);
-                depth[i] = f32::INFINITY;
-                normal[i] = Vec3::ZERO;
-                leaf[i] = NO_LEAF;
-                cost[i] = tests;
-                stats.primary_rays += 1;
-                stats.primary_steps += u64::from(tests);
-                stats.steps += u64::from(tests);
-                stats.max_primary_steps = stats.max_primary_steps.max(tests);
-            }
-            Ok(s) => {
-                colour[i] = s.colour;
-                depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
-                normal[i] = s.normal;
-                leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
-                cost[i] = s.primary_steps;
-                stats.add(&s.stats, s.primary_steps, s.hit.is_some());
-            }
-        };
         if tracer.packs() {
             // Four neighbouring pixels at a time, their rays after the primary ones walked
             // together.
             let mut group = [(0usize, Vec3::ZERO, PrimaryStart::From(0.0)); LANES];
             let mut n = 0;
-            let trace = |group: &[(usize, Vec3, PrimaryStart); LANES], n: usize| {
-                tracer.trace_primary4(eye, &group.map(|g| g.1), &group.map(|g| g.2), n)
-            };
-            for (i, (x, y)) in pixels.enumerate() {
-                let (start, dir) = (start_of(i), rays.dir_f32(x, y));
-                if let PrimaryStart::Miss { tests } = start {
-                    put(i, dir, Err(tests));
-                    continue;
-                }
-                group[n] = (i, dir, start);
-                n += 1;
-                if n == LANES {
-                    for (s, g) in trace(&group, n).iter().zip(&group).take(n) {
-                        put(g.0, g.1, Ok(s));
+            let pixels = pixels.enumerate().map(Some).chain([None]);
+            for p in pixels {
+                if let Some((i, (x, y))) = p {
+                    let start = decided
+                        .as_ref()
+                        .map_or(PrimaryStart::From(0.0), |b| b.start(i));
+                    let dir = rays.dir_f32(x, y);
+                    if let PrimaryStart::Miss { tests } = start {
+                        colour[i] = tracer.miss_colour(dir);
+                        depth[i] = f32::INFINITY;
+                        normal[i] = Vec3::ZERO;
+                        leaf[i] = NO_LEAF;
+                        cost[i] = tests;
+                        stats.add_decided_miss(tests);
+                        continue;
                     }
-                    n = 0;
+                    group[n] = (i, dir, start);
+                    n += 1;
+                    if n < LANES {
+                        continue;
+                    }
+                } else if n == 0 {
+                    break;
                 }
-            }
-            if n > 0 {
-                for (s, g) in trace(&group, n).iter().zip(&group).take(n) {
-                    put(g.0, g.1, Ok(s));
+                let samples =
+                    tracer.trace_primary4(eye, &group.map(|g| g.1), &group.map(|g| g.2), n);
+                for (s, &(i, ..)) in samples.iter().zip(&group).take(n) {
+                    colour[i] = s.colour;
+                    depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+                    normal[i] = s.normal;
+                    leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+                    cost[i] = s.primary_steps;
+                    stats.add(&s.stats, s.primary_steps, s.hit.is_some());
                 }
+                n = 0;
             }
             return stats;
         }
         for (i, (x, y)) in pixels.enumerate() {
-            let start = start_of(i);
+            let start = decided
+                .as_ref()
+                .map_or(PrimaryStart::From(0.0), |b| b.start(i));
             // The grid direction of a unit scene direction is the same unit vector (the
             // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
             let dir = rays.dir_f32(x, y);
-            match start {
-                PrimaryStart::Miss { tests } => put(i, dir, Err(tests)),
-                _ => put(i, dir, Ok(&tracer.trace_primary(eye, dir, start))),
+            if let PrimaryStart::Miss { tests } = start {
+                // The prepass proved the ray hits nothing: the sky, without casting it.
+                colour[i] = tracer.miss_colour(dir);
+                depth[i] = f32::INFINITY;
+                normal[i] = Vec3::ZERO;
+                leaf[i] = NO_LEAF;
+                cost[i] = tests;
+                stats.add_decided_miss(tests);
+                continue;
             }
+            let s = tracer.trace_primary(eye, dir, start);
+            colour[i] = s.colour;
+            depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+            normal[i] = s.normal;
+            leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+            cost[i] = s.primary_steps;
+            stats.add(&s.stats, s.primary_steps, s.hit.is_some());
         }
         stats
     };
