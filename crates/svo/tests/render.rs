@@ -127,17 +127,22 @@ fn lit_wall_matches_phong_with_inverse_square_falloff() {
     assert!((c2 - Vec3::splat(want2)).length() < 1e-4, "{c2} vs {want2}");
 }
 
-#[test]
-fn shadows_through_two_glass_panes_in_each_mode() {
-    // Floor y = 0 everywhere; two panes at y = 5 and y = 10 over x in 0..8, each letting
-    // half the light through.
-    let pane = Voxel {
+/// A pane of clear glass that lets half the light through.
+fn glass_pane() -> Voxel {
+    Voxel {
         colour: [1.0, 1.0, 1.0, 1.0],
         reflectivity: 0.0,
         refractivity: 0.5,
         ior: 1.0,
         normal: None,
-    };
+    }
+}
+
+#[test]
+fn shadows_through_two_glass_panes_in_each_mode() {
+    // Floor y = 0 everywhere; two panes at y = 5 and y = 10 over x in 0..8, each letting
+    // half the light through.
+    let pane = glass_pane();
     let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
     for x in 0..16 {
         for z in 0..16 {
@@ -921,13 +926,7 @@ fn a_light_inside_closed_geometry_lights_only_the_inside() {
 /// sizes whose rows do not split into fours.
 #[test]
 fn packets_change_nothing() {
-    let pane = Voxel {
-        colour: [1.0, 1.0, 1.0, 1.0],
-        reflectivity: 0.0,
-        refractivity: 0.5,
-        ior: 1.0,
-        normal: None,
-    };
+    let pane = glass_pane();
     let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
     for x in 0..16 {
         for z in 0..16 {

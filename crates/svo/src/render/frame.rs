@@ -10,7 +10,7 @@
 use crate::render::camera::{Camera, CameraError};
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::Surfaces;
-use crate::render::whitted::{PrimaryStart, SampleStats, Tracer};
+use crate::render::whitted::{PrimaryStart, Sample, SampleStats, Tracer};
 use crate::trace::packet::LANES;
 use glam::Vec3;
 use std::time::{Duration, Instant};
@@ -56,15 +56,6 @@ impl RenderStats {
             self.steps.saturating_sub(self.primary_steps) as f64 / others.max(1) as f64,
             self.capped
         )
-    }
-
-    /// A primary ray the prepass proved to miss after `tests` leaf tests.
-    #[inline]
-    fn add_decided_miss(&mut self, tests: u32) {
-        self.primary_rays += 1;
-        self.primary_steps += u64::from(tests);
-        self.steps += u64::from(tests);
-        self.max_primary_steps = self.max_primary_steps.max(tests);
     }
 
     fn add(&mut self, s: &SampleStats, primary_steps: u32, hit: bool) {
@@ -151,6 +142,45 @@ pub fn render_timed<S: Surfaces>(
     Ok((frame, times))
 }
 
+/// A band of rows' slices of a frame's buffers, and its counters.
+struct BandOut<'a> {
+    colour: &'a mut [Vec3],
+    depth: &'a mut [f32],
+    normal: &'a mut [Vec3],
+    leaf: &'a mut [u32],
+    cost: &'a mut [u32],
+    stats: RenderStats,
+}
+
+impl BandOut<'_> {
+    /// Pixel `i`, whose ray the prepass proved to hit nothing after `tests` leaf tests: the
+    /// sky, without casting it.
+    #[inline]
+    fn miss(&mut self, i: usize, sky: Vec3, tests: u32) {
+        self.colour[i] = sky;
+        self.depth[i] = f32::INFINITY;
+        self.normal[i] = Vec3::ZERO;
+        self.leaf[i] = NO_LEAF;
+        self.cost[i] = tests;
+        let st = &mut self.stats;
+        st.primary_rays += 1;
+        st.primary_steps += u64::from(tests);
+        st.steps += u64::from(tests);
+        st.max_primary_steps = st.max_primary_steps.max(tests);
+    }
+
+    /// Pixel `i`, traced.
+    #[inline]
+    fn sample(&mut self, i: usize, s: &Sample) {
+        self.colour[i] = s.colour;
+        self.depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
+        self.normal[i] = s.normal;
+        self.leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
+        self.cost[i] = s.primary_steps;
+        self.stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+    }
+}
+
 /// Renders into `f`, reusing its buffers (a benchmark loop then allocates nothing per
 /// frame). Rows are rendered in parallel, each written in place.
 pub fn render_into<S: Surfaces>(
@@ -180,12 +210,19 @@ pub fn render_into<S: Surfaces>(
                 leaf: &mut [u32],
                 cost: &mut [u32]|
      -> RenderStats {
-        let mut stats = RenderStats::default();
         let rows = (colour.len() / w as usize) as u32;
         let decided = view
             .as_ref()
             .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
         let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
+        let mut out = BandOut {
+            colour,
+            depth,
+            normal,
+            leaf,
+            cost,
+            stats: RenderStats::default(),
+        };
         if tracer.packs() {
             // Four neighbouring pixels at a time, their rays after the primary ones walked
             // together.
@@ -199,12 +236,7 @@ pub fn render_into<S: Surfaces>(
                         .map_or(PrimaryStart::From(0.0), |b| b.start(i));
                     let dir = rays.dir_f32(x, y);
                     if let PrimaryStart::Miss { tests } = start {
-                        colour[i] = tracer.miss_colour(dir);
-                        depth[i] = f32::INFINITY;
-                        normal[i] = Vec3::ZERO;
-                        leaf[i] = NO_LEAF;
-                        cost[i] = tests;
-                        stats.add_decided_miss(tests);
+                        out.miss(i, tracer.miss_colour(dir), tests);
                         continue;
                     }
                     group[n] = (i, dir, start);
@@ -218,16 +250,11 @@ pub fn render_into<S: Surfaces>(
                 let samples =
                     tracer.trace_primary4(eye, &group.map(|g| g.1), &group.map(|g| g.2), n);
                 for (s, &(i, ..)) in samples.iter().zip(&group).take(n) {
-                    colour[i] = s.colour;
-                    depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
-                    normal[i] = s.normal;
-                    leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
-                    cost[i] = s.primary_steps;
-                    stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+                    out.sample(i, s);
                 }
                 n = 0;
             }
-            return stats;
+            return out.stats;
         }
         for (i, (x, y)) in pixels.enumerate() {
             let start = decided
@@ -238,23 +265,12 @@ pub fn render_into<S: Surfaces>(
             let dir = rays.dir_f32(x, y);
             if let PrimaryStart::Miss { tests } = start {
                 // The prepass proved the ray hits nothing: the sky, without casting it.
-                colour[i] = tracer.miss_colour(dir);
-                depth[i] = f32::INFINITY;
-                normal[i] = Vec3::ZERO;
-                leaf[i] = NO_LEAF;
-                cost[i] = tests;
-                stats.add_decided_miss(tests);
+                out.miss(i, tracer.miss_colour(dir), tests);
                 continue;
             }
-            let s = tracer.trace_primary(eye, dir, start);
-            colour[i] = s.colour;
-            depth[i] = s.hit.map_or(f32::INFINITY, |h| h.t);
-            normal[i] = s.normal;
-            leaf[i] = s.hit.map_or(NO_LEAF, |h| h.id);
-            cost[i] = s.primary_steps;
-            stats.add(&s.stats, s.primary_steps, s.hit.is_some());
+            out.sample(i, &tracer.trace_primary(eye, dir, start));
         }
-        stats
+        out.stats
     };
     let chunk = w as usize * BAND as usize;
     #[cfg(feature = "parallel")]

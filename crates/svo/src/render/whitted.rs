@@ -464,13 +464,16 @@ impl<S: Surfaces> Tracer<S> {
 
     /// [`Self::trace`] with what the render's prepass knows of the primary ray (secondary
     /// rays are not affected).
+    /// The most reflections and refractions along a path. A depth-first ray stack holds at
+    /// most one pending ray per bounce plus two; a stack sized for the limits keeps its
+    /// initialization small (without bounces it is the primary ray alone).
+    fn bounces(&self) -> usize {
+        (usize::from(self.opts.max_reflections) + usize::from(self.opts.max_refractions))
+            .min(usize::from(self.opts.max_path_bounces))
+    }
+
     pub(crate) fn trace_primary(&self, origin: Vec3, dir: Vec3, start: PrimaryStart) -> Sample {
-        // A depth-first ray stack holds at most one pending ray per bounce plus two; a
-        // stack sized for the limits keeps its initialization small (without bounces it is
-        // the primary ray alone).
-        let bounces = (usize::from(self.opts.max_reflections)
-            + usize::from(self.opts.max_refractions))
-        .min(usize::from(self.opts.max_path_bounces));
+        let bounces = self.bounces();
         if bounces == 0 {
             self.trace_with::<1>(origin, dir, start)
         } else if bounces + 2 <= SMALL_STACK {
@@ -724,10 +727,8 @@ impl<S: Surfaces> Tracer<S> {
     /// bounces). A frame of primary rays alone gains nothing from them and pays their
     /// bookkeeping (the framed bunny without shadows: 47 against 56 ms).
     pub(crate) fn packs(&self) -> bool {
-        let bounces = self.opts.max_path_bounces > 0
-            && (self.opts.max_reflections > 0 || self.opts.max_refractions > 0);
         let shadows = self.opts.shadows != ShadowMode::None && !self.lights.is_empty();
-        self.opts.packets && (bounces || shadows)
+        self.opts.packets && (self.bounces() > 0 || shadows)
     }
 
     /// [`Self::trace_primary`] for the first `n` of four primary rays from grid point
@@ -744,9 +745,7 @@ impl<S: Surfaces> Tracer<S> {
         starts: &[PrimaryStart; LANES],
         n: usize,
     ) -> [Sample; LANES] {
-        let bounces = (usize::from(self.opts.max_reflections)
-            + usize::from(self.opts.max_refractions))
-        .min(usize::from(self.opts.max_path_bounces));
+        let bounces = self.bounces();
         if bounces == 0 {
             self.trace4::<1>(origin, dirs, starts, n)
         } else if bounces + 2 <= SMALL_STACK {
