@@ -81,18 +81,7 @@ pub fn cast_primary<S: Surfaces>(
                     dir: rays.dir_f32(x, y) * scale,
                 }
             };
-            let Some(decided) = decided else {
-                if !tracer.options().packets {
-                    for i in 0..px {
-                        let q = Query::all(max_steps);
-                        let r =
-                            tracer
-                                .surfaces()
-                                .first_hit(&ray_of(i), &q, &PrimaryStart::From(0.0));
-                        record(i, r);
-                    }
-                    return counts;
-                }
+            if decided.is_none() && tracer.options().packets {
                 // Every ray from the eye: neighbouring pixels in packets.
                 let q = Query::all(max_steps);
                 for i in (0..px).step_by(LANES) {
@@ -104,9 +93,11 @@ pub fn cast_primary<S: Surfaces>(
                     }
                 }
                 return counts;
-            };
+            }
             for i in 0..px {
-                let start = decided.start(i);
+                let start = decided
+                    .as_ref()
+                    .map_or(PrimaryStart::From(0.0), |b| b.start(i));
                 let r = FirstHit::decided(&start).unwrap_or_else(|| {
                     // Left to the traversal, from the start's lower bound.
                     let tmin = match start {

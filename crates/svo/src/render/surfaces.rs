@@ -92,6 +92,15 @@ pub struct Traced {
     pub capped: bool,
 }
 
+impl Traced {
+    /// No hit, no step.
+    pub const NONE: Self = Self {
+        hit: None,
+        steps: 0,
+        capped: false,
+    };
+}
+
 /// The outcome of a ray cast ([`Surfaces::first_hit`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstHit {
@@ -153,6 +162,15 @@ pub struct Walked {
     pub capped: bool,
 }
 
+impl Walked {
+    /// Not walked: nothing met, no step.
+    pub const NONE: Self = Self {
+        blocked: false,
+        steps: 0,
+        capped: false,
+    };
+}
+
 /// Surfaces a [`Tracer`](crate::render::Tracer) can trace, in the grid space of a root cube:
 /// the octree ([`OctreeSurfaces`]) and the triangle reference
 /// ([`MeshSurfaces`](crate::render::MeshSurfaces)). Implement [`Self::grid`], [`Self::closest`]
@@ -183,11 +201,7 @@ pub trait Surfaces: Sync {
         l: usize,
     ) -> Traced {
         if active >> l & 1 == 0 {
-            return Traced {
-                hit: None,
-                steps: 0,
-                capped: false,
-            };
+            return Traced::NONE;
         }
         self.closest(&rays[l], &q[l])
     }
@@ -258,11 +272,7 @@ pub trait Surfaces: Sync {
     ) -> [Walked; LANES] {
         std::array::from_fn(|l| {
             if active >> l & 1 == 0 {
-                return Walked {
-                    blocked: false,
-                    steps: 0,
-                    capped: false,
-                };
+                return Walked::NONE;
             }
             self.walk(&rays[l], tmax[l], skip[l], max_steps, &mut |h| visit(l, h))
         })

@@ -827,11 +827,7 @@ impl<S: Surfaces> Tracer<S> {
             let mut traced = if active & !primary != 0 {
                 self.surfaces.closest4(&rays, &q, active & !primary)
             } else {
-                [Traced {
-                    hit: None,
-                    steps: 0,
-                    capped: false,
-                }; LANES]
+                [Traced::NONE; LANES]
             };
             for l in 0..LANES {
                 if primary >> l & 1 != 0 {
@@ -910,11 +906,7 @@ impl<S: Surfaces> Tracer<S> {
                 }
                 let mut walks = [ShadowWalk::new(mode, 0.5 / self.scale); LANES];
                 let walked = if walking == 0 {
-                    [Walked {
-                        blocked: false,
-                        steps: 0,
-                        capped: false,
-                    }; LANES]
+                    [Walked::NONE; LANES]
                 } else {
                     self.surfaces.walks(
                         &shadow_rays,

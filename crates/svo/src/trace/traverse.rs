@@ -59,7 +59,7 @@ pub struct Traversal<T> {
     pub capped: bool,
 }
 
-pub(crate) const DONE: u8 = 8;
+const DONE: u8 = 8;
 
 /// An ancestor on the stack: what the walk cannot recompute when it returns to it. Its
 /// corner is the current cell's corner with the bits below its side cleared, its side
@@ -85,7 +85,7 @@ const EMPTY: Saved = Saved {
 const REVERSE3: [u8; 8] = [0, 4, 2, 6, 1, 5, 3, 7];
 
 /// Per child index, which axes are its high half.
-pub(crate) const HIGH: [glam::BVec3A; 8] = [
+const HIGH: [glam::BVec3A; 8] = [
     glam::BVec3A::new(false, false, false),
     glam::BVec3A::new(false, false, true),
     glam::BVec3A::new(false, true, false),
@@ -97,14 +97,14 @@ pub(crate) const HIGH: [glam::BVec3A; 8] = [
 ];
 
 #[inline]
-pub(crate) fn first_child(tm: Vec3A, t: f32) -> u8 {
+fn first_child(tm: Vec3A, t: f32) -> u8 {
     REVERSE3[tm.cmple(Vec3A::splat(t)).bitmask() as usize]
 }
 
 /// The child after `c`, whose exit parameters are `exit` with smallest `m`: the axes at `m`
 /// are crossed together; if one of them is already the high half the ray leaves the node.
 #[inline]
-pub(crate) fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
+fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
     // The parameters are never NaN (finite planes times a finite inverse), so the SIMD
     // equality is the scalar one, `-0.0 == 0.0` included.
     let tied = REVERSE3[exit.cmpeq(Vec3A::splat(m)).bitmask() as usize];
