@@ -107,7 +107,11 @@ impl Parts {
             depth: tree.depth,
             node_count: tree.nodes.len() as u64,
             leaf_count: u64::from(tree.leaf_count),
-            nodes: tree.nodes.iter().map(|n| [n.info, n.first]).collect(),
+            nodes: tree
+                .nodes
+                .iter()
+                .map(|n| [u32::from(n.child_mask()), n.first])
+                .collect(),
             channels,
             generator: build.generator.clone(),
             strategy: build.strategy.clone(),

@@ -22,7 +22,7 @@ use num_bigint::Sign;
 use rand::Rng;
 use std::collections::HashMap;
 use svo::octree::Octree;
-use svo::trace::{GridRay, HitMode, LeafEntry, MAX_STEPS, cast};
+use svo::trace::{GridRay, HitMode, LeafEntry, MAX_STEPS, cast, traverse};
 
 /// Checks one ray's cast against the reference; returns whether it hit.
 fn check_ray(
@@ -442,7 +442,7 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
                 let er = ExactRay::new(o, d, tmin);
                 let qmax = tmax.is_finite().then(|| Q::of(f64::from(tmax)));
                 let mut got: Vec<LeafEntry> = Vec::new();
-                let walk = svo::trace::traverse(&tree, &ray, tmin, tmax, MAX_STEPS, |e| {
+                let walk = traverse(&tree, &ray, tmin, tmax, MAX_STEPS, |e| {
                     got.push(*e);
                     None::<()>
                 });
@@ -623,8 +623,191 @@ fn step_cap_is_reported() {
         dir: Vec3::X,
     };
     // Decline every leaf: the ray walks all 16 and some empty siblings.
-    let all = svo::trace::traverse(&tree, &ray, 0.0, f32::INFINITY, MAX_STEPS, |_| None::<()>);
+    let all = traverse(&tree, &ray, 0.0, f32::INFINITY, MAX_STEPS, |_| None::<()>);
     assert!(!all.capped && all.hit.is_none() && all.steps >= 16);
-    let capped = svo::trace::traverse(&tree, &ray, 0.0, f32::INFINITY, 5, |_| None::<()>);
+    let capped = traverse(&tree, &ray, 0.0, f32::INFINITY, 5, |_| None::<()>);
     assert!(capped.capped && capped.steps == 6);
+}
+
+/// What a walk handed over, bit for bit, and its outcome.
+type Walked = (Vec<[u32; 12]>, Option<u32>, u32, bool);
+
+fn walk(tree: &Octree, ray: &GridRay, tmin: f32, tmax: f32, stop: Option<u32>) -> Walked {
+    let mut seen = Vec::new();
+    let t = traverse(tree, ray, tmin, tmax, MAX_STEPS, |e: &LeafEntry| {
+        let n = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+        let [a, b, c] = n(e.entry_normal);
+        let [d, f, g] = n(e.exit_normal);
+        seen.push([
+            e.leaf,
+            e.cell.x,
+            e.cell.y,
+            e.cell.z,
+            e.t_enter.to_bits(),
+            e.t_exit.to_bits(),
+            a,
+            b,
+            c,
+            d,
+            f,
+            g,
+        ]);
+        (Some(e.leaf) == stop).then_some(e.leaf)
+    });
+    (seen, t.hit, t.steps, t.capped)
+}
+
+/// Cells that leave most of a node's cube empty, where the boxes of the nodes' leaves pay:
+/// thin slabs over part of a face (floors, walls, a water surface), small clusters, and a few
+/// scattered cells.
+fn slabs_and_clusters(rng: &mut impl Rng, depth: u8) -> Vec<UVec3> {
+    let side = 1u32 << depth;
+    let mut cells = Vec::new();
+    let span = |rng: &mut dyn rand::RngCore| {
+        let a = rng.random_range(0..side);
+        let b = rng.random_range(0..side);
+        (a.min(b), a.max(b))
+    };
+    for _ in 0..rng.random_range(1..4) {
+        let axis = rng.random_range(0..3);
+        let at = rng.random_range(0..side);
+        let ((u0, u1), (v0, v1)) = (span(rng), span(rng));
+        for u in u0..=u1.min(u0 + 40) {
+            for v in v0..=v1.min(v0 + 40) {
+                let mut c = UVec3::ZERO;
+                c[axis] = at;
+                c[(axis + 1) % 3] = u;
+                c[(axis + 2) % 3] = v;
+                cells.push(c);
+            }
+        }
+    }
+    for _ in 0..rng.random_range(0..4) {
+        let c = UVec3::new(
+            rng.random_range(0..side),
+            rng.random_range(0..side),
+            rng.random_range(0..side),
+        );
+        for _ in 0..12 {
+            let d = UVec3::new(
+                rng.random_range(0..3),
+                rng.random_range(0..3),
+                rng.random_range(0..3),
+            );
+            cells.push((c + d).min(UVec3::splat(side - 1)));
+        }
+    }
+    cells.sort_by_key(UVec3::to_array);
+    cells.dedup();
+    cells
+}
+
+/// The boxes of the nodes' leaves that the traversal tests before entering a child change its
+/// steps and nothing else: on seeded random trees (slabs, clusters, random cells, depths 1 to
+/// 8, and sparse trees of depth 12, 20 and 30 whose boxes are stored in coarse units), every
+/// ray family of this file with random `tmin` and `tmax`, walked to the end and stopped at a
+/// chosen leaf, hands over the same leaves with the same entries bit for bit as the walk of
+/// the same tree with its bounds cleared, and stops at the same leaf, never with more steps.
+/// Over all rays the boxes save at least a fifth of the steps.
+#[test]
+fn node_bounds_change_the_steps_and_nothing_else() {
+    let mut rng = common::rng(0xB0_0B5);
+    let (mut with, mut without, mut rays, mut handed) = (0u64, 0u64, 0usize, 0usize);
+    let mut boxed = 0;
+    let mut trees = Vec::new();
+    for depth in 1..=8u8 {
+        for k in 0..3 {
+            let cells = match k {
+                0 => slabs_and_clusters(&mut rng, depth),
+                1 => random_cells(&mut rng, depth.min(5), 0.03),
+                _ => random_cells(&mut rng, depth.min(5), 0.3),
+            };
+            if !cells.is_empty() {
+                let d = if k == 0 { depth } else { depth.min(5) };
+                trees.push((d, plain_tree(d, &cells)));
+            }
+        }
+    }
+    for depth in [12u8, 20, 30] {
+        let far = (1u32 << depth) - 1;
+        let mut cells = slabs_and_clusters(&mut rng, 7);
+        // The same shapes near the low faces, the far corner and in the middle, so that
+        // mirrored axes meet boxes next to either face.
+        let n = cells.len();
+        for i in 0..n {
+            let c = cells[i];
+            cells.push(UVec3::splat(far) - c);
+            cells.push(c + UVec3::splat(far / 2));
+        }
+        trees.push((depth, plain_tree(depth, &cells)));
+    }
+    for (depth, tree) in &trees {
+        let mut bare = tree.clone();
+        bare.clear_bounds();
+        boxed += usize::from(&bare != tree);
+        let n = (1u64 << depth) as f32;
+        for _ in 0..300 {
+            let (ray, tmin) = if *depth > 8 {
+                // Small-tree rays scaled up to the deep tree: the coordinates of families
+                // that are exact on small trees stay exact.
+                let (r, t) = random_ray(&mut rng, 128.0);
+                let s = if rng.random_bool(0.5) { 1.0 } else { n / 128.0 };
+                (
+                    GridRay {
+                        origin: r.origin * s,
+                        dir: r.dir,
+                    },
+                    t * s,
+                )
+            } else {
+                random_ray(&mut rng, n)
+            };
+            let tmax = if rng.random_bool(0.3) {
+                tmin + rng.random_range(0.0..n * 2.0)
+            } else {
+                f32::INFINITY
+            };
+            let all = walk(&bare, &ray, tmin, tmax, None);
+            assert_eq!(
+                walk(tree, &ray, tmin, tmax, None).0,
+                all.0,
+                "{ray:?} {tmin} {tmax}"
+            );
+            let got = walk(tree, &ray, tmin, tmax, None);
+            assert!(
+                got.2 <= all.2,
+                "{ray:?}: {} steps with the bounds, {} without",
+                got.2,
+                all.2
+            );
+            with += u64::from(got.2);
+            without += u64::from(all.2);
+            handed += all.0.len();
+            if !all.0.is_empty() {
+                let stop = all.0[rng.random_range(0..all.0.len())][0];
+                let a = walk(tree, &ray, tmin, tmax, Some(stop));
+                let b = walk(&bare, &ray, tmin, tmax, Some(stop));
+                assert_eq!(
+                    (&a.0, a.1, a.3),
+                    (&b.0, b.1, b.3),
+                    "{ray:?} stopped at {stop}"
+                );
+                assert!(a.2 <= b.2);
+            }
+            rays += 1;
+        }
+    }
+    eprintln!(
+        "{rays} rays, {handed} leaves handed over; {with} steps with the bounds, {without} without"
+    );
+    assert!(handed > rays, "{handed} leaves for {rays} rays");
+    assert!(
+        boxed * 4 > trees.len() * 3,
+        "{boxed} of {} trees have boxes",
+        trees.len()
+    );
+    assert!(
+        with * 5 <= without * 4,
+        "{with} steps with the bounds, {without} without"
+    );
 }

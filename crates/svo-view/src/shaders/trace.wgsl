@@ -430,6 +430,30 @@ fn child_bits(c: u32) -> vec3<u32> {
 }
 
 // Revelles's first_node: bit set where the mid plane is at or before the entry.
+// bounds::swap_mask: the nibbles of a node's box that trade places on the mirrored axes.
+fn swap_mask(mask: u32) -> u32 {
+    return select(0u, 0xfu, (mask & 4u) != 0u) | select(0u, 0xf0u, (mask & 2u) != 0u)
+        | select(0u, 0xf00u, (mask & 1u) != 0u);
+}
+
+// The traversal's test of the box of a child's leaves (octree/bounds.rs, kept in bits 8-31 of
+// its info word; zero is the whole child): whether the ray, within [t_enter, t_exit], passes
+// beside it. `origin` is the child's mirrored minimum cell and `side` its side.
+fn passes_beside(r: MRay, swap: u32, info: u32, origin: vec3<u32>, side: u32, t_enter: f32, t_exit: f32) -> bool {
+    let e = info >> 8u;
+    if e == 0u {
+        return false;
+    }
+    let d = (e ^ (e >> 12u)) & swap;
+    let f = e ^ d ^ (d << 12u);
+    let sh = vec3<u32>(max(countTrailingZeros(side), 4u) - 4u);
+    let lo = vec3<u32>(f & 15u, (f >> 4u) & 15u, (f >> 8u) & 15u) << sh;
+    let from_hi = vec3<u32>((f >> 12u) & 15u, (f >> 16u) & 15u, (f >> 20u) & 15u) << sh;
+    let b0 = t_planes(r, origin + lo);
+    let b1 = t_planes(r, origin + vec3<u32>(side) - from_hi);
+    return min(min3(b1), t_exit) < max(max3(b0), t_enter);
+}
+
 fn first_child(tm: vec3<f32>, t: f32) -> u32 {
     let b = tm <= vec3<f32>(t);
     return select(0u, 4u, b.x) | select(0u, 2u, b.y) | select(0u, 1u, b.z);
@@ -609,6 +633,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     let base = lane * TSTACK;
     var len = 0u;
     let mask = r.mask;
+    let swap = swap_mask(mask);
     // A ray spawned at the primary hit (q.path 2): while its next child is the next node of
     // the hit's path, the loop's step for that child, push and all, with the node taken from
     // the path instead of read from the tree. Anything the loop would do otherwise (a child
@@ -632,6 +657,9 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             let m = min3(c1);
             let t_exit = select(q.tmax, m, m < q.tmax);
             if t_enter > q.tmax || t_exit < t_enter || out.steps >= u.params.max_steps {
+                break;
+            }
+            if passes_beside(r, swap, hpath[len + 1u].info, cur.origin + child_bits(c) * cur.half, cur.half, t_enter, t_exit) {
                 break;
             }
             let tied = select(0u, 4u, c1.x == m) | select(0u, 2u, c1.y == m) | select(0u, 1u, c1.z == m);
@@ -768,6 +796,18 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                         hpath[len] = cur.node;
                         hpath_len = len + 1u;
                         hpath_cell = cell;
+                        // The stack keeps the ancestors' child masks but not their bounds,
+                        // which the descent along the path tests as the loop would.
+                        for (var i = 1u; i <= len; i++) {
+                            let s = depth - i;
+                            let on_path = (((cell.x >> s) & 1u) << 2u) | (((cell.y >> s) & 1u) << 1u)
+                                | ((cell.z >> s) & 1u);
+                            let parent = hpath[i - 1u];
+                            let idx = parent.first + countOneBits(parent.info & 0xffu & ((1u << on_path) - 1u));
+                            if idx < u.params.n_nodes {
+                                hpath[i] = node_at(idx);
+                            }
+                        }
                     }
                     return out;
                 }
@@ -804,6 +844,10 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             if idx >= u.params.n_nodes {
                 continue;
             }
+            let child = node_at(idx);
+            if passes_beside(r, swap, child.info, origin, cur.half, t_enter, t_exit) {
+                continue;
+            }
             let half = cur.half / 2u;
             let saved = Saved(cur.node.first, child_mask | (cur.next << 8u), cur.enter);
             if WG_TRAVERSE {
@@ -812,7 +856,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 tstack[len] = saved;
             }
             len += 1u;
-            cur.node = node_at(idx);
+            cur.node = child;
             cur.origin = origin;
             cur.half = half;
             t1 = c1;

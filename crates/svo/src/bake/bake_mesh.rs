@@ -279,6 +279,18 @@ pub fn bake_mesh_with_progress(
     opts: &BakeOptions,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<(Octree, BakeStats), BakeError> {
+    let (mut tree, stats) = bake_for_file(mesh, opts, progress)?;
+    tree.refresh_bounds();
+    Ok((tree, stats))
+}
+
+/// [`bake_mesh_with_progress`] for a tree that goes to a file: without the nodes' bounds
+/// (bits 8-31 of `info` zero), which only a traversal uses and the file does not store.
+pub(crate) fn bake_for_file(
+    mesh: &Mesh,
+    opts: &BakeOptions,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<(Octree, BakeStats), BakeError> {
     let (root, est) = prepare(mesh, opts)?;
     let t0 = Instant::now();
     let order = spatial_order(mesh, &root);

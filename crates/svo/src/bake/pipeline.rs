@@ -2,7 +2,7 @@
 //! atomically, timing each phase. This is everything `svo-bake` does; its `main` only parses
 //! arguments, draws the progress bar and prints the [`BakeReport`].
 
-use crate::bake::bake_mesh::{BakeError, BakeOptions, BakeStats, Phase, bake_mesh_with_progress};
+use crate::bake::bake_mesh::{BakeError, BakeOptions, BakeStats, Phase, bake_for_file};
 use crate::import::load_mesh;
 use crate::io::binvox::{ExportError, write_binvox};
 use crate::io::header::BuildInfo;
@@ -209,7 +209,7 @@ fn run_inner(
     } else {
         let (mesh, scene, options) = load_input(job, is_scene)?;
         let load_s = t.elapsed().as_secs_f64();
-        let (tree, stats) = bake_mesh_with_progress(&mesh, &options, progress)?;
+        let (tree, stats) = bake_for_file(&mesh, &options, progress)?;
         let build = BuildInfo {
             strategy: options.strategy.name().to_string(),
             source_triangles: mesh.triangles.len() as u64,

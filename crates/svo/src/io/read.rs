@@ -12,7 +12,7 @@ use crate::io::header::{
 pub use crate::io::write::FormatError;
 use crate::octree::format_check::Check;
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
-use crate::octree::validate::{check_root_and_counts, check_tree};
+use crate::octree::validate::{InfoBits, check_root_and_counts, check_tree};
 use glam::DVec3;
 use std::path::Path;
 
@@ -285,7 +285,7 @@ pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), Forma
             _ => return Err(corrupt(Check::Channels, "unknown channel")),
         }
     }
-    let tree = Octree {
+    let mut tree = Octree {
         root: RootCube {
             origin,
             side: h.root_side,
@@ -297,7 +297,9 @@ pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), Forma
         attributes,
     };
     // 14 to 18: the node words, the tree's shape, the node and leaf order, the values.
-    check_tree(&tree, p.version).map_err(|(check, detail)| corrupt(check, detail))?;
+    check_tree(&tree, p.version, InfoBits::Zero)
+        .map_err(|(check, detail)| corrupt(check, detail))?;
+    tree.refresh_bounds();
     Ok((tree, p))
 }
 

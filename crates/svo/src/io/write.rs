@@ -6,8 +6,8 @@ use crate::io::header::{
     bincode_config,
 };
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, Octree};
-use crate::octree::validate::check_tree;
+use crate::octree::tree::{Channel, Node, Octree};
+use crate::octree::validate::{InfoBits, check_tree};
 use std::io::Write;
 use std::path::Path;
 use thiserror::Error;
@@ -106,8 +106,9 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
     build.scene.validate().map_err(|e| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
     })?;
-    // A tree a reader would refuse is not written (trees that svo builds pass).
-    check_tree(tree, VERSION).map_err(|(check, detail)| {
+    // A tree a reader would refuse is not written (trees that svo builds pass). Bits 8-31
+    // of the nodes are written as zeros whatever they hold.
+    check_tree(tree, VERSION, InfoBits::Cleared).map_err(|(check, detail)| {
         std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
             format!("{check}: {detail}"),
@@ -194,17 +195,36 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
         out.write_all(&zeros[..n])
     };
     pad(&mut out)?;
-    for (_, bytes) in &arrays {
+    for (kind, bytes) in &arrays {
         // Arrays are stored little-endian: on little-endian machines a plain copy.
         #[cfg(target_endian = "big")]
         compile_error!("svo's file writer assumes a little-endian target");
-        out.write_all(bytes)?;
+        if kind.is_none() {
+            write_nodes(&tree.nodes, &mut out)?;
+        } else {
+            out.write_all(bytes)?;
+        }
         pad(&mut out)?;
     }
     let sum = out.hash.digest();
     let len = out.len;
     out.inner.write_all(&sum.to_le_bytes())?;
     Ok(len + 8)
+}
+
+/// Writes the node array as files store it: bits 8-31 of `info` (the derived bounds) zero.
+fn write_nodes(nodes: &[Node], out: &mut dyn Write) -> std::io::Result<()> {
+    let mut buf = [Node::default(); 4096];
+    for chunk in nodes.chunks(buf.len()) {
+        for (b, n) in buf.iter_mut().zip(chunk) {
+            *b = Node {
+                info: n.info & 0xFF,
+                first: n.first,
+            };
+        }
+        out.write_all(bytemuck::cast_slice(&buf[..chunk.len()]))?;
+    }
+    Ok(())
 }
 
 /// Serializes an octree into the bytes of a `.svo` file (empty when `build.scene` fails

@@ -281,13 +281,15 @@ fn finish(
     if !vox.is_empty() {
         attributes.compact();
     }
-    Octree {
+    let mut tree = Octree {
         root,
         depth,
         nodes,
         leaf_count: vox.len() as u32,
         attributes,
-    }
+    };
+    tree.refresh_bounds();
+    tree
 }
 
 impl Octree {

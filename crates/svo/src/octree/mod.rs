@@ -8,6 +8,7 @@
 //! Depends on [`crate::mesh`] (material presets for the builder) and the grid geometry (the
 //! root cube, child offsets). Everything that makes or reads trees depends on it.
 
+pub(crate) mod bounds;
 pub(crate) mod builder;
 pub(crate) mod contour;
 pub(crate) mod encoding;

@@ -13,7 +13,9 @@ use glam::{DVec3, UVec3, Vec3};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Node {
-    /// Bits 0-7: which of the 8 children exist (bit 2 = x, 1 = y, 0 = z). Higher bits: zero.
+    /// Bits 0-7: which of the 8 children exist (bit 2 = x, 1 = y, 0 = z). Bits 8-31: the box
+    /// that holds the node's leaves, derived from the tree for the traversal
+    /// ([`Octree::refresh_bounds`]; all zero is the whole node); files store zeros there.
     pub info: u32,
     /// Where the existing children start: a node index, or `-(leaf_base + 1)` as `i32` when
     /// the children are leaves.
@@ -334,7 +336,7 @@ impl Octree {
     /// The nodes at `level` (0 = the root; below the depth, where the leaves are), as
     /// `(node index, minimum cell, side in cells)` at leaf resolution, in depth-first order;
     /// `None` when there are more than `cap`.
-    #[cfg(all(test, feature = "trace"))]
+    #[cfg(test)]
     pub(crate) fn nodes_at_level(&self, level: u8, cap: usize) -> Option<Vec<(u32, UVec3, u32)>> {
         let mut out = Vec::new();
         if level >= self.depth {

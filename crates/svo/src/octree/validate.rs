@@ -24,7 +24,20 @@ pub type Failure = (Check, String);
 /// Validates a tree in memory (as a version-2 file would hold it); the error names the check
 /// and says what is wrong and where.
 pub fn validate(t: &Octree) -> Result<(), String> {
-    check_tree(t, CURRENT_VERSION).map_err(|(c, m)| format!("{c}: {m}"))
+    check_tree(t, CURRENT_VERSION, InfoBits::Bounds).map_err(|(c, m)| format!("{c}: {m}"))
+}
+
+/// What bits 8-31 of the nodes' `info` words may hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InfoBits {
+    /// Zeros, as in a file.
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    Zero,
+    /// Zeros or the node's derived bounds, as in a tree in memory.
+    Bounds,
+    /// Anything: the writer stores zeros whatever they hold.
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    Cleared,
 }
 
 /// Checks 7 to 9 on the values a file's header and a tree in memory both have: the depth,
@@ -64,7 +77,7 @@ pub fn check_root_and_counts(
 }
 
 /// The checks of a tree read from a file of format `version`, in the document's order.
-pub fn check_tree(t: &Octree, version: u32) -> Result<(), Failure> {
+pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failure> {
     let fail = |c: Check, m: String| Err((c, m));
     let (n, leaves) = (t.nodes.len(), u64::from(t.leaf_count));
     check_root_and_counts(t.depth, t.root.origin, t.root.side, n as u64, leaves)?;
@@ -88,15 +101,34 @@ pub fn check_tree(t: &Octree, version: u32) -> Result<(), Failure> {
             );
         }
     }
-    for (i, node) in t.nodes.iter().enumerate() {
-        if node.info >> 8 != 0 {
-            return fail(
-                Check::NodeWords,
-                format!("node {i}: reserved info bits set ({:#x})", node.info),
-            );
+    if bits == InfoBits::Zero {
+        for (i, node) in t.nodes.iter().enumerate() {
+            if node.info >> 8 != 0 {
+                return fail(
+                    Check::NodeWords,
+                    format!("node {i}: reserved info bits set ({:#x})", node.info),
+                );
+            }
         }
     }
     check_shape_and_node_order(t)?;
+    if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
+        // The shape is sound, so each node's bounds are known.
+        let mut derived = t.nodes.clone();
+        crate::octree::bounds::derive(&mut derived, t.depth);
+        for (i, (node, want)) in t.nodes.iter().zip(derived).enumerate() {
+            let (have, want) = (node.info & !0xFF, want.info & !0xFF);
+            if have != 0 && have != want {
+                return fail(
+                    Check::NodeWords,
+                    format!(
+                        "node {i}: bits 8-31 ({have:#x}) are neither zero nor the node's bounds \
+                         ({want:#x}); Octree::refresh_bounds derives them"
+                    ),
+                );
+            }
+        }
+    }
     check_leaf_order(t)?;
     check_values(t, version)
 }

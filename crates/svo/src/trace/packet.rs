@@ -21,6 +21,7 @@
 //! The independent lanes also give the processor four chains of dependent arithmetic to
 //! overlap where a single ray has one.
 
+use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use crate::trace::traverse::{LeafEntry, Traversal};
@@ -195,6 +196,7 @@ fn walk<const STACK: usize, T>(
         return out;
     }
     let mask = any.mask;
+    let swap = bounds::swap_mask(mask);
     // Lanes not traced get a harmless ray (the first lane's), masked out of every decision.
     let get = |l: usize| r[l].unwrap_or(any);
     let v =
@@ -320,6 +322,23 @@ fn walk<const STACK: usize, T>(
         let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
             continue;
         };
+        // The single walk's test of the box of the child's leaves, on every lane.
+        let mut enters = enters;
+        if child.info >> 8 != 0 {
+            let (lo, from_hi) = bounds::nibbles(bounds::mirrored(child.info, swap));
+            let sh = bounds::unit_shift(half);
+            let b0 = ls.planes(&any, origin + (lo << sh));
+            let b1 = ls.planes(
+                &any,
+                (origin + UVec3::splat(half)).wrapping_sub(from_hi << sh),
+            );
+            let first = b0.x.max(b0.y).max(b0.z).max(t_enter);
+            let last = b1.x.min(b1.y).min(b1.z).min(t_exit);
+            enters &= !last.cmplt(first);
+            if !enters.any() {
+                continue;
+            }
+        }
         half /= 2;
         t1 = c1;
         tm = ls.planes(&any, origin + UVec3::splat(half));

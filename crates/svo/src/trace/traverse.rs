@@ -19,7 +19,14 @@
 //! decides whether the ray stops there (a cube, a contour or triangles: [`crate::trace::leaf_hit`];
 //! shadow rays accumulate transmittance and go on). Each child examined is one step; a ray
 //! that needs more than the cap is reported as capped, never as a silent miss.
+//!
+//! An inner child is entered only where the ray meets the box of its leaves that the node
+//! keeps in its spare bits ([`crate::octree::Octree::refresh_bounds`]), tested on the same
+//! integer planes: a leaf the ray enters lies in that box, so its parameters, which are those
+//! of its own planes, fall within the box's, and no leaf is skipped. The leaves handed over
+//! are the same with or without the boxes; only the steps differ.
 
+use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use glam::{UVec3, Vec3, Vec3A};
@@ -259,6 +266,7 @@ fn traverse_with<const STACK: usize, T>(
     let mut stack = [EMPTY; STACK];
     let mut len = 0usize;
     let mask = r.mask;
+    let swap = bounds::swap_mask(mask);
     loop {
         if next == DONE {
             // Pop to the nearest ancestor with a child left (one whose next child is DONE
@@ -343,6 +351,16 @@ fn traverse_with<const STACK: usize, T>(
             let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
                 continue;
             };
+            // A ray that passes beside the box of the child's leaves finds none there.
+            if child.info >> 8 != 0 {
+                let (lo, from_hi) = bounds::nibbles(bounds::mirrored(child.info, swap));
+                let sh = bounds::unit_shift(half);
+                let b0 = r.t_planes(origin + (lo << sh));
+                let b1 = r.t_planes((origin + UVec3::splat(half)).wrapping_sub(from_hi << sh));
+                if b1.min_element().min(t_exit) < b0.max_element().max(t_enter) {
+                    continue;
+                }
+            }
             stack[len] = Saved {
                 first: node.first,
                 info: node.child_mask(),
