@@ -88,11 +88,13 @@ impl Octree {
     }
 
     /// Checks the tree as the `.svo` reader checks every file (`docs/format.md`, checks 7 to
-    /// 10 and 14 to 18): depth, root cube, counts, channels, reserved bits, the tree's shape,
-    /// the canonical node order, leaves numbered depth-first, and the stored values. The error
-    /// names the check (`check 16 (node order): ...`). Trees that `svo` builds pass; a tree
-    /// assembled by hand from its public fields should be checked before it is traced, and
-    /// the writer refuses one that fails.
+    /// 10 and 14 to 18): depth, root cube, counts, channels, the tree's shape, the canonical
+    /// node order, leaves numbered depth-first, and the stored values; and bits 8-31 of the
+    /// nodes' `info` words, which must be zero (as in a file) or the nodes' bounds
+    /// ([`Octree::refresh_bounds`]). The error names the check (`check 16 (node order): ...`).
+    /// Trees that `svo` builds pass; a tree assembled by hand from its public fields should be
+    /// checked before it is traced, and the writer refuses one that fails the file's checks
+    /// (it writes bits 8-31 as zeros).
     pub fn validate(&self) -> Result<(), String> {
         crate::octree::validate::validate(self)
     }
