@@ -85,7 +85,7 @@ pub(crate) fn derive(nodes: &mut [Node], depth: u8) {
             let c = rest.trailing_zeros() as u8;
             rest &= rest - 1;
             whole |= level[j] != l + 1;
-            let (cl, ch) = cell_box(nodes[j].info >> SHIFT, half);
+            let (cl, ch) = cell_box(nodes[j].info >> SHIFT, UVec3::ZERO, half);
             let off = child_offset(c) * half;
             lo = lo.min(off + cl);
             hi = hi.max(off + ch);
@@ -147,22 +147,28 @@ fn encode(lo: UVec3, hi: UVec3, side: u32) -> u32 {
     a.x | a.y << 4 | a.z << 8 | b.x << 12 | b.y << 16 | b.z << 20
 }
 
-/// The box, in cells relative to the node, that the 24-bit `code` of a node of `side` holds.
-pub(crate) fn cell_box(code: u32, side: u32) -> (UVec3, UVec3) {
+/// The low and high corners (in cells) of the box that the 24-bit `code` of a node of `side`
+/// cells at `corner` holds. The traversal passes a [`mirrored`] code and the node's mirrored
+/// corner, and gets the box's corners in the mirrored space.
+#[inline(always)]
+pub(crate) fn cell_box(code: u32, corner: UVec3, side: u32) -> (UVec3, UVec3) {
     let sh = unit_shift(side);
     let (lo, from_hi) = nibbles(code);
-    (lo << sh, UVec3::splat(side).wrapping_sub(from_hi << sh))
+    (
+        corner + (lo << sh),
+        (corner + UVec3::splat(side)).wrapping_sub(from_hi << sh),
+    )
 }
 
 /// `log2` of the unit of a node of `side` cells: `max(1, side / 16)`.
-#[inline]
-pub(crate) fn unit_shift(side: u32) -> u32 {
+#[inline(always)]
+fn unit_shift(side: u32) -> u32 {
     side.trailing_zeros().saturating_sub(4)
 }
 
 /// The code's low sides and distances from the high sides, in units.
-#[inline]
-pub(crate) fn nibbles(code: u32) -> (UVec3, UVec3) {
+#[inline(always)]
+fn nibbles(code: u32) -> (UVec3, UVec3) {
     (
         UVec3::new(code & 15, code >> 4 & 15, code >> 8 & 15),
         UVec3::new(code >> 12 & 15, code >> 16 & 15, code >> 20 & 15),
@@ -244,7 +250,8 @@ mod tests {
                     let side = n >> level;
                     for (i, corner, s) in t.nodes_at_level(level, usize::MAX).unwrap() {
                         assert_eq!(s, side);
-                        let (lo, hi) = cell_box(t.nodes[i as usize].info >> SHIFT, side);
+                        let (lo, hi) =
+                            cell_box(t.nodes[i as usize].info >> SHIFT, UVec3::ZERO, side);
                         let inside: Vec<UVec3> = cells
                             .iter()
                             .filter(|c| {
@@ -280,7 +287,7 @@ mod tests {
         let hi = UVec3::new(12, 64, 40);
         let info = encode(lo, hi, side) << SHIFT;
         for mask in 0..8u8 {
-            let (mlo, mhi) = cell_box(mirrored(info, swap_mask(mask)), side);
+            let (mlo, mhi) = cell_box(mirrored(info, swap_mask(mask)), UVec3::ZERO, side);
             for axis in 0..3 {
                 if mask & (4 >> axis) != 0 {
                     assert_eq!(mlo[axis], side - hi[axis], "mask {mask} axis {axis}");

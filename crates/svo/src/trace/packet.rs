@@ -325,13 +325,8 @@ fn walk<const STACK: usize, T>(
         // The single walk's test of the box of the child's leaves, on every lane.
         let mut enters = enters;
         if child.info >> 8 != 0 {
-            let (lo, from_hi) = bounds::nibbles(bounds::mirrored(child.info, swap));
-            let sh = bounds::unit_shift(half);
-            let b0 = ls.planes(&any, origin + (lo << sh));
-            let b1 = ls.planes(
-                &any,
-                (origin + UVec3::splat(half)).wrapping_sub(from_hi << sh),
-            );
+            let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
+            let (b0, b1) = (ls.planes(&any, lo), ls.planes(&any, hi));
             let first = b0.x.max(b0.y).max(b0.z).max(t_enter);
             let last = b1.x.min(b1.y).min(b1.z).min(t_exit);
             enters &= !last.cmplt(first);

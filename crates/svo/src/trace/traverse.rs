@@ -353,10 +353,8 @@ fn traverse_with<const STACK: usize, T>(
             };
             // A ray that passes beside the box of the child's leaves finds none there.
             if child.info >> 8 != 0 {
-                let (lo, from_hi) = bounds::nibbles(bounds::mirrored(child.info, swap));
-                let sh = bounds::unit_shift(half);
-                let b0 = r.t_planes(origin + (lo << sh));
-                let b1 = r.t_planes((origin + UVec3::splat(half)).wrapping_sub(from_hi << sh));
+                let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
+                let (b0, b1) = (r.t_planes(lo), r.t_planes(hi));
                 if b1.min_element().min(t_exit) < b0.max_element().max(t_enter) {
                     continue;
                 }
