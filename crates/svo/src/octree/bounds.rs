@@ -37,10 +37,10 @@ const UNKNOWN: u8 = u8::MAX;
 /// node's children come after it), no recursion.
 pub(crate) fn derive(nodes: &mut [Node], depth: u8) {
     let n = nodes.len();
-    for node in nodes.iter_mut() {
-        node.info &= 0xFF;
-    }
     if n == 0 || depth == 0 || depth > crate::MAX_DEPTH {
+        for node in nodes.iter_mut() {
+            node.info &= 0xFF;
+        }
         return;
     }
     let mut level = vec![UNKNOWN; n];
@@ -61,6 +61,8 @@ pub(crate) fn derive(nodes: &mut [Node], depth: u8) {
         }
     }
     for i in (0..n).rev() {
+        // Every node's old bits go here, before its parent (earlier in the array) reads them.
+        nodes[i].info &= 0xFF;
         let (l, node) = (level[i], nodes[i]);
         let mask = node.child_mask();
         if l >= depth || mask == 0 {
