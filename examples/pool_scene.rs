@@ -26,6 +26,7 @@ fn main() -> anyhow::Result<()> {
         options: Default::default(),
         threads: None,
         given: Default::default(),
+        memory: None,
     };
     let report = bake(&job)?;
     print!("{report}");

@@ -2,21 +2,25 @@
 //!
 //! ```text
 //! svo-bake bunny.obj --depth 8 -o bunny.svo
+//! svo-bake bunny.obj --depth 14 --memory 8GiB -o bunny.svo
 //! svo-bake bunny.svo -o bunny.binvox
+//! svo-bake plan bunny.obj --depth 14 --parts 16 -o job.svoplan
+//! svo-bake part job.svoplan 3
+//! svo-bake merge job.svoplan -o bunny.svo
 //! ```
 //! All the work is in the `svo` library ([`svo::bake::bake_file`]); this file parses arguments,
 //! draws the progress bar and prints the summary.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
-use clap::Parser;
+use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use svo::bake::{
     BakeJob, BakeOptions, ChannelSelection, GivenOptions, Phase, SolidMode, Strategy,
-    available_memory, bake_file_with_progress,
+    available_memory, bake_file_with_progress, bake_part_file, merge_parts, part_path, plan_file,
 };
 
 /// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
@@ -27,16 +31,57 @@ use svo::bake::{
 static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// Bake a triangle mesh (OBJ, OBJ.GZ, PLY, glTF, GLB) or a scene file (.toml) into a sparse
-/// voxel octree (.svo), or export/convert to .binvox or .vox (MagicaVoxel).
+/// voxel octree (.svo), or export/convert to .binvox or .vox (MagicaVoxel). With `plan`,
+/// `part` and `merge`, bake in parts that a batch system (Slurm, Kubernetes) runs anywhere
+/// the files are shared.
 #[derive(Parser, Debug)]
-#[command(version, about)]
+#[command(
+    version,
+    about,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
 struct Args {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Input mesh (.obj, .obj.gz, .ply, .gltf, .glb), scene file (.toml; see
     /// docs/scenes.md) or .svo to convert.
-    input: PathBuf,
+    #[arg(required = true)]
+    input: Option<PathBuf>,
     /// Output file: .svo, .binvox (depth <= 10) or .vox (depth <= 8). Default: input name with .svo.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    #[command(flatten)]
+    settings: Settings,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print the summary as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar and no summary (errors are still printed).
+    #[arg(short, long)]
+    quiet: bool,
+    /// Fill the inside: `--solid` (or `--solid closed`) for closed meshes (an open mesh is
+    /// refused, with its count of open edges); `--solid vote` for meshes with holes (parity
+    /// along x, y and z columns, the majority deciding).
+    #[arg(long, num_args = 0..=1, default_missing_value = "closed", value_name = "MODE",
+)]
+    solid: Option<SolidMode>,
+    /// Bake within this much memory (e.g. 8GiB, 512MiB): in parts baked one after another
+    /// into files beside the output, then merged into it; the same file as a bake in
+    /// memory. Without it, a bake whose estimate exceeds the available memory does this
+    /// by itself within that memory.
+    #[arg(long, value_parser = parse_size, value_name = "SIZE")]
+    memory: Option<u64>,
+    /// Bake in memory even when the memory estimate exceeds the available memory.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The bake settings that `plan` shares with a bake.
+#[derive(clap::Args, Debug)]
+struct Settings {
     /// Octree depth: the grid has 2^depth cells per axis [default: 8, or the scene file's].
     #[arg(short, long, value_parser = clap::value_parser!(u8).range(0..=255))]
     depth: Option<u8>,
@@ -53,24 +98,97 @@ struct Args {
     /// At least this many empty cells on every side of the mesh (its bounds then sit mid-cell).
     #[arg(long, default_value_t = 0)]
     pad: u32,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
-    /// Print the summary as JSON on stdout.
-    #[arg(long)]
-    json: bool,
-    /// No progress bar and no summary (errors are still printed).
-    #[arg(short, long)]
-    quiet: bool,
-    /// Fill the inside: `--solid` (or `--solid closed`) for closed meshes (an open mesh is
-    /// refused, with its count of open edges); `--solid vote` for meshes with holes (parity
-    /// along x, y and z columns, the majority deciding).
-    #[arg(long, num_args = 0..=1, default_missing_value = "closed", value_name = "MODE",
-)]
-    solid: Option<SolidMode>,
-    /// Bake even when the memory estimate exceeds the available memory.
-    #[arg(long)]
-    force: bool,
+}
+
+impl Settings {
+    fn options(&self) -> anyhow::Result<BakeOptions> {
+        let mut channels: ChannelSelection = self.channels.parse().map_err(anyhow::Error::msg)?;
+        if self.no_contours {
+            channels = channels.without(svo::ChannelKind::Contour);
+        }
+        Ok(BakeOptions {
+            depth: self.depth.unwrap_or(8),
+            strategy: self.strategy,
+            channels,
+            pad: self.pad,
+            ..BakeOptions::default()
+        })
+    }
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Plan a bake in parts: writes the plan (the mesh's path and hash, the options, each
+    /// part's subtrees) that `part` and `merge` read. Part I's file will be
+    /// NAME.IIIII.svopart beside the plan NAME.svoplan.
+    Plan {
+        /// The mesh (.obj, .obj.gz, .ply, .gltf, .glb).
+        mesh: PathBuf,
+        /// Number of parts (1 to 65536).
+        #[arg(long)]
+        parts: u32,
+        /// The plan file to write (.svoplan).
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        settings: Settings,
+    },
+    /// Bake part INDEX of a plan into its file beside the plan (stateless: run it on any
+    /// machine that sees the plan and the mesh; run twice, the same bytes).
+    Part {
+        /// The plan file.
+        plan: PathBuf,
+        /// The part, 0 to parts - 1.
+        index: u32,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Print the summary as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge a plan's parts into the .svo file, streamed; refuses a missing part, a part of
+    /// another plan, and a truncated or damaged part, leaving no output.
+    Merge {
+        /// The plan file.
+        plan: PathBuf,
+        /// The .svo file to write.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Print the summary as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// A size in bytes: a number with an optional unit (B, KiB, MiB, GiB, TiB, or K, M, G, T
+/// for the same powers of 1024).
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let value: f64 = num
+        .parse()
+        .map_err(|_| format!("{s:?} is not a size (e.g. 8GiB, 512MiB)"))?;
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kib" | "kb" => 10,
+        "m" | "mib" | "mb" => 20,
+        "g" | "gib" | "gb" => 30,
+        "t" | "tib" | "tb" => 40,
+        u => {
+            return Err(format!(
+                "unknown size unit {u:?} (use KiB, MiB, GiB or TiB)"
+            ));
+        }
+    };
+    let bytes = value * (1u64 << shift) as f64;
+    if !(1.0..1.8e19).contains(&bytes) {
+        return Err(format!("{s:?} is not a usable size"));
+    }
+    Ok(bytes as u64)
 }
 
 /// `println!` that returns the error instead of panicking, so that a closed pipe
@@ -97,13 +215,86 @@ fn main() {
 
 fn real_main() -> anyhow::Result<()> {
     let args = Args::parse();
-    let mut channels: ChannelSelection = args.channels.parse().map_err(anyhow::Error::msg)?;
-    if args.no_contours {
-        channels = channels.without(svo::ChannelKind::Contour);
+    match &args.command {
+        Some(Command::Plan {
+            mesh,
+            parts,
+            output,
+            settings,
+        }) => {
+            let plan = plan_file(mesh, &settings.options()?, *parts, output)
+                .with_context(|| format!("planning the bake of {}", mesh.display()))?;
+            say!(
+                "{}: {} parts of the subtrees at level {} (depth {}; about {:.3e} leaves in all, \
+                 the largest part {:.3e})",
+                output.display(),
+                plan.part_count(),
+                plan.level,
+                plan.depth,
+                plan.estimated_leaves,
+                plan.parts
+                    .iter()
+                    .map(|p| p.estimated_leaves)
+                    .fold(0.0, f64::max)
+            );
+            say!(
+                "next: svo-bake part {} I (for I in 0..{}: writes {} ...), then svo-bake merge {} -o OUT.svo",
+                output.display(),
+                plan.part_count(),
+                part_path(output, 0).display(),
+                output.display()
+            );
+            return Ok(());
+        }
+        Some(Command::Part {
+            plan,
+            index,
+            threads,
+            json,
+        }) => {
+            let r = bake_part_file(plan, *index, *threads)
+                .with_context(|| format!("baking part {index} of {}", plan.display()))?;
+            if *json {
+                say!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                say!(
+                    "part {} of {}: {} subtrees, {} leaves, {} bytes -> {} (load {:.2} s, bake {:.2} s, write {:.2} s)",
+                    r.index,
+                    r.count,
+                    r.subtrees,
+                    r.leaves,
+                    r.bytes,
+                    r.path,
+                    r.load_s,
+                    r.bake_s,
+                    r.write_s
+                );
+            }
+            return Ok(());
+        }
+        Some(Command::Merge { plan, output, json }) => {
+            let r = merge_parts(plan, output)
+                .with_context(|| format!("merging the parts of {}", plan.display()))?;
+            if *json {
+                say!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                say!(
+                    "{}: {} parts merged, {} nodes, {} leaves, {} bytes in {:.2} s",
+                    output.display(),
+                    r.parts,
+                    r.nodes,
+                    r.leaves,
+                    r.bytes,
+                    r.seconds
+                );
+            }
+            return Ok(());
+        }
+        None => {}
     }
+    let input = args.input.clone().context("no input file given")?;
     let output = args.output.clone().unwrap_or_else(|| {
-        let name = args
-            .input
+        let name = input
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
@@ -112,24 +303,22 @@ fn real_main() -> anyhow::Result<()> {
             .rsplit_once('.')
             .map_or(name.as_str(), |(s, _)| s)
             .to_string();
-        args.input.with_file_name(format!("{stem}.svo"))
+        input.with_file_name(format!("{stem}.svo"))
     });
     let job = BakeJob {
-        input: args.input.clone(),
+        input: input.clone(),
         output,
         options: BakeOptions {
-            depth: args.depth.unwrap_or(8),
-            strategy: args.strategy,
-            channels,
-            pad: args.pad,
             max_memory: if args.force { None } else { available_memory() },
             solid: args.solid,
+            ..args.settings.options()?
         },
         threads: args.threads,
         given: GivenOptions {
-            depth: args.depth.is_some(),
+            depth: args.settings.depth.is_some(),
             solid: args.solid.is_some(),
         },
+        memory: args.memory,
     };
     let bar = ProgressBar::with_draw_target(
         Some(1000),
@@ -144,15 +333,25 @@ fn real_main() -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let last = Mutex::new(None);
+    let talk = !(args.quiet || args.json);
     let progress = |phase: Phase, f: f64| {
         if let Ok(mut l) = last.lock()
             && *l != Some(phase)
         {
+            if phase == Phase::Part && talk {
+                bar.suspend(|| {
+                    eprintln!(
+                        "svo-bake: baking in parts within the memory budget, one after another, then merging them"
+                    );
+                });
+            }
             *l = Some(phase);
             bar.set_message(match phase {
                 Phase::Voxelize => "voxelize",
                 Phase::Attributes => "attributes",
                 Phase::Solid => "solid",
+                Phase::Part => "parts",
+                Phase::Merge => "merge",
             });
         }
         bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);

@@ -576,3 +576,76 @@ fn scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_li
         assert!(!bad.exists());
     }
 }
+
+/// `--memory` bakes in parts into the same file as the bake in memory, and says so; plan,
+/// part and merge give it too; what no file can hold, a budget that the mesh alone exceeds,
+/// a bad size, a solid fill in parts and a part index past the plan are one clear line each.
+#[test]
+fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
+    let d = tmp();
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let whole = d.path().join("whole.svo");
+    ok(&[s(&torus), "--depth", "9", "-q", "-o", s(&whole)]);
+    let parts = d.path().join("parts.svo");
+    let text = ok(&[
+        s(&torus),
+        "--depth",
+        "9",
+        "--memory",
+        "8MiB",
+        "-o",
+        s(&parts),
+    ]);
+    assert!(text.contains(" parts at level "), "{text}");
+    assert!(std::fs::read(&whole).unwrap() == std::fs::read(&parts).unwrap());
+    // No part files are left beside the output.
+    let left: Vec<_> = std::fs::read_dir(d.path())
+        .unwrap()
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let plan = d.path().join("job.svoplan");
+    ok(&[
+        "plan",
+        s(&torus),
+        "--depth",
+        "9",
+        "--parts",
+        "3",
+        "-o",
+        s(&plan),
+    ]);
+    for i in ["0", "1", "2"] {
+        ok(&["part", s(&plan), i, "--threads", "1"]);
+    }
+    let merged = d.path().join("merged.svo");
+    ok(&["merge", s(&plan), "-o", s(&merged)]);
+    assert!(std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap());
+
+    let out = d.path().join("out.svo");
+    let o = s(&out);
+    fails(
+        &[s(&torus), "--depth", "24", "--memory", "8GiB", "-o", o],
+        "at most 2^31",
+    );
+    fails(
+        &[s(&torus), "--depth", "9", "--memory", "1KiB", "-o", o],
+        "raise --memory",
+    );
+    // Argument errors are clap's: a usage line with them.
+    let bad = run(&[s(&torus), "--memory", "lots", "-o", o]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("\"lots\" is not a size"));
+    fails(
+        &[s(&torus), "--solid", "--memory", "1GiB", "-o", o],
+        "solid",
+    );
+    fails(&["part", s(&plan), "3"], "the plan has 3 parts");
+    fails(
+        &["merge", s(&d.path().join("none.svoplan")), "-o", o],
+        "none.svoplan",
+    );
+    assert!(!out.exists());
+}

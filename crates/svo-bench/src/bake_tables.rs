@@ -259,6 +259,7 @@ pub fn pipeline(
         },
         threads: Some(threads),
         given: Default::default(),
+        memory: None,
     };
     let mut reports = Vec::new();
     let mut peak = None;

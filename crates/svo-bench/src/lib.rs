@@ -16,6 +16,7 @@ pub mod external;
 pub mod geometry_error;
 pub mod image_tables;
 pub mod machine;
+pub mod parts_tables;
 pub mod peak_memory;
 pub mod plots;
 pub mod report;
@@ -69,6 +70,8 @@ struct Plan {
     pipeline: Vec<(u8, Option<usize>, usize)>,
     deep_max_depth: u8,
     deep_runs: fn(u8) -> usize,
+    /// Bakes in parts: (depth, in memory too, budget) on the bunny and the large mesh.
+    parts: Vec<(u8, bool, u64)>,
 }
 
 impl Plan {
@@ -88,6 +91,7 @@ impl Plan {
                 pipeline: vec![(6, None, 1)],
                 deep_max_depth: 8,
                 deep_runs: |_| 1,
+                parts: vec![(8, true, 32 << 20)],
             }
         } else {
             Self {
@@ -109,6 +113,11 @@ impl Plan {
                 ],
                 deep_max_depth: 20,
                 deep_runs: |d| if d <= 16 { 5 } else { 3 },
+                parts: vec![
+                    (12, true, 1 << 30),
+                    (13, true, 2 << 30),
+                    (14, false, 8 << 30),
+                ],
             }
         }
     }
@@ -196,6 +205,20 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
 
     // Deep trees.
     let deep = deep_tables::measure(plan.deep_max_depth, plan.deep_runs, &lg);
+
+    // Bakes in parts (the large mesh only in the full variant).
+    let mut parts = parts_tables::measure("bunny", &opts.mesh, &plan.parts, tmp.path(), &lg);
+    if !opts.quick
+        && let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists())
+    {
+        parts.extend(parts_tables::measure(
+            &format!("`{}`", file_name(large)),
+            large,
+            &plan.parts,
+            tmp.path(),
+            &lg,
+        ));
+    }
 
     // External baselines.
     let external = !opts.quick && !opts.no_external;
@@ -404,6 +427,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         tables,
         pipeline,
         deep,
+        parts,
         open3d,
         per_depth,
         image_rows,
@@ -470,6 +494,7 @@ struct Measured {
     tables: BakeTables,
     pipeline: Vec<PipelineRow>,
     deep: Vec<deep_tables::DeepRow>,
+    parts: Vec<parts_tables::PartsRow>,
     open3d: Option<Vec<(String, Open3dRun)>>,
     per_depth: Vec<DepthResults>,
     image_rows: Vec<ImageRow>,
@@ -619,6 +644,12 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
         "median of 5 runs per depth (3 above depth 16)"
     };
     deep_tables::write(r, &m.deep, deep_note);
+
+    r.heading(
+        3,
+        "Bakes in parts: time a leaf and peak memory against the budget",
+    );
+    parts_tables::write(r, &m.parts);
 
     // 4. Geometry.
     r.heading(

@@ -195,9 +195,7 @@ fn main() {
 fn real_main() -> anyhow::Result<()> {
     let args = Args::parse();
     if args.info {
-        let bytes = std::fs::read(&args.file)
-            .with_context(|| format!("cannot read {}", args.file.display()))?;
-        let text = svo::io::describe(&bytes)
+        let text = svo::io::describe_file(&args.file)
             .with_context(|| format!("loading {}", args.file.display()))?;
         say!("{}\n{}", args.file.display(), text);
         return Ok(());

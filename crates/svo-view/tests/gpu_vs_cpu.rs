@@ -486,6 +486,7 @@ fn the_thesis_pool_views() {
             depth: true,
             solid: false,
         },
+        memory: None,
     };
     svo::bake::bake_file(&bake).unwrap();
     let trace = TraceOptions {

@@ -424,6 +424,7 @@ fn a_scene_file_is_a_triangle_reference() {
         options: Default::default(),
         threads: Some(1),
         given: Default::default(),
+        memory: None,
     };
     svo::bake::bake_file(&job).unwrap();
     let png = d.path().join("s.png");

@@ -95,6 +95,7 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
         },
         threads: Some(1),
         given: Default::default(),
+        memory: None,
     };
     svo::bake::bake_file(&job).unwrap();
     let (back, build) = svo::io::read_file(&out).unwrap();

@@ -276,7 +276,27 @@ impl<'a> AttributeInputs<'a> {
 
     /// The leaf attributes from the voxelizer's values, with constants for the channels that
     /// do not vary, and the report.
-    pub fn finish(&self, mut v: LeafValues, wall: Duration) -> (LeafAttributes, AttributeReport) {
+    pub fn finish(&self, v: LeafValues, wall: Duration) -> (LeafAttributes, AttributeReport) {
+        self.finish_with(v, wall, true)
+    }
+
+    #[cfg(feature = "io")]
+    /// [`Self::finish`] without turning per-leaf channels whose values are all equal into
+    /// constants: a part of a tree keeps its arrays, and the merge decides over all parts.
+    pub fn finish_uncompacted(
+        &self,
+        v: LeafValues,
+        wall: Duration,
+    ) -> (LeafAttributes, AttributeReport) {
+        self.finish_with(v, wall, false)
+    }
+
+    fn finish_with(
+        &self,
+        mut v: LeafValues,
+        wall: Duration,
+        compact: bool,
+    ) -> (LeafAttributes, AttributeReport) {
         let select = self.select;
         let m0 = materials(self.mesh)[0];
         let mut attrs = LeafAttributes::default();
@@ -314,7 +334,7 @@ impl<'a> AttributeInputs<'a> {
                 Channel::Constant(ior_encode(m0.ior))
             };
         }
-        if v.count > 0 {
+        if compact && v.count > 0 {
             attrs.compact();
         }
         // Apportion the wall time by the measured thread time of each step.

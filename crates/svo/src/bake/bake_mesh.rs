@@ -101,6 +101,10 @@ pub enum Phase {
     Attributes,
     /// Filling the inside (solid bakes).
     Solid,
+    /// Baking parts, one after another (a bake in bounded memory): the fraction of parts done.
+    Part,
+    /// Merging the parts into the file.
+    Merge,
 }
 
 /// Statistics of one bake.

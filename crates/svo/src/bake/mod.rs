@@ -10,9 +10,17 @@
 //! and [`crate::scene`].
 
 pub(crate) mod bake_mesh;
+#[cfg(feature = "io")]
+pub(crate) mod bounded;
 pub(crate) mod estimate;
 #[cfg(feature = "io")]
+pub(crate) mod merge;
+#[cfg(feature = "io")]
+pub(crate) mod part;
+#[cfg(feature = "io")]
 pub(crate) mod pipeline;
+#[cfg(feature = "io")]
+pub(crate) mod plan;
 
 pub use crate::attributes::{ChannelSelection, ContourStats};
 pub use crate::solid::SolidMode;
@@ -22,9 +30,21 @@ pub use bake_mesh::{
     BakeError, BakeOptions, BakeStats, Phase, available_memory, bake_mesh, bake_mesh_with_progress,
     estimate_bake, voxelize_mesh,
 };
+#[cfg(feature = "io")]
+pub use bounded::{PartsReport, bake_planned, peak_resident, plan_for_budget};
 pub use estimate::Estimate;
+#[cfg(feature = "io")]
+pub use merge::{MergeReport, merge_parts};
+#[cfg(feature = "io")]
+pub use part::{
+    PartData, PartHeader, PartReport, bake_part_file, bake_parts, read_part_header, write_part,
+};
 #[cfg(feature = "io")]
 pub use pipeline::{
     BakeJob, BakeReport, GivenOptions, OutputFormat, PipelineError, bake_file,
     bake_file_with_progress,
+};
+#[cfg(feature = "io")]
+pub use plan::{
+    BakePlan, PartsError, hash_file, part_path, plan_bake, plan_file, read_plan, write_plan,
 };

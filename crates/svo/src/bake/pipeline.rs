@@ -2,7 +2,11 @@
 //! atomically, timing each phase. This is everything `svo-bake` does; its `main` only parses
 //! arguments, draws the progress bar and prints the [`BakeReport`].
 
-use crate::bake::bake_mesh::{BakeError, BakeOptions, BakeStats, Phase, bake_for_file};
+use crate::bake::bake_mesh::{
+    BakeError, BakeOptions, BakeStats, Phase, bake_for_file, estimate_bake,
+};
+use crate::bake::bounded::{PartsReport, bake_planned, peak_resident, plan_for_budget};
+use crate::bake::plan::PartsError;
 use crate::import::load_mesh;
 use crate::io::binvox::{ExportError, write_binvox};
 use crate::io::header::BuildInfo;
@@ -35,6 +39,9 @@ pub enum PipelineError {
     /// Exporting failed.
     #[error(transparent)]
     Export(#[from] ExportError),
+    /// The bake in parts failed.
+    #[error(transparent)]
+    Parts(#[from] PartsError),
     /// The output's extension is not a format we write.
     #[error("unsupported output format for {0} (expected .svo, .binvox or .vox)")]
     UnknownOutput(String),
@@ -104,6 +111,11 @@ pub struct BakeJob {
     /// Which of `options` the user set: a scene file's own depth and solid fill are used
     /// where the user did not.
     pub given: GivenOptions,
+    /// Bake in parts within this many bytes of memory (an `.svo` output only): the parts
+    /// are baked one after another into files beside the output and merged into it, the
+    /// same bytes as the bake in memory. `None`: in memory, unless `options.max_memory` is
+    /// set and the estimate exceeds it, in which case the bake goes into parts within that.
+    pub memory: Option<u64>,
 }
 
 /// Which bake options were given explicitly (on the command line), so a scene file's own
@@ -144,6 +156,8 @@ pub struct BakeReport {
     pub depth: u8,
     /// Bake statistics (absent when converting an `.svo`).
     pub bake: Option<BakeStats>,
+    /// The bake in parts, when it was one.
+    pub parts: Option<PartsReport>,
 }
 
 /// Runs a bake job (what `svo-bake` does): loads the input, bakes it (or reads an `.svo`),
@@ -209,13 +223,25 @@ fn run_inner(
     } else {
         let (mesh, scene, options) = load_input(job, is_scene)?;
         let load_s = t.elapsed().as_secs_f64();
-        let (tree, stats) = bake_for_file(&mesh, &options, progress)?;
         let build = BuildInfo {
             strategy: options.strategy.name().to_string(),
             source_triangles: mesh.triangles.len() as u64,
             scene,
             ..BuildInfo::new()
         };
+        if let Some((budget, automatic)) = parts_budget(job, format, &mesh, &options)? {
+            return bake_in_parts(
+                job,
+                &mesh,
+                &options,
+                &build,
+                (budget, automatic),
+                threads,
+                (t_all, load_s),
+                progress,
+            );
+        }
+        let (tree, stats) = bake_for_file(&mesh, &options, progress)?;
         (tree, build, Some(stats), load_s)
     };
     let t = Instant::now();
@@ -246,6 +272,106 @@ fn run_inner(
         nodes,
         depth,
         bake: stats,
+        parts: None,
+    })
+}
+
+/// The memory budget of a bake in parts, and whether the bake chose it itself: `--memory`,
+/// or the memory limit when a surface bake's estimate exceeds it.
+fn parts_budget(
+    job: &BakeJob,
+    format: OutputFormat,
+    mesh: &crate::Mesh,
+    options: &BakeOptions,
+) -> Result<Option<(u64, bool)>, PipelineError> {
+    if let Some(budget) = job.memory {
+        if format != OutputFormat::Svo {
+            return Err(PartsError::Unsupported(
+                "a bake within a memory budget writes .svo only".into(),
+            )
+            .into());
+        }
+        return Ok(Some((budget, false)));
+    }
+    let Some(limit) = options.max_memory else {
+        return Ok(None);
+    };
+    if format != OutputFormat::Svo || options.solid.is_some() {
+        return Ok(None);
+    }
+    // Parts only where a file can hold the tree; else the in-memory bake refuses as before.
+    let est = estimate_bake(mesh, options)?;
+    Ok(
+        (est.bytes > limit as f64 && est.leaves <= crate::bake::plan::MAX_FILE_LEAVES)
+            .then_some((limit, true)),
+    )
+}
+
+/// Bakes in parts within `budget` bytes into `job.output`.
+#[allow(clippy::too_many_arguments)]
+fn bake_in_parts(
+    job: &BakeJob,
+    mesh: &crate::Mesh,
+    options: &BakeOptions,
+    build: &BuildInfo,
+    (budget, automatic): (u64, bool),
+    threads: usize,
+    (t_all, load_s): (Instant, f64),
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<BakeReport, PipelineError> {
+    let opts = BakeOptions {
+        max_memory: None,
+        ..options.clone()
+    };
+    let plan = plan_for_budget(mesh, &job.input, &opts, budget, build)?;
+    let t = Instant::now();
+    let (merge, part_seconds, part_bytes, degenerate) =
+        bake_planned(mesh, &plan, &job.output, progress)?;
+    let bake_s = t.elapsed().as_secs_f64() - merge.seconds;
+    let root = plan.root();
+    let stats = BakeStats {
+        triangles: mesh.triangles.len(),
+        degenerate_triangles: degenerate,
+        depth: plan.depth,
+        strategy: plan.strategy.clone(),
+        exact: opts.strategy.is_exact(),
+        root_origin: plan.root_origin,
+        root_side: plan.root_side,
+        cell_size: root.cell_size(plan.depth),
+        nodes: merge.nodes as usize,
+        leaves: merge.leaves as usize,
+        estimated_leaves: plan.estimated_leaves,
+        overlap_tests: merge.overlap_tests,
+        leaf_triangle_pairs: merge.leaf_triangle_pairs as usize,
+        false_positives: merge.false_positives as usize,
+        voxelize_s: bake_s,
+        channels: merge.channels.clone(),
+        payload_bytes: merge.bytes as usize,
+        ..BakeStats::default()
+    };
+    Ok(BakeReport {
+        input: job.input.display().to_string(),
+        output: job.output.display().to_string(),
+        format: OutputFormat::Svo,
+        threads,
+        load_s,
+        write_s: merge.seconds,
+        total_s: t_all.elapsed().as_secs_f64(),
+        file_bytes: merge.bytes,
+        leaves: merge.leaves as usize,
+        nodes: merge.nodes as usize,
+        depth: plan.depth,
+        bake: Some(stats),
+        parts: Some(PartsReport {
+            budget,
+            automatic,
+            parts: plan.part_count(),
+            level: plan.level,
+            part_seconds,
+            part_bytes,
+            merge,
+            peak_resident: peak_resident(),
+        }),
     })
 }
 
@@ -380,6 +506,38 @@ impl fmt::Display for BakeReport {
                 "  time        read {}, write {}",
                 ms(self.load_s),
                 ms(self.write_s)
+            )?;
+        }
+        if let Some(p) = &self.parts {
+            const GIB: f64 = (1u64 << 30) as f64;
+            let mut t = p.part_seconds.clone();
+            t.sort_by(f64::total_cmp);
+            let (lo, mid, hi) = (
+                t.first().copied().unwrap_or(0.0),
+                t.get(t.len() / 2).copied().unwrap_or(0.0),
+                t.last().copied().unwrap_or(0.0),
+            );
+            writeln!(
+                f,
+                "  parts       {} parts at level {}{} within {:.2} GiB: part times {} / {} / {} (min / median / max), \
+                 {:.2} GiB of part files, merge {}; peak resident {}",
+                p.parts,
+                p.level,
+                if p.automatic {
+                    " (the bake in memory would not fit)"
+                } else {
+                    ""
+                },
+                p.budget as f64 / GIB,
+                ms(lo),
+                ms(mid),
+                ms(hi),
+                p.part_bytes as f64 / GIB,
+                ms(p.merge.seconds),
+                p.peak_resident.map_or("unknown".to_string(), |b| format!(
+                    "{:.2} GiB",
+                    b as f64 / GIB
+                ))
             )?;
         }
         write!(

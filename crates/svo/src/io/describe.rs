@@ -3,10 +3,11 @@
 //! level and its channels.
 
 use crate::io::header::{PREAMBLE_LEN, Storage};
-use crate::io::read::read_with_header;
+use crate::io::read::{Preamble, read_file_with_header, read_with_header};
 use crate::io::write::FormatError;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
 use std::fmt::Write;
+use std::path::Path;
 
 fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out: &mut String) {
     let _ = match c {
@@ -22,12 +23,23 @@ fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out:
 /// gives the reader's error, which names the check it failed.
 pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
     let (tree, p) = read_with_header(bytes)?;
+    let sum = u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]));
+    Ok(describe_read(&tree, &p, sum, bytes.len() as u64))
+}
+
+/// [`describe`] for a file on disk, read in one pass ([`crate::io::read_file`]): no copy of
+/// the file is held beside the tree.
+pub fn describe_file(path: impl AsRef<Path>) -> Result<String, FormatError> {
+    let r = read_file_with_header(path.as_ref())?;
+    Ok(describe_read(&r.tree, &r.preamble, r.checksum, r.len))
+}
+
+fn describe_read(tree: &Octree, p: &Preamble, checksum: u64, len: u64) -> String {
     let (version, hlen, header) = (p.version, p.header_len, &p.header);
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "format         version {version}, header {hlen} bytes at {PREAMBLE_LEN}, checksum {:#018x} (XXH3-64)",
-        u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]))
+        "format         version {version}, header {hlen} bytes at {PREAMBLE_LEN}, checksum {checksum:#018x} (XXH3-64)",
     );
     let _ = writeln!(
         out,
@@ -49,8 +61,8 @@ pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
             }
         };
     }
-    describe_tree(&mut out, &tree, &header.build, bytes.len() as u64);
-    Ok(out)
+    describe_tree(&mut out, tree, &header.build, len);
+    out
 }
 
 /// The tree's part of [`describe`]: root, depth, counts per level, channels, sizes.

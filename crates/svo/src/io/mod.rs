@@ -32,7 +32,7 @@ pub(crate) mod write;
 
 pub use crate::octree::format_check::Check;
 pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
-pub use describe::describe;
+pub use describe::{describe, describe_file};
 pub use header::{BuildInfo, VERSION};
 pub use read::{from_bytes, read_file, read_from};
 #[cfg(feature = "vox")]

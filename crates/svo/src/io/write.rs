@@ -103,9 +103,6 @@ impl Write for Hashing<'_> {
 /// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
 /// not copied into a buffer first) and returns the number of bytes written.
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
-    build.scene.validate().map_err(|e| {
-        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
-    })?;
     // A tree a reader would refuse is not written (trees that svo builds pass). Bits 8-31
     // of the nodes are written as zeros whatever they hold.
     check_tree(tree, VERSION, InfoBits::Cleared).map_err(|(check, detail)| {
@@ -115,45 +112,109 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
         )
     })?;
     let a = &tree.attributes;
-    let mut arrays: Vec<(Option<u8>, &[u8])> = vec![(None, bytemuck::cast_slice(&tree.nodes))];
-    let mut entries: Vec<ChannelEntry> = Vec::new();
+    let mut arrays: Vec<&[u8]> = Vec::new();
+    let mut channels: Vec<(u8, Stored)> = Vec::new();
     fn add<'a, T: bytemuck::Pod + Into<u32>>(
         kind: u8,
         c: &'a Channel<T>,
-        entries: &mut Vec<ChannelEntry>,
-        arrays: &mut Vec<(Option<u8>, &'a [u8])>,
+        channels: &mut Vec<(u8, Stored)>,
+        arrays: &mut Vec<&'a [u8]>,
     ) {
         match c {
             Channel::Absent => {}
-            Channel::Constant(v) => entries.push(ChannelEntry {
-                kind,
-                storage: Storage::Constant((*v).into()),
-            }),
+            Channel::Constant(v) => channels.push((kind, Stored::Constant((*v).into()))),
             Channel::PerLeaf(v) => {
-                entries.push(ChannelEntry {
-                    kind,
-                    storage: Storage::PerLeaf(ArrayRef::default()),
-                });
-                arrays.push((Some(kind), bytemuck::cast_slice(v)));
+                let bytes: &[u8] = bytemuck::cast_slice(v);
+                channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
+                arrays.push(bytes);
             }
         }
     }
-    add(0, &a.normal, &mut entries, &mut arrays);
-    add(1, &a.contour, &mut entries, &mut arrays);
-    add(2, &a.colour, &mut entries, &mut arrays);
-    add(3, &a.reflectivity, &mut entries, &mut arrays);
-    add(4, &a.refractivity, &mut entries, &mut arrays);
-    add(5, &a.ior, &mut entries, &mut arrays);
-
-    let mut header = Header {
+    add(0, &a.normal, &mut channels, &mut arrays);
+    add(1, &a.contour, &mut channels, &mut arrays);
+    add(2, &a.colour, &mut channels, &mut arrays);
+    add(3, &a.reflectivity, &mut channels, &mut arrays);
+    add(4, &a.refractivity, &mut channels, &mut arrays);
+    add(5, &a.ior, &mut channels, &mut arrays);
+    let layout = Layout {
         root_origin: tree.root.origin.to_array(),
         root_side: tree.root.side,
         depth: tree.depth,
         node_count: tree.nodes.len() as u64,
         leaf_count: u64::from(tree.leaf_count),
+        channels,
+        build,
+    };
+    write_layout(&layout, w, &mut |i, out| {
+        // Arrays are stored little-endian: on little-endian machines a plain copy.
+        #[cfg(target_endian = "big")]
+        compile_error!("svo's file writer assumes a little-endian target");
+        if i == 0 {
+            write_nodes(&tree.nodes, out)
+        } else {
+            out.write_all(arrays[i - 1])
+        }
+    })
+}
+
+/// How a channel is stored, before the arrays' offsets are known.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Stored {
+    /// One value for all leaves.
+    Constant(u32),
+    /// An array of this many bytes.
+    PerLeaf(u64),
+}
+
+/// Everything a file's header says but where its arrays sit: what [`write_layout`] needs to
+/// place them.
+pub(crate) struct Layout<'a> {
+    pub root_origin: [f64; 3],
+    pub root_side: f64,
+    pub depth: u8,
+    pub node_count: u64,
+    pub leaf_count: u64,
+    /// The channels present, in increasing kind.
+    pub channels: Vec<(u8, Stored)>,
+    pub build: &'a BuildInfo,
+}
+
+/// Writes a file of `layout` to `w` and returns the bytes written: the preamble and header,
+/// then each array from `fill(i, out)` (`i = 0` the node array, then the per-leaf channels
+/// in increasing kind), each padded to 8 bytes, then the checksum. `fill` must write exactly
+/// the array's length; anything else is an error, and so is a scene that fails
+/// [`SceneInfo::validate`](crate::mesh::SceneInfo::validate), refused before the first byte.
+pub(crate) fn write_layout(
+    layout: &Layout<'_>,
+    w: &mut dyn Write,
+    fill: &mut dyn FnMut(usize, &mut dyn Write) -> std::io::Result<()>,
+) -> std::io::Result<u64> {
+    layout.build.scene.validate().map_err(|e| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
+    })?;
+    let mut lens = vec![layout.node_count.saturating_mul(8)];
+    let mut header = Header {
+        root_origin: layout.root_origin,
+        root_side: layout.root_side,
+        depth: layout.depth,
+        node_count: layout.node_count,
+        leaf_count: layout.leaf_count,
         nodes: ArrayRef::default(),
-        channels: entries,
-        build: build.clone(),
+        channels: layout
+            .channels
+            .iter()
+            .map(|&(kind, s)| ChannelEntry {
+                kind,
+                storage: match s {
+                    Stored::Constant(v) => Storage::Constant(v),
+                    Stored::PerLeaf(len) => {
+                        lens.push(len);
+                        Storage::PerLeaf(ArrayRef::default())
+                    }
+                },
+            })
+            .collect(),
+        build: layout.build.clone(),
     };
     let encode = |h: &Header| {
         bincode::serde::encode_to_vec(h, bincode_config())
@@ -161,22 +222,18 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
     };
     // Fixed-width integers: the header's size does not depend on the offsets in it.
     let hlen = encode(&header)?.len();
-    let pad8 = |x: usize| x.div_ceil(8) * 8;
-    let mut offset = pad8(PREAMBLE_LEN + hlen);
-    for (kind, bytes) in &arrays {
-        let r = ArrayRef {
-            offset: offset as u64,
-            len: bytes.len() as u64,
-        };
-        match kind {
-            None => header.nodes = r,
-            Some(k) => {
-                if let Some(e) = header.channels.iter_mut().find(|e| e.kind == *k) {
-                    e.storage = Storage::PerLeaf(r);
-                }
-            }
+    let pad8 = |x: u64| x.div_ceil(8) * 8;
+    let mut offset = pad8((PREAMBLE_LEN + hlen) as u64);
+    let mut refs = lens.iter().map(|&len| {
+        let r = ArrayRef { offset, len };
+        offset = pad8(offset + len);
+        r
+    });
+    header.nodes = refs.next().unwrap_or_default();
+    for e in &mut header.channels {
+        if let Storage::PerLeaf(r) = &mut e.storage {
+            *r = refs.next().unwrap_or_default();
         }
-        offset = pad8(offset + bytes.len());
     }
     let hbytes = encode(&header)?;
     debug_assert_eq!(hbytes.len(), hlen);
@@ -191,18 +248,21 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
     out.write_all(&hbytes)?;
     let zeros = [0u8; 8];
     let pad = |out: &mut Hashing<'_>| -> std::io::Result<()> {
-        let n = pad8(out.len as usize) - out.len as usize;
-        out.write_all(&zeros[..n])
+        let n = pad8(out.len) - out.len;
+        out.write_all(&zeros[..n as usize])
     };
     pad(&mut out)?;
-    for (kind, bytes) in &arrays {
-        // Arrays are stored little-endian: on little-endian machines a plain copy.
-        #[cfg(target_endian = "big")]
-        compile_error!("svo's file writer assumes a little-endian target");
-        if kind.is_none() {
-            write_nodes(&tree.nodes, &mut out)?;
-        } else {
-            out.write_all(bytes)?;
+    for (i, &len) in lens.iter().enumerate() {
+        let start = out.len;
+        fill(i, &mut out)?;
+        if out.len - start != len {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!(
+                    "array {i} of the file: {} bytes written where the header says {len}",
+                    out.len - start
+                ),
+            ));
         }
         pad(&mut out)?;
     }

@@ -640,21 +640,20 @@ fn build_node<L: LeafSink>(
     (Part::Par(children), tests)
 }
 
-/// Runs the voxelizer with leaves of type `L`.
-fn build<L: LeafSink>(
-    tris: &[GridTriangle],
+/// The context of one voxelization, and the triangles that take part in it (those whose
+/// bounds touch the root: all of them for a mesh's own root).
+fn context<'a>(
+    tris: &'a [GridTriangle],
     depth: u8,
     strategy: Strategy,
-    attributes: Option<&AttributeInputs<'_>>,
-    progress: &(dyn Fn(f64) + Sync),
-) -> (Vec<Node>, L, u64) {
+    attributes: Option<&'a AttributeInputs<'a>>,
+    progress: &'a (dyn Fn(f64) + Sync),
+) -> (Ctx<'a>, Vec<u32>) {
     assert!(
         (1..=crate::MAX_DEPTH).contains(&depth),
         "depth {depth} out of range"
     );
     let progress_level = PROGRESS_LEVEL.min(depth - 1);
-    // Each triangle's home, and whether its bounds touch the root: only those take part
-    // (all do for a mesh's own root).
     let side = f64::from(1u32 << depth);
     let home = |t: &GridTriangle| {
         let (lo, hi) = (t.lo(), t.hi());
@@ -683,6 +682,18 @@ fn build<L: LeafSink>(
         progress_level,
         spare: Mutex::new(Vec::new()),
     };
+    (ctx, all)
+}
+
+/// Runs the voxelizer with leaves of type `L`.
+fn build<L: LeafSink>(
+    tris: &[GridTriangle],
+    depth: u8,
+    strategy: Strategy,
+    attributes: Option<&AttributeInputs<'_>>,
+    progress: &(dyn Fn(f64) + Sync),
+) -> (Vec<Node>, L, u64) {
+    let (ctx, all) = context(tris, depth, strategy, attributes, progress);
     let (part, tests) = build_node::<L>(&ctx, 0, [0, 0, 0], &all);
     let (chunk, root) = match part {
         Part::Seq(chunk, root) => (chunk, root),
@@ -690,6 +701,131 @@ fn build<L: LeafSink>(
     };
     let (nodes, leaves) = chunk.finish(root);
     (nodes, leaves, tests)
+}
+
+#[cfg(feature = "io")]
+/// The subtree of one node at the parts' level, as [`voxelize_subtrees`] makes it.
+#[derive(Debug)]
+pub struct Subtree {
+    /// The node's Morton code among the nodes of its level: its child index at each level
+    /// from the root, three bits a level, the root's first (the order of the leaves).
+    pub code: u64,
+    /// The subtree's nodes in the file's order with the node first: the same records, in the
+    /// same order, as the whole tree's bake holds below the node, indexed from the node.
+    pub nodes: Vec<Node>,
+    /// Its leaves' values, in leaf order.
+    pub leaves: LeafValues,
+}
+
+#[cfg(feature = "io")]
+/// The lowest level whose subtrees [`voxelize_subtrees`] builds exactly as the whole tree's
+/// bake does: above it, no node builds its bottom levels in one go
+/// ([`crate::voxelize::scatter`]), so every node down to it is split as in the whole bake.
+pub fn deepest_part_level(depth: u8) -> u8 {
+    depth.saturating_sub(SCATTER_LEVELS)
+}
+
+#[cfg(feature = "io")]
+/// Voxelizes like [`voxelize_with_attributes`], but only the subtrees of the nodes at `level`
+/// whose Morton codes lie in `codes`: each holds the records and leaves that the whole bake
+/// holds below that node, bit for bit (its triangle list is split down to it exactly as the
+/// whole bake splits it, and it is built by the same code), for `level` at most
+/// [`deepest_part_level`]. Empty subtrees are left out; the others come in code order. Also
+/// returns the number of overlap tests run.
+pub fn voxelize_subtrees(
+    inputs: &AttributeInputs<'_>,
+    depth: u8,
+    strategy: Strategy,
+    level: u8,
+    codes: std::ops::Range<u64>,
+) -> (Vec<Subtree>, u64) {
+    assert!(
+        level <= deepest_part_level(depth),
+        "parts level {level} too deep for depth {depth}"
+    );
+    let (ctx, all) = context(inputs.triangles(), depth, strategy, Some(inputs), &|_| {});
+    let mut lists = Vec::new();
+    let tests = lists_at(&ctx, 0, [0, 0, 0], 0, &all, level, &codes, &mut lists);
+    let build = |(code, cell, list): (u64, [u32; 3], Vec<u32>)| {
+        let (part, tests) = build_node::<LeafValues>(&ctx, level, cell, &list);
+        drop(list);
+        let (chunk, root) = match part {
+            Part::Seq(chunk, root) => (chunk, root),
+            par => assemble(par),
+        };
+        let root = root?;
+        let (nodes, leaves) = chunk.finish(Some(root));
+        Some((
+            Subtree {
+                code,
+                nodes,
+                leaves,
+            },
+            tests,
+        ))
+    };
+    #[cfg(feature = "parallel")]
+    let built: Vec<_> = {
+        use rayon::prelude::*;
+        lists.into_par_iter().map(build).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let built: Vec<_> = lists.into_iter().map(build).collect();
+    let mut total = tests;
+    let subtrees = built
+        .into_iter()
+        .flatten()
+        .map(|(s, t)| {
+            total += t;
+            s
+        })
+        .collect();
+    (subtrees, total)
+}
+
+#[cfg(feature = "io")]
+/// Splits `list` (the triangles of the node at `level`, min corner `cell`, Morton code
+/// `code`) down to `target`, as the whole bake splits it, and appends the non-empty lists of
+/// the nodes there whose codes lie in `codes`. Returns the tests run.
+#[allow(clippy::too_many_arguments)]
+fn lists_at(
+    ctx: &Ctx<'_>,
+    level: u8,
+    cell: [u32; 3],
+    code: u64,
+    list: &[u32],
+    target: u8,
+    codes: &std::ops::Range<u64>,
+    out: &mut Vec<(u64, [u32; 3], Vec<u32>)>,
+) -> u64 {
+    let shift = 3 * u32::from(target - level);
+    let (lo, hi) = (code << shift, (code + 1) << shift);
+    if list.is_empty() || hi <= codes.start || codes.end <= lo {
+        return 0;
+    }
+    if level == target {
+        out.push((code, cell, list.to_vec()));
+        return 0;
+    }
+    let s = f64::from(1u32 << (ctx.depth - level));
+    let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
+    let mut lists = <[Vec<u32>; 8]>::default();
+    let mut tests = split_parallel(ctx, level, m, s, list, &mut lists);
+    let half = 1u32 << (ctx.depth - level - 1);
+    for (i, l) in lists.iter().enumerate() {
+        let child = child_cell(cell, i as u8, half);
+        tests += lists_at(
+            ctx,
+            level + 1,
+            child,
+            code << 3 | i as u64,
+            l,
+            target,
+            codes,
+            out,
+        );
+    }
+    tests
 }
 
 /// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])

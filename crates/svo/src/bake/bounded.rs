@@ -1,0 +1,135 @@
+//! A bake in bounded memory on one machine: the plan's parts ([`crate::bake::plan`]) baked one
+//! after another into part files beside the output, then merged ([`crate::bake::merge`]).
+//! Only the mesh, its triangle setup and one part are in memory at a time; the number of
+//! parts comes from the memory budget and the bake's estimate.
+
+use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
+use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
+use crate::bake::merge::{MergeReport, merge_with};
+use crate::bake::part::{bake_parts, write_part};
+use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, plan_bake, plan_to_bytes};
+use crate::io::header::BuildInfo;
+use crate::mesh::triangle_mesh::Mesh;
+use std::path::Path;
+
+/// What a bake in parts did, for the summary.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct PartsReport {
+    /// The memory budget, bytes.
+    pub budget: u64,
+    /// Whether the bake chose parts itself because the whole bake would not fit.
+    pub automatic: bool,
+    /// Parts.
+    pub parts: u32,
+    /// The level of the octree the parts split at.
+    pub level: u8,
+    /// Seconds each part took to bake (writing its file included), in part order.
+    pub part_seconds: Vec<f64>,
+    /// Bytes of all part files together.
+    pub part_bytes: u64,
+    /// The merge.
+    pub merge: MergeReport,
+    /// The process's peak resident set at the end (Linux `VmHWM`), bytes, if known.
+    pub peak_resident: Option<u64>,
+}
+
+/// The process's peak resident set (Linux `VmHWM`), in bytes, if known.
+pub fn peak_resident() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated
+/// peak, beside the mesh's triangle setup, fits in `budget` bytes.
+pub fn plan_for_budget(
+    mesh: &Mesh,
+    mesh_path: &Path,
+    opts: &BakeOptions,
+    budget: u64,
+    build: &BuildInfo,
+) -> Result<BakePlan, PartsError> {
+    let est = estimate_bake(mesh, opts)?;
+    let fixed = mesh.triangles.len() as f64 * BYTES_PER_TRIANGLE
+        + mesh.positions.len() as f64 * 24.0
+        + mesh.triangles.len() as f64 * 12.0;
+    let room = budget as f64 - fixed;
+    const GIB: f64 = (1u64 << 30) as f64;
+    if room < budget as f64 / 4.0 {
+        return Err(PartsError::Unsupported(format!(
+            "the mesh alone needs about {:.2} GiB, too much of the {:.2} GiB budget; raise --memory",
+            fixed / GIB,
+            budget as f64 / GIB
+        )));
+    }
+    let per_part = room / BYTES_PER_LEAF;
+    let mut parts = (est.leaves / per_part).ceil().max(1.0) as u32;
+    let mut fewer: Option<(f64, BakePlan)> = None;
+    loop {
+        let plan = plan_bake(
+            mesh,
+            mesh_path,
+            0,
+            opts,
+            parts.min(MAX_PARTS),
+            build.clone(),
+        )?;
+        let largest = plan
+            .parts
+            .iter()
+            .map(|p| p.estimated_leaves)
+            .fold(0.0, f64::max);
+        if largest <= per_part || parts >= MAX_PARTS {
+            return Ok(plan);
+        }
+        // A subtree larger than a part's share cannot be split: more parts stop helping.
+        if let Some((before, plan)) = fewer.take_if(|(before, _)| largest >= 0.95 * *before) {
+            let _ = before;
+            return Ok(plan);
+        }
+        fewer = Some((largest, plan));
+        parts = parts.saturating_mul(2);
+    }
+}
+
+/// Bakes `plan` in this process into `output`: each part into a file in a temporary folder
+/// beside `output` (removed at the end, whatever happens), then the merge. `progress`
+/// receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around the merge.
+/// Returns the merge's report, each part's seconds, the part files' bytes and the number of
+/// degenerate triangles.
+pub fn bake_planned(
+    mesh: &Mesh,
+    plan: &BakePlan,
+    output: &Path,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<(MergeReport, Vec<f64>, u64, usize), PartsError> {
+    let dir = match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".svo-parts.")
+        .tempdir_in(dir)
+        .map_err(|e| PartsError::io(dir, e))?;
+    let hash = xxhash_rust::xxh3::xxh3_64(&plan_to_bytes(plan));
+    let path_of = |i: u32| tmp.path().join(format!("{i:05}.svopart"));
+    let count = plan.part_count();
+    let mut seconds = Vec::with_capacity(count as usize);
+    let mut bytes = 0;
+    let mut t = std::time::Instant::now();
+    progress(Phase::Part, 0.0);
+    let degenerate = bake_parts(mesh, plan, hash, 0..count, &mut |i, part| {
+        bytes += write_part(&part, &path_of(i))?;
+        drop(part);
+        seconds.push(t.elapsed().as_secs_f64());
+        t = std::time::Instant::now();
+        progress(Phase::Part, f64::from(i + 1) / f64::from(count));
+        Ok(())
+    })?;
+    progress(Phase::Merge, 0.0);
+    let merged = merge_with(plan, hash, &path_of, output)?;
+    progress(Phase::Merge, 1.0);
+    Ok((merged, seconds, bytes, degenerate))
+}

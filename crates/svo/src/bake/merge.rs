@@ -1,0 +1,573 @@
+//! Joining a plan's parts into one `.svo` file, streamed: the top levels of the tree are made
+//! from the parts' subtree lists, every subtree's nodes are copied in the order the file
+//! places them with their pointers moved, and each channel's values are concatenated in
+//! Morton order. Memory holds the parts' headers and copy buffers, never the tree.
+//!
+//! The file's node order (`docs/format.md`, "Canonical node order") puts a node's children
+//! block before its children's subtrees, which follow from the last child to the first; so
+//! the subtrees at the parts' level come in decreasing Morton code, which is the parts from
+//! last to first, each part's subtrees as it stores them. A channel that every leaf of every
+//! part holds with the same value becomes a constant in the header, as the whole bake makes
+//! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
+//! no file.
+
+use crate::bake::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
+use crate::bake::plan::{BakePlan, PartsError, part_path, read_plan};
+use crate::io::atomic_write::write_atomic;
+use crate::io::write::{Layout, Stored, write_layout};
+use crate::octree::tree::Node;
+use std::io::{BufReader, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What a merge wrote.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct MergeReport {
+    /// Bytes of the `.svo` file.
+    pub bytes: u64,
+    /// Nodes.
+    pub nodes: u64,
+    /// Leaves.
+    pub leaves: u64,
+    /// Parts joined.
+    pub parts: u32,
+    /// Seconds.
+    pub seconds: f64,
+    /// The channels and how the file stores them (`constant` or `per-leaf`), by name.
+    pub channels: Vec<(String, String)>,
+    /// Overlap tests the parts ran.
+    pub overlap_tests: u64,
+    /// Leaf/triangle contacts in the parts.
+    pub leaf_triangle_pairs: u64,
+    /// Leaves no triangle touches (inexact strategies).
+    pub false_positives: u64,
+}
+
+/// Merges the parts of the plan at `plan_path` (each at [`part_path`]) into `output`.
+pub fn merge_parts(plan_path: &Path, output: &Path) -> Result<MergeReport, PartsError> {
+    let (plan, hash) = read_plan(plan_path)?;
+    merge_with(&plan, hash, &|i| part_path(plan_path, i), output)
+}
+
+/// A subtree and where its part is.
+struct Sub {
+    part: u32,
+    s: PartSubtree,
+}
+
+/// Merges the parts of `plan` (hash `plan_hash`), part `i` read from `path_of(i)`.
+pub(crate) fn merge_with(
+    plan: &BakePlan,
+    plan_hash: u64,
+    path_of: &dyn Fn(u32) -> PathBuf,
+    output: &Path,
+) -> Result<MergeReport, PartsError> {
+    let t0 = Instant::now();
+    let count = plan.part_count();
+    let mut headers = Vec::with_capacity(count as usize);
+    for i in 0..count {
+        let path = path_of(i);
+        if !path.exists() {
+            return Err(PartsError::MissingPart {
+                index: i,
+                count,
+                path: path.display().to_string(),
+            });
+        }
+        let h = read_part_header(&path)?;
+        check_part(plan, plan_hash, i, &h, &headers).map_err(|(mismatch, detail)| {
+            let path = path.display().to_string();
+            if mismatch {
+                PartsError::Mismatch { path, detail }
+            } else {
+                PartsError::Corrupt { path, detail }
+            }
+        })?;
+        headers.push((path, h));
+    }
+    // The subtrees in increasing code, and each part's first leaf.
+    let mut subs: Vec<Sub> = Vec::new();
+    let mut leaf_off = Vec::with_capacity(headers.len());
+    let mut leaves = 0u64;
+    for (i, (_, h)) in headers.iter().enumerate() {
+        leaf_off.push(leaves);
+        leaves += h.leaves();
+        subs.extend(h.subtrees.iter().rev().map(|&s| Sub { part: i as u32, s }));
+    }
+    if leaves > 1 << 31 {
+        return Err(PartsError::Unsupported(format!(
+            "{leaves} leaves: an .svo file holds at most 2^31"
+        )));
+    }
+    let level = plan.level;
+    let node_count = 1 + if level == 0 {
+        subs.first().map_or(0, |s| s.s.nodes)
+    } else {
+        below(&subs, 0, level)
+    };
+    if node_count > u64::from(u32::MAX) {
+        return Err(PartsError::Unsupported(format!(
+            "{node_count} nodes: more than 32-bit node indices reach"
+        )));
+    }
+    // Channels: the parts agree on kinds and storage (checked); a per-leaf channel whose
+    // leaves all hold one value becomes a constant, as the whole bake's compaction does.
+    let first = headers
+        .first()
+        .map(|(_, h)| h.channels.clone())
+        .unwrap_or_default();
+    let mut channels = Vec::new();
+    let mut copied = Vec::new();
+    for (k, &(kind, storage)) in first.iter().enumerate() {
+        match storage {
+            PartStorage::Constant(v) => channels.push((kind, Stored::Constant(v))),
+            PartStorage::PerLeaf { size, .. } => {
+                let mut values =
+                    headers
+                        .iter()
+                        .filter(|(_, h)| h.leaves() > 0)
+                        .map(|(_, h)| match h.channels[k].1 {
+                            PartStorage::PerLeaf { uniform, .. } => uniform,
+                            PartStorage::Constant(_) => None,
+                        });
+                let one = values.next().flatten();
+                if leaves > 0 && one.is_some() && values.all(|v| v == one) {
+                    channels.push((kind, Stored::Constant(one.unwrap_or_default())));
+                } else {
+                    channels.push((kind, Stored::PerLeaf(leaves * u64::from(size))));
+                    copied.push(k);
+                }
+            }
+        }
+    }
+    let layout = Layout {
+        root_origin: plan.root_origin,
+        root_side: plan.root_side,
+        depth: plan.depth,
+        node_count,
+        leaf_count: leaves,
+        channels,
+        build: &plan.build,
+    };
+    let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
+    let fail = |e: PartsError| {
+        let msg = e.to_string();
+        *failure.borrow_mut() = Some(e);
+        std::io::Error::other(msg)
+    };
+    let mut bytes = 0;
+    let written = write_atomic(output, |w| {
+        bytes = write_layout(&layout, w, &mut |i, out| {
+            if i == 0 {
+                let mut nodes = NodeWriter {
+                    out,
+                    headers: &headers,
+                    leaf_off: &leaf_off,
+                    reader: None,
+                    buf: Vec::new(),
+                };
+                let root = if level == 0 {
+                    subs.first().map_or(Node::default(), |s| Node {
+                        info: u32::from(s.s.mask),
+                        first: 1,
+                    })
+                } else {
+                    top_record(&subs, 0, level, 1)
+                };
+                nodes.put(root)?;
+                if level == 0 {
+                    if let Some(s) = subs.first() {
+                        nodes.region(s, 1).map_err(&fail)?;
+                    }
+                } else {
+                    place(&subs, 0, level, 1, &mut nodes, &fail)?;
+                }
+                nodes.finish_part().map_err(&fail)?;
+                nodes.flush()
+            } else {
+                let k = copied[i - 1];
+                for (path, h) in &headers {
+                    let a = h.arrays[1 + per_leaf_rank(h, k)];
+                    copy_array(path, a, out).map_err(&fail)?;
+                }
+                Ok(())
+            }
+        })?;
+        Ok(())
+    });
+    if let Err(e) = written {
+        return Err(failure
+            .into_inner()
+            .unwrap_or_else(|| PartsError::io(output, e)));
+    }
+    let sum = |f: fn(&PartHeader) -> u64| headers.iter().map(|(_, h)| f(h)).sum();
+    Ok(MergeReport {
+        bytes,
+        nodes: node_count,
+        leaves,
+        parts: count,
+        seconds: t0.elapsed().as_secs_f64(),
+        channels: layout
+            .channels
+            .iter()
+            .map(|&(kind, s)| {
+                let name = crate::octree::ChannelKind::ALL
+                    .get(usize::from(kind))
+                    .map_or("?", |k| k.name());
+                let storage = match s {
+                    Stored::Constant(_) => "constant",
+                    Stored::PerLeaf(_) => "per-leaf",
+                };
+                (name.to_string(), storage.to_string())
+            })
+            .collect(),
+        overlap_tests: sum(|h| h.stats.overlap_tests),
+        leaf_triangle_pairs: sum(|h| h.stats.leaf_triangle_pairs),
+        false_positives: sum(|h| h.stats.false_positives),
+    })
+}
+
+/// The rank of channel `k` among the part's per-leaf channels (its array is `1 +` that).
+fn per_leaf_rank(h: &PartHeader, k: usize) -> usize {
+    h.channels[..k]
+        .iter()
+        .filter(|(_, s)| matches!(s, PartStorage::PerLeaf { .. }))
+        .count()
+}
+
+/// What the merge relies on in a part: the plan's hash and its own index, subtrees in the
+/// part's range in decreasing code with children, arrays of the lengths the counts give,
+/// and the same channels as the parts before it. `Err((true, _))` for a part of another plan
+/// or index, `Err((false, _))` for a malformed one.
+fn check_part(
+    plan: &BakePlan,
+    plan_hash: u64,
+    index: u32,
+    h: &PartHeader,
+    before: &[(PathBuf, PartHeader)],
+) -> Result<(), (bool, String)> {
+    if h.plan_hash != plan_hash {
+        return Err((
+            true,
+            format!(
+                "part of another plan (plan hash {:#018x}, this plan's is {plan_hash:#018x})",
+                h.plan_hash
+            ),
+        ));
+    }
+    if h.index != index {
+        return Err((true, format!("this is part {}, not part {index}", h.index)));
+    }
+    let bad = |d: String| Err((false, d));
+    let range = &plan.parts[index as usize];
+    let mut prev = None;
+    for s in &h.subtrees {
+        if s.code < range.start || s.code >= range.end || prev.is_some_and(|p| p <= s.code) {
+            return bad(format!(
+                "subtree {} is out of the part's range or order",
+                s.code
+            ));
+        }
+        if s.mask == 0 || s.leaves == 0 || s.nodes == 0 {
+            return bad(format!("subtree {} is empty", s.code));
+        }
+        prev = Some(s.code);
+    }
+    let per_leaf: Vec<u8> = h
+        .channels
+        .iter()
+        .filter_map(|(_, s)| match s {
+            PartStorage::PerLeaf { size, .. } => Some(*size),
+            PartStorage::Constant(_) => None,
+        })
+        .collect();
+    if h.arrays.len() != 1 + per_leaf.len() {
+        return bad("its arrays do not match its channels".into());
+    }
+    let nodes: u64 = h.subtrees.iter().map(|s| s.nodes).sum();
+    if h.arrays[0].len != nodes.saturating_mul(8)
+        || per_leaf
+            .iter()
+            .zip(&h.arrays[1..])
+            .any(|(&size, a)| a.len != h.leaves().saturating_mul(u64::from(size)))
+    {
+        return bad("an array's length does not match its counts".into());
+    }
+    if let Some((_, first)) = before.first() {
+        let kinds = |h: &PartHeader| -> Vec<(u8, Option<u32>, Option<u8>)> {
+            h.channels
+                .iter()
+                .map(|&(k, s)| match s {
+                    PartStorage::Constant(v) => (k, Some(v), None),
+                    PartStorage::PerLeaf { size, .. } => (k, None, Some(size)),
+                })
+                .collect()
+        };
+        if kinds(first) != kinds(h) {
+            return Err((true, "its channels are not those of part 0".into()));
+        }
+    }
+    Ok(())
+}
+
+/// The child index at `level + 1` of a code at `target`.
+fn child_of(code: u64, level: u8, target: u8) -> u8 {
+    (code >> (3 * u32::from(target - level - 1)) & 7) as u8
+}
+
+/// `subs` (one node's subtrees, in increasing code) split by the node's children.
+fn by_child(subs: &[Sub], level: u8, target: u8) -> Vec<(u8, &[Sub])> {
+    let mut out = Vec::new();
+    let mut rest = subs;
+    while let Some(s) = rest.first() {
+        let c = child_of(s.s.code, level, target);
+        let n = rest
+            .iter()
+            .position(|x| child_of(x.s.code, level, target) != c)
+            .unwrap_or(rest.len());
+        out.push((c, &rest[..n]));
+        rest = &rest[n..];
+    }
+    out
+}
+
+/// Nodes placed after a node at `level` above the parts' level whose subtrees are `subs`:
+/// its children block and each child's own.
+fn below(subs: &[Sub], level: u8, target: u8) -> u64 {
+    by_child(subs, level, target)
+        .iter()
+        .map(|(_, s)| {
+            1 + if level + 1 == target {
+                s[0].s.nodes
+            } else {
+                below(s, level + 1, target)
+            }
+        })
+        .sum()
+}
+
+/// The record of a node at `level` (above the parts' level) whose children block is placed
+/// at `at`.
+fn top_record(subs: &[Sub], level: u8, target: u8, at: u64) -> Node {
+    let mask = by_child(subs, level, target)
+        .iter()
+        .fold(0u8, |m, (c, _)| m | 1 << c);
+    Node {
+        info: u32::from(mask),
+        first: if mask == 0 { 0 } else { at as u32 },
+    }
+}
+
+/// Places a node at `level` above the parts' level whose children block starts at `at`:
+/// the block, then each child's subtree from the last child to the first.
+fn place(
+    subs: &[Sub],
+    level: u8,
+    target: u8,
+    at: u64,
+    nodes: &mut NodeWriter<'_>,
+    fail: &dyn Fn(PartsError) -> std::io::Error,
+) -> std::io::Result<()> {
+    let children = by_child(subs, level, target);
+    let sizes: Vec<u64> = children
+        .iter()
+        .map(|(_, s)| {
+            if level + 1 == target {
+                s[0].s.nodes
+            } else {
+                below(s, level + 1, target)
+            }
+        })
+        .collect();
+    // Child j's own nodes start after the block and the subtrees of the children after it.
+    let mut starts = vec![0u64; children.len()];
+    let mut next = at + children.len() as u64;
+    for j in (0..children.len()).rev() {
+        starts[j] = next;
+        next += sizes[j];
+    }
+    for (j, (_, s)) in children.iter().enumerate() {
+        let rec = if level + 1 == target {
+            Node {
+                info: u32::from(s[0].s.mask),
+                first: starts[j] as u32,
+            }
+        } else {
+            top_record(s, level + 1, target, starts[j])
+        };
+        nodes.put(rec)?;
+    }
+    for j in (0..children.len()).rev() {
+        let s = children[j].1;
+        if level + 1 == target {
+            nodes.region(&s[0], starts[j]).map_err(fail)?;
+        } else {
+            place(s, level + 1, target, starts[j], nodes, fail)?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes the node array: records, and the parts' subtrees copied with their pointers moved.
+struct NodeWriter<'a> {
+    out: &'a mut dyn Write,
+    headers: &'a [(PathBuf, PartHeader)],
+    leaf_off: &'a [u64],
+    /// The part being read: its index, its node array's reader and hash, and the subtrees
+    /// of it copied so far.
+    reader: Option<(
+        u32,
+        BufReader<std::fs::File>,
+        xxhash_rust::xxh3::Xxh3,
+        usize,
+    )>,
+    buf: Vec<Node>,
+}
+
+impl NodeWriter<'_> {
+    fn put(&mut self, n: Node) -> std::io::Result<()> {
+        self.buf.push(n);
+        if self.buf.len() >= 1 << 16 {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.write_all(bytemuck::cast_slice(&self.buf))?;
+        self.buf.clear();
+        Ok(())
+    }
+
+    /// Checks that the part being read was read whole and matches its hash.
+    fn finish_part(&mut self) -> Result<(), PartsError> {
+        if let Some((part, _, hash, done)) = self.reader.take() {
+            let (path, h) = &self.headers[part as usize];
+            if done != h.subtrees.len() || hash.digest() != h.arrays[0].hash {
+                return Err(corrupt(
+                    path,
+                    "node array checksum mismatch: the part file is corrupt",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Copies subtree `sub`'s nodes, which the file places from index `at`.
+    fn region(&mut self, sub: &Sub, at: u64) -> Result<(), PartsError> {
+        // The records put before it come first.
+        self.flush()
+            .map_err(|e| PartsError::io(&self.headers[sub.part as usize].0, e))?;
+        if self.reader.as_ref().map(|r| r.0) != Some(sub.part) {
+            self.finish_part()?;
+            let (path, h) = &self.headers[sub.part as usize];
+            let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
+            f.seek(SeekFrom::Start(h.arrays[0].offset))
+                .map_err(|e| PartsError::io(path, e))?;
+            self.reader = Some((
+                sub.part,
+                BufReader::with_capacity(1 << 20, f),
+                xxhash_rust::xxh3::Xxh3::new(),
+                0,
+            ));
+        }
+        let (path, h) = &self.headers[sub.part as usize];
+        let leaf_off = self.leaf_off[sub.part as usize];
+        let Some((_, reader, hash, done)) = self.reader.as_mut() else {
+            return Ok(());
+        };
+        if h.subtrees.get(*done).map(|s| s.code) != Some(sub.s.code) {
+            return Err(corrupt(path, "corrupt part file: subtrees out of order"));
+        }
+        *done += 1;
+        let n = sub.s.nodes;
+        let mut chunk = vec![Node::default(); (n as usize).min(1 << 16)];
+        let mut left = n;
+        while left > 0 {
+            let k = (left as usize).min(chunk.len());
+            let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut chunk[..k]);
+            reader.read_exact(bytes).map_err(|e| {
+                if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                    corrupt(path, "truncated part file")
+                } else {
+                    PartsError::io(path, e)
+                }
+            })?;
+            hash.update(bytes);
+            for rec in &mut chunk[..k] {
+                *rec = relocate(*rec, n, at, leaf_off).ok_or_else(|| {
+                    corrupt(
+                        path,
+                        "corrupt part file: a node points outside its subtree or the file's limits",
+                    )
+                })?;
+            }
+            self.out
+                .write_all(bytemuck::cast_slice(&chunk[..k]))
+                .map_err(|e| PartsError::io(path, e))?;
+            left -= k as u64;
+        }
+        Ok(())
+    }
+}
+
+/// A subtree's record moved to the file: inner pointers (counted from the subtree's first
+/// node, of `n`) by `at`, leaf bases by `leaf_off`. `None` for a pointer out of range.
+fn relocate(rec: Node, n: u64, at: u64, leaf_off: u64) -> Option<Node> {
+    let info = rec.info & 0xFF;
+    if rec.is_leaf_parent() {
+        let base = u64::from(rec.leaf_base()?) + leaf_off;
+        (base < 1 << 31).then(|| Node {
+            info,
+            first: (-(base as i64) - 1) as i32 as u32,
+        })
+    } else if info != 0 {
+        let first = u64::from(rec.first);
+        (first + u64::from(info.count_ones()) <= n).then(|| Node {
+            info,
+            first: (first + at) as u32,
+        })
+    } else {
+        Some(Node { info, first: 0 })
+    }
+}
+
+fn corrupt(path: &Path, detail: &str) -> PartsError {
+    PartsError::Corrupt {
+        path: path.display().to_string(),
+        detail: detail.to_string(),
+    }
+}
+
+/// Copies one array of a part file to `out`, checking its hash.
+fn copy_array(
+    path: &Path,
+    a: crate::bake::part::PartArray,
+    out: &mut dyn Write,
+) -> Result<(), PartsError> {
+    let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
+    f.seek(SeekFrom::Start(a.offset))
+        .map_err(|e| PartsError::io(path, e))?;
+    let mut r = f.take(a.len);
+    let mut hash = xxhash_rust::xxh3::Xxh3::new();
+    let mut buf = vec![0u8; (a.len as usize).clamp(1, 1 << 20)];
+    let mut left = a.len;
+    while left > 0 {
+        let n = r.read(&mut buf).map_err(|e| PartsError::io(path, e))?;
+        if n == 0 {
+            return Err(corrupt(path, "truncated part file"));
+        }
+        hash.update(&buf[..n]);
+        out.write_all(&buf[..n])
+            .map_err(|e| PartsError::io(path, e))?;
+        left -= n as u64;
+    }
+    if hash.digest() != a.hash {
+        return Err(corrupt(
+            path,
+            "channel array checksum mismatch: the part file is corrupt",
+        ));
+    }
+    Ok(())
+}

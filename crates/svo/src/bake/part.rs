@@ -1,0 +1,474 @@
+//! One part of a planned bake ([`crate::bake::plan`]): its subtrees baked exactly as the
+//! whole bake bakes them, and the part file that carries them to the merge.
+//!
+//! A part file (`.svopart`) is, in order: the magic `\x89SVOPRT\n`, a `u32` version, the
+//! header's length (`u32`) and its XXH3-64 (`u64`), the header (bincode, as the `.svo` header:
+//! the plan's hash, the part's index, per subtree its Morton code, child mask, node and leaf
+//! counts, per channel how it is stored, and per array its offset, length and XXH3-64), then
+//! the arrays, each at a multiple of 8 bytes: the subtrees' nodes in the order the merged file
+//! places them (the highest code first; pointers counted from the subtree's first node, leaf
+//! bases from the part's first leaf), then each per-leaf channel's values for the part's
+//! leaves in Morton order. The merge checks every array's hash as it copies it.
+
+use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
+use crate::bake::bake_mesh::prepare;
+use crate::bake::plan::{BakePlan, PartsError, config, hash_file, part_path, read_plan};
+use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
+use crate::io::atomic_write::write_atomic;
+use crate::mesh::triangle_mesh::Mesh;
+use crate::octree::layout::Chunk;
+use crate::octree::tree::{Channel, LeafAttributes, Node};
+use crate::voxelize::build::voxelize_subtrees;
+use serde::{Deserialize, Serialize};
+use std::io::{Read, Write};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+const PART_MAGIC: [u8; 8] = *b"\x89SVOPRT\n";
+const PART_VERSION: u32 = 1;
+/// Magic, version, header length, header hash.
+pub(crate) const PART_PREAMBLE: u64 = 24;
+
+/// One subtree of a part, as its header lists it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartSubtree {
+    /// Morton code of its node at the plan's level.
+    pub code: u64,
+    /// Which children the node has.
+    pub mask: u8,
+    /// Nodes below the node (the node itself is its parent's record).
+    pub nodes: u64,
+    /// Leaves.
+    pub leaves: u64,
+}
+
+/// How a part stores a channel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PartStorage {
+    /// One value for every leaf of the tree.
+    Constant(u32),
+    /// One value per leaf, in an array; `uniform` when the part has leaves and they all
+    /// hold that value (the merge stores a constant when every part agrees).
+    PerLeaf {
+        /// Bytes per value.
+        size: u8,
+        /// The value every leaf of the part holds, if one does.
+        uniform: Option<u32>,
+    },
+}
+
+/// Where an array lies in a part file, and its hash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PartArray {
+    /// Byte offset in the file (a multiple of 8).
+    pub offset: u64,
+    /// Length in bytes.
+    pub len: u64,
+    /// XXH3-64 of its bytes.
+    pub hash: u64,
+}
+
+/// What a part measured.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PartStats {
+    /// Seconds baking (from the mesh in memory to the values, before writing); not stored,
+    /// so that a part baked twice is the same file.
+    #[serde(skip)]
+    pub bake_s: f64,
+    /// Overlap tests run.
+    pub overlap_tests: u64,
+    /// Leaf/triangle contacts.
+    pub leaf_triangle_pairs: u64,
+    /// Leaves no triangle touches (inexact strategies).
+    pub false_positives: u64,
+}
+
+/// A part file's header.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartHeader {
+    /// The hash of the plan file it belongs to.
+    pub plan_hash: u64,
+    /// Its index in the plan.
+    pub index: u32,
+    /// Its subtrees, the highest code first (the order of their nodes).
+    pub subtrees: Vec<PartSubtree>,
+    /// Per channel kind present (increasing), how it is stored.
+    pub channels: Vec<(u8, PartStorage)>,
+    /// The node array, then each per-leaf channel's array in kind order.
+    pub arrays: Vec<PartArray>,
+    /// What the bake measured.
+    pub stats: PartStats,
+}
+
+impl PartHeader {
+    /// Leaves in the part.
+    pub fn leaves(&self) -> u64 {
+        self.subtrees.iter().map(|s| s.leaves).sum()
+    }
+}
+
+/// A part baked in memory, ready to be written.
+pub struct PartData {
+    header: PartHeader,
+    nodes: Vec<Node>,
+    attributes: LeafAttributes,
+}
+
+impl PartData {
+    /// Its header (array offsets and hashes are filled in when written).
+    pub fn header(&self) -> &PartHeader {
+        &self.header
+    }
+}
+
+/// Bakes the parts `indices` of `plan` from its mesh, one after another, handing each to
+/// `each` as it is done (so only one is held at a time). The mesh must be the plan's (its
+/// hash is the caller's to check); its root cube must come out as the plan's. The triangles
+/// are set up once for all the parts. Returns the number of degenerate triangles (kept, as
+/// the bake keeps them).
+pub fn bake_parts(
+    mesh: &Mesh,
+    plan: &BakePlan,
+    plan_hash: u64,
+    indices: impl IntoIterator<Item = u32>,
+    each: &mut dyn FnMut(u32, PartData) -> Result<(), PartsError>,
+) -> Result<usize, PartsError> {
+    let opts = plan.options()?;
+    let (root, _) = prepare(mesh, &opts)?;
+    if root != plan.root() {
+        return Err(PartsError::Unsupported(format!(
+            "the mesh's root cube {root:?} is not the plan's {:?}",
+            plan.root()
+        )));
+    }
+    let order = spatial_order(mesh, &root);
+    let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
+    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
+    for index in indices {
+        let part = bake_one(&inputs, plan, &opts, plan_hash, index)?;
+        each(index, part)?;
+    }
+    Ok(tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count())
+}
+
+fn bake_one(
+    inputs: &AttributeInputs<'_>,
+    plan: &BakePlan,
+    opts: &crate::bake::BakeOptions,
+    plan_hash: u64,
+    index: u32,
+) -> Result<PartData, PartsError> {
+    let Some(range) = plan.parts.get(index as usize) else {
+        return Err(PartsError::Unsupported(format!(
+            "part {index}: the plan has {} parts (0 to {})",
+            plan.parts.len(),
+            plan.parts.len().saturating_sub(1)
+        )));
+    };
+    let t0 = Instant::now();
+    let (mut subtrees, tests) = voxelize_subtrees(
+        inputs,
+        opts.depth,
+        opts.strategy,
+        plan.level,
+        range.start..range.end,
+    );
+    // Leaves in code order; nodes in the merged file's order (the highest code first).
+    let mut leaf_off = Vec::with_capacity(subtrees.len());
+    let mut total = 0usize;
+    for s in &subtrees {
+        leaf_off.push(total);
+        total += s.leaves.len();
+    }
+    if total > i32::MAX as usize + 1 {
+        return Err(PartsError::Unsupported(format!(
+            "part {index} has {total} leaves, more than a file holds (2^31)"
+        )));
+    }
+    let mut listed = Vec::with_capacity(subtrees.len());
+    let mut nodes = Vec::with_capacity(subtrees.iter().map(|s| s.nodes.len() - 1).sum());
+    for (s, &off) in subtrees.iter().zip(&leaf_off).rev() {
+        listed.push(PartSubtree {
+            code: s.code,
+            mask: s.nodes[0].child_mask(),
+            nodes: (s.nodes.len() - 1) as u64,
+            leaves: s.leaves.len() as u64,
+        });
+        for &n in &s.nodes[1..] {
+            // Inner pointers from the subtree's first node below its root (index 1).
+            let n = if n.is_leaf_parent() {
+                Chunk::<LeafValues>::relocate(n, 0, off)
+            } else if n.child_mask() != 0 {
+                Node {
+                    info: n.info,
+                    first: n.first - 1,
+                }
+            } else {
+                n
+            };
+            nodes.push(n);
+        }
+    }
+    let values = LeafValues::concat(
+        subtrees
+            .iter_mut()
+            .map(|s| std::mem::take(&mut s.leaves))
+            .collect(),
+    );
+    drop(subtrees);
+    let stats = PartStats {
+        bake_s: 0.0,
+        overlap_tests: tests,
+        leaf_triangle_pairs: values.pairs,
+        false_positives: values.false_positives,
+    };
+    let (attributes, _) = inputs.finish_uncompacted(values, Duration::ZERO);
+    let mut channels = Vec::new();
+    fn storage<T: bytemuck::Pod + Into<u32> + PartialEq>(
+        kind: u8,
+        c: &Channel<T>,
+        out: &mut Vec<(u8, PartStorage)>,
+    ) {
+        match c {
+            Channel::Absent => {}
+            Channel::Constant(v) => out.push((kind, PartStorage::Constant((*v).into()))),
+            Channel::PerLeaf(v) => {
+                let uniform = v
+                    .first()
+                    .filter(|&&f| v.iter().all(|&x| x == f))
+                    .map(|&f| f.into());
+                out.push((
+                    kind,
+                    PartStorage::PerLeaf {
+                        size: size_of::<T>() as u8,
+                        uniform,
+                    },
+                ));
+            }
+        }
+    }
+    let a = &attributes;
+    storage(0, &a.normal, &mut channels);
+    storage(1, &a.contour, &mut channels);
+    storage(2, &a.colour, &mut channels);
+    storage(3, &a.reflectivity, &mut channels);
+    storage(4, &a.refractivity, &mut channels);
+    storage(5, &a.ior, &mut channels);
+    let mut header = PartHeader {
+        plan_hash,
+        index,
+        subtrees: listed,
+        channels,
+        arrays: Vec::new(),
+        stats,
+    };
+    header.stats.bake_s = t0.elapsed().as_secs_f64();
+    Ok(PartData {
+        header,
+        nodes,
+        attributes,
+    })
+}
+
+/// What `svo-bake part` did.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize))]
+pub struct PartReport {
+    /// The part's index.
+    pub index: u32,
+    /// Parts in the plan.
+    pub count: u32,
+    /// The part file.
+    pub path: String,
+    /// Its bytes.
+    pub bytes: u64,
+    /// Subtrees baked.
+    pub subtrees: usize,
+    /// Leaves.
+    pub leaves: u64,
+    /// Seconds loading the mesh (and hashing it).
+    pub load_s: f64,
+    /// Seconds baking.
+    pub bake_s: f64,
+    /// Seconds writing.
+    pub write_s: f64,
+}
+
+/// Bakes part `index` of the plan at `plan_path` into its file ([`part_path`]), what
+/// `svo-bake part` does: reads the plan, checks that the mesh's bytes still hash to the
+/// plan's, bakes and writes the part atomically, on `threads` worker threads (`None`: the
+/// caller's pool). Run twice, it writes the same bytes.
+pub fn bake_part_file(
+    plan_path: &Path,
+    index: u32,
+    threads: Option<usize>,
+) -> Result<PartReport, PartsError> {
+    crate::thread_pool::with_threads(threads, |_| part_file_inner(plan_path, index))?
+}
+
+fn part_file_inner(plan_path: &Path, index: u32) -> Result<PartReport, PartsError> {
+    let (plan, plan_hash) = read_plan(plan_path)?;
+    if index >= plan.part_count() {
+        return Err(PartsError::Unsupported(format!(
+            "part {index}: the plan has {} parts (0 to {})",
+            plan.part_count(),
+            plan.part_count() - 1
+        )));
+    }
+    let t = Instant::now();
+    let mesh_path = Path::new(&plan.mesh);
+    let found = hash_file(mesh_path)?;
+    if found != plan.mesh_hash {
+        return Err(PartsError::MeshChanged {
+            path: plan.mesh.clone(),
+            found,
+            planned: plan.mesh_hash,
+        });
+    }
+    let mesh = crate::import::load_mesh(mesh_path)?;
+    let load_s = t.elapsed().as_secs_f64();
+    let path = part_path(plan_path, index);
+    let mut report = None;
+    bake_parts(&mesh, &plan, plan_hash, [index], &mut |i, part| {
+        let t = Instant::now();
+        let bytes = write_part(&part, &path)?;
+        report = Some(PartReport {
+            index: i,
+            count: plan.part_count(),
+            path: path.display().to_string(),
+            bytes,
+            subtrees: part.header.subtrees.len(),
+            leaves: part.header.leaves(),
+            load_s,
+            bake_s: part.header.stats.bake_s,
+            write_s: t.elapsed().as_secs_f64(),
+        });
+        Ok(())
+    })?;
+    report.ok_or_else(|| PartsError::Unsupported(format!("part {index} was not baked")))
+}
+
+/// The part's arrays as bytes: the nodes (bits 8-31 of `info` zero), then each per-leaf
+/// channel in kind order.
+fn arrays(part: &PartData) -> Vec<&[u8]> {
+    let mut out: Vec<&[u8]> = vec![bytemuck::cast_slice(&part.nodes)];
+    let a = &part.attributes;
+    fn add<'a, T: bytemuck::Pod>(c: &'a Channel<T>, out: &mut Vec<&'a [u8]>) {
+        if let Channel::PerLeaf(v) = c {
+            out.push(bytemuck::cast_slice(v));
+        }
+    }
+    add(&a.normal, &mut out);
+    add(&a.contour, &mut out);
+    add(&a.colour, &mut out);
+    add(&a.reflectivity, &mut out);
+    add(&a.refractivity, &mut out);
+    add(&a.ior, &mut out);
+    out
+}
+
+/// Writes a part file atomically; returns its size in bytes.
+pub fn write_part(part: &PartData, path: &Path) -> Result<u64, PartsError> {
+    let arrays = arrays(part);
+    let mut header = part.header.clone();
+    header.arrays = arrays
+        .iter()
+        .map(|a| PartArray {
+            offset: 0,
+            len: a.len() as u64,
+            hash: xxhash_rust::xxh3::xxh3_64(a),
+        })
+        .collect();
+    let encode = |h: &PartHeader| {
+        bincode::serde::encode_to_vec(h, config())
+            .map_err(|e| PartsError::io(path, std::io::Error::other(e)))
+    };
+    let hlen = encode(&header)?.len() as u64;
+    let pad8 = |x: u64| x.div_ceil(8) * 8;
+    let mut at = pad8(PART_PREAMBLE + hlen);
+    for a in &mut header.arrays {
+        a.offset = at;
+        at = pad8(at + a.len);
+    }
+    let hbytes = encode(&header)?;
+    let mut written = 0u64;
+    write_atomic(path, |w| {
+        fn put(w: &mut dyn Write, written: &mut u64, b: &[u8]) -> std::io::Result<()> {
+            w.write_all(b)?;
+            *written += b.len() as u64;
+            Ok(())
+        }
+        let n = &mut written;
+        put(w, n, &PART_MAGIC)?;
+        put(w, n, &PART_VERSION.to_le_bytes())?;
+        put(w, n, &(hbytes.len() as u32).to_le_bytes())?;
+        put(w, n, &xxhash_rust::xxh3::xxh3_64(&hbytes).to_le_bytes())?;
+        put(w, n, &hbytes)?;
+        for a in &arrays {
+            let pad = (pad8(*n) - *n) as usize;
+            put(w, n, &[0u8; 8][..pad])?;
+            put(w, n, a)?;
+        }
+        let pad = (pad8(*n) - *n) as usize;
+        put(w, n, &[0u8; 8][..pad])
+    })
+    .map_err(|e| PartsError::io(path, e))?;
+    Ok(written)
+}
+
+/// Reads and checks a part file's header: its magic, version and header hash, and that the
+/// file is as long as its arrays say (a truncated part is refused here). The arrays' hashes
+/// are checked as the merge copies them.
+pub fn read_part_header(path: &Path) -> Result<PartHeader, PartsError> {
+    let corrupt = |detail: String| PartsError::Corrupt {
+        path: path.display().to_string(),
+        detail,
+    };
+    let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
+    let len = f.metadata().map_err(|e| PartsError::io(path, e))?.len();
+    let mut pre = [0u8; PART_PREAMBLE as usize];
+    if len < PART_PREAMBLE || f.read_exact(&mut pre).is_err() {
+        return Err(corrupt("truncated part file (no header)".into()));
+    }
+    if pre[..8] != PART_MAGIC {
+        return Err(corrupt("not an svo part file (bad magic bytes)".into()));
+    }
+    let word = |at: usize| u32::from_le_bytes([pre[at], pre[at + 1], pre[at + 2], pre[at + 3]]);
+    if word(8) != PART_VERSION {
+        return Err(corrupt(format!(
+            "part version {} (this svo reads version {PART_VERSION})",
+            word(8)
+        )));
+    }
+    let hlen = u64::from(word(12));
+    if PART_PREAMBLE + hlen > len {
+        return Err(corrupt("truncated part file (in its header)".into()));
+    }
+    let mut hbytes = vec![0u8; hlen as usize];
+    f.read_exact(&mut hbytes)
+        .map_err(|e| PartsError::io(path, e))?;
+    let stored = u64::from_le_bytes(pre[16..24].try_into().unwrap_or_default());
+    if xxhash_rust::xxh3::xxh3_64(&hbytes) != stored {
+        return Err(corrupt(
+            "header checksum mismatch: the part file is corrupt".into(),
+        ));
+    }
+    let (h, used): (PartHeader, usize) = bincode::serde::decode_from_slice(&hbytes, config())
+        .map_err(|e| corrupt(format!("undecodable part header: {e}")))?;
+    if used as u64 != hlen {
+        return Err(corrupt("bytes left over after the part header".into()));
+    }
+    let end = h
+        .arrays
+        .last()
+        .map_or(Some(PART_PREAMBLE + hlen), |a| a.offset.checked_add(a.len))
+        .ok_or_else(|| corrupt("an array's end overflows".into()))?;
+    let end = end.div_ceil(8) * 8;
+    if len != end {
+        return Err(corrupt(format!(
+            "{} part file: {len} bytes where its arrays end at {end}",
+            if len < end { "truncated" } else { "overlong" }
+        )));
+    }
+    Ok(h)
+}

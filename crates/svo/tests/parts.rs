@@ -1,0 +1,195 @@
+//! A bake in parts (plan, parts, merge) writes the same bytes as the bake in memory, whatever
+//! the number of parts; a part baked twice is the same file; the merge refuses a missing
+//! part, a part of another plan, a part given the wrong index, a truncated part and a
+//! damaged one, and leaves no output when it does.
+#![cfg(feature = "io")]
+
+use std::path::{Path, PathBuf};
+use svo::bake::{
+    BakeJob, BakeOptions, GivenOptions, PartsError, bake_file, bake_parts, hash_file, merge_parts,
+    part_path, plan_bake, read_plan, write_part, write_plan,
+};
+use svo::io::BuildInfo;
+
+/// The in-memory bake's file bytes.
+fn in_memory(mesh: &Path, opts: &BakeOptions, dir: &Path) -> Vec<u8> {
+    let out = dir.join("whole.svo");
+    bake_file(&BakeJob {
+        input: mesh.to_path_buf(),
+        output: out.clone(),
+        options: opts.clone(),
+        threads: None,
+        given: GivenOptions::default(),
+        memory: None,
+    })
+    .unwrap();
+    std::fs::read(out).unwrap()
+}
+
+/// Plans `parts` parts, bakes each into its file and returns the plan's path.
+fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -> PathBuf {
+    let mesh = svo::Mesh::load(mesh_path).unwrap();
+    let build = BuildInfo {
+        strategy: opts.strategy.name().to_string(),
+        source_triangles: mesh.triangles.len() as u64,
+        scene: mesh.scene.clone(),
+        ..BuildInfo::new()
+    };
+    let hash = hash_file(mesh_path).unwrap();
+    let plan = plan_bake(&mesh, mesh_path, hash, opts, parts, build).unwrap();
+    let plan_path = dir.join(format!("job{parts}.svoplan"));
+    let plan_hash = write_plan(&plan, &plan_path).unwrap();
+    bake_parts(&mesh, &plan, plan_hash, 0..parts, &mut |i, part| {
+        write_part(&part, &part_path(&plan_path, i)).map(|_| ())
+    })
+    .unwrap();
+    plan_path
+}
+
+fn merged(plan: &Path, dir: &Path) -> Result<Vec<u8>, PartsError> {
+    let out = dir.join("merged.svo");
+    let _ = std::fs::remove_file(&out);
+    merge_parts(plan, &out)?;
+    Ok(std::fs::read(out).unwrap())
+}
+
+fn meshes() -> Vec<PathBuf> {
+    let mut v = vec![svo_tests::repo_root().join("fixtures/torus.obj")];
+    v.extend(svo_tests::model("stanford/bun_zipper.ply"));
+    v
+}
+
+/// At depths 6 to 9 (parts' levels 1 to 4), in 1 to 16 parts, with every channel, with
+/// none and with an inexact strategy: the merged file is the in-memory bake's, byte for byte.
+#[test]
+fn parts_merge_into_the_bytes_of_the_whole_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for mesh in meshes() {
+        for depth in [6u8, 7, 9] {
+            for (k, opts) in [
+                BakeOptions::default(),
+                BakeOptions {
+                    channels: "none".parse().unwrap(),
+                    ..BakeOptions::default()
+                },
+                BakeOptions {
+                    strategy: "aabb-plane".parse().unwrap(),
+                    channels: "normal,colour".parse().unwrap(),
+                    pad: 2,
+                    ..BakeOptions::default()
+                },
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                if k > 0 && depth == 9 {
+                    continue;
+                }
+                let opts = BakeOptions { depth, ..opts };
+                let whole = in_memory(&mesh, &opts, dir.path());
+                for parts in [1u32, 3, 16] {
+                    let plan = plan_and_bake(&mesh, &opts, parts, dir.path());
+                    let got = merged(&plan, dir.path()).unwrap();
+                    assert!(
+                        got == whole,
+                        "{} depth {depth} options {k}, {parts} parts: {} bytes against {}",
+                        mesh.display(),
+                        got.len(),
+                        whole.len()
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked >= 15);
+}
+
+/// A part baked again is the same file, byte for byte.
+#[test]
+fn a_part_baked_twice_is_the_same_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 7,
+        ..BakeOptions::default()
+    };
+    let plan = plan_and_bake(&mesh, &opts, 4, dir.path());
+    let first: Vec<Vec<u8>> = (0..4)
+        .map(|i| std::fs::read(part_path(&plan, i)).unwrap())
+        .collect();
+    plan_and_bake(&mesh, &opts, 4, dir.path());
+    for (i, f) in first.iter().enumerate() {
+        assert!(
+            &std::fs::read(part_path(&plan, i as u32)).unwrap() == f,
+            "part {i} differs"
+        );
+    }
+}
+
+/// The merge refuses a missing, foreign, misplaced, truncated or damaged part with an error
+/// that names it, and writes no output.
+#[test]
+fn the_merge_refuses_bad_parts_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 7,
+        ..BakeOptions::default()
+    };
+    let plan = plan_and_bake(&mesh, &opts, 4, dir.path());
+    let other_dir = dir.path().join("other");
+    std::fs::create_dir(&other_dir).unwrap();
+    let other = plan_and_bake(
+        &mesh,
+        &BakeOptions {
+            depth: 6,
+            ..opts.clone()
+        },
+        4,
+        &other_dir,
+    );
+    let (p, _) = read_plan(&plan).unwrap();
+    // The part with the most leaves, so that every array has bytes to damage.
+    let big = (0..4)
+        .max_by_key(|&i| std::fs::metadata(part_path(&plan, i)).unwrap().len())
+        .unwrap();
+    let good = std::fs::read(part_path(&plan, big)).unwrap();
+    let out = dir.path().join("merged.svo");
+    let check = |what: &str, want: &str| {
+        let e = merge_parts(&plan, &out).expect_err(what).to_string();
+        assert!(e.contains(want), "{what}: {e}");
+        assert!(!out.exists(), "{what}: an output was left");
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(Result::ok)
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty(), "{what}: {leftovers:?}");
+    };
+    let put = |bytes: &[u8]| std::fs::write(part_path(&plan, big), bytes).unwrap();
+
+    std::fs::remove_file(part_path(&plan, big)).unwrap();
+    check("missing", "is missing");
+    std::fs::copy(part_path(&other, big), part_path(&plan, big)).unwrap();
+    check("foreign", "another plan");
+    let next = (big + 1) % 4;
+    std::fs::copy(part_path(&plan, next), part_path(&plan, big)).unwrap();
+    check("wrong index", &format!("not part {big}"));
+    for cut in [10, 30, good.len() / 2, good.len() - 3] {
+        put(&good[..cut]);
+        check(&format!("truncated at {cut}"), "truncated");
+    }
+    // A flipped byte in the header, in the node array and in the last channel array.
+    let header_end = 24 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+    for at in [30, header_end + 8, good.len() - 9] {
+        let mut bad = good.clone();
+        bad[at] ^= 0x10;
+        put(&bad);
+        check(&format!("byte {at} flipped"), "corrupt");
+    }
+    put(&good);
+    assert!(merge_parts(&plan, &out).is_ok());
+    assert_eq!(p.parts.len(), 4);
+}
