@@ -39,10 +39,18 @@ fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -
     let plan = plan_bake(&mesh, mesh_path, hash, opts, parts, build).unwrap();
     let plan_path = dir.join(format!("job{parts}.svoplan"));
     let plan_hash = write_plan(&plan, &plan_path).unwrap();
-    bake_parts(&mesh, &plan, plan_hash, 0..parts, &mut |i, part| {
+    // Each part alone, as `svo-bake part` bakes it (setting up only the triangles that may
+    // reach its subtrees), except the first plan's, baked in one call as `--memory` does.
+    let mut write = |i: u32, part: svo::bake::PartData| {
         write_part(&part, &part_path(&plan_path, i)).map(|_| ())
-    })
-    .unwrap();
+    };
+    if parts == 1 {
+        bake_parts(&mesh, &plan, plan_hash, 0..parts, &mut write).unwrap();
+    } else {
+        for i in 0..parts {
+            bake_parts(&mesh, &plan, plan_hash, [i], &mut write).unwrap();
+        }
+    }
     plan_path
 }
 
@@ -106,7 +114,7 @@ fn parts_merge_into_the_bytes_of_the_whole_bake() {
     assert!(checked >= 15);
 }
 
-/// A part baked again is the same file, byte for byte.
+/// A part baked again is the same file, byte for byte, alone or with the others.
 #[test]
 fn a_part_baked_twice_is_the_same_file() {
     let dir = tempfile::tempdir().unwrap();
@@ -120,6 +128,19 @@ fn a_part_baked_twice_is_the_same_file() {
         .map(|i| std::fs::read(part_path(&plan, i)).unwrap())
         .collect();
     plan_and_bake(&mesh, &opts, 4, dir.path());
+    for (i, f) in first.iter().enumerate() {
+        assert!(
+            &std::fs::read(part_path(&plan, i as u32)).unwrap() == f,
+            "part {i} differs"
+        );
+    }
+    // Baked all in one call (as `--memory` does, every triangle set up), the same files.
+    let (p, plan_hash) = read_plan(&plan).unwrap();
+    let loaded = svo::Mesh::load(&mesh).unwrap();
+    bake_parts(&loaded, &p, plan_hash, 0..4, &mut |i, part| {
+        write_part(&part, &part_path(&plan, i)).map(|_| ())
+    })
+    .unwrap();
     for (i, f) in first.iter().enumerate() {
         assert!(
             &std::fs::read(part_path(&plan, i as u32)).unwrap() == f,

@@ -75,7 +75,7 @@ pub struct PartStats {
     /// so that a part baked twice is the same file.
     #[serde(skip)]
     pub bake_s: f64,
-    /// Overlap tests run.
+    /// Overlap tests run in the part's subtrees (the splits above them are not counted).
     pub overlap_tests: u64,
     /// Leaf/triangle contacts.
     pub leaf_triangle_pairs: u64,
@@ -141,7 +141,16 @@ pub fn bake_parts(
             plan.root()
         )));
     }
-    let order = spatial_order(mesh, &root);
+    let indices: Vec<u32> = indices.into_iter().collect();
+    // Only the triangles that may touch the parts' subtrees are set up (about 280 bytes each),
+    // in the whole bake's spatial order: each subtree gets the same triangles in the same
+    // order, so the same bytes.
+    let ranges: Vec<std::ops::Range<u64>> = indices
+        .iter()
+        .filter_map(|&i| plan.parts.get(i as usize).map(|p| p.start..p.end))
+        .collect();
+    let mut order = spatial_order(mesh, &root);
+    order.retain(|&t| may_touch(mesh, &root, opts.depth, plan.level, t, &ranges));
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
     let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
     for index in indices {
@@ -149,6 +158,49 @@ pub fn bake_parts(
         each(index, part)?;
     }
     Ok(tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count())
+}
+
+/// Whether mesh triangle `t`'s closed bounds reach a node at `level` whose Morton code lies in
+/// `ranges` (true when in doubt: a triangle across more than 512 such nodes is kept). A
+/// triangle that the whole bake's splits hand to such a node passes: its bounds touch the
+/// node's closed cube.
+fn may_touch(
+    mesh: &Mesh,
+    root: &crate::geometry::grid::RootCube,
+    depth: u8,
+    level: u8,
+    t: u32,
+    ranges: &[std::ops::Range<u64>],
+) -> bool {
+    let Some(tri) = mesh.triangles.get(t as usize) else {
+        return true;
+    };
+    let g = tri.map(|i| root.to_grid(mesh.positions[i as usize], depth));
+    let (lo, hi) = (g[0].min(g[1]).min(g[2]), g[0].max(g[1]).max(g[2]));
+    let side = f64::from(1u32 << (depth - level));
+    let last = (1u64 << level) - 1;
+    // One node more on the low side: a bound on a node's low face touches the node below.
+    let span = |a: f64, b: f64| {
+        let first = ((a / side).floor() - 1.0).clamp(0.0, last as f64) as u64;
+        let end = (b / side).floor().clamp(0.0, last as f64) as u64;
+        (first, end)
+    };
+    let (x, y, z) = (span(lo.x, hi.x), span(lo.y, hi.y), span(lo.z, hi.z));
+    let count = (x.1 - x.0 + 1) * (y.1 - y.0 + 1) * (z.1 - z.0 + 1);
+    if count > 512 || !(lo.is_finite() && hi.is_finite()) {
+        return true;
+    }
+    for i in x.0..=x.1 {
+        for j in y.0..=y.1 {
+            for k in z.0..=z.1 {
+                let code = crate::bake::plan::morton([i, j, k], level);
+                if ranges.iter().any(|r| r.contains(&code)) {
+                    return true;
+                }
+            }
+        }
+    }
+    false
 }
 
 fn bake_one(

@@ -731,7 +731,7 @@ pub fn deepest_part_level(depth: u8) -> u8 {
 /// holds below that node, bit for bit (its triangle list is split down to it exactly as the
 /// whole bake splits it, and it is built by the same code), for `level` at most
 /// [`deepest_part_level`]. Empty subtrees are left out; the others come in code order. Also
-/// returns the number of overlap tests run.
+/// returns the number of overlap tests run below `level`.
 pub fn voxelize_subtrees(
     inputs: &AttributeInputs<'_>,
     depth: u8,
@@ -745,7 +745,9 @@ pub fn voxelize_subtrees(
     );
     let (ctx, all) = context(inputs.triangles(), depth, strategy, Some(inputs), &|_| {});
     let mut lists = Vec::new();
-    let tests = lists_at(&ctx, 0, [0, 0, 0], 0, &all, level, &codes, &mut lists);
+    // The tests above `level` depend on which triangles the caller set up, so they are not
+    // counted: a subtree's count is the same however its part was baked.
+    lists_at(&ctx, 0, [0, 0, 0], 0, &all, level, &codes, &mut lists);
     let build = |(code, cell, list): (u64, [u32; 3], Vec<u32>)| {
         let (part, tests) = build_node::<LeafValues>(&ctx, level, cell, &list);
         drop(list);
@@ -771,7 +773,7 @@ pub fn voxelize_subtrees(
     };
     #[cfg(not(feature = "parallel"))]
     let built: Vec<_> = lists.into_iter().map(build).collect();
-    let mut total = tests;
+    let mut total = 0;
     let subtrees = built
         .into_iter()
         .flatten()
