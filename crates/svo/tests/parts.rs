@@ -214,3 +214,32 @@ fn the_merge_refuses_bad_parts_and_writes_nothing() {
     assert!(merge_parts(&plan, &out).is_ok());
     assert_eq!(p.parts.len(), 4);
 }
+
+/// A bake that the memory limit refuses goes into parts within the limit by itself, and
+/// writes the in-memory bake's bytes.
+#[test]
+fn a_bake_over_the_memory_limit_goes_into_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 9,
+        ..BakeOptions::default()
+    };
+    let whole = in_memory(&mesh, &opts, dir.path());
+    let out = dir.path().join("limited.svo");
+    let report = bake_file(&BakeJob {
+        input: mesh.clone(),
+        output: out.clone(),
+        options: BakeOptions {
+            max_memory: Some(16 << 20),
+            ..opts
+        },
+        threads: None,
+        given: GivenOptions::default(),
+        memory: None,
+    })
+    .unwrap();
+    let parts = report.parts.expect("baked in parts");
+    assert!(parts.automatic && parts.parts > 1, "{parts:?}");
+    assert!(std::fs::read(out).unwrap() == whole);
+}

@@ -427,8 +427,13 @@ fn fill_solid(
 
 /// Bytes of memory available to a new process (Linux `MemAvailable`), if known.
 pub fn available_memory() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    proc_bytes("/proc/meminfo", "MemAvailable:")
+}
+
+/// The value of the `key` line (`KEY: N kB`) of a Linux `/proc` file, in bytes.
+pub(crate) fn proc_bytes(file: &str, key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string(file).ok()?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }

@@ -36,10 +36,7 @@ pub struct PartsReport {
 
 /// The process's peak resident set (Linux `VmHWM`), in bytes, if known.
 pub fn peak_resident() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+    crate::bake::bake_mesh::proc_bytes("/proc/self/status", "VmHWM:")
 }
 
 /// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated

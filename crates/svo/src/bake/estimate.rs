@@ -9,6 +9,7 @@
 
 use crate::geometry::grid::RootCube;
 use crate::mesh::triangle_mesh::Mesh;
+use glam::DVec3;
 
 /// Peak bytes of the bake per leaf (cell, triangle list, nodes, channels, scratch).
 pub(crate) const BYTES_PER_LEAF: f64 = 64.0;
@@ -25,17 +26,23 @@ pub struct Estimate {
     pub bytes: f64,
 }
 
+/// The cells a triangle with corners `a`, `b`, `c` (in cells) touches, about: `A * |n|_1`
+/// across its face (half the cross product's L1 norm: no square root), its perimeter along
+/// its edges, and one.
+pub(crate) fn triangle_cells(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let n = (b - a).cross(c - a);
+    let area_l1 = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
+    let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
+    area_l1 + perimeter + 1.0
+}
+
 /// Estimates the leaves and peak memory of baking `mesh` at `depth` in `root`.
 pub(crate) fn estimate(mesh: &Mesh, root: &RootCube, depth: u8) -> Estimate {
     let scale = (1u64 << depth) as f64 / root.side;
-    // area * |n|_1 / |n| is half the normal's L1 norm: no square root for it.
     let cells = |t: &[u32; 3]| {
         let [a, b, c] =
             t.map(|i| mesh.positions.get(i as usize).copied().unwrap_or_default() * scale);
-        let n = (b - a).cross(c - a);
-        let area_l1 = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
-        let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
-        area_l1 + perimeter + 1.0
+        triangle_cells(a, b, c)
     };
     // Fixed chunks summed in order: the same sum whatever the thread count.
     const CHUNK: usize = 8192;

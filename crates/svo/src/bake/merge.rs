@@ -11,10 +11,12 @@
 //! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
 //! no file.
 
+use crate::attributes::leaf_attributes::LeafValues;
 use crate::bake::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
 use crate::bake::plan::{BakePlan, PartsError, part_path, read_plan};
 use crate::io::atomic_write::write_atomic;
 use crate::io::write::{Layout, Stored, write_layout};
+use crate::octree::layout::Chunk;
 use crate::octree::tree::Node;
 use std::io::{BufReader, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -518,10 +520,7 @@ fn relocate(rec: Node, n: u64, at: u64, leaf_off: u64) -> Option<Node> {
     let info = rec.info & 0xFF;
     if rec.is_leaf_parent() {
         let base = u64::from(rec.leaf_base()?) + leaf_off;
-        (base < 1 << 31).then(|| Node {
-            info,
-            first: (-(base as i64) - 1) as i32 as u32,
-        })
+        (base < 1 << 31).then(|| Chunk::<LeafValues>::leaf_parent(info as u8, base as usize))
     } else if info != 0 {
         let first = u64::from(rec.first);
         (first + u64::from(info.count_ones()) <= n).then(|| Node {

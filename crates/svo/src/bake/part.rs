@@ -17,7 +17,7 @@ use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::io::atomic_write::write_atomic;
 use crate::mesh::triangle_mesh::Mesh;
 use crate::octree::layout::Chunk;
-use crate::octree::tree::{Channel, LeafAttributes, Node};
+use crate::octree::tree::{LeafAttributes, Node, StoredChannel};
 use crate::voxelize::build::voxelize_subtrees;
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
@@ -275,37 +275,29 @@ fn bake_one(
         false_positives: values.false_positives,
     };
     let (attributes, _) = inputs.finish_uncompacted(values, Duration::ZERO);
-    let mut channels = Vec::new();
-    fn storage<T: bytemuck::Pod + Into<u32> + PartialEq>(
-        kind: u8,
-        c: &Channel<T>,
-        out: &mut Vec<(u8, PartStorage)>,
-    ) {
-        match c {
-            Channel::Absent => {}
-            Channel::Constant(v) => out.push((kind, PartStorage::Constant((*v).into()))),
-            Channel::PerLeaf(v) => {
-                let uniform = v
-                    .first()
-                    .filter(|&&f| v.iter().all(|&x| x == f))
-                    .map(|&f| f.into());
-                out.push((
+    let channels = attributes
+        .stored()
+        .into_iter()
+        .map(|(kind, c)| match c {
+            StoredChannel::Constant(v) => (kind, PartStorage::Constant(v)),
+            StoredChannel::PerLeaf { bytes, size } => {
+                // The value every leaf holds, if one does (bytes equal: values equal).
+                let mut values = bytes.chunks_exact(size);
+                let uniform = values.next().filter(|f| values.all(|x| x == *f)).map(|f| {
+                    let mut word = [0u8; 4];
+                    word[..size].copy_from_slice(f);
+                    u32::from_le_bytes(word)
+                });
+                (
                     kind,
                     PartStorage::PerLeaf {
-                        size: size_of::<T>() as u8,
+                        size: size as u8,
                         uniform,
                     },
-                ));
+                )
             }
-        }
-    }
-    let a = &attributes;
-    storage(0, &a.normal, &mut channels);
-    storage(1, &a.contour, &mut channels);
-    storage(2, &a.colour, &mut channels);
-    storage(3, &a.reflectivity, &mut channels);
-    storage(4, &a.refractivity, &mut channels);
-    storage(5, &a.ior, &mut channels);
+        })
+        .collect();
     let mut header = PartHeader {
         plan_hash,
         index,
@@ -404,18 +396,11 @@ fn part_file_inner(plan_path: &Path, index: u32) -> Result<PartReport, PartsErro
 /// channel in kind order.
 fn arrays(part: &PartData) -> Vec<&[u8]> {
     let mut out: Vec<&[u8]> = vec![bytemuck::cast_slice(&part.nodes)];
-    let a = &part.attributes;
-    fn add<'a, T: bytemuck::Pod>(c: &'a Channel<T>, out: &mut Vec<&'a [u8]>) {
-        if let Channel::PerLeaf(v) = c {
-            out.push(bytemuck::cast_slice(v));
+    for (_, c) in part.attributes.stored() {
+        if let StoredChannel::PerLeaf { bytes, .. } = c {
+            out.push(bytes);
         }
     }
-    add(&a.normal, &mut out);
-    add(&a.contour, &mut out);
-    add(&a.colour, &mut out);
-    add(&a.reflectivity, &mut out);
-    add(&a.refractivity, &mut out);
-    add(&a.ior, &mut out);
     out
 }
 

@@ -2,9 +2,7 @@
 //! atomically, timing each phase. This is everything `svo-bake` does; its `main` only parses
 //! arguments, draws the progress bar and prints the [`BakeReport`].
 
-use crate::bake::bake_mesh::{
-    BakeError, BakeOptions, BakeStats, Phase, bake_for_file, estimate_bake,
-};
+use crate::bake::bake_mesh::{BakeError, BakeOptions, BakeStats, Phase, bake_for_file};
 use crate::bake::bounded::{PartsReport, bake_planned, peak_resident, plan_for_budget};
 use crate::bake::plan::PartsError;
 use crate::import::load_mesh;
@@ -229,19 +227,40 @@ fn run_inner(
             scene,
             ..BuildInfo::new()
         };
-        if let Some((budget, automatic)) = parts_budget(job, format, &mesh, &options)? {
-            return bake_in_parts(
+        let parts = |budget| {
+            bake_in_parts(
                 job,
                 &mesh,
                 &options,
                 &build,
-                (budget, automatic),
+                budget,
                 threads,
                 (t_all, load_s),
                 progress,
-            );
+            )
+        };
+        if let Some(budget) = job.memory {
+            if format != OutputFormat::Svo {
+                return Err(PartsError::Unsupported(
+                    "a bake within a memory budget writes .svo only".into(),
+                )
+                .into());
+            }
+            return parts((budget, false));
         }
-        let (tree, stats) = bake_for_file(&mesh, &options, progress)?;
+        // A surface bake to `.svo` that the memory limit refuses (before it starts) goes into
+        // parts within that limit, where a file can hold the tree.
+        let (tree, stats) = match bake_for_file(&mesh, &options, progress) {
+            Err(BakeError::TooLarge { leaves, .. })
+                if format == OutputFormat::Svo
+                    && options.solid.is_none()
+                    && leaves <= crate::bake::plan::MAX_FILE_LEAVES =>
+            {
+                let limit = options.max_memory.unwrap_or(u64::MAX);
+                return parts((limit, true));
+            }
+            r => r?,
+        };
         (tree, build, Some(stats), load_s)
     };
     let t = Instant::now();
@@ -274,37 +293,6 @@ fn run_inner(
         bake: stats,
         parts: None,
     })
-}
-
-/// The memory budget of a bake in parts, and whether the bake chose it itself: `--memory`,
-/// or the memory limit when a surface bake's estimate exceeds it.
-fn parts_budget(
-    job: &BakeJob,
-    format: OutputFormat,
-    mesh: &crate::Mesh,
-    options: &BakeOptions,
-) -> Result<Option<(u64, bool)>, PipelineError> {
-    if let Some(budget) = job.memory {
-        if format != OutputFormat::Svo {
-            return Err(PartsError::Unsupported(
-                "a bake within a memory budget writes .svo only".into(),
-            )
-            .into());
-        }
-        return Ok(Some((budget, false)));
-    }
-    let Some(limit) = options.max_memory else {
-        return Ok(None);
-    };
-    if format != OutputFormat::Svo || options.solid.is_some() {
-        return Ok(None);
-    }
-    // Parts only where a file can hold the tree; else the in-memory bake refuses as before.
-    let est = estimate_bake(mesh, options)?;
-    Ok(
-        (est.bytes > limit as f64 && est.leaves <= crate::bake::plan::MAX_FILE_LEAVES)
-            .then_some((limit, true)),
-    )
 }
 
 /// Bakes in parts within `budget` bytes into `job.output`.

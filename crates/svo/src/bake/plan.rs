@@ -15,6 +15,7 @@
 //! part of another plan is refused.
 
 use crate::bake::bake_mesh::{BakeError, BakeOptions, prepare};
+use crate::bake::estimate::triangle_cells;
 use crate::geometry::grid::RootCube;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::BuildInfo;
@@ -270,7 +271,8 @@ pub fn plan_bake(
 }
 
 /// Per node at `level` (Morton code, estimated leaves), in code order: each triangle's
-/// estimated cells ([`crate::bake::Estimate`]'s sum) counted in the node holding its centroid.
+/// estimated cells ([`triangle_cells`], as the bake's estimate sums them) counted in the node
+/// holding its centroid.
 fn subtree_estimates(mesh: &Mesh, root: &RootCube, depth: u8, level: u8) -> Vec<(u64, f64)> {
     let n = (1u64 << depth) as f64;
     let scale = n / root.side;
@@ -280,12 +282,7 @@ fn subtree_estimates(mesh: &Mesh, root: &RootCube, depth: u8, level: u8) -> Vec<
         let [a, b, c] = t.map(|i| {
             (mesh.positions.get(i as usize).copied().unwrap_or_default() - root.origin) * scale
         });
-        let nrm = (b - a).cross(c - a);
-        let cells = 0.5 * (nrm.x.abs() + nrm.y.abs() + nrm.z.abs())
-            + (b - a).length()
-            + (c - b).length()
-            + (a - c).length()
-            + 1.0;
+        let cells = triangle_cells(a, b, c);
         let centroid = (a + b + c) / 3.0;
         let cell = centroid
             .clamp(glam::DVec3::ZERO, glam::DVec3::splat(n - 1.0))

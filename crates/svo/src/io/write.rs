@@ -6,7 +6,7 @@ use crate::io::header::{
     bincode_config,
 };
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, Node, Octree};
+use crate::octree::tree::{Node, Octree, StoredChannel};
 use crate::octree::validate::{InfoBits, check_tree};
 use std::io::Write;
 use std::path::Path;
@@ -111,31 +111,17 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
             format!("{check}: {detail}"),
         )
     })?;
-    let a = &tree.attributes;
     let mut arrays: Vec<&[u8]> = Vec::new();
     let mut channels: Vec<(u8, Stored)> = Vec::new();
-    fn add<'a, T: bytemuck::Pod + Into<u32>>(
-        kind: u8,
-        c: &'a Channel<T>,
-        channels: &mut Vec<(u8, Stored)>,
-        arrays: &mut Vec<&'a [u8]>,
-    ) {
+    for (kind, c) in tree.attributes.stored() {
         match c {
-            Channel::Absent => {}
-            Channel::Constant(v) => channels.push((kind, Stored::Constant((*v).into()))),
-            Channel::PerLeaf(v) => {
-                let bytes: &[u8] = bytemuck::cast_slice(v);
+            StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
+            StoredChannel::PerLeaf { bytes, .. } => {
                 channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
                 arrays.push(bytes);
             }
         }
     }
-    add(0, &a.normal, &mut channels, &mut arrays);
-    add(1, &a.contour, &mut channels, &mut arrays);
-    add(2, &a.colour, &mut channels, &mut arrays);
-    add(3, &a.reflectivity, &mut channels, &mut arrays);
-    add(4, &a.refractivity, &mut channels, &mut arrays);
-    add(5, &a.ior, &mut channels, &mut arrays);
     let layout = Layout {
         root_origin: tree.root.origin.to_array(),
         root_side: tree.root.side,

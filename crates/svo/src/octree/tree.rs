@@ -263,6 +263,35 @@ impl LeafAttributes {
             .sum()
     }
 
+    /// The channels present, in increasing kind (the file's codes: normal 0 to IOR 5), as a
+    /// file stores them: a constant's value zero-extended to `u32`, or a per-leaf array's bytes
+    /// (little-endian) and its element size.
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    pub(crate) fn stored(&self) -> Vec<(u8, StoredChannel<'_>)> {
+        fn one<T: bytemuck::Pod + Into<u32>>(c: &Channel<T>) -> Option<StoredChannel<'_>> {
+            match c {
+                Channel::Absent => None,
+                Channel::Constant(v) => Some(StoredChannel::Constant((*v).into())),
+                Channel::PerLeaf(v) => Some(StoredChannel::PerLeaf {
+                    bytes: bytemuck::cast_slice(v),
+                    size: size_of::<T>(),
+                }),
+            }
+        }
+        [
+            one(&self.normal),
+            one(&self.contour),
+            one(&self.colour),
+            one(&self.reflectivity),
+            one(&self.refractivity),
+            one(&self.ior),
+        ]
+        .into_iter()
+        .zip(0u8..)
+        .filter_map(|(c, kind)| c.map(|c| (kind, c)))
+        .collect()
+    }
+
     /// Every channel with how it is stored, in file order.
     pub fn storage(&self) -> [(ChannelKind, ChannelStorage); 6] {
         [
@@ -274,6 +303,21 @@ impl LeafAttributes {
             (ChannelKind::Ior, self.ior.storage()),
         ]
     }
+}
+
+/// A present channel as a file stores it ([`LeafAttributes::stored`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) enum StoredChannel<'a> {
+    /// One value for every leaf, zero-extended.
+    Constant(u32),
+    /// One value per leaf: the array's bytes and the bytes of a value.
+    PerLeaf {
+        /// The values, little-endian.
+        bytes: &'a [u8],
+        /// Bytes per value.
+        size: usize,
+    },
 }
 
 /// The decoded attributes of one leaf (`None` where the channel is absent).

@@ -747,7 +747,7 @@ pub fn voxelize_subtrees(
     let mut lists = Vec::new();
     // The tests above `level` depend on which triangles the caller set up, so they are not
     // counted: a subtree's count is the same however its part was baked.
-    lists_at(&ctx, 0, [0, 0, 0], 0, &all, level, &codes, &mut lists);
+    lists_at(&ctx, 0, [0, 0, 0], 0, all, level, &codes, &mut lists);
     let build = |(code, cell, list): (u64, [u32; 3], Vec<u32>)| {
         let (part, tests) = build_node::<LeafValues>(&ctx, level, cell, &list);
         drop(list);
@@ -788,35 +788,36 @@ pub fn voxelize_subtrees(
 #[cfg(feature = "io")]
 /// Splits `list` (the triangles of the node at `level`, min corner `cell`, Morton code
 /// `code`) down to `target`, as the whole bake splits it, and appends the non-empty lists of
-/// the nodes there whose codes lie in `codes`. Returns the tests run.
+/// the nodes there whose codes lie in `codes`.
 #[allow(clippy::too_many_arguments)]
 fn lists_at(
     ctx: &Ctx<'_>,
     level: u8,
     cell: [u32; 3],
     code: u64,
-    list: &[u32],
+    list: Vec<u32>,
     target: u8,
     codes: &std::ops::Range<u64>,
     out: &mut Vec<(u64, [u32; 3], Vec<u32>)>,
-) -> u64 {
+) {
     let shift = 3 * u32::from(target - level);
     let (lo, hi) = (code << shift, (code + 1) << shift);
     if list.is_empty() || hi <= codes.start || codes.end <= lo {
-        return 0;
+        return;
     }
     if level == target {
-        out.push((code, cell, list.to_vec()));
-        return 0;
+        out.push((code, cell, list));
+        return;
     }
     let s = f64::from(1u32 << (ctx.depth - level));
     let m = DVec3::new(f64::from(cell[0]), f64::from(cell[1]), f64::from(cell[2]));
     let mut lists = <[Vec<u32>; 8]>::default();
-    let mut tests = split_parallel(ctx, level, m, s, list, &mut lists);
+    split_parallel(ctx, level, m, s, &list, &mut lists);
+    drop(list);
     let half = 1u32 << (ctx.depth - level - 1);
-    for (i, l) in lists.iter().enumerate() {
+    for (i, l) in lists.into_iter().enumerate() {
         let child = child_cell(cell, i as u8, half);
-        tests += lists_at(
+        lists_at(
             ctx,
             level + 1,
             child,
@@ -827,7 +828,6 @@ fn lists_at(
             out,
         );
     }
-    tests
 }
 
 /// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
