@@ -8,13 +8,14 @@
 # e.g. scripts/slurm/svo-bake-slurm.sh /shared/scan.ply 16 64 /shared/scan.svo -p batch -c 8
 #
 # SVO_BAKE names the svo-bake binary (default: svo-bake on the PATH). The plan is written
-# beside OUT.svo (OUT.svoplan), the parts beside the plan (OUT.IIIII.svopart); remove them
-# once the merge is done. Prints the array job's and the merge job's ids, and with
+# beside OUT.svo (OUT.svoplan) with each part's triangles (OUT.IIIII.svobin, so a task loads
+# its own triangles, not the mesh), the parts beside the plan (OUT.IIIII.svopart); remove
+# them once the merge is done. Prints the array job's and the merge job's ids, and with
 # SVO_WAIT=1 waits for the merge and exits with its status.
 set -euo pipefail
 
 if [ $# -lt 4 ]; then
-    sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
 fi
 mesh=$1 depth=$2 parts=$3 out=$4
@@ -22,10 +23,10 @@ shift 4
 bake=${SVO_BAKE:-svo-bake}
 plan="${out%.svo}.svoplan"
 
-"$bake" plan "$mesh" --depth "$depth" --parts "$parts" -o "$plan" >&2
+"$bake" plan "$mesh" --depth "$depth" --parts "$parts" --bins -o "$plan" >&2
 
-# One task a part; each reads the plan and the mesh and writes its own part file, so a task
-# run twice (requeued) writes the same bytes.
+# One task a part; each reads the plan and its triangles and writes its own part file, so a
+# task run twice (requeued) writes the same bytes.
 array=$(sbatch --parsable --requeue --job-name=svo-part --array="0-$((parts - 1))" \
     --output="${out%.svo}.part-%a.log" "$@" \
     --wrap="exec '$bake' part '$plan' \"\$SLURM_ARRAY_TASK_ID\"")

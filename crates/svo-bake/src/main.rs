@@ -130,6 +130,10 @@ enum Command {
         /// The plan file to write (.svoplan).
         #[arg(short, long)]
         output: PathBuf,
+        /// Also write each part's triangles to NAME.IIIII.svobin beside the plan, which the
+        /// part then loads instead of the whole mesh (the same bytes).
+        #[arg(long)]
+        bins: bool,
         #[command(flatten)]
         settings: Settings,
     },
@@ -220,9 +224,10 @@ fn real_main() -> anyhow::Result<()> {
             mesh,
             parts,
             output,
+            bins,
             settings,
         }) => {
-            let plan = plan_file(mesh, &settings.options()?, *parts, output)
+            let (plan, binned) = plan_file(mesh, &settings.options()?, *parts, output, *bins)
                 .with_context(|| format!("planning the bake of {}", mesh.display()))?;
             say!(
                 "{}: {} parts of the subtrees at level {} (depth {}; about {:.3e} leaves in all, \
@@ -237,6 +242,15 @@ fn real_main() -> anyhow::Result<()> {
                     .map(|p| p.estimated_leaves)
                     .fold(0.0, f64::max)
             );
+            if let Some(b) = binned {
+                say!(
+                    "{} bins of the parts' triangles ({} triangles in all, {} bytes), {} ...",
+                    b.files,
+                    b.triangles,
+                    b.bytes,
+                    svo::bake::bin_path(output, 0).display()
+                );
+            }
             say!(
                 "next: svo-bake part {} I (for I in 0..{}: writes {} ...), then svo-bake merge {} -o OUT.svo",
                 output.display(),

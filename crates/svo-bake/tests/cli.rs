@@ -623,6 +623,30 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     let merged = d.path().join("merged.svo");
     ok(&["merge", s(&plan), "-o", s(&merged)]);
     assert!(std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap());
+    // Again with each part's triangles in a bin of its own: the same file.
+    let text = ok(&[
+        "plan",
+        s(&torus),
+        "--depth",
+        "9",
+        "--parts",
+        "3",
+        "--bins",
+        "-o",
+        s(&plan),
+    ]);
+    assert!(text.contains("3 bins of the parts' triangles"), "{text}");
+    for i in ["0", "1", "2"] {
+        ok(&["part", s(&plan), i, "--threads", "1"]);
+    }
+    std::fs::remove_file(&merged).unwrap();
+    ok(&["merge", s(&plan), "-o", s(&merged)]);
+    assert!(std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap());
+    let bin = d.path().join("job.00001.svobin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes.truncate(bytes.len() / 2);
+    std::fs::write(&bin, &bytes).unwrap();
+    fails(&["part", s(&plan), "1"], "job.00001.svobin: truncated");
 
     let out = d.path().join("out.svo");
     let o = s(&out);

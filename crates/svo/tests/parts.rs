@@ -243,3 +243,154 @@ fn a_bake_over_the_memory_limit_goes_into_parts() {
     assert!(parts.automatic && parts.parts > 1, "{parts:?}");
     assert!(std::fs::read(out).unwrap() == whole);
 }
+
+/// A mesh with everything a bin must carry: three materials (one textured, one mirror, one
+/// glass), texture coordinates on some triangles, shared vertices, triangles spread over the
+/// whole root and some crossing it; written as OBJ + MTL + PNG into `dir`.
+fn textured_mesh(dir: &Path) -> PathBuf {
+    let img = image::RgbaImage::from_fn(4, 2, |x, y| {
+        image::Rgba([60 * x as u8, 120 * y as u8, 200, 255])
+    });
+    img.save(dir.join("tex.png")).unwrap();
+    std::fs::write(
+        dir.join("m.mtl"),
+        "newmtl textured\nKd 1 1 1\nmap_Kd tex.png\n\
+         newmtl mirror\nKd 0.5 0.5 0.5\nKs 0.9 0.8 0.7\nillum 3\n\
+         newmtl glass\nKd 1 1 1\nTr 0.75\nNi 1.33\nillum 2\n",
+    )
+    .unwrap();
+    let mut obj = String::from("mtllib m.mtl\n");
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let n = 300;
+    for _ in 0..n {
+        obj += &format!("v {} {} {}\n", next() * 4.0, next() * 4.0, next() * 4.0);
+    }
+    for k in 0..16 {
+        obj += &format!("vt {} {}\n", f64::from(k) / 16.0, f64::from(k % 4) / 4.0);
+    }
+    for t in 0..700u32 {
+        let a = 1 + (t * 7) % n;
+        // Mostly small triangles (near neighbours in the vertex list), some long ones.
+        let (b, c) = if t % 11 == 0 {
+            (1 + (t * 13 + 5) % n, 1 + (t * 29 + 11) % n)
+        } else {
+            (1 + (a % n), 1 + ((a + 1) % n))
+        };
+        match t % 3 {
+            0 => {
+                obj += "usemtl textured\n";
+                obj += &format!(
+                    "f {a}/{} {b}/{} {c}/{}\n",
+                    1 + t % 16,
+                    1 + (t + 3) % 16,
+                    1 + (t + 7) % 16
+                );
+            }
+            1 => obj += &format!("usemtl mirror\nf {a} {b} {c}\n"),
+            _ => obj += &format!("usemtl glass\nf {a} {b} {c}\n"),
+        }
+    }
+    let path = dir.join("m.obj");
+    std::fs::write(&path, obj).unwrap();
+    path
+}
+
+/// Parts baked from bins (each part's own triangles, written with the plan) are the files the
+/// parts bake from the whole mesh, byte for byte, and merge into the in-memory bake's bytes,
+/// on a mesh with textures, materials and texture coordinates and on the bunny; every bin
+/// holds fewer triangles than the mesh. A bin that is damaged, truncated, of another plan or
+/// of another part is refused with a message naming what is wrong.
+#[test]
+fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let mut meshes = vec![(textured_mesh(d.path()), 7u8, 5u32)];
+    if let Some(bunny) = svo_tests::model("stanford/bun_zipper.ply") {
+        meshes.push((bunny, 8, 16));
+    }
+    for (mesh_path, depth, parts) in meshes {
+        let opts = BakeOptions {
+            depth,
+            ..BakeOptions::default()
+        };
+        let whole = in_memory(&mesh_path, &opts, d.path());
+        let plan = d.path().join("binned.svoplan");
+        let (p, bins) = svo::bake::plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let bins = bins.unwrap();
+        assert_eq!((bins.files, p.part_count()), (parts, parts));
+        let triangles = svo::Mesh::load(&mesh_path).unwrap().triangles.len();
+        let mut from_bins = Vec::new();
+        for i in 0..parts {
+            let plan_hash = read_plan(&plan).unwrap().1;
+            let bin = svo::bake::read_bin(&svo::bake::bin_path(&plan, i), plan_hash, i).unwrap();
+            assert!(
+                bin.triangles.len() < triangles,
+                "part {i}: {} triangles",
+                bin.triangles.len()
+            );
+            svo::bake::bake_part_file(&plan, i, None).unwrap();
+            from_bins.push(std::fs::read(part_path(&plan, i)).unwrap());
+        }
+        assert!(
+            merged(&plan, d.path()).unwrap() == whole,
+            "{}: the merged parts from bins differ from the in-memory bake",
+            mesh_path.display()
+        );
+        // The same parts from the whole mesh (the plan again without bins removes them).
+        svo::bake::plan_file(&mesh_path, &opts, parts, &plan, false).unwrap();
+        assert!(!svo::bake::bin_path(&plan, 0).exists());
+        for (i, bytes) in from_bins.iter().enumerate() {
+            svo::bake::bake_part_file(&plan, i as u32, None).unwrap();
+            assert!(
+                &std::fs::read(part_path(&plan, i as u32)).unwrap() == bytes,
+                "part {i}"
+            );
+        }
+        eprintln!(
+            "{}: {} triangles, {} in the bins together ({} bytes)",
+            mesh_path.display(),
+            triangles,
+            bins.triangles,
+            bins.bytes
+        );
+    }
+
+    // Bad bins.
+    let mesh_path = textured_mesh(d.path());
+    let opts = BakeOptions {
+        depth: 6,
+        ..BakeOptions::default()
+    };
+    let plan = d.path().join("bad.svoplan");
+    svo::bake::plan_file(&mesh_path, &opts, 3, &plan, true).unwrap();
+    let other = d.path().join("other.svoplan");
+    svo::bake::plan_file(&mesh_path, &opts, 4, &other, true).unwrap();
+    let bin = |p: &Path, i: u32| svo::bake::bin_path(p, i);
+    let good = std::fs::read(bin(&plan, 2)).unwrap();
+    let refused = |bytes: &[u8], what: &str| {
+        std::fs::write(bin(&plan, 2), bytes).unwrap();
+        let e = svo::bake::bake_part_file(&plan, 2, None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(what), "{what}: {e}");
+        assert!(e.contains("bad.00002.svobin"), "{e}");
+    };
+    let mut damaged = good.clone();
+    let k = damaged.len() / 2;
+    damaged[k] ^= 0x10;
+    refused(&damaged, "checksum mismatch");
+    refused(&good[..good.len() - 9], "truncated");
+    refused(
+        b"not a bin at all, but long enough to have a header",
+        "bad magic",
+    );
+    refused(&std::fs::read(bin(&other, 2)).unwrap(), "another plan");
+    refused(&std::fs::read(bin(&plan, 1)).unwrap(), "holds part 1");
+    std::fs::write(bin(&plan, 2), &good).unwrap();
+    svo::bake::bake_part_file(&plan, 2, None).unwrap();
+}

@@ -1,12 +1,13 @@
 //! A bake in bounded memory on one machine: the plan's parts ([`crate::bake::plan`]) baked one
 //! after another into part files beside the output, then merged ([`crate::bake::merge`]).
-//! Only the mesh, its triangle setup and one part are in memory at a time; the number of
-//! parts comes from the memory budget and the bake's estimate.
+//! Only the mesh, the lists that bin its triangles to the parts (one pass) and one part with
+//! the setup of its own triangles are in memory at a time; the number of parts comes from
+//! the memory budget, the bake's estimate and the parts' triangle counts.
 
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
 use crate::bake::merge::{MergeReport, merge_with};
-use crate::bake::part::{bake_parts, write_part};
+use crate::bake::part::{bake_parts, touched_counts, write_part};
 use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, plan_bake, plan_to_bytes};
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
@@ -40,7 +41,8 @@ pub fn peak_resident() -> Option<u64> {
 }
 
 /// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated
-/// peak, beside the mesh's triangle setup, fits in `budget` bytes.
+/// peak (its leaves and the setup of its own triangles) fits in `budget` bytes beside the
+/// mesh and the lists that bin its triangles to the parts.
 pub fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -49,9 +51,9 @@ pub fn plan_for_budget(
     build: &BuildInfo,
 ) -> Result<BakePlan, PartsError> {
     let est = estimate_bake(mesh, opts)?;
-    let fixed = mesh.triangles.len() as f64 * BYTES_PER_TRIANGLE
-        + mesh.positions.len() as f64 * 24.0
-        + mesh.triangles.len() as f64 * 12.0;
+    // The mesh (24 bytes a vertex, 12 a triangle), its spatial order and the parts' lists
+    // (a triangle in about two parts' lists: 12 bytes).
+    let fixed = mesh.positions.len() as f64 * 24.0 + mesh.triangles.len() as f64 * 24.0;
     let room = budget as f64 - fixed;
     const GIB: f64 = (1u64 << 30) as f64;
     if room < budget as f64 / 4.0 {
@@ -61,8 +63,7 @@ pub fn plan_for_budget(
             budget as f64 / GIB
         )));
     }
-    let per_part = room / BYTES_PER_LEAF;
-    let mut parts = (est.leaves / per_part).ceil().max(1.0) as u32;
+    let mut parts = (est.leaves * BYTES_PER_LEAF / room).ceil().max(1.0) as u32;
     let mut fewer: Option<(f64, BakePlan)> = None;
     loop {
         let plan = plan_bake(
@@ -76,9 +77,10 @@ pub fn plan_for_budget(
         let largest = plan
             .parts
             .iter()
-            .map(|p| p.estimated_leaves)
+            .zip(touched_counts(mesh, &plan))
+            .map(|(p, t)| p.estimated_leaves * BYTES_PER_LEAF + t as f64 * BYTES_PER_TRIANGLE)
             .fold(0.0, f64::max);
-        if largest <= per_part || parts >= MAX_PARTS {
+        if largest <= room || parts >= MAX_PARTS {
             return Ok(plan);
         }
         // A subtree larger than a part's share cannot be split: more parts stop helping.

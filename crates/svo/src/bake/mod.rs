@@ -11,6 +11,8 @@
 
 pub(crate) mod bake_mesh;
 #[cfg(feature = "io")]
+pub(crate) mod bins;
+#[cfg(feature = "io")]
 pub(crate) mod bounded;
 pub(crate) mod estimate;
 #[cfg(feature = "io")]
@@ -30,6 +32,8 @@ pub use bake_mesh::{
     BakeError, BakeOptions, BakeStats, Phase, available_memory, bake_mesh, bake_mesh_with_progress,
     estimate_bake, voxelize_mesh,
 };
+#[cfg(feature = "io")]
+pub use bins::{BinsReport, bin_path, read_bin, write_bins};
 #[cfg(feature = "io")]
 pub use bounded::{PartsReport, bake_planned, peak_resident, plan_for_budget};
 pub use estimate::Estimate;

@@ -11,7 +11,8 @@
 //! leaves in Morton order. The merge checks every array's hash as it copies it.
 
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
-use crate::bake::bake_mesh::prepare;
+use crate::bake::bake_mesh::{BakeError, prepare};
+use crate::bake::bins::{bin_path, read_bin};
 use crate::bake::plan::{BakePlan, PartsError, config, hash_file, part_path, read_plan};
 use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::io::atomic_write::write_atomic;
@@ -124,8 +125,9 @@ impl PartData {
 /// Bakes the parts `indices` of `plan` from its mesh, one after another, handing each to
 /// `each` as it is done (so only one is held at a time). The mesh must be the plan's (its
 /// hash is the caller's to check); its root cube must come out as the plan's. The triangles
-/// are set up once for all the parts. Returns the number of degenerate triangles (kept, as
-/// the bake keeps them).
+/// are binned to the parts in one pass, and each part sets up only its own, freed before
+/// the next part. Returns the number of degenerate triangles of the mesh (kept, as the bake
+/// keeps them).
 pub fn bake_parts(
     mesh: &Mesh,
     plan: &BakePlan,
@@ -133,53 +135,101 @@ pub fn bake_parts(
     indices: impl IntoIterator<Item = u32>,
     each: &mut dyn FnMut(u32, PartData) -> Result<(), PartsError>,
 ) -> Result<usize, PartsError> {
-    let opts = plan.options()?;
-    let (root, _) = prepare(mesh, &opts)?;
-    if root != plan.root() {
-        return Err(PartsError::Unsupported(format!(
-            "the mesh's root cube {root:?} is not the plan's {:?}",
-            plan.root()
-        )));
-    }
-    let indices: Vec<u32> = indices.into_iter().collect();
-    // Only the triangles that may touch the parts' subtrees are set up (about 280 bytes each),
-    // in the whole bake's spatial order: each subtree gets the same triangles in the same
-    // order, so the same bytes.
-    let ranges: Vec<std::ops::Range<u64>> = indices
-        .iter()
-        .filter_map(|&i| plan.parts.get(i as usize).map(|p| p.start..p.end))
-        .collect();
-    let mut order = spatial_order(mesh, &root);
-    order.retain(|&t| may_touch(mesh, &root, opts.depth, plan.level, t, &ranges));
-    let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
-    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
-    for index in indices {
-        let part = bake_one(&inputs, plan, &opts, plan_hash, index)?;
-        each(index, part)?;
-    }
-    Ok(tris.iter().filter(|t| t.n == glam::DVec3::ZERO).count())
+    bake_parts_from(mesh, false, plan, plan_hash, indices, each)
 }
 
-/// Whether mesh triangle `t`'s closed bounds reach a node at `level` whose Morton code lies in
-/// `ranges` (true when in doubt: a triangle across more than 512 such nodes is kept). A
-/// triangle that the whole bake's splits hand to such a node passes: its bounds touch the
-/// node's closed cube.
-fn may_touch(
+/// [`bake_parts`] from the whole mesh, or (`binned`) from the parts' own triangles
+/// ([`crate::bake::bins`]), whose bounds are not the mesh's: the plan's root cube is taken.
+fn bake_parts_from(
+    mesh: &Mesh,
+    binned: bool,
+    plan: &BakePlan,
+    plan_hash: u64,
+    indices: impl IntoIterator<Item = u32>,
+    each: &mut dyn FnMut(u32, PartData) -> Result<(), PartsError>,
+) -> Result<usize, PartsError> {
+    let opts = plan.options()?;
+    let root = if binned {
+        // The checks `prepare` makes of the mesh (a part may have no triangles at all).
+        if !mesh.triangles.is_empty() {
+            mesh.validated_bounds().map_err(BakeError::from)?;
+        }
+        plan.root()
+    } else {
+        let (root, _) = prepare(mesh, &opts)?;
+        if root != plan.root() {
+            return Err(PartsError::Unsupported(format!(
+                "the mesh's root cube {root:?} is not the plan's {:?}",
+                plan.root()
+            )));
+        }
+        root
+    };
+    let indices: Vec<u32> = indices.into_iter().collect();
+    // Each part sets up only the triangles that may touch its subtrees (about 240 bytes
+    // each), in the whole bake's spatial order, and frees them before the next part: each
+    // subtree gets the same triangles in the same order, so the same bytes, and the setups
+    // held at once are one part's. The lists come from one pass over the triangles.
+    let order = spatial_order(mesh, &root);
+    let lists = touched_lists(mesh, plan, &order);
+    drop(order);
+    let degenerate = count_degenerate(mesh, &root, opts.depth);
+    for index in indices {
+        let Some(list) = lists.get(index as usize) else {
+            return Err(PartsError::Unsupported(format!(
+                "part {index}: the plan has {} parts",
+                plan.part_count()
+            )));
+        };
+        let part = {
+            let tris = setup_triangles_in_order(mesh, &root, opts.depth, list);
+            let inputs = AttributeInputs::new(mesh, &tris, list, opts.channels);
+            bake_one(&inputs, plan, &opts, plan_hash, index)?
+        };
+        each(index, part)?;
+    }
+    Ok(degenerate)
+}
+
+/// The triangles of `mesh` whose setup has a zero normal (kept, as the bake keeps them),
+/// counted without holding their setups.
+fn count_degenerate(mesh: &Mesh, root: &crate::geometry::grid::RootCube, depth: u8) -> usize {
+    let degenerate = |t: &[u32; 3]| {
+        let g = |k: usize| root.to_grid(mesh.positions[t[k] as usize], depth);
+        crate::geometry::triangle_setup::GridTriangle::new(g(0), g(1), g(2)).n == glam::DVec3::ZERO
+    };
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        mesh.triangles
+            .par_iter()
+            .with_min_len(4096)
+            .filter(|t| degenerate(t))
+            .count()
+    }
+    #[cfg(not(feature = "parallel"))]
+    mesh.triangles.iter().filter(|t| degenerate(t)).count()
+}
+
+/// The Morton codes of the nodes at `level` that mesh triangle `t`'s closed bounds reach (one
+/// node more on the low side: a bound on a node's low face touches the node below), or `None`
+/// when in doubt (a triangle across more than 512 such nodes, or one whose bounds are not
+/// finite): a triangle that the whole bake's splits hand to a node is among its codes.
+fn touched_codes(
     mesh: &Mesh,
     root: &crate::geometry::grid::RootCube,
     depth: u8,
     level: u8,
     t: u32,
-    ranges: &[std::ops::Range<u64>],
-) -> bool {
-    let Some(tri) = mesh.triangles.get(t as usize) else {
-        return true;
-    };
-    let g = tri.map(|i| root.to_grid(mesh.positions[i as usize], depth));
+) -> Option<Vec<u64>> {
+    let tri = mesh.triangles.get(t as usize)?;
+    let mut g = [glam::DVec3::ZERO; 3];
+    for (k, &i) in tri.iter().enumerate() {
+        g[k] = root.to_grid(*mesh.positions.get(i as usize)?, depth);
+    }
     let (lo, hi) = (g[0].min(g[1]).min(g[2]), g[0].max(g[1]).max(g[2]));
     let side = f64::from(1u32 << (depth - level));
     let last = (1u64 << level) - 1;
-    // One node more on the low side: a bound on a node's low face touches the node below.
     let span = |a: f64, b: f64| {
         let first = ((a / side).floor() - 1.0).clamp(0.0, last as f64) as u64;
         let end = (b / side).floor().clamp(0.0, last as f64) as u64;
@@ -188,19 +238,63 @@ fn may_touch(
     let (x, y, z) = (span(lo.x, hi.x), span(lo.y, hi.y), span(lo.z, hi.z));
     let count = (x.1 - x.0 + 1) * (y.1 - y.0 + 1) * (z.1 - z.0 + 1);
     if count > 512 || !(lo.is_finite() && hi.is_finite()) {
-        return true;
+        return None;
     }
+    let mut codes = Vec::with_capacity(count as usize);
     for i in x.0..=x.1 {
         for j in y.0..=y.1 {
             for k in z.0..=z.1 {
-                let code = crate::bake::plan::morton([i, j, k], level);
-                if ranges.iter().any(|r| r.contains(&code)) {
-                    return true;
+                codes.push(crate::bake::plan::morton([i, j, k], level));
+            }
+        }
+    }
+    Some(codes)
+}
+
+/// Calls `touch(part, t)` for each triangle `t` of `order` (triangles of `mesh`, its plan's
+/// mesh) and each part of `plan` whose range its bounds reach ([`touched_codes`]; a triangle
+/// in doubt reaches every part): the triangles that part sets up. One pass.
+fn for_each_touch(
+    mesh: &Mesh,
+    plan: &BakePlan,
+    order: impl Iterator<Item = u32>,
+    mut touch: impl FnMut(usize, u32),
+) {
+    let root = plan.root();
+    let count = plan.parts.len();
+    let part_of = |code: u64| plan.parts.partition_point(|p| p.end <= code);
+    let mut seen = Vec::new();
+    for t in order {
+        match touched_codes(mesh, &root, plan.depth, plan.level, t) {
+            None => (0..count).for_each(|p| touch(p, t)),
+            Some(codes) => {
+                seen.clear();
+                seen.extend(codes.into_iter().map(part_of).filter(|&p| p < count));
+                seen.sort_unstable();
+                seen.dedup();
+                for &p in &seen {
+                    touch(p, t);
                 }
             }
         }
     }
-    false
+}
+
+/// Per part of `plan`, the triangles of `mesh` that the part sets up, in the order of
+/// `order` ([`for_each_touch`]).
+pub(crate) fn touched_lists(mesh: &Mesh, plan: &BakePlan, order: &[u32]) -> Vec<Vec<u32>> {
+    let mut lists = vec![Vec::new(); plan.parts.len()];
+    for_each_touch(mesh, plan, order.iter().copied(), |p, t| lists[p].push(t));
+    lists
+}
+
+/// Per part of `plan`, how many triangles of `mesh` the part sets up.
+pub(crate) fn touched_counts(mesh: &Mesh, plan: &BakePlan) -> Vec<u64> {
+    let mut counts = vec![0u64; plan.parts.len()];
+    for_each_touch(mesh, plan, 0..mesh.triangles.len() as u32, |p, _| {
+        counts[p] += 1
+    });
+    counts
 }
 
 fn bake_one(
@@ -360,20 +454,27 @@ fn part_file_inner(plan_path: &Path, index: u32) -> Result<PartReport, PartsErro
         )));
     }
     let t = Instant::now();
-    let mesh_path = Path::new(&plan.mesh);
-    let found = hash_file(mesh_path)?;
-    if found != plan.mesh_hash {
-        return Err(PartsError::MeshChanged {
-            path: plan.mesh.clone(),
-            found,
-            planned: plan.mesh_hash,
-        });
-    }
-    let mesh = crate::import::load_mesh(mesh_path)?;
+    // The part's own triangles where the plan wrote them, else the whole mesh.
+    let bin = bin_path(plan_path, index);
+    let binned = bin.exists();
+    let mesh = if binned {
+        read_bin(&bin, plan_hash, index)?
+    } else {
+        let mesh_path = Path::new(&plan.mesh);
+        let found = hash_file(mesh_path)?;
+        if found != plan.mesh_hash {
+            return Err(PartsError::MeshChanged {
+                path: plan.mesh.clone(),
+                found,
+                planned: plan.mesh_hash,
+            });
+        }
+        crate::import::load_mesh(mesh_path)?
+    };
     let load_s = t.elapsed().as_secs_f64();
     let path = part_path(plan_path, index);
     let mut report = None;
-    bake_parts(&mesh, &plan, plan_hash, [index], &mut |i, part| {
+    bake_parts_from(&mesh, binned, &plan, plan_hash, [index], &mut |i, part| {
         let t = Instant::now();
         let bytes = write_part(&part, &path)?;
         report = Some(PartReport {

@@ -341,13 +341,16 @@ fn deal(weights: &[(u64, f64)], level: u8, parts: u32) -> Vec<PlanPart> {
 
 /// Plans the bake of the mesh file `mesh_path` in `parts` parts and writes the plan to
 /// `output` (what `svo-bake plan` does). The plan names the mesh by its absolute path and
-/// the hash of its bytes. Returns the plan.
+/// the hash of its bytes. With `bins`, each part's triangles are also written to a file of
+/// their own beside the plan ([`crate::bake::write_bins`]), which the part then loads instead
+/// of the mesh. Returns the plan, and what writing the bins did.
 pub fn plan_file(
     mesh_path: &Path,
     opts: &BakeOptions,
     parts: u32,
     output: &Path,
-) -> Result<BakePlan, PartsError> {
+    bins: bool,
+) -> Result<(BakePlan, Option<crate::bake::BinsReport>), PartsError> {
     if crate::mesh::format::is_scene_file(mesh_path) {
         return Err(PartsError::Unsupported(format!(
             "{}: a plan takes a mesh file (a scene's meshes are not hashed); bake scenes in one process",
@@ -364,8 +367,20 @@ pub fn plan_file(
         ..BuildInfo::new()
     };
     let plan = plan_bake(&mesh, &abs, hash, opts, parts, build)?;
-    write_plan(&plan, output)?;
-    Ok(plan)
+    let plan_hash = write_plan(&plan, output)?;
+    let bins = if bins {
+        Some(crate::bake::write_bins(&mesh, &plan, output, plan_hash)?)
+    } else {
+        // Bins of an earlier plan of the same name would be refused; none is left behind.
+        for i in 0..plan.part_count() {
+            let old = crate::bake::bin_path(output, i);
+            if old.exists() {
+                std::fs::remove_file(&old).map_err(|e| PartsError::io(&old, e))?;
+            }
+        }
+        None
+    };
+    Ok((plan, bins))
 }
 
 /// Encodes a plan as its file's bytes.
