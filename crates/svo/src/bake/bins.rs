@@ -13,7 +13,7 @@
 //! from its own vertices, coordinates and material.
 
 use crate::bake::part::touched_lists;
-use crate::bake::plan::{BakePlan, PartsError};
+use crate::bake::plan::{BakePlan, PartsError, indexed_sibling};
 use crate::io::atomic_write::write_atomic;
 use crate::mesh::SceneInfo;
 use crate::mesh::triangle_mesh::{Material, Mesh, Texture};
@@ -28,11 +28,7 @@ const BIN_PREAMBLE: usize = 32;
 
 /// The file holding part `index`'s triangles of the plan at `plan_path`.
 pub fn bin_path(plan_path: &Path, index: u32) -> PathBuf {
-    let stem = plan_path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    plan_path.with_file_name(format!("{stem}.{index:05}.svobin"))
+    indexed_sibling(plan_path, index, "svobin")
 }
 
 #[derive(Serialize, Deserialize)]

@@ -486,11 +486,16 @@ fn check_plan(plan: &BakePlan) -> Result<(), String> {
 /// The path of part `index`'s file: beside the plan, `NAME.IIIII.svopart` for a plan
 /// `NAME.svoplan`.
 pub fn part_path(plan_path: &Path, index: u32) -> PathBuf {
+    indexed_sibling(plan_path, index, "svopart")
+}
+
+/// `NAME.IIIII.EXT` beside the plan `NAME.svoplan`.
+pub(crate) fn indexed_sibling(plan_path: &Path, index: u32, ext: &str) -> PathBuf {
     let stem = plan_path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    plan_path.with_file_name(format!("{stem}.{index:05}.svopart"))
+    plan_path.with_file_name(format!("{stem}.{index:05}.{ext}"))
 }
 
 pub(crate) fn config() -> impl bincode::config::Config {
