@@ -248,18 +248,28 @@ fn a_bake_over_the_memory_limit_goes_into_parts() {
 /// glass), texture coordinates on some triangles, shared vertices, triangles spread over the
 /// whole root and some crossing it; written as OBJ + MTL + PNG into `dir`.
 fn textured_mesh(dir: &Path) -> PathBuf {
+    textured_mesh_in(dir, "m", false)
+}
+
+/// [`textured_mesh`], with every vertex moved into one of two small boxes at opposite corners
+/// of its bounds when `corners` (so that most of the root is empty).
+fn textured_mesh_in(dir: &Path, name: &str, corners: bool) -> PathBuf {
     let img = image::RgbaImage::from_fn(4, 2, |x, y| {
         image::Rgba([60 * x as u8, 120 * y as u8, 200, 255])
     });
     img.save(dir.join("tex.png")).unwrap();
+    // The corners' materials share one colour, so only the texture makes colours vary.
+    let mirror = if corners { "1 1 1" } else { "0.5 0.5 0.5" };
     std::fs::write(
-        dir.join("m.mtl"),
-        "newmtl textured\nKd 1 1 1\nmap_Kd tex.png\n\
-         newmtl mirror\nKd 0.5 0.5 0.5\nKs 0.9 0.8 0.7\nillum 3\n\
-         newmtl glass\nKd 1 1 1\nTr 0.75\nNi 1.33\nillum 2\n",
+        dir.join(format!("{name}.mtl")),
+        format!(
+            "newmtl textured\nKd 1 1 1\nmap_Kd tex.png\n\
+             newmtl mirror\nKd {mirror}\nKs 0.9 0.8 0.7\nillum 3\n\
+             newmtl glass\nKd 1 1 1\nTr 0.75\nNi 1.33\nillum 2\n"
+        ),
     )
     .unwrap();
-    let mut obj = String::from("mtllib m.mtl\n");
+    let mut obj = format!("mtllib {name}.mtl\n");
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
         state ^= state << 13;
@@ -268,8 +278,13 @@ fn textured_mesh(dir: &Path) -> PathBuf {
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     let n = 300;
-    for _ in 0..n {
-        obj += &format!("v {} {} {}\n", next() * 4.0, next() * 4.0, next() * 4.0);
+    for k in 0..n {
+        let mut v = [next() * 4.0, next() * 4.0, next() * 4.0];
+        if corners {
+            let far = if k < n / 2 { 0.0 } else { 3.5 };
+            v = v.map(|c| far + c / 8.0);
+        }
+        obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
     }
     for k in 0..16 {
         obj += &format!("vt {} {}\n", f64::from(k) / 16.0, f64::from(k % 4) / 4.0);
@@ -296,7 +311,7 @@ fn textured_mesh(dir: &Path) -> PathBuf {
             _ => obj += &format!("usemtl glass\nf {a} {b} {c}\n"),
         }
     }
-    let path = dir.join("m.obj");
+    let path = dir.join(format!("{name}.obj"));
     std::fs::write(&path, obj).unwrap();
     path
 }
@@ -309,7 +324,12 @@ fn textured_mesh(dir: &Path) -> PathBuf {
 #[test]
 fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
     let d = tempfile::tempdir().unwrap();
-    let mut meshes = vec![(textured_mesh(d.path()), 7u8, 5u32)];
+    // The corners' mesh leaves parts without a triangle at depth 6 in 8 parts (one node of
+    // level 1 a part).
+    let mut meshes = vec![
+        (textured_mesh(d.path()), 7u8, 5u32),
+        (textured_mesh_in(d.path(), "corners", true), 6, 8),
+    ];
     if let Some(bunny) = svo_tests::model("stanford/bun_zipper.ply") {
         meshes.push((bunny, 8, 16));
     }
@@ -325,16 +345,23 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
         assert_eq!((bins.files, p.part_count()), (parts, parts));
         let triangles = svo::Mesh::load(&mesh_path).unwrap().triangles.len();
         let mut from_bins = Vec::new();
+        let mut empty = 0;
         for i in 0..parts {
             let plan_hash = read_plan(&plan).unwrap().1;
             let bin = svo::bake::read_bin(&svo::bake::bin_path(&plan, i), plan_hash, i).unwrap();
+            empty += usize::from(bin.triangles.is_empty());
+            // A part holds fewer triangles than the mesh (the corners' mesh: all of them in
+            // the part around the first corner, whose neighbour reaches the second).
             assert!(
-                bin.triangles.len() < triangles,
+                bin.triangles.len() < triangles || mesh_path.ends_with("corners.obj"),
                 "part {i}: {} triangles",
                 bin.triangles.len()
             );
             svo::bake::bake_part_file(&plan, i, None).unwrap();
             from_bins.push(std::fs::read(part_path(&plan, i)).unwrap());
+        }
+        if mesh_path.ends_with("corners.obj") {
+            assert!(empty > 0, "no part without triangles");
         }
         assert!(
             merged(&plan, d.path()).unwrap() == whole,

@@ -5,8 +5,9 @@
 //! `\x89SVOBIN\n`, a `u32` version, the plan's hash (`u64`), the part's index (`u32`), the
 //! body's length (`u64`), the body (bincode, as the plan: the vertices the part's triangles
 //! use, its triangles in the mesh's order with their vertex indices moved, their texture
-//! coordinates and materials, and the mesh's materials, textures and scene as they are), and
-//! the XXH3-64 of everything before it. A part is baked from its bin with the plan's root cube
+//! coordinates and materials, the mesh's materials and scene as they are, and its textures,
+//! those that no triangle of the part samples left empty in their places), and the XXH3-64 of
+//! everything before it. A part is baked from its bin with the plan's root cube
 //! and hands over the bytes it would from the whole mesh: the triangles it keeps are those the
 //! part would set up from the whole mesh (every triangle whose bounds reach a node of its
 //! range), in the same relative order, and every value the bake derives from a triangle comes
@@ -100,15 +101,7 @@ fn subset(mesh: &Mesh, tris: &[u32]) -> BinMesh {
                 ior: m.ior,
             })
             .collect(),
-        textures: mesh
-            .textures
-            .iter()
-            .map(|t| BinTexture {
-                width: t.width,
-                height: t.height,
-                rgba: t.rgba.clone(),
-            })
-            .collect(),
+        textures: Vec::new(),
         scene: mesh.scene.clone(),
     };
     let remap = |table: &mut Vec<u32>, i: u32, push: &mut dyn FnMut(usize) -> u32| -> u32 {
@@ -147,6 +140,39 @@ fn subset(mesh: &Mesh, tris: &[u32]) -> BinMesh {
         if let Some(&m) = mesh.triangle_materials.get(t as usize) {
             out.triangle_materials.push(m);
         }
+    }
+    // Textures that no triangle of the part samples keep their place but not their texels.
+    let mut material_used = vec![false; mesh.materials.len().max(1)];
+    if out.triangle_materials.is_empty() {
+        material_used[0] = !out.triangles.is_empty();
+    }
+    for &m in &out.triangle_materials {
+        if let Some(u) = material_used.get_mut(m as usize) {
+            *u = true;
+        }
+    }
+    let mut sampled = vec![false; mesh.textures.len()];
+    for (material, used) in mesh.materials.iter().zip(&material_used) {
+        if let Some(s) = material.texture.and_then(|t| sampled.get_mut(t)) {
+            *s |= *used;
+        }
+    }
+    out.textures = mesh
+        .textures
+        .iter()
+        .zip(sampled)
+        .map(|(t, used)| BinTexture {
+            width: if used { t.width } else { 0 },
+            height: if used { t.height } else { 0 },
+            rgba: if used { t.rgba.clone() } else { Vec::new() },
+        })
+        .collect();
+    if out.triangles.is_empty() && !mesh.triangle_uvs.is_empty() {
+        // Whether the mesh has texture coordinates decides how a part stores its colours,
+        // leaves or none: a part without triangles keeps the mark (a part's bin with no
+        // triangles is not checked as a mesh).
+        out.uvs.push([0.0; 2]);
+        out.triangle_uvs.push([0; 3]);
     }
     out
 }
