@@ -217,8 +217,8 @@ pub fn write_bins(
     plan_path: &Path,
     plan_hash: u64,
 ) -> Result<BinsReport, PartsError> {
-    let order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
-    let lists = touched_lists(mesh, plan, &order);
+    let all: Vec<u32> = (0..plan.part_count()).collect();
+    let lists = touched_lists(mesh, plan, 0..mesh.triangles.len() as u32, &all);
     let mut report = BinsReport {
         files: 0,
         bytes: 0,
@@ -273,8 +273,8 @@ pub fn read_bin(path: &Path, plan_hash: u64, index: u32) -> Result<Mesh, PartsEr
     if (bytes.len() as u64).checked_sub((BIN_PREAMBLE + 8) as u64) != Some(len) {
         return Err(corrupt("truncated or overlong bin file".into()));
     }
-    let (data, sum) = bytes.split_at(bytes.len() - 8);
-    if u64_at(bytes.len() - 8) != xxhash_rust::xxh3::xxh3_64(data) || sum.len() != 8 {
+    let data = &bytes[..bytes.len() - 8];
+    if u64_at(bytes.len() - 8) != xxhash_rust::xxh3::xxh3_64(data) {
         return Err(corrupt("checksum mismatch: the bin file is corrupt".into()));
     }
     if u64_at(12) != plan_hash {

@@ -170,17 +170,17 @@ fn bake_parts_from(
     // each), in the whole bake's spatial order, and frees them before the next part: each
     // subtree gets the same triangles in the same order, so the same bytes, and the setups
     // held at once are one part's. The lists come from one pass over the triangles.
+    if let Some(index) = indices.iter().find(|&&i| i >= plan.part_count()) {
+        return Err(PartsError::Unsupported(format!(
+            "part {index}: the plan has {} parts",
+            plan.part_count()
+        )));
+    }
     let order = spatial_order(mesh, &root);
-    let lists = touched_lists(mesh, plan, &order);
+    let lists = touched_lists(mesh, plan, order.iter().copied(), &indices);
     drop(order);
     let degenerate = count_degenerate(mesh, &root, opts.depth);
-    for index in indices {
-        let Some(list) = lists.get(index as usize) else {
-            return Err(PartsError::Unsupported(format!(
-                "part {index}: the plan has {} parts",
-                plan.part_count()
-            )));
-        };
+    for (&index, list) in indices.iter().zip(&lists) {
         let part = {
             let tris = setup_triangles_in_order(mesh, &root, opts.depth, list);
             let inputs = AttributeInputs::new(mesh, &tris, list, opts.channels);
@@ -211,17 +211,18 @@ fn count_degenerate(mesh: &Mesh, root: &crate::geometry::grid::RootCube, depth: 
     mesh.triangles.iter().filter(|t| degenerate(t)).count()
 }
 
-/// The Morton codes of the nodes at `level` that mesh triangle `t`'s closed bounds reach (one
-/// node more on the low side: a bound on a node's low face touches the node below), or `None`
-/// when in doubt (a triangle across more than 512 such nodes, or one whose bounds are not
-/// finite): a triangle that the whole bake's splits hand to a node is among its codes.
-fn touched_codes(
+/// The nodes at `level` that mesh triangle `t`'s closed bounds reach, as inclusive ranges of
+/// their coordinates per axis (one node more on the low side: a bound on a node's low face
+/// touches the node below), or `None` when in doubt (a triangle across more than 512 such
+/// nodes, or one whose bounds are not finite): a triangle that the whole bake's splits hand
+/// to a node lies in that box.
+fn touched_nodes(
     mesh: &Mesh,
     root: &crate::geometry::grid::RootCube,
     depth: u8,
     level: u8,
     t: u32,
-) -> Option<Vec<u64>> {
+) -> Option<[(u64, u64); 3]> {
     let tri = mesh.triangles.get(t as usize)?;
     let mut g = [glam::DVec3::ZERO; 3];
     for (k, &i) in tri.iter().enumerate() {
@@ -235,25 +236,15 @@ fn touched_codes(
         let end = (b / side).floor().clamp(0.0, last as f64) as u64;
         (first, end)
     };
-    let (x, y, z) = (span(lo.x, hi.x), span(lo.y, hi.y), span(lo.z, hi.z));
-    let count = (x.1 - x.0 + 1) * (y.1 - y.0 + 1) * (z.1 - z.0 + 1);
-    if count > 512 || !(lo.is_finite() && hi.is_finite()) {
-        return None;
-    }
-    let mut codes = Vec::with_capacity(count as usize);
-    for i in x.0..=x.1 {
-        for j in y.0..=y.1 {
-            for k in z.0..=z.1 {
-                codes.push(crate::bake::plan::morton([i, j, k], level));
-            }
-        }
-    }
-    Some(codes)
+    let box_ = [span(lo.x, hi.x), span(lo.y, hi.y), span(lo.z, hi.z)];
+    let count: u64 = box_.iter().map(|(a, b)| b - a + 1).product();
+    (count <= 512 && lo.is_finite() && hi.is_finite()).then_some(box_)
 }
 
 /// Calls `touch(part, t)` for each triangle `t` of `order` (triangles of `mesh`, its plan's
-/// mesh) and each part of `plan` whose range its bounds reach ([`touched_codes`]; a triangle
-/// in doubt reaches every part): the triangles that part sets up. One pass.
+/// mesh) and each part of `plan` whose range holds a node its bounds reach
+/// ([`touched_nodes`]; a triangle in doubt reaches every part): the triangles that part sets
+/// up. One pass.
 fn for_each_touch(
     mesh: &Mesh,
     plan: &BakePlan,
@@ -265,26 +256,49 @@ fn for_each_touch(
     let part_of = |code: u64| plan.parts.partition_point(|p| p.end <= code);
     let mut seen = Vec::new();
     for t in order {
-        match touched_codes(mesh, &root, plan.depth, plan.level, t) {
-            None => (0..count).for_each(|p| touch(p, t)),
-            Some(codes) => {
-                seen.clear();
-                seen.extend(codes.into_iter().map(part_of).filter(|&p| p < count));
-                seen.sort_unstable();
-                seen.dedup();
-                for &p in &seen {
-                    touch(p, t);
+        let Some([x, y, z]) = touched_nodes(mesh, &root, plan.depth, plan.level, t) else {
+            (0..count).for_each(|p| touch(p, t));
+            continue;
+        };
+        seen.clear();
+        for i in x.0..=x.1 {
+            for j in y.0..=y.1 {
+                for k in z.0..=z.1 {
+                    let p = part_of(crate::bake::plan::morton([i, j, k], plan.level));
+                    if p < count {
+                        seen.push(p);
+                    }
                 }
             }
+        }
+        seen.sort_unstable();
+        seen.dedup();
+        for &p in &seen {
+            touch(p, t);
         }
     }
 }
 
-/// Per part of `plan`, the triangles of `mesh` that the part sets up, in the order of
-/// `order` ([`for_each_touch`]).
-pub(crate) fn touched_lists(mesh: &Mesh, plan: &BakePlan, order: &[u32]) -> Vec<Vec<u32>> {
-    let mut lists = vec![Vec::new(); plan.parts.len()];
-    for_each_touch(mesh, plan, order.iter().copied(), |p, t| lists[p].push(t));
+/// For each of the parts `wanted` of `plan`, the triangles of `order` that the part sets up,
+/// in that order ([`for_each_touch`]).
+pub(crate) fn touched_lists(
+    mesh: &Mesh,
+    plan: &BakePlan,
+    order: impl Iterator<Item = u32>,
+    wanted: &[u32],
+) -> Vec<Vec<u32>> {
+    let mut slot = vec![None; plan.parts.len()];
+    for (k, &i) in wanted.iter().enumerate() {
+        if let Some(s) = slot.get_mut(i as usize) {
+            *s = Some(k);
+        }
+    }
+    let mut lists = vec![Vec::new(); wanted.len()];
+    for_each_touch(mesh, plan, order, |p, t| {
+        if let Some(k) = slot[p] {
+            lists[k].push(t);
+        }
+    });
     lists
 }
 
