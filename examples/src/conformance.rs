@@ -26,8 +26,11 @@ pub enum Stored {
 /// A file's contents, field by field as `docs/format.md` lists them, before encoding.
 #[derive(Clone, Debug)]
 pub struct Parts {
-    /// Format version (1 or 2).
+    /// Format version (1, 2 or 3).
     pub version: u32,
+    /// Version 3: the chunk level and the chunk table (`code`, `nodes`, `leaves`); `nodes` is
+    /// then the chunks' node arrays one after another.
+    pub chunks: Option<(u8, Vec<[u64; 3]>)>,
     /// Root cube minimum corner.
     pub origin: [f64; 3],
     /// Root cube side.
@@ -102,6 +105,7 @@ impl Parts {
         channel_bytes(5, &a.ior, |v: u16| v.to_le_bytes().to_vec(), &mut channels);
         Self {
             version: 2,
+            chunks: None,
             origin: tree.root.origin.to_array(),
             side: tree.root.side,
             depth: tree.depth,
@@ -120,14 +124,58 @@ impl Parts {
         }
     }
 
-    /// The arrays in file order: the nodes, then the per-leaf channels by kind.
+    /// The same tree as version 3 with its chunks at `level` (section 10): each subtree under a
+    /// node at `level` placed again as a tree of its own, in its own canonical order, its
+    /// leaves numbered from 0.
+    pub fn chunked(&self, level: u8) -> Self {
+        let mut table = Vec::new();
+        let mut nodes = Vec::new();
+        // (node, level, code), children pushed last first so that they pop in child order.
+        let mut stack = vec![(0usize, 0u8, 0u64)];
+        while let Some((i, l, code)) = stack.pop() {
+            let [info, first] = self.nodes[i];
+            let mask = info & 0xFF;
+            if mask == 0 {
+                continue;
+            }
+            if l == level {
+                let chunk = own_tree(&self.nodes, i, self.depth - level);
+                let leaves = leaf_parents(&chunk).iter().map(|p| u64::from(p.2)).sum();
+                table.push([code, chunk.len() as u64, leaves]);
+                nodes.extend(chunk);
+                continue;
+            }
+            let bits: Vec<u32> = (0..8).filter(|b| mask >> b & 1 == 1).collect();
+            for (slot, b) in bits.iter().enumerate().rev() {
+                stack.push((first as usize + slot, l + 1, code << 3 | u64::from(*b)));
+            }
+        }
+        let mut p = self.clone();
+        p.version = 3;
+        p.node_count = nodes.len() as u64;
+        p.nodes = nodes;
+        p.chunks = Some((level, table));
+        p
+    }
+
+    /// The arrays in file order: in version 3 the chunk table, the nodes, then the per-leaf
+    /// channels by kind.
     fn arrays(&self) -> Vec<Vec<u8>> {
         let nodes = self
             .nodes
             .iter()
             .flat_map(|w| w.iter().flat_map(|x| x.to_le_bytes()))
             .collect();
-        let mut out = vec![nodes];
+        let mut out = Vec::new();
+        if let Some((_, table)) = &self.chunks {
+            out.push(
+                table
+                    .iter()
+                    .flat_map(|r| r.iter().flat_map(|x| x.to_le_bytes()))
+                    .collect(),
+            );
+        }
+        out.push(nodes);
         for (_, s) in &self.channels {
             if let Stored::PerLeaf(b) = s {
                 out.push(b.clone());
@@ -148,12 +196,22 @@ impl Parts {
         f64s(&mut h, &self.origin);
         f64s(&mut h, &[self.side]);
         h.push(self.depth);
+        if let Some((level, table)) = &self.chunks {
+            h.push(*level);
+            u64s(&mut h, table.len() as u64);
+        }
         u64s(&mut h, self.node_count);
         u64s(&mut h, self.leaf_count);
-        u64s(&mut h, refs[0].0);
-        u64s(&mut h, refs[0].1);
+        let mut next = 0;
+        if self.chunks.is_some() {
+            u64s(&mut h, refs[0].0);
+            u64s(&mut h, refs[0].1);
+            next = 1;
+        }
+        u64s(&mut h, refs[next].0);
+        u64s(&mut h, refs[next].1);
         u64s(&mut h, self.channels.len() as u64);
-        let mut next = 1;
+        next += 1;
         for (kind, s) in &self.channels {
             h.push(*kind);
             match s {
@@ -412,6 +470,52 @@ fn leaf_parents(nodes: &[[u32; 2]]) -> Vec<(usize, u32, u32)> {
     out
 }
 
+/// The subtree under node `root` of `nodes` as a tree of its own of `levels` levels: its root
+/// first, its children blocks placed in the canonical order (a block, then the children's
+/// subtrees from the last child to the first), its leaves numbered from 0 depth-first.
+fn own_tree(nodes: &[[u32; 2]], root: usize, levels: u8) -> Vec<[u32; 2]> {
+    fn place(
+        nodes: &[[u32; 2]],
+        old: usize,
+        new: usize,
+        lv: u8,
+        levels: u8,
+        out: &mut Vec<[u32; 2]>,
+    ) {
+        let [info, first] = nodes[old];
+        let k = (info & 0xFF).count_ones() as usize;
+        if lv + 1 == levels {
+            return;
+        }
+        let start = out.len();
+        out[new][1] = start as u32;
+        out.extend((0..k).map(|c| nodes[first as usize + c]));
+        for c in (0..k).rev() {
+            place(nodes, first as usize + c, start + c, lv + 1, levels, out);
+        }
+    }
+    let mut out = vec![nodes[root]];
+    place(nodes, root, 0, 0, levels, &mut out);
+    // The leaves, depth-first from 0: walk the new array in child order.
+    let mut seen = 0u32;
+    let mut stack = vec![(0usize, 0u8)];
+    while let Some((i, lv)) = stack.pop() {
+        let [info, first] = out[i];
+        let k = (info & 0xFF).count_ones();
+        if lv + 1 == levels {
+            out[i][1] = (-i64::from(seen) - 1) as i32 as u32;
+            seen += k;
+        } else {
+            stack.extend(
+                (first as usize..first as usize + k as usize)
+                    .rev()
+                    .map(|j| (j, lv + 1)),
+            );
+        }
+    }
+    out
+}
+
 /// The byte offset of a header field (version-2 layout; the fixed part is the same in both).
 mod at {
     pub const DEPTH: usize = 16 + 32;
@@ -522,6 +626,34 @@ pub fn corpus() -> Vec<Entry> {
         "version 1 (no lights or views in the header)",
         &v1,
     );
+    let chunked = varied.chunked(1);
+    valid(
+        "chunked",
+        "version 3: the per-leaf tree in chunks at level 1 (each chunk a tree of its own, its leaves from 0)",
+        &chunked,
+    );
+    valid(
+        "chunked-level-0",
+        "version 3: the baked torus as one chunk at level 0, the whole tree",
+        &torus.chunked(0),
+    );
+    let leafy = varied.chunked(2);
+    valid(
+        "chunked-leaf-parents",
+        "version 3: chunks at level depth - 1, each one leaf parent",
+        &leafy,
+    );
+    valid(
+        "chunked-empty",
+        "version 3: the empty tree, no chunk and no node",
+        &empty.chunked(1),
+    );
+    let deepest_chunked = deepest.chunked(21);
+    valid(
+        "chunked-depth-30",
+        "version 3: the depth-30 tree in chunks at level 21, the deepest chunk level",
+        &deepest_chunked,
+    );
 
     let mut invalid = |check: u8, name: &str, what: &str, bytes: Vec<u8>| {
         out.push(Entry {
@@ -565,8 +697,8 @@ pub fn corpus() -> Vec<Entry> {
     invalid(
         3,
         "version-newer",
-        "version 3",
-        sealed(&|b| put(b, 8, &3u32.to_le_bytes())),
+        "version 4",
+        sealed(&|b| put(b, 8, &4u32.to_le_bytes())),
     );
     invalid(
         3,
@@ -942,7 +1074,129 @@ pub fn corpus() -> Vec<Entry> {
             p.channels[0].1 = Stored::Constant(0x8000_0000)
         }),
     );
+    // Version 3 (section 10): its header, chunk table and chunks.
+    let chunk_sealed = |p: &Parts, f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = p.encode();
+        f(&mut b);
+        reseal(&mut b);
+        b
+    };
+    invalid(
+        7,
+        "chunk-level-depth",
+        "version 3: a chunk level equal to the depth",
+        chunk_sealed(&chunked, &|b| b[at3::CHUNK_LEVEL] = 3),
+    );
+    invalid(
+        7,
+        "chunk-level-22",
+        "version 3: chunk level 22 in a depth-30 tree (codes past 64 bits)",
+        chunk_sealed(&deepest_chunked, &|b| b[at3::CHUNK_LEVEL] = 22),
+    );
+    invalid(
+        9,
+        "chunk-count",
+        "version 3: more chunks than the 8 cells at level 1 (and than nodes)",
+        chunk_sealed(&chunked, &|b| put(b, at3::CHUNK_COUNT, &9u64.to_le_bytes())),
+    );
+    invalid(
+        12,
+        "chunk-table-length",
+        "version 3: the chunk table's length is not 24 times the chunk count",
+        chunk_sealed(&chunked, &|b| {
+            let len = u64::from_le_bytes(
+                b[at3::CHUNKS_LEN..at3::CHUNKS_LEN + 8]
+                    .try_into()
+                    .expect("8 bytes"),
+            );
+            put(b, at3::CHUNKS_LEN, &(len - 8).to_le_bytes());
+        }),
+    );
+    let table = |p: &Parts| p.chunks.clone().expect("chunks").1;
+    assert!(
+        table(&chunked).len() >= 3,
+        "the chunked file has chunks enough to break"
+    );
+    invalid(
+        19,
+        "chunk-order",
+        "version 3: the first two chunk records swapped (codes decreasing)",
+        from(&chunked, &|p| {
+            if let Some((_, t)) = &mut p.chunks {
+                t.swap(0, 1);
+            }
+        }),
+    );
+    invalid(
+        19,
+        "chunk-code-range",
+        "version 3: a chunk code of 8 at level 1",
+        from(&chunked, &|p| {
+            if let Some((_, t)) = &mut p.chunks {
+                let last = t.len() - 1;
+                t[last][0] = 8;
+            }
+        }),
+    );
+    invalid(
+        19,
+        "chunk-no-nodes",
+        "version 3: a chunk of no node, its nodes counted with the next chunk (the sums kept)",
+        from(&chunked, &|p| {
+            if let Some((_, t)) = &mut p.chunks {
+                t[1][1] += t[0][1];
+                t[0][1] = 0;
+            }
+        }),
+    );
+    invalid(
+        19,
+        "chunk-leaf-sum",
+        "version 3: the header counts one leaf more than the chunks (every channel constant)",
+        from(&constant.chunked(1), &|p| p.leaf_count += 1),
+    );
+    invalid(
+        15,
+        "chunk-empty-root",
+        "version 3: a chunk whose root has no children",
+        from(&leafy, &|p| p.nodes[1][0] = 0),
+    );
+    invalid(
+        16,
+        "chunk-global-first",
+        "version 3: the second chunk's inner nodes point into the whole node array, not into the chunk's",
+        from(&chunked, &|p| {
+            let t = table(p);
+            let (start, n) = (t[0][1] as usize, t[1][1] as usize);
+            for w in &mut p.nodes[start..start + n] {
+                if (w[1] as i32) > 0 {
+                    w[1] += start as u32;
+                }
+            }
+        }),
+    );
+    invalid(
+        17,
+        "chunk-global-leaves",
+        "version 3: the second chunk's leaves numbered as in the whole tree, not from 0",
+        from(&chunked, &|p| {
+            let t = table(p);
+            let (start, n, base) = (t[0][1] as usize, t[1][1] as usize, t[0][2] as i64);
+            for w in &mut p.nodes[start..start + n] {
+                if (w[1] as i32) < 0 {
+                    w[1] = (i64::from(w[1] as i32) - base) as i32 as u32;
+                }
+            }
+        }),
+    );
     out
+}
+
+/// The file offsets of version-3 header fields (docs/format.md, section 3).
+mod at3 {
+    pub const CHUNK_LEVEL: usize = super::at::DEPTH + 1;
+    pub const CHUNK_COUNT: usize = CHUNK_LEVEL + 1;
+    pub const CHUNKS_LEN: usize = CHUNK_COUNT + 3 * 8 + 8;
 }
 
 /// The manifest: one line a file, tab-separated: name, `valid` or `invalid`, the check's

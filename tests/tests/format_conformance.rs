@@ -10,7 +10,7 @@
 mod spec_reader;
 
 use std::collections::BTreeMap;
-use svo::io::{Check, FormatError, from_bytes, to_bytes};
+use svo::io::{Check, FormatError, from_bytes, to_bytes, write_chunked_to};
 use svo_examples::conformance::{corpus, manifest};
 
 fn corpus_dir() -> std::path::PathBuf {
@@ -59,7 +59,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
     let dir = corpus_dir();
     let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
     let mut per_check = BTreeMap::new();
-    let mut valid = 0;
+    let (mut valid, mut chunked) = (0, 0);
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split('\t').collect();
         let bytes = std::fs::read(dir.join(f[0])).expect("a corpus file");
@@ -74,14 +74,21 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
         match (f[1], from_bytes(&bytes)) {
             ("valid", Ok((tree, build))) => {
                 valid += 1;
-                // The canonical writer: the same bytes back (version 2; the library writes
-                // no version 1).
+                // The canonical writer: the same bytes back (version 2, and version 3 at the
+                // file's chunk level; the library writes no version 1).
                 if bytes[8] == 2 {
                     assert!(
                         to_bytes(&tree, &build) == bytes,
                         "{}: written differently",
                         f[0]
                     );
+                }
+                if bytes[8] == 3 {
+                    // The chunk level follows the depth (docs/format.md, section 3).
+                    let mut out = Vec::new();
+                    write_chunked_to(&tree, &build, bytes[16 + 33], &mut out).expect("written");
+                    assert!(out == bytes, "{}: written differently", f[0]);
+                    chunked += 1;
                 }
             }
             ("valid", Err(e)) => panic!("{}: refused: {e}", f[0]),
@@ -104,20 +111,26 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
             (o, _) => panic!("{}: unknown outcome {o}", f[0]),
         }
     }
-    assert_eq!(valid, 10);
+    assert_eq!((valid, chunked), (15, 5));
     // Every check has at least one file that fails it.
     let numbers: Vec<u8> = per_check.keys().copied().collect();
-    assert_eq!(numbers, (1..=18).collect::<Vec<u8>>());
+    assert_eq!(numbers, (1..=19).collect::<Vec<u8>>());
 }
 
 #[test]
-fn the_version_1_file_holds_the_same_tree_as_its_version_2_twin() {
+fn the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins() {
     let dir = corpus_dir();
     let read = |name: &str| {
         from_bytes(&std::fs::read(dir.join(name)).expect("a corpus file")).expect("valid")
     };
-    let (v1, b1) = read("valid-version-1.svo");
-    let (v2, b2) = read("valid-per-leaf.svo");
-    assert_eq!(v1, v2);
-    assert_eq!(b1, b2);
+    let v2 = read("valid-per-leaf.svo");
+    assert_eq!(read("valid-version-1.svo"), v2);
+    assert_eq!(read("valid-chunked.svo"), v2);
+    assert_eq!(read("valid-chunked-leaf-parents.svo"), v2);
+    assert_eq!(read("valid-chunked-level-0.svo"), read("valid-bake.svo"));
+    assert_eq!(read("valid-chunked-empty.svo"), read("valid-empty.svo"));
+    assert_eq!(
+        read("valid-chunked-depth-30.svo"),
+        read("valid-depth-30.svo")
+    );
 }

@@ -19,7 +19,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Mutex;
 use svo::bake::{
-    BakeJob, BakeOptions, ChannelSelection, GivenOptions, Phase, SolidMode, Strategy,
+    BakeJob, BakeOptions, ChannelSelection, GivenOptions, MergeFormat, Phase, SolidMode, Strategy,
     available_memory, bake_file_with_progress, bake_part_file, merge_parts, part_path, plan_file,
 };
 
@@ -159,6 +159,10 @@ enum Command {
         /// The .svo file to write.
         #[arg(short, long)]
         output: PathBuf,
+        /// Write format version 3 (the subtrees at the plan's level stored as chunks) even
+        /// when version 2 holds the tree; past 2^31 leaves or nodes it is written anyway.
+        #[arg(long)]
+        chunked: bool,
         /// Print the summary as JSON on stdout.
         #[arg(long)]
         json: bool,
@@ -286,19 +290,35 @@ fn real_main() -> anyhow::Result<()> {
             }
             return Ok(());
         }
-        Some(Command::Merge { plan, output, json }) => {
-            let r = merge_parts(plan, output)
+        Some(Command::Merge {
+            plan,
+            output,
+            chunked,
+            json,
+        }) => {
+            let format = if *chunked {
+                MergeFormat::Chunked
+            } else {
+                MergeFormat::Auto
+            };
+            let r = merge_parts(plan, output, format)
                 .with_context(|| format!("merging the parts of {}", plan.display()))?;
             if *json {
                 say!("{}", serde_json::to_string_pretty(&r)?);
             } else {
                 say!(
-                    "{}: {} parts merged, {} nodes, {} leaves, {} bytes in {:.2} s",
+                    "{}: {} parts merged, {} nodes, {} leaves, {} bytes (format version {}{}) in {:.2} s",
                     output.display(),
                     r.parts,
                     r.nodes,
                     r.leaves,
                     r.bytes,
+                    r.version,
+                    if r.chunks > 0 {
+                        format!(", {} chunks", r.chunks)
+                    } else {
+                        String::new()
+                    },
                     r.seconds
                 );
             }

@@ -642,6 +642,18 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     std::fs::remove_file(&merged).unwrap();
     ok(&["merge", s(&plan), "-o", s(&merged)]);
     assert!(std::fs::read(&whole).unwrap() == std::fs::read(&merged).unwrap());
+    // Merged into format version 3 (chunks at the plan's level): the same tree.
+    let chunked = d.path().join("chunked.svo");
+    let text = ok(&["merge", s(&plan), "--chunked", "-o", s(&chunked)]);
+    assert!(text.contains("(format version 3, "), "{text}");
+    let bytes = std::fs::read(&chunked).unwrap();
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 3);
+    assert_eq!(
+        svo::io::from_bytes(&bytes).unwrap().0,
+        svo::io::from_bytes(&std::fs::read(&whole).unwrap())
+            .unwrap()
+            .0
+    );
     let bin = d.path().join("job.00001.svobin");
     let mut bytes = std::fs::read(&bin).unwrap();
     bytes.truncate(bytes.len() / 2);
@@ -652,7 +664,7 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     let o = s(&out);
     fails(
         &[s(&torus), "--depth", "24", "--memory", "8GiB", "-o", o],
-        "at most 2^31",
+        "GB on disk",
     );
     fails(
         &[s(&torus), "--depth", "9", "--memory", "1KiB", "-o", o],

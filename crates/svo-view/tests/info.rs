@@ -44,6 +44,21 @@ fn info_describes_a_file_and_errors_are_one_line() {
     ] {
         assert!(out.contains(want), "missing {want:?} in\n{out}");
     }
+    // The same tree in chunks (format version 3): the same tree, and its chunks.
+    let chunked = d.path().join("c.svo");
+    let mut bytes = Vec::new();
+    svo::io::write_chunked_to(&tree, &build, 1, &mut bytes).unwrap();
+    std::fs::write(&chunked, &bytes).unwrap();
+    let o = view(&[chunked.to_str().unwrap(), "--info"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "format         version 3",
+        "chunks         4 at level 1",
+        "leaves         20",
+    ] {
+        assert!(text.contains(want), "missing {want:?} in\n{text}");
+    }
     // A truncated file and a missing file: one line each, non-zero exit.
     let bytes = std::fs::read(&path).unwrap();
     let bad = d.path().join("bad.svo");

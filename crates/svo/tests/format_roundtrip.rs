@@ -8,7 +8,9 @@ use common::rng;
 use glam::{DVec3, UVec3};
 use rand::Rng;
 use svo::Voxel;
-use svo::io::{BuildInfo, FormatError, from_bytes, to_bytes};
+use svo::io::{
+    BuildInfo, ChunkedFile, FormatError, from_bytes, read_file, to_bytes, write_chunked_to,
+};
 use svo::{BakeOptions, Mesh, Octree, RootCube, bake_mesh};
 
 fn small_tree() -> Octree {
@@ -85,7 +87,7 @@ fn round_trip_through_a_file_is_atomic_and_readable() {
     let path = dir.path().join("t.svo");
     let tree = small_tree();
     svo::io::write_file(&tree, &info(), &path).unwrap();
-    let (back, _) = svo::io::read_file(&path).unwrap();
+    let (back, _) = read_file(&path).unwrap();
     assert_eq!(back, tree);
     // Only the output remains: no temporary file.
     let names: Vec<_> = std::fs::read_dir(dir.path())
@@ -94,7 +96,7 @@ fn round_trip_through_a_file_is_atomic_and_readable() {
         .collect();
     assert_eq!(names.len(), 1, "{names:?}");
     // A missing file is an I/O error that names the path.
-    let e = svo::io::read_file(dir.path().join("missing.svo")).unwrap_err();
+    let e = read_file(dir.path().join("missing.svo")).unwrap_err();
     assert!(matches!(e, FormatError::Io { .. }) && e.to_string().contains("missing.svo"));
 }
 
@@ -147,14 +149,14 @@ fn bit_flips_are_detected() {
 #[test]
 fn newer_version_and_bad_magic_are_named() {
     let mut b = to_bytes(&small_tree(), &info());
-    b[8..12].copy_from_slice(&3u32.to_le_bytes());
+    b[8..12].copy_from_slice(&4u32.to_le_bytes());
     let e = from_bytes(&b).unwrap_err();
     assert!(
         matches!(
             e,
             FormatError::NewerVersion {
-                found: 3,
-                supported: 2
+                found: 4,
+                supported: 3
             }
         ),
         "{e}"
@@ -279,4 +281,216 @@ fn version_1_files_still_read() {
     for n in (0..bytes.len()).step_by(97) {
         assert!(from_bytes(&bytes[..n]).is_err());
     }
+}
+
+fn chunked(tree: &Octree, level: u8) -> Vec<u8> {
+    let mut b = Vec::new();
+    write_chunked_to(tree, &info(), level, &mut b).unwrap();
+    b
+}
+
+/// Seeded random trees of depths 1 to 7 (sparse, dense, in one corner, with every channel
+/// varied) and trees at depth 30, written in chunks at every level they have (version 3):
+/// each reads back as the same tree, from bytes and from a file, and the same tree written
+/// twice gives the same bytes.
+#[test]
+fn chunked_files_read_back_as_the_same_tree_at_every_level() {
+    let mut r = rng(0x3c4);
+    let root = RootCube {
+        origin: DVec3::new(-1.0, 2.0, 0.5),
+        side: 3.0,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut trees = vec![small_tree(), Octree::from_cells(root, 3, []).unwrap()];
+    for depth in 1u8..=7 {
+        for density in [0.002f64, 0.05, 0.6] {
+            let side = 1u32 << depth;
+            let corner = r.random_bool(0.3);
+            let n = ((f64::from(side).powi(3) * density) as usize).clamp(1, 20_000);
+            let cells: Vec<_> = (0..n)
+                .map(|_| {
+                    let c = UVec3::new(
+                        r.random_range(0..side),
+                        r.random_range(0..side),
+                        r.random_range(0..side),
+                    );
+                    let c = if corner { c / 4 } else { c };
+                    let t = r.random::<f32>();
+                    let v = Voxel {
+                        colour: [t, 0.5, 1.0 - t, 1.0],
+                        reflectivity: t,
+                        normal: Some(glam::Vec3::new(t - 0.5, 1.0, 0.25)),
+                        ..Voxel::glass()
+                    };
+                    (c, v)
+                })
+                .collect();
+            trees.push(Octree::from_cells(root, depth, cells).unwrap());
+        }
+    }
+    let far = (1u32 << 30) - 1;
+    trees.push(
+        Octree::from_cells(
+            root,
+            30,
+            [UVec3::ZERO, UVec3::splat(far), UVec3::new(far, 3, 1 << 29)]
+                .map(|c| (c, Voxel::water())),
+        )
+        .unwrap(),
+    );
+    let mut files = 0;
+    for tree in &trees {
+        let levels: Vec<u8> = if tree.depth > 8 {
+            vec![0, 1, 2, 15, 21]
+        } else {
+            (0..tree.depth).collect()
+        };
+        for level in levels {
+            let b = chunked(tree, level);
+            assert_eq!(u32::from_le_bytes(b[8..12].try_into().unwrap()), 3);
+            let (back, build) = from_bytes(&b).unwrap_or_else(|e| {
+                panic!("depth {} level {level}: {e}", tree.depth);
+            });
+            assert_eq!(&back, tree, "depth {} level {level}", tree.depth);
+            assert_eq!(build, info());
+            assert!(chunked(&back, level) == b);
+            let path = dir.path().join("c.svo");
+            std::fs::write(&path, &b).unwrap();
+            assert_eq!(&read_file(&path).unwrap().0, tree);
+            files += 1;
+        }
+    }
+    assert!(files > 90, "{files}");
+    // A level at or below the leaves, or past 21 (codes are 64-bit), is refused before a
+    // byte is written.
+    let mut out = Vec::new();
+    let e = write_chunked_to(&trees[0], &info(), 4, &mut out).unwrap_err();
+    assert!(
+        out.is_empty() && e.to_string().contains("chunk level 4"),
+        "{e}"
+    );
+    let e = write_chunked_to(trees.last().unwrap(), &info(), 22, &mut out).unwrap_err();
+    assert!(
+        out.is_empty() && e.to_string().contains("chunk level 22"),
+        "{e}"
+    );
+}
+
+/// Every cut of a chunked file and seeded bit flips in it (with the checksum left wrong, and
+/// made right again) give an error or, where a resealed flip leaves a valid file (a value, a
+/// chunk moved to another free cell), a valid tree; never a panic. A flip in the node array
+/// is always refused.
+#[test]
+fn damaged_chunked_files_are_errors() {
+    let b = chunked(&small_tree(), 2);
+    for n in 0..b.len() {
+        assert!(from_bytes(&b[..n]).is_err(), "prefix {n}");
+    }
+    // The node array's place: the version-3 header's `nodes` field (docs/format.md).
+    let field = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
+    let nodes = field(16 + 74)..field(16 + 74) + field(16 + 82);
+    assert_eq!(nodes.len() % 8, 0);
+    let mut r = rng(0x3c5);
+    let mut node_flips = 0;
+    for k in 0..4000 {
+        let mut d = b.clone();
+        let i = r.random_range(0..d.len() - 8);
+        d[i] ^= 1 << r.random_range(0..8);
+        if k % 2 == 0 {
+            assert!(from_bytes(&d).is_err(), "flip at byte {i} accepted");
+            continue;
+        }
+        rechecksum(&mut d);
+        match from_bytes(&d) {
+            Ok((t, _)) => {
+                assert!(!nodes.contains(&i), "node array flip at byte {i} accepted");
+                assert!(t.validate().is_ok());
+            }
+            Err(e) => assert!(e.check().is_some(), "{e}"),
+        }
+        node_flips += usize::from(nodes.contains(&i));
+    }
+    assert!(node_flips > 50, "{node_flips}");
+}
+
+/// A chunked file read one chunk at a time: each chunk is the whole tree's subtree there, as a
+/// tree of its own (its cells shifted by its root's cell, its leaves and values the whole
+/// tree's, numbered from its first leaf), in increasing code; a version-2 file is refused
+/// with a clear error, and so is a chunked file with a damaged node.
+#[test]
+fn chunked_files_read_chunk_by_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.svo");
+    let mut r = rng(0x3c6);
+    let root = RootCube {
+        origin: DVec3::new(0.5, -2.0, 1.0),
+        side: 4.0,
+    };
+    let mut checked = 0;
+    for depth in [2u8, 4, 6] {
+        let side = 1u32 << depth;
+        let cells: Vec<_> = (0..300)
+            .map(|_| {
+                let c = UVec3::new(
+                    r.random_range(0..side),
+                    r.random_range(0..side),
+                    r.random_range(0..side),
+                );
+                let t = r.random::<f32>();
+                let v = Voxel {
+                    colour: [t, 0.25, 1.0 - t, 1.0],
+                    refractivity: t,
+                    ior: 1.0 + t,
+                    normal: Some(glam::Vec3::new(1.0, t - 0.5, 0.25)),
+                    ..Voxel::glass()
+                };
+                (c, v)
+            })
+            .collect();
+        let tree = Octree::from_cells(root, depth, cells).unwrap();
+        let whole: Vec<_> = tree.leaves().collect();
+        for level in 0..depth {
+            std::fs::write(&path, chunked(&tree, level)).unwrap();
+            let file = ChunkedFile::open(&path).unwrap();
+            assert_eq!((file.depth(), file.level()), (depth, level));
+            assert_eq!(file.leaf_count(), u64::from(tree.leaf_count));
+            assert_eq!(file.build(), &info());
+            let mut next = 0u64;
+            for i in 0..file.len() {
+                let c = file.read_chunk(i).unwrap();
+                let (leaves, first) = file.chunk_leaves(i);
+                assert_eq!((u64::from(c.leaf_count), first), (leaves, next));
+                assert_eq!(c.depth, depth - level);
+                let shift = file.chunk_cell(i) << u32::from(depth - level);
+                for l in c.leaves() {
+                    let w = &whole[(first + u64::from(l.index)) as usize];
+                    assert_eq!(
+                        l.cell + shift,
+                        w.cell,
+                        "depth {depth} level {level} chunk {i}"
+                    );
+                    assert_eq!(l.attributes, w.attributes);
+                    assert!((l.min - w.min).abs().max_element() < 1e-12);
+                }
+                next += leaves;
+                checked += 1;
+            }
+            assert_eq!(next, u64::from(tree.leaf_count));
+        }
+    }
+    assert!(checked > 100, "{checked}");
+    std::fs::write(&path, to_bytes(&small_tree(), &info())).unwrap();
+    let e = ChunkedFile::open(&path).unwrap_err().to_string();
+    assert!(e.contains("version-2 file holds one tree"), "{e}");
+    let mut b = chunked(&small_tree(), 1);
+    let field = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
+    let nodes = field(16 + 74);
+    b[nodes + 8] ^= 0x02;
+    rechecksum(&mut b);
+    std::fs::write(&path, &b).unwrap();
+    let e = ChunkedFile::open(&path).unwrap_err();
+    assert!(
+        e.check().is_some() && e.to_string().contains("chunk "),
+        "{e}"
+    );
 }

@@ -6,8 +6,8 @@
 
 use std::path::{Path, PathBuf};
 use svo::bake::{
-    BakeJob, BakeOptions, GivenOptions, PartsError, bake_file, bake_parts, hash_file, merge_parts,
-    part_path, plan_bake, read_plan, write_part, write_plan,
+    BakeJob, BakeOptions, GivenOptions, MergeFormat, PartsError, bake_file, bake_parts, hash_file,
+    merge_parts, part_path, plan_bake, read_plan, write_part, write_plan,
 };
 use svo::io::BuildInfo;
 
@@ -55,10 +55,27 @@ fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -
 }
 
 fn merged(plan: &Path, dir: &Path) -> Result<Vec<u8>, PartsError> {
+    merged_as(plan, dir, MergeFormat::Auto)
+}
+
+fn merged_as(plan: &Path, dir: &Path, format: MergeFormat) -> Result<Vec<u8>, PartsError> {
     let out = dir.join("merged.svo");
     let _ = std::fs::remove_file(&out);
-    merge_parts(plan, &out)?;
+    merge_parts(plan, &out, format)?;
     Ok(std::fs::read(out).unwrap())
+}
+
+/// The merge into version 3 (chunks at the plan's level) is what the library's chunked writer
+/// makes of the in-memory bake's tree, and reads back as that tree.
+fn check_chunked(plan: &Path, whole: &[u8], dir: &Path) {
+    let got = merged_as(plan, dir, MergeFormat::Chunked).unwrap();
+    let (tree, build) = svo::io::from_bytes(whole).unwrap();
+    let level = read_plan(plan).unwrap().0.level;
+    let mut want = Vec::new();
+    svo::io::write_chunked_to(&tree, &build, level, &mut want).unwrap();
+    assert_eq!(u32::from_le_bytes(got[8..12].try_into().unwrap()), 3);
+    assert!(got == want, "{} bytes against {}", got.len(), want.len());
+    assert_eq!(svo::io::from_bytes(&got).unwrap().0, tree);
 }
 
 fn meshes() -> Vec<PathBuf> {
@@ -106,6 +123,7 @@ fn parts_merge_into_the_bytes_of_the_whole_bake() {
                         got.len(),
                         whole.len()
                     );
+                    check_chunked(&plan, &whole, dir.path());
                     checked += 1;
                 }
             }
@@ -179,7 +197,9 @@ fn the_merge_refuses_bad_parts_and_writes_nothing() {
     let good = std::fs::read(part_path(&plan, big)).unwrap();
     let out = dir.path().join("merged.svo");
     let check = |what: &str, want: &str| {
-        let e = merge_parts(&plan, &out).expect_err(what).to_string();
+        let e = merge_parts(&plan, &out, MergeFormat::Auto)
+            .expect_err(what)
+            .to_string();
         assert!(e.contains(want), "{what}: {e}");
         assert!(!out.exists(), "{what}: an output was left");
         let leftovers: Vec<_> = std::fs::read_dir(dir.path())
@@ -211,7 +231,7 @@ fn the_merge_refuses_bad_parts_and_writes_nothing() {
         check(&format!("byte {at} flipped"), "corrupt");
     }
     put(&good);
-    assert!(merge_parts(&plan, &out).is_ok());
+    assert!(merge_parts(&plan, &out, MergeFormat::Auto).is_ok());
     assert_eq!(p.parts.len(), 4);
 }
 

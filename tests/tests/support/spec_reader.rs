@@ -1,5 +1,5 @@
 //! A `.svo` reader written from `docs/format.md` alone, sharing no code with svo (only the
-//! xxHash crate for the checksum): it applies the document's 18 checks in order and returns
+//! xxHash crate for the checksum): it applies the document's 19 checks in order and returns
 //! the number of the first one a file fails. The conformance test requires it to agree with
 //! the corpus's manifest, which shows that the document says enough to write a reader.
 
@@ -58,6 +58,8 @@ struct Header {
     origin: [f64; 3],
     side: f64,
     depth: u8,
+    /// Version 3: chunk level, chunk count, chunk table (offset, len).
+    chunks: Option<(u8, u64, (u64, u64))>,
     node_count: u64,
     leaf_count: u64,
     nodes: (u64, u64),
@@ -70,7 +72,16 @@ struct Header {
 fn decode(raw: &[u8], version: u32) -> Option<Header> {
     let mut c = Cursor { b: raw, at: 0 };
     let (origin, side, depth) = (c.v3()?, c.f64()?, c.u8()?);
+    let level_count = if version == 3 {
+        Some((c.u8()?, c.u64()?))
+    } else {
+        None
+    };
     let (node_count, leaf_count) = (c.u64()?, c.u64()?);
+    let chunks = match level_count {
+        Some((level, count)) => Some((level, count, (c.u64()?, c.u64()?))),
+        None => None,
+    };
     let nodes = (c.u64()?, c.u64()?);
     let mut channels = Vec::new();
     for _ in 0..c.u64()? {
@@ -106,6 +117,7 @@ fn decode(raw: &[u8], version: u32) -> Option<Header> {
         origin,
         side,
         depth,
+        chunks,
         node_count,
         leaf_count,
         nodes,
@@ -168,7 +180,7 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
         return Err(2);
     }
     let version = u32at(8);
-    if version != 1 && version != 2 {
+    if !(1..=3).contains(&version) {
         return Err(3);
     }
     let hl = u32at(12) as usize;
@@ -180,14 +192,17 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
         return Err(5);
     }
     let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
-    if !(1..=30).contains(&h.depth) {
+    if !(1..=30).contains(&h.depth) || h.chunks.is_some_and(|(c, _, _)| c >= h.depth || c > 21) {
         return Err(7);
     }
     if !(h.origin.iter().all(|x| x.is_finite()) && h.side.is_finite() && h.side > 0.0) {
         return Err(8);
     }
-    if h.node_count == 0 || h.leaf_count > 1 << 31 || h.leaf_count > h.node_count.saturating_mul(8)
-    {
+    let counts_ok = match h.chunks {
+        None => h.node_count >= 1 && h.leaf_count <= 1 << 31,
+        Some((c, count, _)) => count <= h.node_count && count <= 1 << (3 * c),
+    };
+    if !counts_ok || h.leaf_count > h.node_count.saturating_mul(8) {
         return Err(9);
     }
     let size = |kind: u8| [4u64, 4, 4, 1, 1, 2][usize::from(kind)];
@@ -213,7 +228,11 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     }
     // 12, 13: the layout and its padding.
     let data_end = (l - 8) as u64;
-    let mut arrays = vec![(h.nodes, h.node_count.checked_mul(8).ok_or(12u8)?)];
+    let mut arrays = Vec::new();
+    if let Some((_, count, table)) = h.chunks {
+        arrays.push((table, count * 24));
+    }
+    arrays.push((h.nodes, h.node_count.checked_mul(8).ok_or(12u8)?));
     for (kind, s) in &h.channels {
         if let Storage::PerLeaf(o, n) = s {
             arrays.push(((*o, *n), h.leaf_count * size(*kind)));
@@ -237,58 +256,95 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     {
         return Err(13);
     }
-    // 14-17: the tree, read from the node array in place.
+    // 19 (version 3): the chunk table; then each chunk is a tree of its own.
     let base = h.nodes.0 as usize;
     let n = h.node_count as usize;
     let info = |i: usize| u32at(base + 8 * i);
-    let first = |i: usize| u32at(base + 8 * i + 4);
+    let mut trees = Vec::new(); // (first node, nodes, levels, leaves, root may be empty)
+    match h.chunks {
+        None => trees.push((0usize, n, h.depth, h.leaf_count, true)),
+        Some((c, count, (table, _))) => {
+            let u64at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
+            let (mut at, mut nodes, mut leaves) = (0usize, 0u64, 0u64);
+            let mut last = None;
+            for j in 0..count as usize {
+                let r = table as usize + 24 * j;
+                let (code, cn, cl) = (u64at(r), u64at(r + 8), u64at(r + 16));
+                if code >= 1 << (3 * c) || last.is_some_and(|l| code <= l) {
+                    return Err(19);
+                }
+                if !(1..=1 << 31).contains(&cn) || !(1..=1 << 31).contains(&cl) || cl > 8 * cn {
+                    return Err(19);
+                }
+                last = Some(code);
+                nodes += cn;
+                leaves += cl;
+                if nodes <= h.node_count {
+                    trees.push((at, cn as usize, h.depth - c, cl, false));
+                }
+                at += cn as usize;
+            }
+            if nodes != h.node_count || leaves != h.leaf_count {
+                return Err(19);
+            }
+        }
+    }
+    // 14-17: each tree, read from the node array in place.
     if (0..n).any(|i| info(i) >> 8 != 0) {
         return Err(14);
     }
-    let mut next = 1usize;
-    let mut stack = vec![(0usize, 0u8)];
-    while let Some((i, lv)) = stack.pop() {
-        let k = (info(i) & 0xFF).count_ones() as usize;
-        if k == 0 {
-            if i != 0 {
+    for &(start, n, depth, _, empty_root) in &trees {
+        let info = |i: usize| u32at(base + 8 * (start + i));
+        let first = |i: usize| u32at(base + 8 * (start + i) + 4);
+        let mut next = 1usize;
+        let mut stack = vec![(0usize, 0u8)];
+        while let Some((i, lv)) = stack.pop() {
+            let k = (info(i) & 0xFF).count_ones() as usize;
+            if k == 0 {
+                if i != 0 || !empty_root {
+                    return Err(15);
+                }
+                if first(i) != 0 {
+                    return Err(16);
+                }
+                continue;
+            }
+            let leafy = lv + 1 == depth;
+            if leafy != ((first(i) as i32) < 0) {
                 return Err(15);
             }
-            if first(i) != 0 {
+            if leafy {
+                continue;
+            }
+            if first(i) as usize != next || next + k > n {
                 return Err(16);
             }
-            continue;
+            stack.extend((next..next + k).map(|j| (j, lv + 1)));
+            next += k;
         }
-        let leafy = lv + 1 == h.depth;
-        if leafy != ((first(i) as i32) < 0) {
-            return Err(15);
-        }
-        if leafy {
-            continue;
-        }
-        if first(i) as usize != next || next + k > n {
+        if next != n {
             return Err(16);
         }
-        stack.extend((next..next + k).map(|j| (j, lv + 1)));
-        next += k;
     }
-    if next != n {
-        return Err(16);
-    }
-    let mut seen = 0u64;
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        let k = (info(i) & 0xFF).count_ones() as usize;
-        if (first(i) as i32) < 0 {
-            if (-i64::from(first(i) as i32) - 1) as u64 != seen {
-                return Err(17);
+    for &(start, _, _, leaf_count, _) in &trees {
+        let info = |i: usize| u32at(base + 8 * (start + i));
+        let first = |i: usize| u32at(base + 8 * (start + i) + 4);
+        let mut seen = 0u64;
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let k = (info(i) & 0xFF).count_ones() as usize;
+            if (first(i) as i32) < 0 {
+                if (-i64::from(first(i) as i32) - 1) as u64 != seen {
+                    return Err(17);
+                }
+                seen += k as u64;
+            } else {
+                stack.extend((first(i) as usize..first(i) as usize + k).rev());
             }
-            seen += k as u64;
-        } else {
-            stack.extend((first(i) as usize..first(i) as usize + k).rev());
         }
-    }
-    if seen != h.leaf_count {
-        return Err(17);
+        if seen != leaf_count {
+            return Err(17);
+        }
     }
     // 18: the values, constant or per leaf.
     let word = |kind: u8, leaf: u64| -> Option<u32> {

@@ -6,7 +6,7 @@
 
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
-use crate::bake::merge::{MergeReport, merge_with};
+use crate::bake::merge::{MergeFormat, MergeReport, merge_with};
 use crate::bake::part::{bake_parts, touched_counts, write_part};
 use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, plan_bake, plan_to_bytes};
 use crate::io::header::BuildInfo;
@@ -93,6 +93,40 @@ pub fn plan_for_budget(
     }
 }
 
+/// Refuses a bake whose part files and output (both on disk before the part files are
+/// removed) would not fit in the space free in `dir`, by the plan's estimate of the leaves:
+/// the nodes (about 3 bytes a leaf) and each stored channel's element. Where the free space
+/// is unknown, nothing is refused.
+fn check_disk(plan: &BakePlan, dir: &Path) -> Result<(), PartsError> {
+    let channels: f64 = plan
+        .channels
+        .split(',')
+        .filter_map(|c| c.parse::<crate::octree::ChannelKind>().ok())
+        .map(|k| k.element_size() as f64)
+        .sum();
+    let need = 2.0 * plan.estimated_leaves * (3.0 + channels);
+    #[cfg(unix)]
+    let free = rustix::fs::statvfs(dir)
+        .ok()
+        .map(|s| s.f_bavail as f64 * s.f_frsize as f64);
+    #[cfg(not(unix))]
+    let free: Option<f64> = None;
+    match free {
+        Some(free) if need > free => {
+            const GB: f64 = 1e9;
+            Err(PartsError::Unsupported(format!(
+                "depth {} would make about {:.3e} leaves: its part files and the file need about {:.1} GB on disk, more than the {:.1} GB free in {}; lower --depth",
+                plan.depth,
+                plan.estimated_leaves,
+                need / GB,
+                free / GB,
+                dir.display()
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Bakes `plan` in this process into `output`: each part into a file in a temporary folder
 /// beside `output` (removed at the end, whatever happens), then the merge. `progress`
 /// receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around the merge.
@@ -108,6 +142,7 @@ pub fn bake_planned(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    check_disk(plan, dir)?;
     let tmp = tempfile::Builder::new()
         .prefix(".svo-parts.")
         .tempdir_in(dir)
@@ -128,7 +163,7 @@ pub fn bake_planned(
         Ok(())
     })?;
     progress(Phase::Merge, 0.0);
-    let merged = merge_with(plan, hash, &path_of, output)?;
+    let merged = merge_with(plan, hash, &path_of, output, MergeFormat::Auto)?;
     progress(Phase::Merge, 1.0);
     Ok((merged, seconds, bytes, degenerate))
 }

@@ -11,13 +11,14 @@
 //! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
 //! no file.
 
-use crate::attributes::leaf_attributes::LeafValues;
 use crate::bake::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
 use crate::bake::plan::{BakePlan, PartsError, part_path, read_plan};
 use crate::io::atomic_write::write_atomic;
+use crate::io::header::ChunkRecord;
 use crate::io::write::{Layout, Stored, write_layout};
-use crate::octree::layout::Chunk;
+use crate::octree::stitch::{self, Piece, Stub};
 use crate::octree::tree::Node;
+use crate::octree::validate::MAX_LEAVES;
 use std::io::{BufReader, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -28,6 +29,10 @@ use std::time::Instant;
 pub struct MergeReport {
     /// Bytes of the `.svo` file.
     pub bytes: u64,
+    /// Its format version: 2, or 3 when its tree is stored in chunks.
+    pub version: u32,
+    /// Chunks (version 3), else 0.
+    pub chunks: u64,
     /// Nodes.
     pub nodes: u64,
     /// Leaves.
@@ -46,10 +51,26 @@ pub struct MergeReport {
     pub false_positives: u64,
 }
 
+/// Which format version a merge writes (`docs/format.md`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MergeFormat {
+    /// Version 2, one node array, when it holds the tree (at most 2^31 leaves and nodes);
+    /// past that version 3, the subtrees at the parts' level stored as chunks.
+    #[default]
+    Auto,
+    /// Version 3 whatever the tree's size.
+    Chunked,
+}
+
 /// Merges the parts of the plan at `plan_path` (each at [`part_path`]) into `output`.
-pub fn merge_parts(plan_path: &Path, output: &Path) -> Result<MergeReport, PartsError> {
+pub fn merge_parts(
+    plan_path: &Path,
+    output: &Path,
+    format: MergeFormat,
+) -> Result<MergeReport, PartsError> {
     let (plan, hash) = read_plan(plan_path)?;
-    merge_with(&plan, hash, &|i| part_path(plan_path, i), output)
+    merge_with(&plan, hash, &|i| part_path(plan_path, i), output, format)
 }
 
 /// A subtree and where its part is.
@@ -64,6 +85,7 @@ pub(crate) fn merge_with(
     plan_hash: u64,
     path_of: &dyn Fn(u32) -> PathBuf,
     output: &Path,
+    format: MergeFormat,
 ) -> Result<MergeReport, PartsError> {
     let t0 = Instant::now();
     let count = plan.part_count();
@@ -97,22 +119,35 @@ pub(crate) fn merge_with(
         leaves += h.leaves();
         subs.extend(h.subtrees.iter().rev().map(|&s| Sub { part: i as u32, s }));
     }
-    if leaves > 1 << 31 {
-        return Err(PartsError::Unsupported(format!(
-            "{leaves} leaves: an .svo file holds at most 2^31"
-        )));
-    }
     let level = plan.level;
-    let node_count = 1 + if level == 0 {
-        subs.first().map_or(0, |s| s.s.nodes)
-    } else {
-        below(&subs, 0, level)
-    };
-    if node_count > u64::from(u32::MAX) {
+    let stubs: Vec<Stub> = subs
+        .iter()
+        .map(|s| Stub {
+            code: s.s.code,
+            below: s.s.nodes,
+        })
+        .collect();
+    let whole = stitch::node_count(&stubs, level);
+    let chunked = format == MergeFormat::Chunked || leaves > MAX_LEAVES || whole > MAX_LEAVES;
+    if chunked
+        && let Some(s) = subs
+            .iter()
+            .find(|s| s.s.nodes >= MAX_LEAVES || s.s.leaves > MAX_LEAVES)
+    {
         return Err(PartsError::Unsupported(format!(
-            "{node_count} nodes: more than 32-bit node indices reach"
+            "the subtree {} at the parts' level holds {} nodes and {} leaves, more than a chunk \
+             holds (2^31 each): plan more parts, which cuts the tree deeper",
+            s.s.code,
+            s.s.nodes + 1,
+            s.s.leaves
         )));
     }
+    // Version 3 stores each subtree with its root; version 2 adds the levels above them.
+    let node_count = if chunked {
+        subs.iter().map(|s| 1 + s.s.nodes).sum()
+    } else {
+        whole
+    };
     // Channels: the parts agree on kinds and storage (checked); a per-leaf channel whose
     // leaves all hold one value becomes a constant, as the whole bake's compaction does.
     let first = headers
@@ -151,6 +186,7 @@ pub(crate) fn merge_with(
         leaf_count: leaves,
         channels,
         build: &plan.build,
+        chunks: chunked.then_some((level, subs.len() as u64)),
     };
     let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
     let fail = |e: PartsError| {
@@ -161,6 +197,15 @@ pub(crate) fn merge_with(
     let mut bytes = 0;
     let written = write_atomic(output, |w| {
         bytes = write_layout(&layout, w, &mut |i, out| {
+            let i = if chunked {
+                match i {
+                    0 => return write_chunk_table(&subs, out),
+                    1 => return write_chunks(&headers, &subs, out).map_err(&fail),
+                    _ => i - 1,
+                }
+            } else {
+                i
+            };
             if i == 0 {
                 let mut nodes = NodeWriter {
                     out,
@@ -169,22 +214,14 @@ pub(crate) fn merge_with(
                     reader: None,
                     buf: Vec::new(),
                 };
-                let root = if level == 0 {
-                    subs.first().map_or(Node::default(), |s| Node {
-                        info: u32::from(s.s.mask),
-                        first: 1,
-                    })
-                } else {
-                    top_record(&subs, 0, level, 1)
-                };
-                nodes.put(root)?;
-                if level == 0 {
-                    if let Some(s) = subs.first() {
-                        nodes.region(s, 1).map_err(&fail)?;
-                    }
-                } else {
-                    place(&subs, 0, level, 1, &mut nodes, &fail)?;
-                }
+                stitch::stitch(&stubs, level, &mut |piece| match piece {
+                    Piece::Top(n) => nodes.put(n),
+                    Piece::Root { index, at } => nodes.put(Node {
+                        info: u32::from(subs[index].s.mask),
+                        first: at as u32,
+                    }),
+                    Piece::Below { index, at } => nodes.region(&subs[index], at).map_err(&fail),
+                })?;
                 nodes.finish_part().map_err(&fail)?;
                 nodes.flush()
             } else {
@@ -206,6 +243,8 @@ pub(crate) fn merge_with(
     let sum = |f: fn(&PartHeader) -> u64| headers.iter().map(|(_, h)| f(h)).sum();
     Ok(MergeReport {
         bytes,
+        version: if chunked { 3 } else { 2 },
+        chunks: if chunked { subs.len() as u64 } else { 0 },
         nodes: node_count,
         leaves,
         parts: count,
@@ -313,99 +352,67 @@ fn check_part(
     Ok(())
 }
 
-/// The child index at `level + 1` of a code at `target`.
-fn child_of(code: u64, level: u8, target: u8) -> u8 {
-    (code >> (3 * u32::from(target - level - 1)) & 7) as u8
-}
-
-/// `subs` (one node's subtrees, in increasing code) split by the node's children.
-fn by_child(subs: &[Sub], level: u8, target: u8) -> Vec<(u8, &[Sub])> {
-    let mut out = Vec::new();
-    let mut rest = subs;
-    while let Some(s) = rest.first() {
-        let c = child_of(s.s.code, level, target);
-        let n = rest
-            .iter()
-            .position(|x| child_of(x.s.code, level, target) != c)
-            .unwrap_or(rest.len());
-        out.push((c, &rest[..n]));
-        rest = &rest[n..];
-    }
-    out
-}
-
-/// Nodes placed after a node at `level` above the parts' level whose subtrees are `subs`:
-/// its children block and each child's own.
-fn below(subs: &[Sub], level: u8, target: u8) -> u64 {
-    by_child(subs, level, target)
+/// Writes a version-3 chunk table: a chunk per subtree, in increasing code.
+fn write_chunk_table(subs: &[Sub], out: &mut dyn Write) -> std::io::Result<()> {
+    let table: Vec<ChunkRecord> = subs
         .iter()
-        .map(|(_, s)| {
-            1 + if level + 1 == target {
-                s[0].s.nodes
-            } else {
-                below(s, level + 1, target)
-            }
-        })
-        .sum()
-}
-
-/// The record of a node at `level` (above the parts' level) whose children block is placed
-/// at `at`.
-fn top_record(subs: &[Sub], level: u8, target: u8, at: u64) -> Node {
-    let mask = by_child(subs, level, target)
-        .iter()
-        .fold(0u8, |m, (c, _)| m | 1 << c);
-    Node {
-        info: u32::from(mask),
-        first: if mask == 0 { 0 } else { at as u32 },
-    }
-}
-
-/// Places a node at `level` above the parts' level whose children block starts at `at`:
-/// the block, then each child's subtree from the last child to the first.
-fn place(
-    subs: &[Sub],
-    level: u8,
-    target: u8,
-    at: u64,
-    nodes: &mut NodeWriter<'_>,
-    fail: &dyn Fn(PartsError) -> std::io::Error,
-) -> std::io::Result<()> {
-    let children = by_child(subs, level, target);
-    let sizes: Vec<u64> = children
-        .iter()
-        .map(|(_, s)| {
-            if level + 1 == target {
-                s[0].s.nodes
-            } else {
-                below(s, level + 1, target)
-            }
+        .map(|s| ChunkRecord {
+            code: s.s.code,
+            nodes: 1 + s.s.nodes,
+            leaves: s.s.leaves,
         })
         .collect();
-    // Child j's own nodes start after the block and the subtrees of the children after it.
-    let mut starts = vec![0u64; children.len()];
-    let mut next = at + children.len() as u64;
-    for j in (0..children.len()).rev() {
-        starts[j] = next;
-        next += sizes[j];
-    }
-    for (j, (_, s)) in children.iter().enumerate() {
-        let rec = if level + 1 == target {
-            Node {
-                info: u32::from(s[0].s.mask),
-                first: starts[j] as u32,
+    out.write_all(bytemuck::cast_slice(&table))
+}
+
+/// Writes a version-3 node array: each subtree (in increasing code, which is the reverse of
+/// its part's order) as a tree of its own, its root first and its leaves counted from 0. Each
+/// part's node array is read once whole for its hash, then subtree by subtree.
+fn write_chunks(
+    headers: &[(PathBuf, PartHeader)],
+    subs: &[Sub],
+    out: &mut dyn Write,
+) -> Result<(), PartsError> {
+    for (part, (path, h)) in headers.iter().enumerate() {
+        copy_array(path, h.arrays[0], &mut std::io::sink())?;
+        let mut f = BufReader::with_capacity(
+            1 << 20,
+            std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?,
+        );
+        // Where each subtree's nodes start in the part (they are stored highest code first),
+        // and its first leaf (leaves are in increasing code).
+        let mut node_at = h.arrays[0].offset;
+        let mut starts = Vec::with_capacity(h.subtrees.len());
+        for s in &h.subtrees {
+            starts.push(node_at);
+            node_at += 8 * s.nodes;
+        }
+        let mut leaf_at = 0u64;
+        let mut buf = Vec::new();
+        for (j, sub) in subs.iter().filter(|s| s.part == part as u32).enumerate() {
+            let k = h.subtrees.len() - 1 - j;
+            let s = sub.s;
+            f.seek(SeekFrom::Start(starts[k]))
+                .map_err(|e| PartsError::io(path, e))?;
+            buf.clear();
+            buf.push(Node {
+                info: u32::from(s.mask),
+                first: 1,
+            });
+            buf.resize(1 + s.nodes as usize, Node::default());
+            f.read_exact(bytemuck::cast_slice_mut(&mut buf[1..]))
+                .map_err(|e| PartsError::io(path, e))?;
+            for rec in &mut buf[1..] {
+                *rec = relocate(*rec, s.nodes, 1, -(leaf_at as i64)).ok_or_else(|| {
+                    corrupt(
+                        path,
+                        "corrupt part file: a node points outside its subtree or the file's limits",
+                    )
+                })?;
             }
-        } else {
-            top_record(s, level + 1, target, starts[j])
-        };
-        nodes.put(rec)?;
-    }
-    for j in (0..children.len()).rev() {
-        let s = children[j].1;
-        if level + 1 == target {
-            nodes.region(&s[0], starts[j]).map_err(fail)?;
-        } else {
-            place(s, level + 1, target, starts[j], nodes, fail)?;
+            out.write_all(bytemuck::cast_slice(&buf))
+                .map_err(|e| PartsError::io(path, e))?;
+            leaf_at += s.leaves;
         }
     }
     Ok(())
@@ -498,7 +505,7 @@ impl NodeWriter<'_> {
             })?;
             hash.update(bytes);
             for rec in &mut chunk[..k] {
-                *rec = relocate(*rec, n, at, leaf_off).ok_or_else(|| {
+                *rec = relocate(*rec, n, at as i64, leaf_off as i64).ok_or_else(|| {
                     corrupt(
                         path,
                         "corrupt part file: a node points outside its subtree or the file's limits",
@@ -516,20 +523,10 @@ impl NodeWriter<'_> {
 
 /// A subtree's record moved to the file: inner pointers (counted from the subtree's first
 /// node, of `n`) by `at`, leaf bases by `leaf_off`. `None` for a pointer out of range.
-fn relocate(rec: Node, n: u64, at: u64, leaf_off: u64) -> Option<Node> {
-    let info = rec.info & 0xFF;
-    if rec.is_leaf_parent() {
-        let base = u64::from(rec.leaf_base()?) + leaf_off;
-        (base < 1 << 31).then(|| Chunk::<LeafValues>::leaf_parent(info as u8, base as usize))
-    } else if info != 0 {
-        let first = u64::from(rec.first);
-        (first + u64::from(info.count_ones()) <= n).then(|| Node {
-            info,
-            first: (first + at) as u32,
-        })
-    } else {
-        Some(Node { info, first: 0 })
-    }
+fn relocate(rec: Node, n: u64, at: i64, leaf_off: i64) -> Option<Node> {
+    let inside = rec.is_leaf_parent()
+        || u64::from(rec.first) + u64::from(rec.child_mask().count_ones()) <= n;
+    inside.then(|| stitch::moved(rec, at, leaf_off))?
 }
 
 fn corrupt(path: &Path, detail: &str) -> PartsError {

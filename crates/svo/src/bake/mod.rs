@@ -38,7 +38,7 @@ pub use bins::{BinsReport, bin_path, read_bin, write_bins};
 pub use bounded::{PartsReport, bake_planned, peak_resident, plan_for_budget};
 pub use estimate::Estimate;
 #[cfg(feature = "io")]
-pub use merge::{MergeReport, merge_parts};
+pub use merge::{MergeFormat, MergeReport, merge_parts};
 #[cfg(feature = "io")]
 pub use part::{
     PartData, PartHeader, PartReport, bake_part_file, bake_parts, read_part_header, write_part,

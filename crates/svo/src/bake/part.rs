@@ -342,7 +342,7 @@ fn bake_one(
     }
     if total > i32::MAX as usize + 1 {
         return Err(PartsError::Unsupported(format!(
-            "part {index} has {total} leaves, more than a file holds (2^31)"
+            "part {index} has {total} leaves, more than a part holds (2^31): plan more parts"
         )));
     }
     let mut listed = Vec::with_capacity(subtrees.len());

@@ -249,12 +249,10 @@ fn run_inner(
             return parts((budget, false));
         }
         // A surface bake to `.svo` that the memory limit refuses (before it starts) goes into
-        // parts within that limit, where a file can hold the tree.
+        // parts within that limit (past 2^31 leaves or nodes the file is version 3).
         let (tree, stats) = match bake_for_file(&mesh, &options, progress) {
-            Err(BakeError::TooLarge { leaves, .. })
-                if format == OutputFormat::Svo
-                    && options.solid.is_none()
-                    && leaves <= crate::bake::plan::MAX_FILE_LEAVES =>
+            Err(BakeError::TooLarge { .. })
+                if format == OutputFormat::Svo && options.solid.is_none() =>
             {
                 let limit = options.max_memory.unwrap_or(u64::MAX);
                 return parts((limit, true));

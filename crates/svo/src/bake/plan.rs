@@ -31,8 +31,6 @@ use thiserror::Error;
 const PLAN_MAGIC: [u8; 8] = *b"\x89SVOPLN\n";
 /// The plan file's version.
 const PLAN_VERSION: u32 = 1;
-/// The most leaves an `.svo` file holds (format check 9), as the estimate counts them.
-pub(crate) const MAX_FILE_LEAVES: f64 = (1u64 << 31) as f64;
 /// The most parts a plan may have.
 pub const MAX_PARTS: u32 = 1 << 16;
 
@@ -246,12 +244,6 @@ pub fn plan_bake(
             ..opts.clone()
         },
     )?;
-    if est.leaves > MAX_FILE_LEAVES {
-        return Err(PartsError::Unsupported(format!(
-            "depth {} would make about {:.3e} leaves; an .svo file holds at most 2^31 ({:.3e}): lower --depth",
-            opts.depth, est.leaves, MAX_FILE_LEAVES
-        )));
-    }
     let level = parts_level(opts.depth, parts);
     let weights = subtree_estimates(mesh, &root, opts.depth, level);
     Ok(BakePlan {

@@ -3,7 +3,9 @@
 //! level and its channels.
 
 use crate::io::header::{PREAMBLE_LEN, Storage};
-use crate::io::read::{Preamble, read_file_with_header, read_with_header};
+use crate::io::read::{
+    ChunksRead, Preamble, check_chunks_file, read_file_with_header, read_with_header,
+};
 use crate::io::write::FormatError;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
 use std::fmt::Write;
@@ -28,19 +30,103 @@ pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
 }
 
 /// [`describe`] for a file on disk, read in one pass ([`crate::io::read_file`]): no copy of
-/// the file is held beside the tree.
+/// the file is held beside the tree. A version-3 file whose tree is larger than one tree in
+/// memory holds ([`FormatError::TooLarge`]) is checked one chunk at a time instead (every
+/// check but the values') and described from its header and chunk table.
 pub fn describe_file(path: impl AsRef<Path>) -> Result<String, FormatError> {
-    let r = read_file_with_header(path.as_ref())?;
-    Ok(describe_read(&r.tree, &r.preamble, r.checksum, r.len))
+    match read_file_with_header(path.as_ref()) {
+        Ok(r) => Ok(describe_read(&r.tree, &r.preamble, r.checksum, r.len)),
+        Err(FormatError::TooLarge { .. }) => {
+            check_chunks_file(path.as_ref()).map(|r| describe_chunks(&r))
+        }
+        Err(e) => Err(e),
+    }
 }
 
 fn describe_read(tree: &Octree, p: &Preamble, checksum: u64, len: u64) -> String {
+    let mut out = describe_header(p, checksum);
+    describe_tree(&mut out, tree, &p.header.build, len);
+    out
+}
+
+/// A tree too large to load: its header, its chunks, and what was checked.
+fn describe_chunks(r: &ChunksRead) -> String {
+    let h = &r.preamble.header;
+    let mut out = describe_header(&r.preamble, r.checksum);
+    let b = &h.build;
+    let o = h.root_origin;
+    let _ = writeln!(
+        out,
+        "generator      {} (strategy {}, {} source triangles)",
+        b.generator, b.strategy, b.source_triangles
+    );
+    let _ = writeln!(
+        out,
+        "root           origin ({}, {}, {}), side {}",
+        o[0], o[1], o[2], h.root_side
+    );
+    let _ = writeln!(
+        out,
+        "depth          {} (grid {}^3, cell {:.6e})",
+        h.depth,
+        1u64 << h.depth,
+        h.root_side / (1u64 << h.depth) as f64
+    );
+    let _ = writeln!(
+        out,
+        "nodes          {} in the chunks (the levels above them are not stored)",
+        h.node_count
+    );
+    let _ = writeln!(out, "leaves         {}", h.leaf_count);
+    let range = |f: fn(&crate::io::header::ChunkRecord) -> u64| {
+        let lo = r.table.iter().map(f).min().unwrap_or(0);
+        let hi = r.table.iter().map(f).max().unwrap_or(0);
+        format!("{lo} to {hi}")
+    };
+    let _ = writeln!(
+        out,
+        "chunk sizes    {} nodes, {} leaves a chunk",
+        range(|c| c.nodes),
+        range(|c| c.leaves)
+    );
+    for e in &h.channels {
+        let name = ChannelKind::ALL
+            .get(usize::from(e.kind))
+            .map_or("?", |k| k.name());
+        let _ = match e.storage {
+            Storage::Constant(v) => writeln!(out, "channel        {name} constant {v:#x}"),
+            Storage::PerLeaf(_) => writeln!(out, "channel        {name} per leaf"),
+        };
+    }
+    let _ = writeln!(
+        out,
+        "checked        checks 1 to 17 and 19, one chunk at a time; the values (check 18) not read: \
+         the tree is larger than one tree in memory holds (2^31 leaves and nodes)"
+    );
+    let per_leaf = r.len as f64 / (h.leaf_count.max(1)) as f64;
+    let _ = write!(
+        out,
+        "file           {} bytes, {per_leaf:.2} bytes per leaf",
+        r.len
+    );
+    out
+}
+
+/// The preamble's and header's lines of [`describe`]: version, lengths, where each array is.
+fn describe_header(p: &Preamble, checksum: u64) -> String {
     let (version, hlen, header) = (p.version, p.header_len, &p.header);
     let mut out = String::new();
     let _ = writeln!(
         out,
         "format         version {version}, header {hlen} bytes at {PREAMBLE_LEN}, checksum {checksum:#018x} (XXH3-64)",
     );
+    if let Some(c) = header.chunks {
+        let _ = writeln!(
+            out,
+            "chunks         {} at level {}, table at {} ({} bytes)",
+            c.count, c.level, c.table.offset, c.table.len
+        );
+    }
     let _ = writeln!(
         out,
         "arrays         nodes at {} ({} bytes)",
@@ -61,7 +147,6 @@ fn describe_read(tree: &Octree, p: &Preamble, checksum: u64, len: u64) -> String
             }
         };
     }
-    describe_tree(&mut out, tree, &header.build, len);
     out
 }
 

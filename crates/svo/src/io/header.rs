@@ -1,5 +1,5 @@
-//! The `.svo` file header (format version 2; version 1 is still read); `docs/format.md`
-//! gives every byte.
+//! The `.svo` file header (format version 2, and version 3 for a tree stored in chunks;
+//! version 1 is still read); `docs/format.md` gives every byte.
 //!
 //! ```text
 //! offset  size  field
@@ -17,7 +17,9 @@ use serde::{Deserialize, Serialize};
 
 /// The file's first 8 bytes.
 pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
-/// The format version this library writes (and the newest it reads; it reads version 1 too).
+/// The newest format version this library reads and writes (it reads versions 1 and 2, writes
+/// version 2 for a tree that one node array holds and version 3, chunks, past that or when
+/// asked).
 pub const VERSION: u32 = crate::octree::format_check::CURRENT_VERSION;
 /// The largest header accepted.
 pub const MAX_HEADER_LEN: usize = 1 << 16;
@@ -123,11 +125,36 @@ impl From<HeaderV1> for Header {
                 source_triangles: h.build.source_triangles,
                 scene: SceneInfo::default(),
             },
+            chunks: None,
         }
     }
 }
 
-/// The header, version 2.
+/// What a version-3 header adds: the level of the chunks' roots and the chunk table.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Chunking {
+    /// The level of the chunks' roots (0 to `depth - 1`).
+    pub level: u8,
+    /// Chunks.
+    pub count: u64,
+    /// The chunk table: `count` records of [`ChunkRecord`].
+    pub table: ArrayRef,
+}
+
+/// One record of a version-3 chunk table (24 bytes, three `u64` LE): a chunk is the subtree
+/// under one node at the chunk level, stored as a tree of its own.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ChunkRecord {
+    /// The Morton code of the chunk's root at the chunk level.
+    pub code: u64,
+    /// The chunk's nodes, its root included.
+    pub nodes: u64,
+    /// The chunk's leaves.
+    pub leaves: u64,
+}
+
+/// The header, version 2 (version 3 adds [`Chunking`], encoded as [`HeaderV3`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Header {
     /// Root cube minimum corner, scene units.
@@ -146,6 +173,75 @@ pub struct Header {
     pub channels: Vec<ChannelEntry>,
     /// Provenance.
     pub build: BuildInfo,
+    /// Version 3: the chunk level and table (`None` in versions 1 and 2).
+    #[serde(skip)]
+    pub chunks: Option<Chunking>,
+}
+
+/// [`Header`] as version 3 stores it: the chunk level, count and table after the depth.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HeaderV3 {
+    /// See [`Header::root_origin`].
+    pub root_origin: [f64; 3],
+    /// See [`Header::root_side`].
+    pub root_side: f64,
+    /// See [`Header::depth`].
+    pub depth: u8,
+    /// See [`Chunking::level`].
+    pub chunk_level: u8,
+    /// See [`Chunking::count`].
+    pub chunk_count: u64,
+    /// Nodes of all chunks.
+    pub node_count: u64,
+    /// Leaves of all chunks.
+    pub leaf_count: u64,
+    /// See [`Chunking::table`].
+    pub chunks: ArrayRef,
+    /// The chunks' node arrays, one after another.
+    pub nodes: ArrayRef,
+    /// See [`Header::channels`].
+    pub channels: Vec<ChannelEntry>,
+    /// See [`Header::build`].
+    pub build: BuildInfo,
+}
+
+impl From<HeaderV3> for Header {
+    fn from(h: HeaderV3) -> Self {
+        Self {
+            root_origin: h.root_origin,
+            root_side: h.root_side,
+            depth: h.depth,
+            node_count: h.node_count,
+            leaf_count: h.leaf_count,
+            nodes: h.nodes,
+            channels: h.channels,
+            build: h.build,
+            chunks: Some(Chunking {
+                level: h.chunk_level,
+                count: h.chunk_count,
+                table: h.chunks,
+            }),
+        }
+    }
+}
+
+impl HeaderV3 {
+    /// The version-3 form of a header with chunks (`c`).
+    pub fn of(h: &Header, c: Chunking) -> Self {
+        Self {
+            root_origin: h.root_origin,
+            root_side: h.root_side,
+            depth: h.depth,
+            chunk_level: c.level,
+            chunk_count: c.count,
+            node_count: h.node_count,
+            leaf_count: h.leaf_count,
+            chunks: c.table,
+            nodes: h.nodes,
+            channels: h.channels.clone(),
+            build: h.build.clone(),
+        }
+    }
 }
 
 /// The bincode configuration of the header.

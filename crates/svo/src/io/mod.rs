@@ -1,8 +1,9 @@
 //! Files: the versioned `.svo` format (read with every field validated before use: a
 //! corrupt, truncated or hostile file is an error, never a panic, a hang or an allocation
 //! larger than the file; written atomically, so a failed write leaves the previous file or
-//! none), the `.binvox` export and reader, the MagicaVoxel `.vox` export (feature `vox`), and
-//! [`describe`], the summary `svo-view --info` prints. `docs/format.md` gives every byte.
+//! none; version 3 stores a tree past 2^31 leaves or nodes as chunks, which [`ChunkedFile`]
+//! reads one at a time), the `.binvox` export and reader, the MagicaVoxel `.vox` export
+//! (feature `vox`), and [`describe`], the summary `svo-view --info` prints. `docs/format.md` gives every byte.
 //!
 //! ```
 //! use glam::{DVec3, UVec3};
@@ -21,6 +22,7 @@
 
 pub(crate) mod atomic_write;
 pub(crate) mod binvox;
+pub(crate) mod chunked;
 pub(crate) mod describe;
 pub(crate) mod header;
 #[cfg(test)]
@@ -31,10 +33,12 @@ pub(crate) mod vox;
 pub(crate) mod write;
 
 pub use crate::octree::format_check::Check;
+pub use crate::octree::format_check::MAX_CHUNK_LEVEL;
 pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
+pub use chunked::ChunkedFile;
 pub use describe::{describe, describe_file};
 pub use header::{BuildInfo, VERSION};
 pub use read::{from_bytes, read_file, read_from};
 #[cfg(feature = "vox")]
 pub use vox::write_vox;
-pub use write::{FormatError, to_bytes, write_file, write_to};
+pub use write::{FormatError, to_bytes, write_chunked_to, write_file, write_to};

@@ -6,13 +6,17 @@
 
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
-    ArrayRef, BuildInfo, Header, HeaderV1, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION,
-    bincode_config,
+    ArrayRef, BuildInfo, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, MAGIC, MAX_HEADER_LEN,
+    PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
 pub use crate::io::write::FormatError;
-use crate::octree::format_check::Check;
+use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL};
+use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
-use crate::octree::validate::{InfoBits, check_root_and_counts, check_tree};
+use crate::octree::validate::{
+    InfoBits, MAX_LEAVES, check_leaf_order, check_root_and_counts, check_shape_and_node_order,
+    check_tree, check_values,
+};
 use glam::DVec3;
 use std::path::Path;
 
@@ -36,6 +40,7 @@ pub fn read_file(path: impl AsRef<Path>) -> Result<(Octree, BuildInfo), FormatEr
 }
 
 /// What checks 1 to 6 read: the format version, the header's length in bytes and the header.
+#[derive(Debug)]
 pub(crate) struct Preamble {
     pub version: u32,
     pub header_len: usize,
@@ -111,11 +116,12 @@ fn check_preamble(bytes: &[u8], total: u64) -> Result<(u32, usize), FormatError>
 /// Check 6: the header decodes in exactly its length.
 fn decode_header(raw: &[u8], version: u32) -> Result<Preamble, FormatError> {
     let hlen = raw.len();
-    let (header, used): (Header, usize) = if version == 1 {
-        bincode::serde::decode_from_slice::<HeaderV1, _>(raw, bincode_config())
-            .map(|(h, n)| (h.into(), n))
-    } else {
-        bincode::serde::decode_from_slice(raw, bincode_config())
+    let (header, used): (Header, usize) = match version {
+        1 => bincode::serde::decode_from_slice::<HeaderV1, _>(raw, bincode_config())
+            .map(|(h, n)| (h.into(), n)),
+        3 => bincode::serde::decode_from_slice::<HeaderV3, _>(raw, bincode_config())
+            .map(|(h, n)| (h.into(), n)),
+        _ => bincode::serde::decode_from_slice(raw, bincode_config()),
     }
     .map_err(|e| corrupt(Check::Header, format!("header: {e}")))?;
     if used != hlen {
@@ -155,8 +161,11 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
     let data_end = len - 8;
     // 7. Depth; 8. root cube; 9. counts.
     let origin = DVec3::from_array(h.root_origin);
-    check_root_and_counts(h.depth, origin, h.root_side, h.node_count, h.leaf_count)
-        .map_err(|(check, detail)| corrupt(check, detail))?;
+    match h.chunks {
+        None => check_root_and_counts(h.depth, origin, h.root_side, h.node_count, h.leaf_count),
+        Some(c) => check_chunked_counts(h, c, origin),
+    }
+    .map_err(|(check, detail)| corrupt(check, detail))?;
     // 10. Channels: known kinds, increasing; constants that fit; a contour only with a normal.
     let mut last_kind: i16 = -1;
     for e in &h.channels {
@@ -198,7 +207,12 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
         .node_count
         .checked_mul(8)
         .ok_or_else(|| corrupt(Check::ArrayLayout, "the node count overflows"))?;
-    let mut refs: Vec<(ArrayRef, u64)> = vec![(h.nodes, node_bytes)];
+    let mut refs: Vec<(ArrayRef, u64)> = Vec::new();
+    if let Some(c) = h.chunks {
+        // Check 9 bounds the count by the node count, so this does not overflow.
+        refs.push((c.table, c.count * size_of::<ChunkRecord>() as u64));
+    }
+    refs.push((h.nodes, node_bytes));
     for e in &h.channels {
         if let Storage::PerLeaf(r) = e.storage {
             let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
@@ -247,6 +261,53 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
     Ok(gaps)
 }
 
+/// Checks 7 to 9 of a version-3 header: the depth, the chunk level below it, the root cube,
+/// at most 8 leaves a node, and no more chunks than nodes or cells at the chunk level.
+fn check_chunked_counts(h: &Header, c: Chunking, origin: DVec3) -> Result<(), (Check, String)> {
+    // The depth and root cube as in every version; the counts below instead.
+    check_root_and_counts(h.depth, origin, h.root_side, 1, 0)?;
+    if c.level >= h.depth || c.level > MAX_CHUNK_LEVEL {
+        return Err((
+            Check::Depth,
+            format!(
+                "chunk level {} is not above depth {} or past {MAX_CHUNK_LEVEL}",
+                c.level, h.depth
+            ),
+        ));
+    }
+    let cells = 1u64 << (3 * u32::from(c.level));
+    if h.leaf_count > h.node_count.saturating_mul(8) || c.count > h.node_count || c.count > cells {
+        return Err((
+            Check::Counts,
+            format!(
+                "{} leaves, {} nodes, {} chunks: more than 8 leaves a node, more chunks than \
+                 nodes, or more than the {cells} cells at level {}",
+                h.leaf_count, h.node_count, c.count, c.level
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Whether the tree of a version-3 header fits one tree in memory: at most 2^31 leaves, and
+/// at most 2^31 nodes with the levels above the chunks (bounded by the chunk count, the
+/// table unread).
+fn check_fits(h: &Header) -> Result<(), FormatError> {
+    let Some(c) = h.chunks else { return Ok(()) };
+    let top: u64 = (0..u32::from(c.level))
+        .map(|l| (1u64 << (3 * l)).min(c.count))
+        .sum();
+    let nodes = h.node_count.saturating_add(top);
+    if h.leaf_count > MAX_LEAVES || nodes > MAX_LEAVES {
+        return Err(FormatError::TooLarge {
+            leaves: h.leaf_count,
+            nodes,
+            chunks: c.count,
+        });
+    }
+    Ok(())
+}
+
 /// [`from_bytes`], also returning what the preamble and the header hold.
 pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), FormatError> {
     let p = read_header(bytes)?;
@@ -282,7 +343,12 @@ fn array<T: bytemuck::Pod>(r: ArrayRef, fetch: &mut Fetch<'_>) -> Result<Vec<T>,
 
 /// The tree of a header whose layout passed checks 7 to 12, its arrays filled by
 /// `fetch(r, dst)` in the file's order (the nodes, then the per-leaf channels by kind).
-fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Octree, FormatError> {
+fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatError> {
+    let table: Option<Vec<ChunkRecord>> = match h.chunks {
+        Some(c) => Some(array(c.table, fetch)?),
+        None => None,
+    };
+    check_fits(h)?;
     let nodes: Vec<Node> = array(h.nodes, fetch)?;
     let mut attributes = LeafAttributes::default();
     for e in &h.channels {
@@ -307,26 +373,158 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Octree, FormatE
             _ => return Err(corrupt(Check::Channels, "unknown channel")),
         }
     }
-    Ok(Octree {
+    let tree = Octree {
         root: RootCube {
             origin: DVec3::from_array(h.root_origin),
             side: h.root_side,
         },
         depth: h.depth,
-        // Check 9 bounds the count by 2^31.
+        // Check 9 (versions 1 and 2) and `check_fits` (version 3) bound the count by 2^31.
         leaf_count: h.leaf_count as u32,
         nodes,
         attributes,
-    })
+    };
+    Ok(Raw { tree, table })
 }
 
-/// Checks 14 to 18 (the node words, the tree's shape, the node and leaf order, the values),
-/// then the nodes' bounds.
-fn finish_tree(mut tree: Octree, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
-    check_tree(&tree, p.version, InfoBits::Zero)
-        .map_err(|(check, detail)| corrupt(check, detail))?;
+/// The arrays of a file as read: for version 3 the tree's nodes are the chunks' node arrays
+/// one after another, with the chunk table beside them.
+struct Raw {
+    tree: Octree,
+    table: Option<Vec<ChunkRecord>>,
+}
+
+/// Checks 14 to 18 (the node words, the tree's shape, the node and leaf order, the values;
+/// for version 3 first check 19, the chunk table, and 15 to 17 on each chunk, whose nodes
+/// are then stitched into one tree), then the nodes' bounds.
+fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
+    let Raw { mut tree, table } = raw;
+    match (table, p.header.chunks) {
+        (Some(table), Some(c)) => {
+            tree.nodes = unchunk(&tree, &table, c.level, &p.header)
+                .map_err(|(check, detail)| corrupt(check, detail))?;
+            check_values(&tree, p.version)
+        }
+        _ => check_tree(&tree, p.version, InfoBits::Zero),
+    }
+    .map_err(|(check, detail)| corrupt(check, detail))?;
     tree.refresh_bounds();
     Ok((tree, p))
+}
+
+/// Check 19: the chunk table against the chunk level and the header's counts.
+fn check_table(table: &[ChunkRecord], level: u8, h: &Header) -> Result<(), (Check, String)> {
+    let cells = 1u64 << (3 * u32::from(level));
+    let (mut nodes, mut leaves) = (0u64, 0u64);
+    for (i, r) in table.iter().enumerate() {
+        let bad = |what: String| {
+            Err((
+                Check::Chunks,
+                format!("chunk {i} (code {}): {what}", r.code),
+            ))
+        };
+        if r.code >= cells || (i > 0 && r.code <= table[i - 1].code) {
+            return bad(format!(
+                "codes must increase and stay below {cells} (the cells at level {level})"
+            ));
+        }
+        if r.nodes == 0 || r.nodes > MAX_LEAVES {
+            return bad(format!("{} nodes, not 1 to 2^31", r.nodes));
+        }
+        if r.leaves == 0 || r.leaves > MAX_LEAVES || r.leaves > 8 * r.nodes {
+            return bad(format!(
+                "{} leaves, not 1 to 2^31 and at most 8 for each of its {} nodes",
+                r.leaves, r.nodes
+            ));
+        }
+        nodes += r.nodes;
+        leaves += r.leaves;
+    }
+    if nodes != h.node_count || leaves != h.leaf_count {
+        return Err((
+            Check::Chunks,
+            format!(
+                "the chunks hold {nodes} nodes and {leaves} leaves, the header says {} and {}",
+                h.node_count, h.leaf_count
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Checks 19, 14 and 15 to 17 (each on every chunk) of a version-3 tree whose node array is
+/// its chunks' (`raw.nodes`), and returns its nodes in one canonical node array.
+fn unchunk(
+    raw: &Octree,
+    table: &[ChunkRecord],
+    level: u8,
+    h: &Header,
+) -> Result<Vec<Node>, (Check, String)> {
+    check_table(table, level, h)?;
+    // 14. The node words.
+    if let Some(i) = raw.nodes.iter().position(|n| n.info >> 8 != 0) {
+        return Err((
+            Check::NodeWords,
+            format!(
+                "node {i}: reserved info bits set ({:#x})",
+                raw.nodes[i].info
+            ),
+        ));
+    }
+    // 15 and 16 on every chunk, then 17 on every chunk.
+    let mut starts = Vec::with_capacity(table.len() + 1);
+    let mut at = 0usize;
+    for r in table {
+        starts.push(at);
+        at += r.nodes as usize;
+    }
+    starts.push(at);
+    let slice = |i: usize| &raw.nodes[starts[i]..starts[i + 1]];
+    let in_chunk = |i: usize| {
+        move |(check, detail): (Check, String)| {
+            (
+                check,
+                format!("chunk {i} (code {}): {detail}", table[i].code),
+            )
+        }
+    };
+    for i in 0..table.len() {
+        check_shape_and_node_order(slice(i), h.depth - level, false).map_err(in_chunk(i))?;
+    }
+    let mut leaf_bases = Vec::with_capacity(table.len());
+    let mut base = 0u64;
+    for (i, r) in table.iter().enumerate() {
+        check_leaf_order(slice(i), r.leaves).map_err(in_chunk(i))?;
+        leaf_bases.push(base);
+        base += r.leaves;
+    }
+    // One canonical node array: the levels above the chunks, each chunk's nodes moved.
+    let stubs: Vec<Stub> = table
+        .iter()
+        .map(|r| Stub {
+            code: r.code,
+            below: r.nodes - 1,
+        })
+        .collect();
+    let mut out = Vec::with_capacity(stitch::node_count(&stubs, level) as usize);
+    let overflow = || (Check::Chunks, "the tree's pointers overflow".to_string());
+    stitch::stitch(&stubs, level, &mut |piece| {
+        let mut put = |index: usize, from: usize, to: usize, at: u64| {
+            for &n in &slice(index)[from..to] {
+                out.push(moved(n, at as i64 - 1, leaf_bases[index] as i64).ok_or_else(overflow)?);
+            }
+            Ok(())
+        };
+        match piece {
+            Piece::Top(n) => {
+                out.push(n);
+                Ok(())
+            }
+            Piece::Root { index, at } => put(index, 0, 1, at),
+            Piece::Below { index, at } => put(index, 1, table[index].nodes as usize, at),
+        }
+    })?;
+    Ok(out)
 }
 
 /// What [`read_file_with_header`] read: the tree, the preamble and header, the stored
@@ -425,6 +623,110 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
         checksum,
         len,
     })
+}
+
+/// What [`check_chunks_file`] read of a version-3 file without loading its tree.
+#[derive(Debug)]
+pub(crate) struct ChunksRead {
+    pub preamble: Preamble,
+    pub table: Vec<ChunkRecord>,
+    pub checksum: u64,
+    pub len: u64,
+}
+
+/// Checks a version-3 file one chunk at a time, holding one chunk's nodes at a time: checks 1
+/// to 12, the padding before the node array (13), the chunk table (19), each chunk's node
+/// words, shape, node order and leaf order (14 to 17), and the checksum over every byte. The
+/// channel arrays are hashed, not read (check 18 and their padding are not made). A file that
+/// fails the checksum and another check fails at the checksum.
+pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> {
+    use std::io::Read;
+    let io = |cause| FormatError::Io {
+        path: path.display().to_string(),
+        cause,
+    };
+    let f = std::fs::File::open(path).map_err(io)?;
+    let len = f.metadata().map_err(io)?.len();
+    let mut r = std::io::BufReader::with_capacity(1 << 20, f);
+    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 8) as u64) as usize];
+    r.read_exact(&mut prefix).map_err(io)?;
+    let (version, hlen) = check_preamble(&prefix, len)?;
+    let mut src = Hashed {
+        inner: std::io::Cursor::new(prefix).chain(r),
+        hash: xxhash_rust::xxh3::Xxh3::new(),
+        at: 0,
+        body: len - 8,
+    };
+    let mut header = vec![0u8; PREAMBLE_LEN + hlen];
+    src.read_exact(&mut header).map_err(io)?;
+    let p = decode_header(&header[PREAMBLE_LEN..], version)?;
+    let gaps = check_layout(&p.header, (PREAMBLE_LEN + hlen) as u64, len)?;
+    let Some(c) = p.header.chunks else {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "a version-{version} file holds one tree, not chunks: read it whole (svo::io::read_file)"
+            ),
+        )));
+    };
+    let mut failure: Option<FormatError> = None;
+    let gap = |src: &mut Hashed<_>, (from, to): (u64, u64), failure: &mut Option<_>| {
+        let mut pad = [0u8; 8];
+        src.read_exact(&mut pad[..(to - from) as usize])
+            .map_err(io)?;
+        if failure.is_none() && pad.iter().any(|&b| b != 0) {
+            *failure = Some(corrupt(
+                Check::Padding,
+                format!("a padding byte in {from}..{to} is not zero"),
+            ));
+        }
+        Ok::<_, FormatError>(())
+    };
+    gap(&mut src, gaps[0], &mut failure)?;
+    let mut table = vec![ChunkRecord::default(); c.count as usize];
+    src.read_exact(bytemuck::cast_slice_mut(&mut table))
+        .map_err(io)?;
+    gap(&mut src, gaps[1], &mut failure)?;
+    if failure.is_none()
+        && let Err((check, detail)) = check_table(&table, c.level, &p.header)
+    {
+        failure = Some(corrupt(check, detail));
+    }
+    // Each chunk's nodes (the table is sound, so they fill the node array exactly).
+    let mut nodes: Vec<Node> = Vec::new();
+    for (i, rec) in table.iter().enumerate() {
+        if failure.is_some() {
+            break;
+        }
+        nodes.clear();
+        nodes.resize(rec.nodes as usize, Node::default());
+        src.read_exact(bytemuck::cast_slice_mut(&mut nodes))
+            .map_err(io)?;
+        let in_chunk = |(check, detail): (Check, String)| {
+            corrupt(check, format!("chunk {i} (code {}): {detail}", rec.code))
+        };
+        if let Some(j) = nodes.iter().position(|n| n.info >> 8 != 0) {
+            failure = Some(in_chunk((
+                Check::NodeWords,
+                format!("node {j}: reserved info bits set ({:#x})", nodes[j].info),
+            )));
+        } else if let Err(e) = check_shape_and_node_order(&nodes, p.header.depth - c.level, false)
+            .and_then(|()| check_leaf_order(&nodes, rec.leaves))
+        {
+            failure = Some(in_chunk(e));
+        }
+    }
+    src.skip_to(len - 8).map_err(io)?;
+    let checksum = src.checksum()?;
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(ChunksRead {
+            preamble: p,
+            table,
+            checksum,
+            len,
+        }),
+    }
 }
 
 /// A reader that hashes the bytes before `body` as they are read (the checksum's input).

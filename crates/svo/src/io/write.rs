@@ -2,10 +2,11 @@
 
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::{
-    ArrayRef, BuildInfo, ChannelEntry, Header, MAGIC, PREAMBLE_LEN, Storage, VERSION,
-    bincode_config,
+    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV3, MAGIC,
+    PREAMBLE_LEN, Storage, bincode_config,
 };
-use crate::octree::format_check::Check;
+use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL, PLAIN_VERSION};
+use crate::octree::stitch;
 use crate::octree::tree::{Node, Octree, StoredChannel};
 use crate::octree::validate::{InfoBits, check_tree};
 use std::io::Write;
@@ -66,13 +67,26 @@ pub enum FormatError {
         /// What is wrong, and where.
         detail: String,
     },
+    /// A version-3 file whose tree is larger than one tree in memory holds (2^31 leaves and
+    /// 2^31 nodes); refused before its node array is read.
+    #[error(
+        "the file's tree has {leaves} leaves and up to {nodes} nodes in {chunks} chunks: more than one tree in memory holds (2^31 leaves, 2^31 nodes); `svo-view --info` describes the file"
+    )]
+    TooLarge {
+        /// The tree's leaves.
+        leaves: u64,
+        /// Its nodes, the levels above the chunks counted at most.
+        nodes: u64,
+        /// Its chunks.
+        chunks: u64,
+    },
 }
 
 impl FormatError {
     /// The numbered check of `docs/format.md` that the file failed (`None` for an I/O error).
     pub fn check(&self) -> Option<Check> {
         match self {
-            Self::Io { .. } => None,
+            Self::Io { .. } | Self::TooLarge { .. } => None,
             Self::NotSvo => Some(Check::Magic),
             Self::NewerVersion { .. } => Some(Check::Version),
             Self::Checksum { .. } => Some(Check::Checksum),
@@ -105,12 +119,113 @@ impl Write for Hashing<'_> {
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
     // A tree a reader would refuse is not written (trees that svo builds pass). Bits 8-31
     // of the nodes are written as zeros whatever they hold.
-    check_tree(tree, VERSION, InfoBits::Cleared).map_err(|(check, detail)| {
+    let (channels, arrays) = checked_channels(tree)?;
+    let layout = Layout {
+        root_origin: tree.root.origin.to_array(),
+        root_side: tree.root.side,
+        depth: tree.depth,
+        node_count: tree.nodes.len() as u64,
+        leaf_count: u64::from(tree.leaf_count),
+        channels,
+        build,
+        chunks: None,
+    };
+    write_layout(&layout, w, &mut |i, out| {
+        if i == 0 {
+            write_nodes(&tree.nodes, out)
+        } else {
+            out.write_all(arrays[i - 1])
+        }
+    })
+}
+
+/// Streams an octree to `w` as a version-3 file, its subtrees under the nodes at `level`
+/// (`0..depth`, at most [`MAX_CHUNK_LEVEL`]) stored as chunks (`docs/format.md`, section 10), and returns the number of
+/// bytes written. Version 3 is what holds trees past 2^31 leaves or nodes; any tree can be
+/// written so, and reads back the same.
+///
+/// ```
+/// use glam::{DVec3, UVec3};
+/// use svo::io::{BuildInfo, from_bytes, write_chunked_to};
+/// use svo::{Octree, RootCube, Voxel};
+/// let root = RootCube { origin: DVec3::ZERO, side: 1.0 };
+/// let cells = [UVec3::ZERO, UVec3::new(7, 2, 5)].map(|c| (c, Voxel::glass()));
+/// let tree = Octree::from_cells(root, 3, cells)?;
+/// let mut bytes = Vec::new();
+/// write_chunked_to(&tree, &BuildInfo::new(), 1, &mut bytes)?; // two chunks at level 1
+/// assert_eq!(u32::from_le_bytes(bytes[8..12].try_into()?), 3);
+/// assert_eq!(from_bytes(&bytes)?.0, tree);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_chunked_to(
+    tree: &Octree,
+    build: &BuildInfo,
+    level: u8,
+    w: &mut dyn Write,
+) -> std::io::Result<u64> {
+    if level >= tree.depth || level > MAX_CHUNK_LEVEL {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "chunk level {level} is not above depth {} or past {MAX_CHUNK_LEVEL}",
+                tree.depth
+            ),
+        ));
+    }
+    let (channels, arrays) = checked_channels(tree)?;
+    let cuts = stitch::cut(tree, level);
+    let table: Vec<ChunkRecord> = cuts
+        .iter()
+        .map(|c| ChunkRecord {
+            code: c.code,
+            nodes: 1 + c.below.len() as u64,
+            leaves: c.leaves,
+        })
+        .collect();
+    let layout = Layout {
+        root_origin: tree.root.origin.to_array(),
+        root_side: tree.root.side,
+        depth: tree.depth,
+        node_count: table.iter().map(|r| r.nodes).sum(),
+        leaf_count: u64::from(tree.leaf_count),
+        channels,
+        build,
+        chunks: Some((level, table.len() as u64)),
+    };
+    write_layout(&layout, w, &mut |i, out| match i {
+        0 => out.write_all(bytemuck::cast_slice(&table)),
+        1 => {
+            let mut buf = Vec::with_capacity(4096);
+            for (c, r) in cuts.iter().zip(&table) {
+                for j in 0..r.nodes as usize {
+                    // A subtree of a checked tree numbers within 2^31.
+                    buf.push(c.local(tree, j).unwrap_or_default());
+                    if buf.len() == 4096 {
+                        out.write_all(bytemuck::cast_slice(&buf))?;
+                        buf.clear();
+                    }
+                }
+            }
+            out.write_all(bytemuck::cast_slice(&buf))
+        }
+        _ => out.write_all(arrays[i - 2]),
+    })
+}
+
+/// Checks a tree before it is written (a tree a reader would refuse is not written; trees
+/// that svo builds pass; bits 8-31 of the nodes are written as zeros whatever they hold) and
+/// returns its channels' storage and per-leaf arrays.
+#[allow(clippy::type_complexity)]
+fn checked_channels(tree: &Octree) -> std::io::Result<(Vec<(u8, Stored)>, Vec<&[u8]>)> {
+    check_tree(tree, PLAIN_VERSION, InfoBits::Cleared).map_err(|(check, detail)| {
         std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
             format!("{check}: {detail}"),
         )
     })?;
+    // Arrays are stored little-endian: on little-endian machines a plain copy.
+    #[cfg(target_endian = "big")]
+    compile_error!("svo's file writer assumes a little-endian target");
     let mut arrays: Vec<&[u8]> = Vec::new();
     let mut channels: Vec<(u8, Stored)> = Vec::new();
     for (kind, c) in tree.attributes.stored() {
@@ -122,25 +237,7 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
             }
         }
     }
-    let layout = Layout {
-        root_origin: tree.root.origin.to_array(),
-        root_side: tree.root.side,
-        depth: tree.depth,
-        node_count: tree.nodes.len() as u64,
-        leaf_count: u64::from(tree.leaf_count),
-        channels,
-        build,
-    };
-    write_layout(&layout, w, &mut |i, out| {
-        // Arrays are stored little-endian: on little-endian machines a plain copy.
-        #[cfg(target_endian = "big")]
-        compile_error!("svo's file writer assumes a little-endian target");
-        if i == 0 {
-            write_nodes(&tree.nodes, out)
-        } else {
-            out.write_all(arrays[i - 1])
-        }
-    })
+    Ok((channels, arrays))
 }
 
 /// How a channel is stored, before the arrays' offsets are known.
@@ -163,11 +260,15 @@ pub(crate) struct Layout<'a> {
     /// The channels present, in increasing kind.
     pub channels: Vec<(u8, Stored)>,
     pub build: &'a BuildInfo,
+    /// Version 3: the chunk level and the number of chunks (`node_count` is then the chunks'
+    /// nodes); `None` writes version 2.
+    pub chunks: Option<(u8, u64)>,
 }
 
 /// Writes a file of `layout` to `w` and returns the bytes written: the preamble and header,
-/// then each array from `fill(i, out)` (`i = 0` the node array, then the per-leaf channels
-/// in increasing kind), each padded to 8 bytes, then the checksum. `fill` must write exactly
+/// then each array from `fill(i, out)` (`i` counts them in file order: the chunk table in
+/// version 3, the node array, then the per-leaf channels in increasing kind), each padded to
+/// 8 bytes, then the checksum. `fill` must write exactly
 /// the array's length; anything else is an error, and so is a scene that fails
 /// [`SceneInfo::validate`](crate::mesh::SceneInfo::validate), refused before the first byte.
 pub(crate) fn write_layout(
@@ -178,7 +279,11 @@ pub(crate) fn write_layout(
     layout.build.scene.validate().map_err(|e| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("scene: {e}"))
     })?;
-    let mut lens = vec![layout.node_count.saturating_mul(8)];
+    let mut lens = Vec::new();
+    if let Some((_, count)) = layout.chunks {
+        lens.push(count.saturating_mul(size_of::<ChunkRecord>() as u64));
+    }
+    lens.push(layout.node_count.saturating_mul(8));
     let mut header = Header {
         root_origin: layout.root_origin,
         root_side: layout.root_side,
@@ -201,10 +306,18 @@ pub(crate) fn write_layout(
             })
             .collect(),
         build: layout.build.clone(),
+        chunks: layout.chunks.map(|(level, count)| Chunking {
+            level,
+            count,
+            table: ArrayRef::default(),
+        }),
     };
     let encode = |h: &Header| {
-        bincode::serde::encode_to_vec(h, bincode_config())
-            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+        match h.chunks {
+            None => bincode::serde::encode_to_vec(h, bincode_config()),
+            Some(c) => bincode::serde::encode_to_vec(HeaderV3::of(h, c), bincode_config()),
+        }
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
     };
     // Fixed-width integers: the header's size does not depend on the offsets in it.
     let hlen = encode(&header)?.len();
@@ -215,6 +328,9 @@ pub(crate) fn write_layout(
         offset = pad8(offset + len);
         r
     });
+    if let Some(c) = &mut header.chunks {
+        c.table = refs.next().unwrap_or_default();
+    }
     header.nodes = refs.next().unwrap_or_default();
     for e in &mut header.channels {
         if let Storage::PerLeaf(r) = &mut e.storage {
@@ -229,7 +345,12 @@ pub(crate) fn write_layout(
         len: 0,
     };
     out.write_all(&MAGIC)?;
-    out.write_all(&VERSION.to_le_bytes())?;
+    let version = if header.chunks.is_some() {
+        crate::octree::format_check::CURRENT_VERSION
+    } else {
+        PLAIN_VERSION
+    };
+    out.write_all(&version.to_le_bytes())?;
     out.write_all(&(hbytes.len() as u32).to_le_bytes())?;
     out.write_all(&hbytes)?;
     let zeros = [0u8; 8];

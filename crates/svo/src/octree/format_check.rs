@@ -1,12 +1,23 @@
-//! The numbered checks of a `.svo` file, in the order a reader applies them
-//! (`docs/format.md`, "What a reader checks"). Every [`crate::io::FormatError`] about a file's
+//! The numbered checks of a `.svo` file (`docs/format.md`, "What a reader checks"), applied
+//! in the order of their numbers except check 19 (version 3's chunk table), which comes
+//! between 13 and 14. Every [`crate::io::FormatError`] about a file's
 //! contents names the check that failed; the tree checks (14 to 18) are also what
 //! [`crate::Octree::validate`] runs on a tree in memory.
 
 use std::fmt;
 
-/// The format version this library writes (and the newest it reads).
-pub const CURRENT_VERSION: u32 = 2;
+/// The newest format version this library reads and writes: version 3 (a tree stored in
+/// chunks) is written when a tree needs it or when asked, version 2 otherwise.
+pub const CURRENT_VERSION: u32 = 3;
+
+/// The version of a file that holds one tree in one node array: what the writer makes of a
+/// tree unless chunks are asked for.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub const PLAIN_VERSION: u32 = 2;
+
+/// The deepest chunk level of a version-3 file: the chunks' Morton codes are 64-bit.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub const MAX_CHUNK_LEVEL: u8 = 21;
 
 /// One of the reader's checks of a `.svo` file, numbered as in `docs/format.md`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -16,7 +27,7 @@ pub enum Check {
     Magic,
     /// 2: the file holds at least the preamble and the checksum (24 bytes).
     Size,
-    /// 3: the version is 1 or 2 (a newer one is reported as such).
+    /// 3: the version is 1, 2 or 3 (a newer one is reported as such).
     Version,
     /// 4: the header length is at most 65,536 and the header ends before the checksum.
     HeaderLength,
@@ -24,11 +35,12 @@ pub enum Check {
     Checksum,
     /// 6: the header decodes in exactly its length.
     Header,
-    /// 7: the depth is 1 to 30.
+    /// 7: the depth is 1 to 30 (version 3: and the chunk level at most `depth - 1` and 21).
     Depth,
     /// 8: the root cube's origin is finite and its side finite and positive.
     RootCube,
-    /// 9: at least one node; at most 2^31 leaves and at most 8 per node.
+    /// 9: at least one node; at most 2^31 leaves and at most 8 per node (version 3: at most 8
+    /// leaves per node, no more chunks than nodes or than cells at the chunk level).
     Counts,
     /// 10: channel kinds known, increasing; constants that fit their element; a contour
     /// only with a normal.
@@ -51,11 +63,15 @@ pub enum Check {
     LeafOrder,
     /// 18: the stored values: normal words, contours, interior leaves.
     Values,
+    /// 19 (version 3, applied after 13 and before 14): the chunk table's codes increase and
+    /// lie on the grid of the chunk level; each chunk's node and leaf counts are possible and
+    /// they add up to the header's.
+    Chunks,
 }
 
 impl Check {
-    /// Every check, in the order a reader applies them.
-    pub const ALL: [Check; 18] = [
+    /// Every check, by number.
+    pub const ALL: [Check; 19] = [
         Self::Magic,
         Self::Size,
         Self::Version,
@@ -74,9 +90,10 @@ impl Check {
         Self::NodeOrder,
         Self::LeafOrder,
         Self::Values,
+        Self::Chunks,
     ];
 
-    /// The check's number in `docs/format.md` (1 to 18).
+    /// The check's number in `docs/format.md` (1 to 19).
     pub fn number(self) -> u8 {
         Self::ALL
             .iter()
@@ -105,6 +122,7 @@ impl Check {
             Self::NodeOrder => "node order",
             Self::LeafOrder => "leaf order",
             Self::Values => "values",
+            Self::Chunks => "chunks",
         }
     }
 
@@ -132,7 +150,7 @@ mod tests {
             assert_eq!(Check::from_number(c.number()), Some(*c));
         }
         assert_eq!(Check::from_number(0), None);
-        assert_eq!(Check::from_number(19), None);
+        assert_eq!(Check::from_number(20), None);
         assert_eq!(Check::Checksum.to_string(), "check 5 (checksum)");
         let names: std::collections::BTreeSet<_> = Check::ALL.iter().map(|c| c.name()).collect();
         assert_eq!(names.len(), Check::ALL.len());

@@ -16,6 +16,8 @@ pub(crate) mod format_check;
 pub(crate) mod layout;
 pub(crate) mod normal_encoding;
 pub(crate) mod query;
+#[cfg(feature = "io")]
+pub(crate) mod stitch;
 pub(crate) mod tree;
 pub(crate) mod validate;
 

@@ -12,7 +12,7 @@
 use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Octree};
+use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Node, Octree};
 use glam::DVec3;
 
 /// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
@@ -111,7 +111,7 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
             }
         }
     }
-    check_shape_and_node_order(t)?;
+    check_shape_and_node_order(&t.nodes, t.depth, true)?;
     if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
         // The shape is sound, so each node's bounds are known.
         let mut derived = t.nodes.clone();
@@ -129,23 +129,28 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
             }
         }
     }
-    check_leaf_order(t)?;
+    check_leaf_order(&t.nodes, leaves)?;
     check_values(t, version)
 }
 
-/// Checks 15 and 16: walks the nodes in the canonical placement order (a node's children
-/// block, then the children's subtrees from the last child to the first), and requires each
-/// block where the next free index is.
-fn check_shape_and_node_order(t: &Octree) -> Result<(), Failure> {
-    let n = t.nodes.len();
+/// Checks 15 and 16 on the node array of a tree of `depth` levels: walks the nodes in the
+/// canonical placement order (a node's children block, then the children's subtrees from the
+/// last child to the first), and requires each block where the next free index is. Only the
+/// root may have no children, and only if `empty_root` (a version-3 chunk's may not).
+pub(crate) fn check_shape_and_node_order(
+    nodes: &[Node],
+    depth: u8,
+    empty_root: bool,
+) -> Result<(), Failure> {
+    let n = nodes.len();
     let mut next = 1usize;
     let mut stack: Vec<(usize, u8)> = vec![(0, 0)];
     while let Some((i, level)) = stack.pop() {
-        let node = t.nodes[i];
+        let node = nodes[i];
         let mask = node.child_mask();
         let k = mask.count_ones() as usize;
         if mask == 0 {
-            if i != 0 {
+            if i != 0 || !empty_root {
                 return Err((Check::TreeShape, format!("node {i} has no children")));
             }
             if node.first != 0 {
@@ -156,7 +161,7 @@ fn check_shape_and_node_order(t: &Octree) -> Result<(), Failure> {
             }
             continue;
         }
-        let leaf_level = level + 1 == t.depth;
+        let leaf_level = level + 1 == depth;
         if leaf_level != node.is_leaf_parent() {
             return Err((
                 Check::TreeShape,
@@ -193,13 +198,13 @@ fn check_shape_and_node_order(t: &Octree) -> Result<(), Failure> {
 }
 
 /// Check 17: the leaf parents, visited depth-first in child order, number their leaves from 0
-/// without gaps, and their total is the leaf count. (Runs after check 16, so the walk is a
+/// without gaps, and their total is `leaf_count`. (Runs after check 16, so the walk is a
 /// tree.)
-fn check_leaf_order(t: &Octree) -> Result<(), Failure> {
+pub(crate) fn check_leaf_order(nodes: &[Node], leaf_count: u64) -> Result<(), Failure> {
     let mut next = 0u64;
     let mut stack = vec![0usize];
     while let Some(i) = stack.pop() {
-        let node = t.nodes[i];
+        let node = nodes[i];
         let k = node.child_mask().count_ones();
         if let Some(base) = node.leaf_base() {
             if u64::from(base) != next {
@@ -216,13 +221,10 @@ fn check_leaf_order(t: &Octree) -> Result<(), Failure> {
             stack.extend((first..first + k as usize).rev());
         }
     }
-    if next != u64::from(t.leaf_count) {
+    if next != leaf_count {
         return Err((
             Check::LeafOrder,
-            format!(
-                "the tree refers to {next} leaves, the count says {}",
-                t.leaf_count
-            ),
+            format!("the tree refers to {next} leaves, the count says {leaf_count}"),
         ));
     }
     Ok(())
@@ -231,7 +233,7 @@ fn check_leaf_order(t: &Octree) -> Result<(), Failure> {
 /// Check 18: normal words (a half `0x8000` only in the interior-leaf word, and that only from
 /// version 2), contours (near plane not beyond the far one; the whole cell for interior
 /// leaves). Constants are stored values too, whatever the leaf count.
-fn check_values(t: &Octree, version: u32) -> Result<(), Failure> {
+pub(crate) fn check_values(t: &Octree, version: u32) -> Result<(), Failure> {
     let a = &t.attributes;
     let bad_normal =
         |w: u32| ((w & 0xFFFF) == 0x8000 || (w >> 16) == 0x8000) && (w != NO_NORMAL || version < 2);
