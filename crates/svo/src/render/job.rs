@@ -4,6 +4,7 @@
 //! [`RenderReport`].
 
 use crate::import::load_mesh;
+use crate::io::chunked::ChunkedFile;
 use crate::io::read::read_file;
 use crate::io::write::FormatError;
 use crate::mesh::scene_info::SceneInfo;
@@ -12,6 +13,7 @@ use crate::mesh::triangle_mesh::Texture;
 use crate::octree::tree::Octree;
 use crate::render::aov::{self, Aov};
 use crate::render::camera::{Camera, CameraError};
+use crate::render::chunked_surfaces::{ChunkTree, ChunkedSurfaces};
 use crate::render::exact_surfaces::exact_surfaces;
 use crate::render::frame::{Frame, RenderStats, render_timed};
 use crate::render::image_compare::{self, ImageDiff};
@@ -176,7 +178,7 @@ pub struct RenderReport {
     /// Tree depth.
     pub depth: u8,
     /// Leaves.
-    pub leaves: u32,
+    pub leaves: u64,
     /// Hit mode name.
     pub hit: &'static str,
     /// Threads used.
@@ -348,15 +350,35 @@ pub fn scene_with(
     stored: &SceneInfo,
     job: &RenderJob,
 ) -> Result<JobScene, RenderJobError> {
-    if tree.depth > MAX_TRACE_DEPTH {
+    let (lo, hi) = tree.occupied_bounds();
+    let (camera, lights, sky, views) = scene_around(tree.depth, lo, hi, stored, job)?;
+    Ok(JobScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong: Phong::default(),
+        views,
+    })
+}
+
+/// The camera, lights, sky and stored views of [`scene_with`] for a tree of `depth` whose
+/// leaves lie in `lo..hi`.
+#[allow(clippy::type_complexity)]
+fn scene_around(
+    depth: u8,
+    lo: DVec3,
+    hi: DVec3,
+    stored: &SceneInfo,
+    job: &RenderJob,
+) -> Result<(Camera, Vec<PointLight>, Sky, Vec<(String, Camera)>), RenderJobError> {
+    if depth > MAX_TRACE_DEPTH {
         return Err(RenderJobError::Invalid(format!(
-            "the tree has depth {}, and the tracer works in 32-bit floats, which resolve cells \
-             only up to depth {MAX_TRACE_DEPTH} (docs/stability.md); bake at depth \
-             {MAX_TRACE_DEPTH} or less to render",
-            tree.depth
+            "the tree has depth {depth}, and the tracer works in 32-bit floats, which resolve \
+             cells only up to depth {MAX_TRACE_DEPTH} (docs/stability.md); bake at depth \
+             {MAX_TRACE_DEPTH} or less to render"
         )));
     }
-    let (lo, hi) = tree.occupied_bounds();
     let framing = Camera::framing(lo, hi, job.width, job.height, job.fov_deg);
     // A stored view at the job's image size.
     let as_camera = |v: &crate::mesh::scene_info::StoredCamera| Camera {
@@ -438,14 +460,7 @@ pub fn scene_with(
         .iter()
         .map(|v| (v.name.clone(), as_camera(v)))
         .collect();
-    Ok(JobScene {
-        tree,
-        camera,
-        lights,
-        sky,
-        phong: Phong::default(),
-        views,
-    })
+    Ok((camera, lights, sky, views))
 }
 
 fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
@@ -456,7 +471,12 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         sky,
         phong,
         ..
-    } = prepare(job)?;
+    } = match prepare(job) {
+        Err(RenderJobError::Format(FormatError::TooLarge { .. })) => {
+            return run_chunked(job, threads);
+        }
+        r => r?,
+    };
     let exact_mesh = if job.trace.mode == HitMode::Exact {
         let path = job
             .mesh
@@ -506,7 +526,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
             width: camera.width,
             height: camera.height,
             depth: tree.depth,
-            leaves: tree.leaf_count,
+            leaves: u64::from(tree.leaf_count),
             hit: job.trace.mode.name(),
             threads,
             timing: FrameTiming::new(&times, &stats),
@@ -595,7 +615,7 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         width: camera.width,
         height: camera.height,
         depth: tree.depth,
-        leaves: tree.leaf_count,
+        leaves: u64::from(tree.leaf_count),
         hit: if job.reference.is_some() && !job.compare {
             "triangles"
         } else {
@@ -609,6 +629,72 @@ fn run_inner(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobE
         compare,
         camera: CameraReport::of(&camera),
     })
+}
+
+/// [`render_file`] for a version-3 file past what one tree in memory holds: every chunk read
+/// as a tree of its own (all in memory at once) and traced through [`ChunkedSurfaces`]. The
+/// comparisons with the mesh and the exact hit mode are refused.
+fn run_chunked(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJobError> {
+    if job.reference.is_some() || job.mesh.is_some() || job.trace.mode == HitMode::Exact {
+        return Err(RenderJobError::Invalid(
+            "a tree stored in chunks past 2^31 leaves renders in the cube and contour hit \
+             modes, without --reference or --mesh"
+                .into(),
+        ));
+    }
+    let file = ChunkedFile::open(&job.input)?;
+    let chunks = (0..file.len())
+        .map(|i| {
+            Ok(ChunkTree {
+                cell: file.chunk_cell(i),
+                first_leaf: file.chunk_leaves(i).1,
+                tree: file.read_chunk(i)?,
+            })
+        })
+        .collect::<Result<Vec<_>, RenderJobError>>()?;
+    let (lo, hi) = chunks
+        .iter()
+        .map(|c| c.tree.occupied_bounds())
+        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+        .unwrap_or((file.root().origin, file.root().origin));
+    let (camera, lights, sky, _) = scene_around(file.depth(), lo, hi, &file.build().scene, job)?;
+    let s = ChunkedSurfaces::new(
+        file.root(),
+        file.depth(),
+        file.level(),
+        &chunks,
+        job.trace.mode,
+    )
+    .map_err(RenderJobError::Invalid)?;
+    let tracer = Tracer::new(s, &lights, sky, Phong::default(), job.trace);
+    let report = |stats: RenderStats, times: &[f64], cost_scale, output| RenderReport {
+        width: camera.width,
+        height: camera.height,
+        depth: file.depth(),
+        leaves: file.leaf_count(),
+        hit: job.trace.mode.name(),
+        threads,
+        timing: FrameTiming::new(times, &stats),
+        stats,
+        cost_scale,
+        output,
+        compare: None,
+        camera: CameraReport::of(&camera),
+    };
+    if job.cast {
+        let (stats, times) = cast_timed(&tracer, &camera, job.bench_frames)?;
+        return Ok(report(stats, &times, 1, None));
+    }
+    let (frame, times) = render_timed(&tracer, &camera, job.bench_frames)?;
+    let cost_scale = frame.stats.max_primary_steps.max(1);
+    let output = match &job.output {
+        Some(out) => {
+            write_output(&frame, job.aov, out, cost_scale)?;
+            Some(out.display().to_string())
+        }
+        None => None,
+    };
+    Ok(report(frame.stats, &times, cost_scale, output))
 }
 
 impl CameraReport {
@@ -767,5 +853,73 @@ pub fn write_output(
         Aov::Normal => write_png(out, w, h, &aov::normal_rgb8(f)),
         Aov::Leaf => write_png(out, w, h, &aov::leaf_rgb8(f)),
         Aov::Cost => write_png(out, w, h, &aov::cost_rgb8(f, cost_scale)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::xorshift;
+    use glam::UVec3;
+
+    /// The path for files past one tree in memory (every chunk a tree of its own) writes the
+    /// image that reading the same version-3 file whole writes, byte for byte, and reports the
+    /// same rays; the comparisons with a mesh are refused there in one line.
+    #[test]
+    fn a_file_in_chunks_renders_the_image_of_the_whole_tree() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut rnd = xorshift(0x7e4d);
+        let root = crate::geometry::grid::RootCube {
+            origin: DVec3::new(0.0, -1.0, 2.0),
+            side: 3.0,
+        };
+        let cells: Vec<_> = (0..2000)
+            .map(|_| {
+                let c = UVec3::new(
+                    (rnd() % 64) as u32,
+                    (rnd() % 16) as u32,
+                    (rnd() % 64) as u32,
+                );
+                let t = (rnd() % 100) as f32 / 100.0;
+                let v = crate::Voxel {
+                    colour: [t, 0.4, 1.0 - t, 1.0],
+                    reflectivity: if t > 0.7 { 0.6 } else { 0.0 },
+                    normal: Some(Vec3::new(0.2, 1.0, t - 0.5)),
+                    ..crate::Voxel::default()
+                };
+                (c, v)
+            })
+            .collect();
+        let tree = Octree::from_cells(root, 6, cells).unwrap();
+        let input = dir.path().join("c.svo");
+        let mut bytes = Vec::new();
+        crate::io::write_chunked_to(&tree, &crate::io::BuildInfo::new(), 3, &mut bytes).unwrap();
+        std::fs::write(&input, bytes).unwrap();
+        let job = |name: &str| RenderJob {
+            input: input.clone(),
+            output: Some(dir.path().join(name)),
+            width: 80,
+            height: 60,
+            threads: Some(2),
+            ..RenderJob::default()
+        };
+        let whole = render_file(&job("whole.png")).unwrap();
+        let chunked = with_threads(Some(2), |threads| run_chunked(&job("chunks.png"), threads))
+            .unwrap()
+            .unwrap();
+        assert!(whole.stats.primary_hits > 500, "{:?}", whole.stats);
+        assert_eq!(chunked.stats.primary_hits, whole.stats.primary_hits);
+        assert_eq!(chunked.leaves, whole.leaves);
+        let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+        assert!(read("whole.png") == read("chunks.png"));
+        let e = run_chunked(
+            &RenderJob {
+                reference: Some(input.clone()),
+                ..job("no.png")
+            },
+            1,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("without --reference"), "{e}");
     }
 }

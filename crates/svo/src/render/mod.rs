@@ -31,6 +31,7 @@
 
 pub(crate) mod aov;
 pub(crate) mod camera;
+pub(crate) mod chunked_surfaces;
 pub(crate) mod exact_surfaces;
 pub(crate) mod frame;
 pub(crate) mod image_compare;
@@ -49,6 +50,7 @@ pub(crate) mod whitted;
 
 pub use aov::{Aov, colour_rgb8, cost_rgb8};
 pub use camera::{Camera, CameraError, CameraRays};
+pub use chunked_surfaces::{ChunkTree, ChunkedSurfaces};
 pub use exact_surfaces::{ExactLeaves, ExactSurfaces, exact_surfaces};
 pub use frame::{Frame, NO_LEAF, RenderStats, render, render_timed};
 pub use image_compare::{ImageDiff, compare};
