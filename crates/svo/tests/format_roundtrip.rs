@@ -493,4 +493,14 @@ fn chunked_files_read_chunk_by_chunk() {
         e.check().is_some() && e.to_string().contains("chunk "),
         "{e}"
     );
+    // A header that fails a check in a file whose checksum fails too: the checksum's error.
+    let mut b = chunked(&small_tree(), 1);
+    b[16 + 32] = 0;
+    std::fs::write(&path, &b).unwrap();
+    let e = ChunkedFile::open(&path).unwrap_err();
+    assert!(matches!(e, FormatError::Checksum { .. }), "{e}");
+    rechecksum(&mut b);
+    std::fs::write(&path, &b).unwrap();
+    let e = ChunkedFile::open(&path).unwrap_err();
+    assert_eq!(e.check(), Some(svo::io::Check::Depth), "{e}");
 }

@@ -53,25 +53,11 @@ fn describe_read(tree: &Octree, p: &Preamble, checksum: u64, len: u64) -> String
 fn describe_chunks(r: &ChunksRead) -> String {
     let h = &r.preamble.header;
     let mut out = describe_header(&r.preamble, r.checksum);
-    let b = &h.build;
-    let o = h.root_origin;
-    let _ = writeln!(
-        out,
-        "generator      {} (strategy {}, {} source triangles)",
-        b.generator, b.strategy, b.source_triangles
-    );
-    let _ = writeln!(
-        out,
-        "root           origin ({}, {}, {}), side {}",
-        o[0], o[1], o[2], h.root_side
-    );
-    let _ = writeln!(
-        out,
-        "depth          {} (grid {}^3, cell {:.6e})",
-        h.depth,
-        1u64 << h.depth,
-        h.root_side / (1u64 << h.depth) as f64
-    );
+    let root = crate::geometry::grid::RootCube {
+        origin: glam::DVec3::from_array(h.root_origin),
+        side: h.root_side,
+    };
+    describe_root(&mut out, &h.build, root, h.depth);
     let _ = writeln!(
         out,
         "nodes          {} in the chunks (the levels above them are not stored)",
@@ -150,9 +136,14 @@ fn describe_header(p: &Preamble, checksum: u64) -> String {
     out
 }
 
-/// The tree's part of [`describe`]: root, depth, counts per level, channels, sizes.
-fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, file_bytes: u64) {
-    let o = tree.root.origin;
+/// The generator, root cube and depth lines of [`describe`].
+fn describe_root(
+    out: &mut String,
+    build: &crate::io::BuildInfo,
+    root: crate::geometry::grid::RootCube,
+    depth: u8,
+) {
+    let o = root.origin;
     let _ = writeln!(
         out,
         "generator      {} (strategy {}, {} source triangles)",
@@ -161,15 +152,19 @@ fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, 
     let _ = writeln!(
         out,
         "root           origin ({}, {}, {}), side {}",
-        o.x, o.y, o.z, tree.root.side
+        o.x, o.y, o.z, root.side
     );
     let _ = writeln!(
         out,
-        "depth          {} (grid {}^3, cell {:.6e})",
-        tree.depth,
-        1u64 << tree.depth,
-        tree.root.cell_size(tree.depth)
+        "depth          {depth} (grid {}^3, cell {:.6e})",
+        1u64 << depth,
+        root.cell_size(depth)
     );
+}
+
+/// The tree's part of [`describe`]: root, depth, counts per level, channels, sizes.
+fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, file_bytes: u64) {
+    describe_root(out, build, tree.root, tree.depth);
     let _ = writeln!(out, "nodes          {}", tree.nodes.len());
     let _ = writeln!(out, "leaves         {}", tree.leaf_count);
     if let Channel::PerLeaf(v) = &tree.attributes.normal {

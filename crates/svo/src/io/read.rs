@@ -559,32 +559,7 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
         path: "<reader>".into(),
         cause,
     };
-    // The preamble and the header (at most their largest size, and never past the end).
-    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 8) as u64) as usize];
-    let mut r = r;
-    r.read_exact(&mut prefix).map_err(io)?;
-    let (version, hlen) = check_preamble(&prefix, len)?;
-    // From here every byte before the checksum is hashed as it is consumed, from the start.
-    let mut src = Hashed {
-        inner: std::io::Cursor::new(prefix).chain(r),
-        hash: xxhash_rust::xxh3::Xxh3::new(),
-        at: 0,
-        body: len - 8,
-    };
-    let mut header = vec![0u8; PREAMBLE_LEN + hlen];
-    src.read_exact(&mut header).map_err(io)?;
-    let parsed = decode_header(&header[PREAMBLE_LEN..], version).and_then(|p| {
-        check_layout(&p.header, (PREAMBLE_LEN + hlen) as u64, len).map(|gaps| (p, gaps))
-    });
-    let (p, gaps) = match parsed {
-        Ok(v) => v,
-        // A file that fails both the checksum and a later check fails at the checksum.
-        Err(e) => {
-            src.skip_to(len - 8).map_err(io)?;
-            src.checksum()?;
-            return Err(e);
-        }
-    };
+    let (mut src, p, gaps) = open_stream(r, len)?;
     let mut padding: Option<(u64, u64)> = None;
     let mut gaps = gaps.into_iter();
     let tree = arrays_into_tree(&p.header, &mut |r, dst| {
@@ -647,20 +622,12 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
     };
     let f = std::fs::File::open(path).map_err(io)?;
     let len = f.metadata().map_err(io)?.len();
-    let mut r = std::io::BufReader::with_capacity(1 << 20, f);
-    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 8) as u64) as usize];
-    r.read_exact(&mut prefix).map_err(io)?;
-    let (version, hlen) = check_preamble(&prefix, len)?;
-    let mut src = Hashed {
-        inner: std::io::Cursor::new(prefix).chain(r),
-        hash: xxhash_rust::xxh3::Xxh3::new(),
-        at: 0,
-        body: len - 8,
-    };
-    let mut header = vec![0u8; PREAMBLE_LEN + hlen];
-    src.read_exact(&mut header).map_err(io)?;
-    let p = decode_header(&header[PREAMBLE_LEN..], version)?;
-    let gaps = check_layout(&p.header, (PREAMBLE_LEN + hlen) as u64, len)?;
+    let (mut src, p, gaps) = open_stream(std::io::BufReader::with_capacity(1 << 20, f), len)
+        .map_err(|e| match e {
+            FormatError::Io { cause, .. } => io(cause),
+            e => e,
+        })?;
+    let version = p.version;
     let Some(c) = p.header.chunks else {
         return Err(io(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
@@ -726,6 +693,47 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
             checksum,
             len,
         }),
+    }
+}
+
+/// A file of `len` bytes in `r`, read up to its arrays: checks 1 to 4 on its first bytes, and
+/// from there every byte hashed as it passes; then checks 6 to 12 on its header, of which a
+/// file that also fails the checksum fails at the checksum (read to its end for that).
+/// Returns the reader at the end of the header, the preamble, and the padding gaps.
+#[allow(clippy::type_complexity)]
+fn open_stream<R: std::io::Read>(
+    mut r: R,
+    len: u64,
+) -> Result<(Hashed<impl std::io::Read>, Preamble, Vec<(u64, u64)>), FormatError> {
+    use std::io::Read;
+    let io = |cause| FormatError::Io {
+        path: "<reader>".into(),
+        cause,
+    };
+    // The preamble and the header (at most their largest size, and never past the end).
+    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 8) as u64) as usize];
+    r.read_exact(&mut prefix).map_err(io)?;
+    let (version, hlen) = check_preamble(&prefix, len)?;
+    // From here every byte before the checksum is hashed as it is consumed, from the start.
+    let mut src = Hashed {
+        inner: std::io::Cursor::new(prefix).chain(r),
+        hash: xxhash_rust::xxh3::Xxh3::new(),
+        at: 0,
+        body: len - 8,
+    };
+    let mut header = vec![0u8; PREAMBLE_LEN + hlen];
+    src.read_exact(&mut header).map_err(io)?;
+    let parsed = decode_header(&header[PREAMBLE_LEN..], version).and_then(|p| {
+        check_layout(&p.header, (PREAMBLE_LEN + hlen) as u64, len).map(|gaps| (p, gaps))
+    });
+    match parsed {
+        Ok((p, gaps)) => Ok((src, p, gaps)),
+        // A file that fails both the checksum and a later check fails at the checksum.
+        Err(e) => {
+            src.skip_to(len - 8).map_err(io)?;
+            src.checksum()?;
+            Err(e)
+        }
     }
 }
 
