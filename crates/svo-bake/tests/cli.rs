@@ -301,11 +301,15 @@ fn bad_input_gives_one_clear_line_and_no_output() {
     let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     fails(&[s(&tri), "--depth", "0", "-o", o], "depth 0");
     fails(&[s(&tri), "--depth", "31", "-o", o], "depth 31");
-    // Past the memory a bake to .svo goes into parts, which need the disk; other outputs
-    // are refused at the memory estimate.
-    fails(&[s(&tri), "--depth", "24", "-o", o], "GB on disk");
+    // Past the memory a bake to .svo goes into parts, which are refused at their number or
+    // the disk they need; other outputs are refused at the memory estimate.
+    fails(&[s(&tri), "--depth", "24", "-o", o], "lower --depth");
     let binvox = d.path().join("out.binvox");
     fails(&[s(&tri), "--depth", "24", "-o", s(&binvox)], "--force");
+    fails(
+        &[s(&tri), "--depth", "24", "--force", "-o", s(&binvox)],
+        "more than one tree in memory holds",
+    );
     fails(
         &[s(&tri), "-o", s(&d.path().join("no/such/dir/x.svo"))],
         "does not exist",
@@ -668,6 +672,10 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     let o = s(&out);
     fails(
         &[s(&torus), "--depth", "24", "--memory", "8GiB", "-o", o],
+        "more than 65536 parts of 2^30 leaves",
+    );
+    fails(
+        &[s(&torus), "--depth", "18", "--memory", "8GiB", "-o", o],
         "GB on disk",
     );
     fails(

@@ -38,6 +38,10 @@ struct Args {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some(svo_bench::parts_tables::CHILD_ARG) {
+        std::process::exit(svo_bench::parts_tables::child_main(&args[2..]));
+    }
     let a = Args::parse();
     let opts = svo_bench::Options {
         quick: a.quick,

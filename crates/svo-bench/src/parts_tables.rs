@@ -1,7 +1,9 @@
 //! Bakes in parts against the bake in memory: the whole `svo-bake` job (load, bake, write)
 //! on real meshes at deep levels, once in memory where it fits and once within a memory
-//! budget in parts (`BakeJob::memory`), with the time a leaf, the peak heap beside the
-//! budget, the spread of the parts' times, and whether the two files are the same bytes.
+//! budget in parts (`BakeJob::memory`), with the time a leaf, the peak resident set and the
+//! peak heap beside the budget, the spread of the parts' times, and whether the two files are
+//! the same bytes. Each bake runs in a child process of its own (this binary again, with
+//! [`CHILD_ARG`]), so that the resident set's high-water mark is the bake's alone.
 
 use crate::peak_memory;
 use crate::report::{Report, f, ms};
@@ -24,6 +26,8 @@ pub struct PartsRow {
     pub seconds: f64,
     /// Peak heap beyond what was live before, bytes.
     pub peak: Option<u64>,
+    /// The child process's peak resident set (Linux `VmHWM`), bytes.
+    pub resident: Option<u64>,
     /// Parts and their level.
     pub parts: Option<(u32, u8)>,
     /// The parts' times, seconds (min, median, max).
@@ -72,48 +76,36 @@ pub fn measure(
             } else {
                 whole.clone()
             };
-            let job = BakeJob {
-                input: mesh.to_path_buf(),
-                output: out.clone(),
-                options: BakeOptions {
-                    depth,
-                    ..BakeOptions::default()
-                },
-                threads: None,
-                given: GivenOptions {
-                    depth: true,
-                    solid: false,
-                },
-                memory,
-            };
-            let t = Instant::now();
-            let (res, peak) = peak_memory::measure(|| bake_file(&job));
-            let seconds = t.elapsed().as_secs_f64();
             let mut row = PartsRow {
                 mesh: name.to_string(),
                 depth,
                 budget: memory,
                 leaves: 0,
-                seconds,
-                peak,
+                seconds: 0.0,
+                peak: None,
+                resident: None,
                 parts: None,
                 spread: None,
                 merge: None,
                 same: None,
                 error: None,
             };
-            match res {
-                Ok(rep) => {
-                    row.leaves = rep.leaves;
-                    if let Some(p) = &rep.parts {
-                        let mut t = p.part_seconds.clone();
+            match run_child(mesh, &out, depth, memory) {
+                Ok(c) => {
+                    let num = |k: &str| c.get(k).and_then(|v| v.first()).copied();
+                    row.seconds = num("seconds").unwrap_or(0.0);
+                    row.leaves = num("leaves").unwrap_or(0.0) as usize;
+                    row.peak = num("peak_heap").map(|v| v as u64);
+                    row.resident = num("peak_resident").map(|v| v as u64);
+                    if let (Some(n), Some(l)) = (num("parts"), num("level")) {
+                        row.parts = Some((n as u32, l as u8));
+                        let mut t = c.get("part_seconds").cloned().unwrap_or_default();
                         t.sort_by(f64::total_cmp);
-                        row.parts = Some((p.parts, p.level));
                         row.spread = t
                             .first()
                             .zip(t.last())
                             .map(|(&lo, &hi)| (lo, t[t.len() / 2], hi));
-                        row.merge = Some(p.merge.seconds);
+                        row.merge = num("merge_seconds");
                     }
                     if memory.is_none() {
                         whole_hash = hash(&out);
@@ -121,7 +113,7 @@ pub fn measure(
                         row.same = Some(hash(&out) == whole_hash);
                     }
                 }
-                Err(e) => row.error = Some(format!("{e:#}")),
+                Err(e) => row.error = Some(e),
             }
             if memory.is_some() {
                 let _ = std::fs::remove_file(&out);
@@ -133,15 +125,116 @@ pub fn measure(
     rows
 }
 
+/// The argument that makes the benchmark binary run one bake as a child process:
+/// `CHILD_ARG MESH OUTPUT DEPTH BUDGET` (budget in bytes, 0 for the bake in memory).
+pub const CHILD_ARG: &str = "--parts-bake-child";
+
+/// Runs one bake in a child process (this binary with [`CHILD_ARG`]) and returns what it
+/// printed: one line of `key=value[,value...]` pairs.
+fn run_child(
+    mesh: &Path,
+    out: &Path,
+    depth: u8,
+    memory: Option<u64>,
+) -> Result<std::collections::BTreeMap<String, Vec<f64>>, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let o = std::process::Command::new(exe)
+        .arg(CHILD_ARG)
+        .arg(mesh)
+        .arg(out)
+        .arg(depth.to_string())
+        .arg(memory.unwrap_or(0).to_string())
+        .output()
+        .map_err(|e| e.to_string())?;
+    let text = String::from_utf8_lossy(&o.stdout);
+    if !o.status.success() {
+        return Err(format!(
+            "{}{}",
+            text.trim(),
+            String::from_utf8_lossy(&o.stderr).trim()
+        ));
+    }
+    let line = text.lines().last().unwrap_or_default();
+    Ok(line
+        .split_whitespace()
+        .filter_map(|kv| kv.split_once('='))
+        .map(|(k, v)| {
+            let values = v.split(',').filter_map(|x| x.parse().ok()).collect();
+            (k.to_string(), values)
+        })
+        .collect())
+}
+
+/// The child's work ([`CHILD_ARG`]'s arguments after it): bakes, and prints on one line
+/// the job's seconds, leaves, parts, level, each part's seconds, the merge's seconds, the
+/// peak heap beyond what was live before the job and the process's peak resident set.
+/// Returns the exit code.
+pub fn child_main(args: &[String]) -> i32 {
+    let (Some(mesh), Some(out), Some(depth), Some(budget)) = (
+        args.first(),
+        args.get(1),
+        args.get(2).and_then(|d| d.parse::<u8>().ok()),
+        args.get(3).and_then(|b| b.parse::<u64>().ok()),
+    ) else {
+        eprintln!("{CHILD_ARG} MESH OUTPUT DEPTH BUDGET");
+        return 2;
+    };
+    let job = BakeJob {
+        input: mesh.into(),
+        output: out.into(),
+        options: BakeOptions {
+            depth,
+            ..BakeOptions::default()
+        },
+        threads: None,
+        given: GivenOptions {
+            depth: true,
+            solid: false,
+        },
+        memory: (budget > 0).then_some(budget),
+    };
+    let t = Instant::now();
+    let (res, peak) = peak_memory::measure(|| bake_file(&job));
+    let seconds = t.elapsed().as_secs_f64();
+    match res {
+        Ok(rep) => {
+            let mut line = format!("seconds={seconds} leaves={}", rep.leaves);
+            if let Some(p) = &rep.parts {
+                let times: Vec<String> = p.part_seconds.iter().map(f64::to_string).collect();
+                line += &format!(
+                    " parts={} level={} part_seconds={} merge_seconds={}",
+                    p.parts,
+                    p.level,
+                    times.join(","),
+                    p.merge.seconds
+                );
+            }
+            if let Some(p) = peak {
+                line += &format!(" peak_heap={p}");
+            }
+            if let Some(r) = svo::bake::peak_resident() {
+                line += &format!(" peak_resident={r}");
+            }
+            println!("{line}");
+            0
+        }
+        Err(e) => {
+            println!("{e:#}");
+            1
+        }
+    }
+}
+
 /// The section's table.
 pub fn write(r: &mut Report, rows: &[PartsRow]) {
     r.para(
         "The whole `svo-bake` job (`bake_file`: load, bake, write the `.svo`) on all threads, \
          once each: in memory, and within a memory budget in parts (`--memory`: each part \
-         baked into a file beside the output, then merged; `docs/bake-in-parts.md`). Peak heap \
-         is the most bytes live at once beyond those live before the job (the process's \
-         resident set is a little more); ns a leaf is the job's wall time over its leaves. \
-         Where both ran, the two files were compared byte for byte.",
+         baked into a file beside the output, then merged; `docs/bake-in-parts.md`), each in a \
+         process of its own. Peak resident is that process's resident-set high-water mark \
+         (Linux `VmHWM`: the mesh, the bake, the allocator's cached pages, code); peak heap is \
+         the most bytes live at once beyond those live before the job; ns a leaf is the job's \
+         wall time over its leaves. Where both ran, the two files were compared byte for byte.",
     );
     let header = [
         "mesh",
@@ -150,6 +243,7 @@ pub fn write(r: &mut Report, rows: &[PartsRow]) {
         "leaves",
         "time",
         "ns / leaf",
+        "peak resident",
         "peak heap",
         "parts (level)",
         "parts' times (min / median / max)",
@@ -182,6 +276,7 @@ pub fn write(r: &mut Report, rows: &[PartsRow]) {
                 } else {
                     String::new()
                 },
+                row.resident.map_or(String::new(), gib),
                 row.peak.map_or(String::new(), gib),
                 row.parts
                     .map_or(String::new(), |(n, l)| format!("{n} ({l})")),

@@ -42,6 +42,17 @@ pub enum BakeError {
         /// The limit, GiB.
         limit_gib: f64,
     },
+    /// The estimated leaves exceed what one tree in memory holds (2^31).
+    #[error(
+        "depth {depth} would make about {leaves:.3e} leaves, more than one tree in memory holds \
+         (2^31): bake to .svo (in parts; past 2^31 leaves the file is format version 3), or lower --depth"
+    )]
+    TooManyLeaves {
+        /// The requested depth.
+        depth: u8,
+        /// Estimated leaves.
+        leaves: f64,
+    },
     /// A closed-mesh solid bake of a mesh with open edges.
     #[error(
         "the mesh is not closed: {open_edges} open edges (edges used by an odd number of triangles), \
@@ -296,6 +307,12 @@ pub(crate) fn bake_for_file(
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<(Octree, BakeStats), BakeError> {
     let (root, est) = prepare(mesh, opts)?;
+    if est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
+        return Err(BakeError::TooManyLeaves {
+            depth: opts.depth,
+            leaves: est.leaves,
+        });
+    }
     let t0 = Instant::now();
     let order = spatial_order(mesh, &root);
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);

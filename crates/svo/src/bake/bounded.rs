@@ -42,7 +42,8 @@ pub fn peak_resident() -> Option<u64> {
 
 /// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated
 /// peak (its leaves and the setup of its own triangles) fits in `budget` bytes beside the
-/// mesh and the lists that bin its triangles to the parts.
+/// mesh and the lists that bin its triangles to the parts, and that each holds about 2^30
+/// leaves at most.
 pub fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -63,7 +64,20 @@ pub fn plan_for_budget(
             budget as f64 / GIB
         )));
     }
-    let mut parts = (est.leaves * BYTES_PER_LEAF / room).ceil().max(1.0) as u32;
+    // Enough parts for the budget, and parts of at most 2^30 estimated leaves (a part holds
+    // 2^31, and the estimate is not an upper bound).
+    let least = (est.leaves / f64::from(1u32 << 30)).ceil();
+    if least > f64::from(MAX_PARTS) {
+        return Err(PartsError::Unsupported(format!(
+            "depth {} would make about {:.3e} leaves, more than {MAX_PARTS} parts of 2^30 \
+             leaves: lower --depth",
+            opts.depth, est.leaves
+        )));
+    }
+    let mut parts = (est.leaves * BYTES_PER_LEAF / room)
+        .max(least)
+        .ceil()
+        .max(1.0) as u32;
     let mut fewer: Option<(f64, BakePlan)> = None;
     loop {
         let plan = plan_bake(

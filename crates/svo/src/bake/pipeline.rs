@@ -248,10 +248,11 @@ fn run_inner(
             }
             return parts((budget, false));
         }
-        // A surface bake to `.svo` that the memory limit refuses (before it starts) goes into
-        // parts within that limit (past 2^31 leaves or nodes the file is version 3).
+        // A surface bake to `.svo` that the memory limit refuses (before it starts), or that
+        // one tree in memory cannot hold, goes into parts within that limit (past 2^31 leaves
+        // or nodes the file is version 3).
         let (tree, stats) = match bake_for_file(&mesh, &options, progress) {
-            Err(BakeError::TooLarge { .. })
+            Err(BakeError::TooLarge { .. } | BakeError::TooManyLeaves { .. })
                 if format == OutputFormat::Svo && options.solid.is_none() =>
             {
                 let limit = options.max_memory.unwrap_or(u64::MAX);

@@ -244,6 +244,16 @@ pub fn plan_bake(
             ..opts.clone()
         },
     )?;
+    // A part holds at most 2^31 leaves; the estimate is not an upper bound, so ask for parts
+    // of 2^30 on average.
+    let least = (est.leaves / f64::from(1u32 << 30)).ceil();
+    if f64::from(parts) < least {
+        return Err(PartsError::Unsupported(format!(
+            "depth {} would make about {:.3e} leaves: plan at least {least} parts (a part holds \
+             at most 2^31 leaves)",
+            opts.depth, est.leaves
+        )));
+    }
     let level = parts_level(opts.depth, parts);
     let weights = subtree_estimates(mesh, &root, opts.depth, level);
     Ok(BakePlan {
