@@ -109,13 +109,17 @@ pub fn plan_for_budget(
 
 /// Refuses a bake whose part files and output (both on disk before the part files are
 /// removed) would not fit in the space free in `dir`, by the plan's estimate of the leaves:
-/// the nodes (about 3 bytes a leaf) and each stored channel's element. Where the free space
-/// is unknown, nothing is refused.
-fn check_disk(plan: &BakePlan, dir: &Path) -> Result<(), PartsError> {
+/// the nodes (about 3 bytes a leaf), the normals and contours, and the material channels
+/// where the mesh has more than one material or a texture (else they are constants in the
+/// header). Where the free space is unknown, nothing is refused.
+fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError> {
+    use crate::octree::ChannelKind;
+    let varied = mesh.materials.len() > 1 || !mesh.textures.is_empty();
     let channels: f64 = plan
         .channels
         .split(',')
-        .filter_map(|c| c.parse::<crate::octree::ChannelKind>().ok())
+        .filter_map(|c| c.parse::<ChannelKind>().ok())
+        .filter(|k| varied || matches!(k, ChannelKind::Normal | ChannelKind::Contour))
         .map(|k| k.element_size() as f64)
         .sum();
     let need = 2.0 * plan.estimated_leaves * (3.0 + channels);
@@ -156,7 +160,7 @@ pub fn bake_planned(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    check_disk(plan, dir)?;
+    check_disk(mesh, plan, dir)?;
     let tmp = tempfile::Builder::new()
         .prefix(".svo-parts.")
         .tempdir_in(dir)
