@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 
 /// The file's first 8 bytes.
 pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
-/// The newest format version this library reads and writes (it reads versions 1 and 2, writes
-/// version 2 for a tree that one node array holds and version 3, chunks, past that or when
-/// asked).
+/// The newest format version this library reads and writes. It also reads versions 1 and 2,
+/// and writes version 2 for a tree that one node array holds and version 3 (chunks) past that
+/// or when asked.
 pub const VERSION: u32 = crate::octree::format_check::CURRENT_VERSION;
 /// The largest header accepted.
 pub const MAX_HEADER_LEN: usize = 1 << 16;
