@@ -8,7 +8,7 @@ use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
 use crate::bake::merge::{MergeFormat, MergeReport, merge_with};
 use crate::bake::part::{bake_parts, touched_counts, write_part};
-use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, plan_bake, plan_to_bytes};
+use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes};
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
 use std::path::Path;
@@ -64,9 +64,8 @@ pub fn plan_for_budget(
             budget as f64 / GIB
         )));
     }
-    // Enough parts for the budget, and parts of at most 2^30 estimated leaves (a part holds
-    // 2^31, and the estimate is not an upper bound).
-    let least = (est.leaves / f64::from(1u32 << 30)).ceil();
+    // Enough parts for the budget, and at least what a plan needs.
+    let least = least_parts(est.leaves);
     if least > f64::from(MAX_PARTS) {
         return Err(PartsError::Unsupported(format!(
             "depth {} would make about {:.3e} leaves, more than {MAX_PARTS} parts of 2^30 \

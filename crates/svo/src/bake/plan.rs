@@ -31,6 +31,12 @@ use thiserror::Error;
 const PLAN_MAGIC: [u8; 8] = *b"\x89SVOPLN\n";
 /// The plan file's version.
 const PLAN_VERSION: u32 = 1;
+/// The fewest parts for `leaves` estimated leaves: a part holds at most 2^31 leaves, and the
+/// estimate is not an upper bound, so parts of 2^30 on average.
+pub(crate) fn least_parts(leaves: f64) -> f64 {
+    (leaves / f64::from(1u32 << 30)).ceil()
+}
+
 /// The most parts a plan may have.
 pub const MAX_PARTS: u32 = 1 << 16;
 
@@ -244,9 +250,7 @@ pub fn plan_bake(
             ..opts.clone()
         },
     )?;
-    // A part holds at most 2^31 leaves; the estimate is not an upper bound, so ask for parts
-    // of 2^30 on average.
-    let least = (est.leaves / f64::from(1u32 << 30)).ceil();
+    let least = least_parts(est.leaves);
     if f64::from(parts) < least {
         return Err(PartsError::Unsupported(format!(
             "depth {} would make about {:.3e} leaves: plan at least {least} parts (a part holds \

@@ -4,12 +4,12 @@
 //! (its root cube the cell of the chunk's root), which every tool of the library takes.
 
 use crate::geometry::grid::RootCube;
-use crate::io::header::{BuildInfo, ChunkRecord, Storage};
-use crate::io::read::{ChunksRead, check_chunks_file};
+use crate::io::header::{ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Storage};
+use crate::io::read::{ChunksRead, check_chunks_file, chunk_starts, in_chunk, read_channels};
 use crate::io::write::FormatError;
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
-use crate::octree::validate::{check_leaf_order, check_shape_and_node_order, check_values};
+use crate::octree::tree::{ChannelKind, Node, Octree};
+use crate::octree::validate::{check_chunk, check_values};
 use glam::{DVec3, UVec3};
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -53,13 +53,7 @@ impl ChunkedFile {
     pub fn open(path: impl AsRef<Path>) -> Result<Self, FormatError> {
         let path = path.as_ref();
         let read = check_chunks_file(path)?;
-        let mut starts = Vec::with_capacity(read.table.len());
-        let (mut node, mut leaf) = (0u64, 0u64);
-        for r in &read.table {
-            starts.push((node, leaf));
-            node += r.nodes;
-            leaf += r.leaves;
-        }
+        let starts = chunk_starts(&read.table);
         Ok(Self {
             path: path.to_path_buf(),
             read,
@@ -151,57 +145,28 @@ impl ChunkedFile {
             bytemuck::cast_slice_mut(&mut nodes),
         )?;
         let levels = h.depth - self.level();
-        let in_chunk = |(check, detail): (Check, String)| FormatError::Corrupt {
-            check,
-            detail: format!("chunk {i} (code {}): {detail}", rec.code),
+        let corrupt = |e: (Check, String)| {
+            let (check, detail) = in_chunk(i, rec.code)(e);
+            FormatError::Corrupt { check, detail }
         };
-        if let Some(j) = nodes.iter().position(|n| n.info >> 8 != 0) {
-            return Err(in_chunk((
-                Check::NodeWords,
-                format!("node {j}: reserved info bits set"),
-            )));
-        }
-        check_shape_and_node_order(&nodes, levels, false)
-            .and_then(|()| check_leaf_order(&nodes, rec.leaves))
-            .map_err(in_chunk)?;
-        let mut a = LeafAttributes::default();
-        let n = rec.leaves as usize;
-        for e in &h.channels {
-            let kind = ChannelKind::ALL[usize::from(e.kind)];
-            let size = kind.element_size() as u64;
-            let mut bytes = Vec::new();
-            if let Storage::PerLeaf(r) = e.storage {
-                bytes = vec![0u8; n * size as usize];
-                read_at(r.offset + leaf0 * size, &mut bytes)?;
-            }
-            let words = |w: usize| -> Vec<u32> {
-                bytes
-                    .chunks_exact(w)
-                    .map(|b| b.iter().rev().fold(0u32, |v, &x| v << 8 | u32::from(x)))
-                    .collect()
-            };
-            // Constants fit their element (check 10).
-            match (kind, e.storage) {
-                (ChannelKind::Normal, Storage::Constant(v)) => a.normal = Channel::Constant(v),
-                (ChannelKind::Contour, Storage::Constant(v)) => a.contour = Channel::Constant(v),
-                (ChannelKind::Colour, Storage::Constant(v)) => a.colour = Channel::Constant(v),
-                (ChannelKind::Reflectivity, Storage::Constant(v)) => {
-                    a.reflectivity = Channel::Constant(v as u8)
-                }
-                (ChannelKind::Refractivity, Storage::Constant(v)) => {
-                    a.refractivity = Channel::Constant(v as u8)
-                }
-                (ChannelKind::Ior, Storage::Constant(v)) => a.ior = Channel::Constant(v as u16),
-                (ChannelKind::Normal, _) => a.normal = Channel::PerLeaf(words(4)),
-                (ChannelKind::Contour, _) => a.contour = Channel::PerLeaf(words(4)),
-                (ChannelKind::Colour, _) => a.colour = Channel::PerLeaf(words(4)),
-                (ChannelKind::Reflectivity, _) => a.reflectivity = Channel::PerLeaf(bytes),
-                (ChannelKind::Refractivity, _) => a.refractivity = Channel::PerLeaf(bytes),
-                (ChannelKind::Ior, _) => {
-                    a.ior = Channel::PerLeaf(words(2).into_iter().map(|v| v as u16).collect())
-                }
-            }
-        }
+        check_chunk(&nodes, levels, rec.leaves).map_err(corrupt)?;
+        // The chunk's stretch of each per-leaf array.
+        let channels: Vec<ChannelEntry> = h
+            .channels
+            .iter()
+            .map(|e| {
+                let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
+                let storage = match e.storage {
+                    Storage::PerLeaf(r) => Storage::PerLeaf(ArrayRef {
+                        offset: r.offset + leaf0 * size,
+                        len: rec.leaves * size,
+                    }),
+                    constant => constant,
+                };
+                ChannelEntry { storage, ..*e }
+            })
+            .collect();
+        let attributes = read_channels(&channels, &mut |r, dst| read_at(r.offset, dst))?;
         let root = self.root();
         let side = root.side / f64::from(1u32 << self.level());
         let mut tree = Octree {
@@ -212,9 +177,9 @@ impl ChunkedFile {
             depth: levels,
             leaf_count: rec.leaves as u32,
             nodes,
-            attributes: a,
+            attributes,
         };
-        check_values(&tree, self.read.preamble.version).map_err(in_chunk)?;
+        check_values(&tree, self.read.preamble.version).map_err(corrupt)?;
         tree.refresh_bounds();
         Ok(tree)
     }

@@ -75,15 +75,6 @@ fn describe_chunks(r: &ChunksRead) -> String {
         range(|c| c.nodes),
         range(|c| c.leaves)
     );
-    for e in &h.channels {
-        let name = ChannelKind::ALL
-            .get(usize::from(e.kind))
-            .map_or("?", |k| k.name());
-        let _ = match e.storage {
-            Storage::Constant(v) => writeln!(out, "channel        {name} constant {v:#x}"),
-            Storage::PerLeaf(_) => writeln!(out, "channel        {name} per leaf"),
-        };
-    }
     let _ = writeln!(
         out,
         "checked        checks 1 to 17 and 19, one chunk at a time; the values (check 18) not read: \

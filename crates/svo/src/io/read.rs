@@ -14,8 +14,8 @@ use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
-    InfoBits, MAX_LEAVES, check_leaf_order, check_root_and_counts, check_shape_and_node_order,
-    check_tree, check_values,
+    InfoBits, MAX_LEAVES, check_chunk, check_leaf_order, check_node_words, check_root_and_counts,
+    check_shape_and_node_order, check_tree, check_values,
 };
 use glam::DVec3;
 use std::path::Path;
@@ -318,10 +318,7 @@ pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), Forma
         .iter()
         .find(|&&(from, to)| bytes[from as usize..to as usize].iter().any(|&b| b != 0))
     {
-        return Err(corrupt(
-            Check::Padding,
-            format!("a padding byte in {from}..{to} is not zero"),
-        ));
+        return Err(padding_error((from, to)));
     }
     let tree = arrays_into_tree(h, &mut |r, dst| {
         dst.copy_from_slice(&bytes[r.offset as usize..(r.offset + r.len) as usize]);
@@ -332,7 +329,7 @@ pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), Forma
 
 /// Fills an array's bytes (`dst`, `r.len` of them) from the file: the arrays are asked for in
 /// the file's order.
-type Fetch<'a> = dyn FnMut(ArrayRef, &mut [u8]) -> Result<(), FormatError> + 'a;
+pub(crate) type Fetch<'a> = dyn FnMut(ArrayRef, &mut [u8]) -> Result<(), FormatError> + 'a;
 
 /// An array of `r.len / size_of::<T>()` values filled by `fetch`.
 fn array<T: bytemuck::Pod>(r: ArrayRef, fetch: &mut Fetch<'_>) -> Result<Vec<T>, FormatError> {
@@ -350,9 +347,29 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
     };
     check_fits(h)?;
     let nodes: Vec<Node> = array(h.nodes, fetch)?;
+    let attributes = read_channels(&h.channels, fetch)?;
+    let tree = Octree {
+        root: RootCube {
+            origin: DVec3::from_array(h.root_origin),
+            side: h.root_side,
+        },
+        depth: h.depth,
+        // Check 9 (versions 1 and 2) and `check_fits` (version 3) bound the count by 2^31.
+        leaf_count: h.leaf_count as u32,
+        nodes,
+        attributes,
+    };
+    Ok(Raw { tree, table })
+}
+
+/// The channels `channels` lists, their per-leaf arrays filled by `fetch(r, dst)` in their
+/// order. Constants fit their element (check 10).
+pub(crate) fn read_channels(
+    channels: &[crate::io::header::ChannelEntry],
+    fetch: &mut Fetch<'_>,
+) -> Result<LeafAttributes, FormatError> {
     let mut attributes = LeafAttributes::default();
-    for e in &h.channels {
-        // Constants fit their element (check 10).
+    for e in channels {
         match (e.kind, e.storage) {
             (0, Storage::Constant(v)) => attributes.normal = Channel::Constant(v),
             (1, Storage::Constant(v)) => attributes.contour = Channel::Constant(v),
@@ -373,18 +390,7 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
             _ => return Err(corrupt(Check::Channels, "unknown channel")),
         }
     }
-    let tree = Octree {
-        root: RootCube {
-            origin: DVec3::from_array(h.root_origin),
-            side: h.root_side,
-        },
-        depth: h.depth,
-        // Check 9 (versions 1 and 2) and `check_fits` (version 3) bound the count by 2^31.
-        leaf_count: h.leaf_count as u32,
-        nodes,
-        attributes,
-    };
-    Ok(Raw { tree, table })
+    Ok(attributes)
 }
 
 /// The arrays of a file as read: for version 3 the tree's nodes are the chunks' node arrays
@@ -412,17 +418,31 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
     Ok((tree, p))
 }
 
+/// A failed check of chunk `i`, its message naming the chunk.
+pub(crate) fn in_chunk(i: usize, code: u64) -> impl Fn((Check, String)) -> (Check, String) {
+    move |(check, detail)| (check, format!("chunk {i} (code {code}): {detail}"))
+}
+
+/// Where each chunk of `table` starts: its first node in the node array and its first leaf.
+pub(crate) fn chunk_starts(table: &[ChunkRecord]) -> Vec<(u64, u64)> {
+    let (mut node, mut leaf) = (0u64, 0u64);
+    table
+        .iter()
+        .map(|r| {
+            let start = (node, leaf);
+            node += r.nodes;
+            leaf += r.leaves;
+            start
+        })
+        .collect()
+}
+
 /// Check 19: the chunk table against the chunk level and the header's counts.
 fn check_table(table: &[ChunkRecord], level: u8, h: &Header) -> Result<(), (Check, String)> {
     let cells = 1u64 << (3 * u32::from(level));
     let (mut nodes, mut leaves) = (0u64, 0u64);
     for (i, r) in table.iter().enumerate() {
-        let bad = |what: String| {
-            Err((
-                Check::Chunks,
-                format!("chunk {i} (code {}): {what}", r.code),
-            ))
-        };
+        let bad = |what: String| Err(in_chunk(i, r.code)((Check::Chunks, what)));
         if r.code >= cells || (i > 0 && r.code <= table[i - 1].code) {
             return bad(format!(
                 "codes must increase and stay below {cells} (the cells at level {level})"
@@ -461,42 +481,19 @@ fn unchunk(
     h: &Header,
 ) -> Result<Vec<Node>, (Check, String)> {
     check_table(table, level, h)?;
-    // 14. The node words.
-    if let Some(i) = raw.nodes.iter().position(|n| n.info >> 8 != 0) {
-        return Err((
-            Check::NodeWords,
-            format!(
-                "node {i}: reserved info bits set ({:#x})",
-                raw.nodes[i].info
-            ),
-        ));
-    }
+    check_node_words(&raw.nodes)?;
     // 15 and 16 on every chunk, then 17 on every chunk.
-    let mut starts = Vec::with_capacity(table.len() + 1);
-    let mut at = 0usize;
-    for r in table {
-        starts.push(at);
-        at += r.nodes as usize;
-    }
-    starts.push(at);
-    let slice = |i: usize| &raw.nodes[starts[i]..starts[i + 1]];
-    let in_chunk = |i: usize| {
-        move |(check, detail): (Check, String)| {
-            (
-                check,
-                format!("chunk {i} (code {}): {detail}", table[i].code),
-            )
-        }
+    let starts = chunk_starts(table);
+    let slice = |i: usize| {
+        let from = starts[i].0 as usize;
+        &raw.nodes[from..from + table[i].nodes as usize]
     };
-    for i in 0..table.len() {
-        check_shape_and_node_order(slice(i), h.depth - level, false).map_err(in_chunk(i))?;
-    }
-    let mut leaf_bases = Vec::with_capacity(table.len());
-    let mut base = 0u64;
     for (i, r) in table.iter().enumerate() {
-        check_leaf_order(slice(i), r.leaves).map_err(in_chunk(i))?;
-        leaf_bases.push(base);
-        base += r.leaves;
+        check_shape_and_node_order(slice(i), h.depth - level, false)
+            .map_err(in_chunk(i, r.code))?;
+    }
+    for (i, r) in table.iter().enumerate() {
+        check_leaf_order(slice(i), r.leaves).map_err(in_chunk(i, r.code))?;
     }
     // One canonical node array: the levels above the chunks, each chunk's nodes moved.
     let stubs: Vec<Stub> = table
@@ -511,7 +508,7 @@ fn unchunk(
     stitch::stitch(&stubs, level, &mut |piece| {
         let mut put = |index: usize, from: usize, to: usize, at: u64| {
             for &n in &slice(index)[from..to] {
-                out.push(moved(n, at as i64 - 1, leaf_bases[index] as i64).ok_or_else(overflow)?);
+                out.push(moved(n, at as i64 - 1, starts[index].1 as i64).ok_or_else(overflow)?);
             }
             Ok(())
         };
@@ -563,33 +560,20 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
     let mut padding: Option<(u64, u64)> = None;
     let mut gaps = gaps.into_iter();
     let tree = arrays_into_tree(&p.header, &mut |r, dst| {
-        // The padding before the array: zeros (check 13, reported after the checksum).
-        if let Some((from, to)) = gaps.next() {
-            let mut pad = [0u8; 8];
-            let n = (to - from) as usize;
-            src.read_exact(&mut pad[..n.min(8)]).map_err(io)?;
-            if padding.is_none() && pad.iter().any(|&b| b != 0) {
-                padding = Some((from, to));
-            }
+        // The padding before the array.
+        if let Some(gap) = gaps.next() {
+            src.read_gap(gap, &mut padding).map_err(io)?;
         }
         debug_assert_eq!(src.at, r.offset);
         src.read_exact(dst).map_err(io)
     })?;
     // The padding after the last array, then the checksum.
-    for (from, to) in gaps {
-        let mut pad = [0u8; 8];
-        src.read_exact(&mut pad[..((to - from) as usize).min(8)])
-            .map_err(io)?;
-        if padding.is_none() && pad.iter().any(|&b| b != 0) {
-            padding = Some((from, to));
-        }
+    for gap in gaps {
+        src.read_gap(gap, &mut padding).map_err(io)?;
     }
     let checksum = src.checksum()?;
-    if let Some((from, to)) = padding {
-        return Err(corrupt(
-            Check::Padding,
-            format!("a padding byte in {from}..{to} is not zero"),
-        ));
+    if let Some(gap) = padding {
+        return Err(padding_error(gap));
     }
     let (tree, preamble) = finish_tree(tree, p)?;
     Ok(FileRead {
@@ -636,28 +620,17 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
             ),
         )));
     };
-    let mut failure: Option<FormatError> = None;
-    let gap = |src: &mut Hashed<_>, (from, to): (u64, u64), failure: &mut Option<_>| {
-        let mut pad = [0u8; 8];
-        src.read_exact(&mut pad[..(to - from) as usize])
-            .map_err(io)?;
-        if failure.is_none() && pad.iter().any(|&b| b != 0) {
-            *failure = Some(corrupt(
-                Check::Padding,
-                format!("a padding byte in {from}..{to} is not zero"),
-            ));
-        }
-        Ok::<_, FormatError>(())
-    };
-    gap(&mut src, gaps[0], &mut failure)?;
+    let mut padding = None;
+    src.read_gap(gaps[0], &mut padding).map_err(io)?;
     let mut table = vec![ChunkRecord::default(); c.count as usize];
     src.read_exact(bytemuck::cast_slice_mut(&mut table))
         .map_err(io)?;
-    gap(&mut src, gaps[1], &mut failure)?;
+    src.read_gap(gaps[1], &mut padding).map_err(io)?;
+    let mut failure = padding.map(padding_error);
     if failure.is_none()
-        && let Err((check, detail)) = check_table(&table, c.level, &p.header)
+        && let Err(e) = check_table(&table, c.level, &p.header)
     {
-        failure = Some(corrupt(check, detail));
+        failure = Some(corrupt(e.0, e.1));
     }
     // Each chunk's nodes (the table is sound, so they fill the node array exactly).
     let mut nodes: Vec<Node> = Vec::new();
@@ -669,18 +642,9 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
         nodes.resize(rec.nodes as usize, Node::default());
         src.read_exact(bytemuck::cast_slice_mut(&mut nodes))
             .map_err(io)?;
-        let in_chunk = |(check, detail): (Check, String)| {
-            corrupt(check, format!("chunk {i} (code {}): {detail}", rec.code))
-        };
-        if let Some(j) = nodes.iter().position(|n| n.info >> 8 != 0) {
-            failure = Some(in_chunk((
-                Check::NodeWords,
-                format!("node {j}: reserved info bits set ({:#x})", nodes[j].info),
-            )));
-        } else if let Err(e) = check_shape_and_node_order(&nodes, p.header.depth - c.level, false)
-            .and_then(|()| check_leaf_order(&nodes, rec.leaves))
-        {
-            failure = Some(in_chunk(e));
+        if let Err(e) = check_chunk(&nodes, p.header.depth - c.level, rec.leaves) {
+            let (check, detail) = in_chunk(i, rec.code)(e);
+            failure = Some(corrupt(check, detail));
         }
     }
     src.skip_to(len - 8).map_err(io)?;
@@ -737,6 +701,14 @@ fn open_stream<R: std::io::Read>(
     }
 }
 
+/// Check 13's failure for the padding gap `from..to`.
+fn padding_error((from, to): (u64, u64)) -> FormatError {
+    corrupt(
+        Check::Padding,
+        format!("a padding byte in {from}..{to} is not zero"),
+    )
+}
+
 /// A reader that hashes the bytes before `body` as they are read (the checksum's input).
 struct Hashed<R> {
     inner: R,
@@ -756,6 +728,21 @@ impl<R: std::io::Read> std::io::Read for Hashed<R> {
 }
 
 impl<R: std::io::Read> Hashed<R> {
+    /// Reads the padding gap `gap` (at most 8 bytes), noting it in `first_bad` if it is the
+    /// first gap with a byte that is not zero (check 13, reported after the checksum).
+    fn read_gap(
+        &mut self,
+        gap: (u64, u64),
+        first_bad: &mut Option<(u64, u64)>,
+    ) -> std::io::Result<()> {
+        let mut pad = [0u8; 8];
+        std::io::Read::read_exact(self, &mut pad[..((gap.1 - gap.0) as usize).min(8)])?;
+        if first_bad.is_none() && pad.iter().any(|&b| b != 0) {
+            *first_bad = Some(gap);
+        }
+        Ok(())
+    }
+
     /// Reads (and hashes) up to offset `to`.
     fn skip_to(&mut self, to: u64) -> std::io::Result<()> {
         let mut buf = vec![0u8; 1 << 16];

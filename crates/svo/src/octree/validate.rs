@@ -102,14 +102,7 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
         }
     }
     if bits == InfoBits::Zero {
-        for (i, node) in t.nodes.iter().enumerate() {
-            if node.info >> 8 != 0 {
-                return fail(
-                    Check::NodeWords,
-                    format!("node {i}: reserved info bits set ({:#x})", node.info),
-                );
-            }
-        }
+        check_node_words(&t.nodes)?;
     }
     check_shape_and_node_order(&t.nodes, t.depth, true)?;
     if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
@@ -131,6 +124,26 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
     }
     check_leaf_order(&t.nodes, leaves)?;
     check_values(t, version)
+}
+
+/// Check 14: bits 8-31 of every node's `info` are zero, as files store them.
+pub(crate) fn check_node_words(nodes: &[Node]) -> Result<(), Failure> {
+    match nodes.iter().position(|n| n.info >> 8 != 0) {
+        Some(i) => Err((
+            Check::NodeWords,
+            format!("node {i}: reserved info bits set ({:#x})", nodes[i].info),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Checks 14 to 17 on one chunk of a version-3 file (`docs/format.md`, section 10): a tree of
+/// `levels` levels whose root has children and whose leaves are `leaves`.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) fn check_chunk(nodes: &[Node], levels: u8, leaves: u64) -> Result<(), Failure> {
+    check_node_words(nodes)?;
+    check_shape_and_node_order(nodes, levels, false)?;
+    check_leaf_order(nodes, leaves)
 }
 
 /// Checks 15 and 16 on the node array of a tree of `depth` levels: walks the nodes in the
