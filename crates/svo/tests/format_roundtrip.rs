@@ -383,8 +383,48 @@ fn chunked_files_read_back_as_the_same_tree_at_every_level() {
 #[test]
 fn damaged_chunked_files_are_errors() {
     let b = chunked(&small_tree(), 2);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("d.svo");
+    // The one-pass chunk reader accepts exactly the files the whole-tree reader accepts.
+    let load = |d: &[u8]| {
+        std::fs::write(&path, d).unwrap();
+        ChunkedFile::load(&path)
+    };
     for n in 0..b.len() {
         assert!(from_bytes(&b[..n]).is_err(), "prefix {n}");
+        assert!(load(&b[..n]).is_err(), "prefix {n}");
+    }
+    assert!(load(&b).is_ok());
+    // Every byte of a file whose one-byte and two-byte channels leave padding after them.
+    let cells = (0..13u32).map(|k| {
+        let c = UVec3::new(k % 8, (k * 3 + k / 8) % 8, (k * 5 + 2 * (k / 8)) % 8);
+        let t = k as f32 / 13.0;
+        let v = Voxel {
+            refractivity: t,
+            ior: 1.0 + t,
+            ..Voxel::glass()
+        };
+        (c, v)
+    });
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let odd = Octree::from_cells(root, 3, cells).unwrap();
+    let b_odd = chunked(&odd, 1);
+    assert!(load(&b_odd).is_ok());
+    for i in 0..b_odd.len() - 8 {
+        let mut d = b_odd.clone();
+        d[i] ^= 1 << (i % 8);
+        rechecksum(&mut d);
+        let (whole, chunks) = (from_bytes(&d), load(&d));
+        assert_eq!(
+            chunks.as_ref().err().map(|e| e.check().is_some()),
+            whole.as_ref().err().map(|e| e.check().is_some()),
+            "flip at byte {i}: {:?} {:?}",
+            chunks.err(),
+            whole.err()
+        );
     }
     // The node array's place: the version-3 header's `nodes` field (docs/format.md).
     let field = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
@@ -398,9 +438,16 @@ fn damaged_chunked_files_are_errors() {
         d[i] ^= 1 << r.random_range(0..8);
         if k % 2 == 0 {
             assert!(from_bytes(&d).is_err(), "flip at byte {i} accepted");
+            assert!(load(&d).is_err(), "flip at byte {i} loaded");
             continue;
         }
         rechecksum(&mut d);
+        assert_eq!(
+            load(&d).is_ok(),
+            from_bytes(&d).is_ok(),
+            "flip at byte {i}: {:?}",
+            load(&d).err()
+        );
         match from_bytes(&d) {
             Ok((t, _)) => {
                 assert!(!nodes.contains(&i), "node array flip at byte {i} accepted");
@@ -455,9 +502,12 @@ fn chunked_files_read_chunk_by_chunk() {
             assert_eq!((file.depth(), file.level()), (depth, level));
             assert_eq!(file.leaf_count(), u64::from(tree.leaf_count));
             assert_eq!(file.build(), &info());
+            let (_, loaded) = ChunkedFile::load(&path).unwrap();
+            assert_eq!(loaded.len(), file.len());
             let mut next = 0u64;
-            for i in 0..file.len() {
+            for (i, l) in loaded.iter().enumerate() {
                 let c = file.read_chunk(i).unwrap();
+                assert_eq!(l, &c, "depth {depth} level {level} chunk {i}");
                 let (leaves, first) = file.chunk_leaves(i);
                 assert_eq!((u64::from(c.leaf_count), first), (leaves, next));
                 assert_eq!(c.depth, depth - level);

@@ -5,7 +5,10 @@
 
 use crate::geometry::grid::RootCube;
 use crate::io::header::{ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Storage};
-use crate::io::read::{ChunksRead, check_chunks_file, chunk_starts, in_chunk, read_channels};
+use crate::io::read::{
+    ChunkArrays, ChunksRead, check_chunks_file, chunk_starts, in_chunk, read_channels,
+    read_chunks_file,
+};
 use crate::io::write::FormatError;
 use crate::octree::format_check::Check;
 use crate::octree::tree::{ChannelKind, Node, Octree};
@@ -59,6 +62,27 @@ impl ChunkedFile {
             read,
             starts,
         })
+    }
+
+    /// Opens a version-3 file as [`ChunkedFile::open`] does and reads every chunk in the same
+    /// pass (each byte of the file is read once), as [`ChunkedFile::read_chunk`] would read
+    /// them: chunk `i` of the list is `read_chunk(i)`. The whole tree is then in memory, in
+    /// as many trees as the file has chunks.
+    pub fn load(path: impl AsRef<Path>) -> Result<(Self, Vec<Octree>), FormatError> {
+        let path = path.as_ref();
+        let (read, arrays) = read_chunks_file(path)?;
+        let starts = chunk_starts(&read.table);
+        let file = Self {
+            path: path.to_path_buf(),
+            read,
+            starts,
+        };
+        let trees = arrays
+            .into_iter()
+            .enumerate()
+            .map(|(i, a)| file.chunk_tree(i, a))
+            .collect::<Result<_, _>>()?;
+        Ok((file, trees))
     }
 
     /// Chunks.
@@ -167,6 +191,13 @@ impl ChunkedFile {
             })
             .collect();
         let attributes = read_channels(&channels, &mut |r, dst| read_at(r.offset, dst))?;
+        self.chunk_tree(i, ChunkArrays { nodes, attributes })
+    }
+
+    /// Chunk `i` as a tree of its own from its arrays, whose nodes passed checks 14 to 17:
+    /// its values checked (check 18) and its nodes' bounds derived.
+    fn chunk_tree(&self, i: usize, a: ChunkArrays) -> Result<Octree, FormatError> {
+        let rec = self.read.table[i];
         let root = self.root();
         let side = root.side / f64::from(1u32 << self.level());
         let mut tree = Octree {
@@ -174,12 +205,15 @@ impl ChunkedFile {
                 origin: root.origin + self.chunk_cell(i).as_dvec3() * side,
                 side,
             },
-            depth: levels,
+            depth: self.depth() - self.level(),
             leaf_count: rec.leaves as u32,
-            nodes,
-            attributes,
+            nodes: a.nodes,
+            attributes: a.attributes,
         };
-        check_values(&tree, self.read.preamble.version).map_err(corrupt)?;
+        check_values(&tree, self.read.preamble.version).map_err(|e| {
+            let (check, detail) = in_chunk(i, rec.code)(e);
+            FormatError::Corrupt { check, detail }
+        })?;
         tree.refresh_bounds();
         Ok(tree)
     }

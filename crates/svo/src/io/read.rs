@@ -6,8 +6,8 @@
 
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
-    ArrayRef, BuildInfo, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, MAGIC, MAX_HEADER_LEN,
-    PREAMBLE_LEN, Storage, VERSION, bincode_config,
+    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, MAGIC,
+    MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
 pub use crate::io::write::FormatError;
 use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL};
@@ -365,7 +365,7 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
 /// The channels `channels` lists, their per-leaf arrays filled by `fetch(r, dst)` in their
 /// order. Constants fit their element (check 10).
 pub(crate) fn read_channels(
-    channels: &[crate::io::header::ChannelEntry],
+    channels: &[ChannelEntry],
     fetch: &mut Fetch<'_>,
 ) -> Result<LeafAttributes, FormatError> {
     let mut attributes = LeafAttributes::default();
@@ -593,12 +593,29 @@ pub(crate) struct ChunksRead {
     pub len: u64,
 }
 
+/// One chunk's arrays as [`read_chunks_file`] read them: its nodes and its channels.
+pub(crate) struct ChunkArrays {
+    pub nodes: Vec<Node>,
+    pub attributes: LeafAttributes,
+}
+
 /// Checks a version-3 file one chunk at a time, holding one chunk's nodes at a time: checks 1
-/// to 12, the padding before the node array (13), the chunk table (19), each chunk's node
-/// words, shape, node order and leaf order (14 to 17), and the checksum over every byte. The
-/// channel arrays are hashed, not read (check 18 and their padding are not made). A file that
-/// fails the checksum and another check fails at the checksum.
+/// to 12, the padding (13), the chunk table (19), each chunk's node words, shape, node order
+/// and leaf order (14 to 17), and the checksum over every byte. The channel arrays are hashed,
+/// not read (check 18 is not made). A file that fails the checksum and another check fails at
+/// the checksum; one whose padding fails and a later check fails at the padding.
 pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> {
+    chunks_pass(path, false).map(|(read, _)| read)
+}
+
+/// [`check_chunks_file`] keeping every chunk's nodes and reading its stretch of each
+/// channel array in the same pass: the file is read once. The values (check 18) are the
+/// caller's to check, chunk by chunk.
+pub(crate) fn read_chunks_file(path: &Path) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
+    chunks_pass(path, true)
+}
+
+fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
     use std::io::Read;
     let io = |cause| FormatError::Io {
         path: path.display().to_string(),
@@ -620,43 +637,96 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
             ),
         )));
     };
+    // Gaps: before the table, before the nodes, then after each array.
+    let mut gaps = gaps.into_iter();
     let mut padding = None;
-    src.read_gap(gaps[0], &mut padding).map_err(io)?;
+    let mut gap = |src: &mut Hashed<_>, padding: &mut Option<(u64, u64)>| match gaps.next() {
+        Some(g) => src.read_gap(g, padding).map_err(io),
+        None => Ok(()),
+    };
+    gap(&mut src, &mut padding)?;
     let mut table = vec![ChunkRecord::default(); c.count as usize];
     src.read_exact(bytemuck::cast_slice_mut(&mut table))
         .map_err(io)?;
-    src.read_gap(gaps[1], &mut padding).map_err(io)?;
-    let mut failure = padding.map(padding_error);
-    if failure.is_none()
-        && let Err(e) = check_table(&table, c.level, &p.header)
-    {
-        failure = Some(corrupt(e.0, e.1));
-    }
+    gap(&mut src, &mut padding)?;
+    let mut failure = check_table(&table, c.level, &p.header)
+        .err()
+        .map(|e| corrupt(e.0, e.1));
     // Each chunk's nodes (the table is sound, so they fill the node array exactly).
-    let mut nodes: Vec<Node> = Vec::new();
-    for (i, rec) in table.iter().enumerate() {
-        if failure.is_some() {
-            break;
+    let mut kept: Vec<ChunkArrays> = Vec::new();
+    if failure.is_none() {
+        for (i, rec) in table.iter().enumerate() {
+            let mut nodes = vec![Node::default(); rec.nodes as usize];
+            src.read_exact(bytemuck::cast_slice_mut(&mut nodes))
+                .map_err(io)?;
+            if let Err(e) = check_chunk(&nodes, p.header.depth - c.level, rec.leaves) {
+                let (check, detail) = in_chunk(i, rec.code)(e);
+                failure = Some(corrupt(check, detail));
+                break;
+            }
+            if keep {
+                kept.push(ChunkArrays {
+                    nodes,
+                    attributes: LeafAttributes::default(),
+                });
+            }
         }
-        nodes.clear();
-        nodes.resize(rec.nodes as usize, Node::default());
-        src.read_exact(bytemuck::cast_slice_mut(&mut nodes))
-            .map_err(io)?;
-        if let Err(e) = check_chunk(&nodes, p.header.depth - c.level, rec.leaves) {
-            let (check, detail) = in_chunk(i, rec.code)(e);
-            failure = Some(corrupt(check, detail));
+    }
+    // The channels: each per-leaf array's stretches, chunk after chunk, where the chunks
+    // are kept and sound; else only the padding between the arrays is read.
+    src.skip_to(p.header.nodes.offset + p.header.nodes.len)
+        .map_err(io)?;
+    gap(&mut src, &mut padding)?;
+    for e in &p.header.channels {
+        let Storage::PerLeaf(r) = e.storage else {
+            for k in &mut kept {
+                let one = read_channels(std::slice::from_ref(e), &mut |_, _| Ok(()))?;
+                take_channel(&mut k.attributes, one, e.kind);
+            }
+            continue;
+        };
+        if failure.is_none() && keep {
+            let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
+            for (k, rec) in kept.iter_mut().zip(&table) {
+                let part = ChannelEntry {
+                    storage: Storage::PerLeaf(ArrayRef {
+                        offset: src.at,
+                        len: rec.leaves * size,
+                    }),
+                    ..*e
+                };
+                let one = read_channels(&[part], &mut |_, dst| src.read_exact(dst).map_err(io))?;
+                take_channel(&mut k.attributes, one, e.kind);
+            }
         }
+        src.skip_to(r.offset + r.len).map_err(io)?;
+        gap(&mut src, &mut padding)?;
     }
     src.skip_to(len - 8).map_err(io)?;
     let checksum = src.checksum()?;
-    match failure {
+    match padding.map(padding_error).or(failure) {
         Some(e) => Err(e),
-        None => Ok(ChunksRead {
-            preamble: p,
-            table,
-            checksum,
-            len,
-        }),
+        None => Ok((
+            ChunksRead {
+                preamble: p,
+                table,
+                checksum,
+                len,
+            },
+            kept,
+        )),
+    }
+}
+
+/// Puts channel `kind` of `from` into `into`.
+fn take_channel(into: &mut LeafAttributes, from: LeafAttributes, kind: u8) {
+    match kind {
+        0 => into.normal = from.normal,
+        1 => into.contour = from.contour,
+        2 => into.colour = from.colour,
+        3 => into.reflectivity = from.reflectivity,
+        4 => into.refractivity = from.refractivity,
+        _ => into.ior = from.ior,
     }
 }
 

@@ -642,16 +642,16 @@ fn run_chunked(job: &RenderJob, threads: usize) -> Result<RenderReport, RenderJo
                 .into(),
         ));
     }
-    let file = ChunkedFile::open(&job.input)?;
-    let chunks = (0..file.len())
-        .map(|i| {
-            Ok(ChunkTree {
-                cell: file.chunk_cell(i),
-                first_leaf: file.chunk_leaves(i).1,
-                tree: file.read_chunk(i)?,
-            })
+    let (file, trees) = ChunkedFile::load(&job.input)?;
+    let chunks: Vec<ChunkTree> = trees
+        .into_iter()
+        .enumerate()
+        .map(|(i, tree)| ChunkTree {
+            cell: file.chunk_cell(i),
+            first_leaf: file.chunk_leaves(i).1,
+            tree,
         })
-        .collect::<Result<Vec<_>, RenderJobError>>()?;
+        .collect();
     let (lo, hi) = chunks
         .iter()
         .map(|c| c.tree.occupied_bounds())
