@@ -77,11 +77,23 @@ impl ChunkedFile {
             read,
             starts,
         };
-        let trees = arrays
+        // Each chunk's checks and bounds, on every thread; the first chunk that fails is named.
+        #[cfg(feature = "parallel")]
+        let trees: Vec<Result<Octree, FormatError>> = {
+            use rayon::prelude::*;
+            arrays
+                .into_par_iter()
+                .enumerate()
+                .map(|(i, a)| file.chunk_tree(i, a))
+                .collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let trees: Vec<Result<Octree, FormatError>> = arrays
             .into_iter()
             .enumerate()
             .map(|(i, a)| file.chunk_tree(i, a))
-            .collect::<Result<_, _>>()?;
+            .collect();
+        let trees = trees.into_iter().collect::<Result<_, _>>()?;
         Ok((file, trees))
     }
 
@@ -168,12 +180,6 @@ impl ChunkedFile {
             h.nodes.offset + 8 * node0,
             bytemuck::cast_slice_mut(&mut nodes),
         )?;
-        let levels = h.depth - self.level();
-        let corrupt = |e: (Check, String)| {
-            let (check, detail) = in_chunk(i, rec.code)(e);
-            FormatError::Corrupt { check, detail }
-        };
-        check_chunk(&nodes, levels, rec.leaves).map_err(corrupt)?;
         // The chunk's stretch of each per-leaf array.
         let channels: Vec<ChannelEntry> = h
             .channels
@@ -194,10 +200,15 @@ impl ChunkedFile {
         self.chunk_tree(i, ChunkArrays { nodes, attributes })
     }
 
-    /// Chunk `i` as a tree of its own from its arrays, whose nodes passed checks 14 to 17:
-    /// its values checked (check 18) and its nodes' bounds derived.
+    /// Chunk `i` as a tree of its own from its arrays: its nodes checked (checks 14 to 17),
+    /// its values (check 18), and its nodes' bounds derived.
     fn chunk_tree(&self, i: usize, a: ChunkArrays) -> Result<Octree, FormatError> {
         let rec = self.read.table[i];
+        let corrupt = |e: (Check, String)| {
+            let (check, detail) = in_chunk(i, rec.code)(e);
+            FormatError::Corrupt { check, detail }
+        };
+        check_chunk(&a.nodes, self.depth() - self.level(), rec.leaves).map_err(corrupt)?;
         let root = self.root();
         let side = root.side / f64::from(1u32 << self.level());
         let mut tree = Octree {
@@ -210,10 +221,7 @@ impl ChunkedFile {
             nodes: a.nodes,
             attributes: a.attributes,
         };
-        check_values(&tree, self.read.preamble.version).map_err(|e| {
-            let (check, detail) = in_chunk(i, rec.code)(e);
-            FormatError::Corrupt { check, detail }
-        })?;
+        check_values(&tree, self.read.preamble.version).map_err(corrupt)?;
         tree.refresh_bounds();
         Ok(tree)
     }

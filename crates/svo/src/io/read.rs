@@ -609,8 +609,8 @@ pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> 
 }
 
 /// [`check_chunks_file`] keeping every chunk's nodes and reading its stretch of each
-/// channel array in the same pass: the file is read once. The values (check 18) are the
-/// caller's to check, chunk by chunk.
+/// channel array in the same pass: the file is read once. The checks of each chunk's nodes
+/// (14 to 17) and values (18) are the caller's, chunk by chunk (they need not run in order).
 pub(crate) fn read_chunks_file(path: &Path) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
     chunks_pass(path, true)
 }
@@ -654,22 +654,28 @@ fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>)
         .map(|e| corrupt(e.0, e.1));
     // Each chunk's nodes (the table is sound, so they fill the node array exactly).
     let mut kept: Vec<ChunkArrays> = Vec::new();
+    let mut scratch: Vec<Node> = Vec::new();
     if failure.is_none() {
         for (i, rec) in table.iter().enumerate() {
-            let mut nodes = vec![Node::default(); rec.nodes as usize];
+            // Kept chunks each get their own array; else one array serves every chunk.
+            let mut nodes = std::mem::take(&mut scratch);
+            nodes.clear();
+            nodes.resize(rec.nodes as usize, Node::default());
             src.read_exact(bytemuck::cast_slice_mut(&mut nodes))
                 .map_err(io)?;
-            if let Err(e) = check_chunk(&nodes, p.header.depth - c.level, rec.leaves) {
-                let (check, detail) = in_chunk(i, rec.code)(e);
-                failure = Some(corrupt(check, detail));
-                break;
-            }
             if keep {
                 kept.push(ChunkArrays {
                     nodes,
                     attributes: LeafAttributes::default(),
                 });
+                continue;
             }
+            if let Err(e) = check_chunk(&nodes, p.header.depth - c.level, rec.leaves) {
+                let (check, detail) = in_chunk(i, rec.code)(e);
+                failure = Some(corrupt(check, detail));
+                break;
+            }
+            scratch = nodes;
         }
     }
     // The channels: each per-leaf array's stretches, chunk after chunk, where the chunks
