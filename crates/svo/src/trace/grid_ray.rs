@@ -102,6 +102,7 @@ pub(crate) struct MirroredRay {
 
 impl MirroredRay {
     /// Mirrors `ray` for a root of `n` cells per axis; `None` for an invalid ray.
+    #[inline]
     pub fn new(ray: &GridRay, n: u32) -> Option<Self> {
         if !ray.is_valid() {
             return None;
