@@ -214,27 +214,31 @@ fn walk<const STACK: usize, T>(
     };
     let bits = |b: u8| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
     let mut alive = bits(lanes);
+    // The node being walked lives in locals; the stack holds its ancestors (`len - 1`).
     let mut stack = [EMPTY; STACK];
     let mut half = n / 2;
     let mut tm = ls.planes(&any, UVec3::splat(half));
     let mut t1 = ls.planes(&any, UVec3::splat(n));
-    stack[0].node = root;
-    stack[0].chain = alive;
-    stack[0].enter = Vec4::from_array(enter);
-    first_bits(&mut stack[0], &tm, Vec4::from_array(enter));
+    let mut f = Frame {
+        node: root,
+        chain: alive,
+        enter: Vec4::from_array(enter),
+        ..EMPTY
+    };
+    first_bits(&mut f, &tm, Vec4::from_array(enter));
     let mut len = 1usize;
     let four = Vec4::splat(4.0);
     let two = Vec4::splat(2.0);
     loop {
-        let f = &mut stack[len - 1];
         let walking = f.chain & alive;
         if !walking.any() {
             len -= 1;
             if len == 0 {
                 break;
             }
+            f = stack[len - 1];
             half *= 2;
-            let corner = stack[len - 1].corner;
+            let corner = f.corner;
             tm = ls.planes(&any, corner + UVec3::splat(half));
             t1 = ls.planes(&any, corner + UVec3::splat(2 * half));
             continue;
@@ -337,12 +341,15 @@ fn walk<const STACK: usize, T>(
         half /= 2;
         t1 = c1;
         tm = ls.planes(&any, origin + UVec3::splat(half));
-        let g = &mut stack[len];
-        g.node = child;
-        g.corner = origin;
-        g.chain = enters;
-        g.enter = t_enter;
-        first_bits(g, &tm, t_enter);
+        stack[len - 1] = f;
+        f = Frame {
+            node: child,
+            corner: origin,
+            chain: enters,
+            enter: t_enter,
+            ..EMPTY
+        };
+        first_bits(&mut f, &tm, t_enter);
         len += 1;
     }
     out
