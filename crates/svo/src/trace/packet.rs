@@ -56,6 +56,17 @@ const EMPTY: Frame = Frame {
     enter: Vec4::ZERO,
 };
 
+/// The lanes of each 4-bit mask (bit `l` for lane `l`).
+const LANE_MASKS: [BVec4A; 16] = {
+    let mut t = [BVec4A::FALSE; 16];
+    let mut b = 0;
+    while b < 16 {
+        t[b] = BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
+        b += 1;
+    }
+    t
+};
+
 /// Plane parameters of the lanes on the three axes.
 #[derive(Clone, Copy, Debug)]
 struct Planes {
@@ -227,8 +238,6 @@ fn walk<const STACK: usize, T>(
     };
     first_bits(&mut f, &tm, Vec4::from_array(enter));
     let mut len = 1usize;
-    let four = Vec4::splat(4.0);
-    let two = Vec4::splat(2.0);
     loop {
         let walking = f.chain & alive;
         if !walking.any() {
@@ -243,13 +252,18 @@ fn walk<const STACK: usize, T>(
             t1 = ls.planes(&any, corner + UVec3::splat(2 * half));
             continue;
         }
-        // The lowest child a walking lane visits next: the lanes at it step together.
-        let index = Vec4::select(f.bx, four, Vec4::ZERO)
-            + Vec4::select(f.by, two, Vec4::ZERO)
-            + Vec4::select(f.bz, Vec4::ONE, Vec4::ZERO);
-        let k = Vec4::select(walking, index, Vec4::splat(8.0)).min_element();
-        let at = walking & index.cmpeq(Vec4::splat(k));
-        let c = k as u8;
+        // The lowest child a walking lane visits next: the lanes at it step together. The
+        // lowest index is the least (x, y, z) bits in that order, found on the lanes' bit masks.
+        let (mut at_bits, mut c) = (walking.bitmask(), 0u8);
+        for (b, bit) in [(f.bx, 4u8), (f.by, 2), (f.bz, 1)] {
+            let low = at_bits & !b.bitmask();
+            if low != 0 {
+                at_bits = low;
+            } else {
+                c |= bit;
+            }
+        }
+        let at = LANE_MASKS[at_bits as usize];
         // The single walk's step, on every lane (used where `at`).
         let c1 = Planes {
             x: Vec4::select(f.bx, t1.x, tm.x),
@@ -266,7 +280,6 @@ fn walk<const STACK: usize, T>(
         f.bz |= at & tz;
         f.chain &= !(at & leaves_node);
         f.enter = Vec4::select(at, Vec4::select(m.cmpgt(ls.tmin), m, ls.tmin), f.enter);
-        let at_bits = at.bitmask();
         let mut over = false;
         for (l, o) in out.iter_mut().enumerate() {
             o.steps += at_bits >> l & 1;
