@@ -679,7 +679,7 @@ fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>)
         }
     }
     // The channels: each per-leaf array's stretches, chunk after chunk, where the chunks
-    // are kept and sound; else only the padding between the arrays is read.
+    // are kept (and the table sound); else only the padding between the arrays is read.
     src.skip_to(p.header.nodes.offset + p.header.nodes.len)
         .map_err(io)?;
     gap(&mut src, &mut padding)?;
