@@ -4,14 +4,14 @@
 //! (its root cube the cell of the chunk's root), which every tool of the library takes.
 
 use crate::geometry::grid::RootCube;
-use crate::io::header::{ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Storage};
+use crate::io::header::{BuildInfo, ChannelEntry, ChunkRecord};
 use crate::io::read::{
-    ChunkArrays, ChunksRead, check_chunks_file, chunk_starts, in_chunk, read_channels,
-    read_chunks_file,
+    ChunkArrays, ChunksRead, check_chunks_file, chunk_channel, chunk_starts, in_chunk,
+    read_channels, read_chunks_file,
 };
 use crate::io::write::FormatError;
 use crate::octree::format_check::Check;
-use crate::octree::tree::{ChannelKind, Node, Octree};
+use crate::octree::tree::{Node, Octree};
 use crate::octree::validate::{check_chunk, check_values};
 use glam::{DVec3, UVec3};
 use std::io::{Read, Seek, SeekFrom};
@@ -78,21 +78,15 @@ impl ChunkedFile {
             starts,
         };
         // Each chunk's checks and bounds, on every thread; the first chunk that fails is named.
+        let tree = |(i, a)| file.chunk_tree(i, a);
         #[cfg(feature = "parallel")]
         let trees: Vec<Result<Octree, FormatError>> = {
             use rayon::prelude::*;
-            arrays
-                .into_par_iter()
-                .enumerate()
-                .map(|(i, a)| file.chunk_tree(i, a))
-                .collect()
+            arrays.into_par_iter().enumerate().map(tree).collect()
         };
         #[cfg(not(feature = "parallel"))]
-        let trees: Vec<Result<Octree, FormatError>> = arrays
-            .into_iter()
-            .enumerate()
-            .map(|(i, a)| file.chunk_tree(i, a))
-            .collect();
+        let trees: Vec<Result<Octree, FormatError>> =
+            arrays.into_iter().enumerate().map(tree).collect();
         let trees = trees.into_iter().collect::<Result<_, _>>()?;
         Ok((file, trees))
     }
@@ -184,17 +178,7 @@ impl ChunkedFile {
         let channels: Vec<ChannelEntry> = h
             .channels
             .iter()
-            .map(|e| {
-                let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
-                let storage = match e.storage {
-                    Storage::PerLeaf(r) => Storage::PerLeaf(ArrayRef {
-                        offset: r.offset + leaf0 * size,
-                        len: rec.leaves * size,
-                    }),
-                    constant => constant,
-                };
-                ChannelEntry { storage, ..*e }
-            })
+            .map(|e| chunk_channel(e, leaf0, rec.leaves))
             .collect();
         let attributes = read_channels(&channels, &mut |r, dst| read_at(r.offset, dst))?;
         self.chunk_tree(i, ChunkArrays { nodes, attributes })

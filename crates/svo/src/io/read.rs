@@ -683,30 +683,21 @@ fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>)
     src.skip_to(p.header.nodes.offset + p.header.nodes.len)
         .map_err(io)?;
     gap(&mut src, &mut padding)?;
+    let starts = chunk_starts(&table);
     for e in &p.header.channels {
-        let Storage::PerLeaf(r) = e.storage else {
-            for k in &mut kept {
-                let one = read_channels(std::slice::from_ref(e), &mut |_, _| Ok(()))?;
-                take_channel(&mut k.attributes, one, e.kind);
-            }
-            continue;
-        };
-        if failure.is_none() && keep {
-            let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
-            for (k, rec) in kept.iter_mut().zip(&table) {
-                let part = ChannelEntry {
-                    storage: Storage::PerLeaf(ArrayRef {
-                        offset: src.at,
-                        len: rec.leaves * size,
-                    }),
-                    ..*e
-                };
-                let one = read_channels(&[part], &mut |_, dst| src.read_exact(dst).map_err(io))?;
-                take_channel(&mut k.attributes, one, e.kind);
-            }
+        // `kept` is empty unless the chunks are kept and the table is sound.
+        for ((k, rec), start) in kept.iter_mut().zip(&table).zip(&starts) {
+            let part = chunk_channel(e, start.1, rec.leaves);
+            let one = read_channels(&[part], &mut |r, dst| {
+                debug_assert_eq!(src.at, r.offset);
+                src.read_exact(dst).map_err(io)
+            })?;
+            take_channel(&mut k.attributes, one, e.kind);
         }
-        src.skip_to(r.offset + r.len).map_err(io)?;
-        gap(&mut src, &mut padding)?;
+        if let Storage::PerLeaf(r) = e.storage {
+            src.skip_to(r.offset + r.len).map_err(io)?;
+            gap(&mut src, &mut padding)?;
+        }
     }
     src.skip_to(len - 8).map_err(io)?;
     let checksum = src.checksum()?;
@@ -722,6 +713,20 @@ fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>)
             kept,
         )),
     }
+}
+
+/// Channel `e` of the chunk whose leaves are `first_leaf..first_leaf + leaves` of the whole
+/// tree: its stretch of a per-leaf array, or the same constant.
+pub(crate) fn chunk_channel(e: &ChannelEntry, first_leaf: u64, leaves: u64) -> ChannelEntry {
+    let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
+    let storage = match e.storage {
+        Storage::PerLeaf(r) => Storage::PerLeaf(ArrayRef {
+            offset: r.offset + first_leaf * size,
+            len: leaves * size,
+        }),
+        constant => constant,
+    };
+    ChannelEntry { storage, ..*e }
 }
 
 /// Puts channel `kind` of `from` into `into`.

@@ -223,7 +223,7 @@ fn walk<const STACK: usize, T>(
         tmin: Vec4::from_array(tmin),
         tmax: Vec4::from_array(tmax),
     };
-    let bits = |b: u8| BVec4A::new(b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
+    let bits = |b: u8| LANE_MASKS[usize::from(b & 15)];
     let mut alive = bits(lanes);
     // The node being walked lives in locals; the stack holds its ancestors (`len - 1`).
     let mut stack = [EMPTY; STACK];
