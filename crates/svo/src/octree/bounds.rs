@@ -79,25 +79,89 @@ pub(crate) fn derive(nodes: &mut [Node], depth: u8) {
         if side_log == 1 || first <= i || first + mask.count_ones() as usize > n {
             continue;
         }
-        let (side, half) = (1u32 << side_log, 1u32 << (side_log - 1));
-        let (mut lo, mut hi) = (UVec3::splat(side), UVec3::ZERO);
+        // The children's codes in the parent's units, six 5-bit lanes at a time (see
+        // `lanes`): a child's box moves by its offset in the parent, and a unit doubles from
+        // a side of 32 up (the parent's unit is then twice the child's), which halves the
+        // child's numbers; below, both units are one cell.
         let (mut rest, mut j) = (mask, first);
-        let mut whole = false;
+        let (mut acc, mut whole) = (LANES_MAX, false);
+        let half = 1u32 << (side_log - 1);
         while rest != 0 {
-            let c = rest.trailing_zeros() as u8;
+            let c = usize::from(rest.trailing_zeros() as u8);
             rest &= rest - 1;
             whole |= level[j] != l + 1;
-            let (cl, ch) = cell_box(nodes[j].info >> SHIFT, UVec3::ZERO, half);
-            let off = child_offset(c) * half;
-            lo = lo.min(off + cl);
-            hi = hi.max(off + ch);
+            let v = lanes(nodes[j].info >> SHIFT);
+            let v = if side_log >= 5 {
+                ((v >> 1) & LANES_LOW4) + LANE_OFFSET[c] * 8
+            } else {
+                v + LANE_OFFSET[c] * half
+            };
+            acc = lanes_min(acc, v);
             j += 1;
         }
         if !whole {
-            nodes[i].info |= encode(lo, hi, side) << SHIFT;
+            nodes[i].info |= unlanes(acc) << SHIFT;
         }
     }
 }
+
+/// A 24-bit code's six 4-bit numbers in six 5-bit lanes (bits `5k..5k+4`), the top bit of
+/// each lane clear: room for [`lanes_min`]'s comparison.
+#[inline]
+fn lanes(code: u32) -> u32 {
+    (code & 0xF)
+        | (code & 0xF0) << 1
+        | (code & 0xF00) << 2
+        | (code & 0xF000) << 3
+        | (code & 0xF_0000) << 4
+        | (code & 0xF0_0000) << 5
+}
+
+/// The inverse of [`lanes`] for lanes below 16.
+#[inline]
+fn unlanes(v: u32) -> u32 {
+    (v & 0xF)
+        | (v >> 1 & 0xF0)
+        | (v >> 2 & 0xF00)
+        | (v >> 3 & 0xF000)
+        | (v >> 4 & 0xF_0000)
+        | (v >> 5 & 0xF0_0000)
+}
+
+/// The top bit of each lane.
+const LANES_TOP: u32 = 0b10000_10000_10000_10000_10000_10000;
+/// The low four bits of each lane.
+const LANES_LOW4: u32 = 0b01111_01111_01111_01111_01111_01111;
+/// Fifteen in every lane.
+const LANES_MAX: u32 = LANES_LOW4;
+
+/// The lane-wise minimum of two values whose lanes are below 16.
+#[inline]
+fn lanes_min(a: u32, b: u32) -> u32 {
+    // Per lane, (a + 16) - b is 1..=31 and keeps bit 4 exactly where a >= b.
+    let ge = ((a | LANES_TOP) - b) & LANES_TOP;
+    let m = (ge >> 4) * 0b11111;
+    (b & m) | (a & !m)
+}
+
+/// Per child index (x = bit 2), one in the lanes its position in the parent adds a half to:
+/// the low side on the axes where it is the high half, the distance from the high side on
+/// the others.
+const LANE_OFFSET: [u32; 8] = {
+    let mut t = [0u32; 8];
+    let mut c = 0;
+    while c < 8 {
+        let mut axis = 0;
+        while axis < 3 {
+            let high = c >> (2 - axis) & 1 != 0;
+            let lane = if high { axis } else { 3 + axis };
+            t[c] |= 1 << (5 * lane);
+            axis += 1;
+        }
+        c += 1;
+    }
+    t
+};
 
 /// The 24-bit codes of leaf parents (side 2, unit 1) by child mask.
 const LEAF_PARENT: [u32; 256] = {
@@ -131,23 +195,6 @@ const LEAF_PARENT: [u32; 256] = {
     }
     t
 };
-
-/// Child `c`'s position in its parent, in halves (x = bit 2, y = bit 1, z = bit 0).
-fn child_offset(c: u8) -> UVec3 {
-    UVec3::new(
-        u32::from(c >> 2 & 1),
-        u32::from(c >> 1 & 1),
-        u32::from(c & 1),
-    )
-}
-
-/// The 24-bit code of the box `[lo, hi]` (cells, relative to the node) of a node of `side`.
-fn encode(lo: UVec3, hi: UVec3, side: u32) -> u32 {
-    let sh = unit_shift(side);
-    let a = lo >> sh;
-    let b = (UVec3::splat(side) - hi) >> sh;
-    a.x | a.y << 4 | a.z << 8 | b.x << 12 | b.y << 16 | b.z << 20
-}
 
 /// The low and high corners (in cells) of the box that the 24-bit `code` of a node of `side`
 /// cells at `corner` holds. The traversal passes a [`mirrored`] code and the node's mirrored
@@ -221,6 +268,14 @@ mod tests {
     use crate::octree::{RootCube, Voxel};
     use glam::DVec3;
 
+    /// The 24-bit code of the box `[lo, hi]` (cells, relative to the node) of a node of `side`.
+    fn encode(lo: UVec3, hi: UVec3, side: u32) -> u32 {
+        let sh = unit_shift(side);
+        let a = lo >> sh;
+        let b = (UVec3::splat(side) - hi) >> sh;
+        a.x | a.y << 4 | a.z << 8 | b.x << 12 | b.y << 16 | b.z << 20
+    }
+
     fn tree(depth: u8, cells: &[UVec3]) -> Octree {
         let root = RootCube {
             origin: DVec3::ZERO,
@@ -230,7 +285,7 @@ mod tests {
     }
 
     /// Every node's box, decoded, holds each of its leaves, and is the tightest box the
-    /// node's units allow: each side lies within one unit of the leaves' own box.
+    /// node's units allow: the leaves' own box with each side rounded outward to a unit.
     #[test]
     fn boxes_hold_their_leaves_within_one_unit() {
         let mut next = crate::test_rng::xorshift(0xB0_0D5);
@@ -268,8 +323,12 @@ mod tests {
                             .fold(UVec3::ZERO, |a, &c| a.max(c + UVec3::ONE));
                         let u = 1u32 << unit_shift(side);
                         assert!(lo.cmple(tight_lo).all() && hi.cmpge(tight_hi).all());
-                        assert!((tight_lo - lo).cmplt(UVec3::splat(u)).all());
-                        assert!((hi - tight_hi).cmplt(UVec3::splat(u)).all());
+                        let sh = unit_shift(side);
+                        let (want_lo, want_hi) = (
+                            tight_lo >> sh << sh,
+                            UVec3::splat(side) - ((UVec3::splat(side) - tight_hi) >> sh << sh),
+                        );
+                        assert_eq!((lo, hi), (want_lo, want_hi), "side {side} unit {u}");
                         checked += 1;
                     }
                 }
