@@ -488,12 +488,17 @@ fn unchunk(
         let from = starts[i].0 as usize;
         &raw.nodes[from..from + table[i].nodes as usize]
     };
+    let mut leaf_order = Vec::with_capacity(table.len());
     for (i, r) in table.iter().enumerate() {
-        check_shape_and_node_order(slice(i), h.depth - level, false)
-            .map_err(in_chunk(i, r.code))?;
+        leaf_order.push(
+            check_shape_and_node_order(slice(i), h.depth - level, false, r.leaves)
+                .map_err(in_chunk(i, r.code))?,
+        );
     }
     for (i, r) in table.iter().enumerate() {
-        check_leaf_order(slice(i), r.leaves).map_err(in_chunk(i, r.code))?;
+        if !leaf_order[i] {
+            check_leaf_order(slice(i), r.leaves).map_err(in_chunk(i, r.code))?;
+        }
     }
     // One canonical node array: the levels above the chunks, each chunk's nodes moved.
     let stubs: Vec<Stub> = table

@@ -104,7 +104,7 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
     if bits == InfoBits::Zero {
         check_node_words(&t.nodes)?;
     }
-    check_shape_and_node_order(&t.nodes, t.depth, true)?;
+    let leaf_order = check_shape_and_node_order(&t.nodes, t.depth, true, leaves)?;
     if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
         // The shape is sound, so each node's bounds are known.
         let mut derived = t.nodes.clone();
@@ -122,7 +122,9 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
             }
         }
     }
-    check_leaf_order(&t.nodes, leaves)?;
+    if !leaf_order {
+        check_leaf_order(&t.nodes, leaves)?;
+    }
     check_values(t, version)
 }
 
@@ -142,22 +144,32 @@ pub(crate) fn check_node_words(nodes: &[Node]) -> Result<(), Failure> {
 #[cfg_attr(not(feature = "io"), allow(dead_code))]
 pub(crate) fn check_chunk(nodes: &[Node], levels: u8, leaves: u64) -> Result<(), Failure> {
     check_node_words(nodes)?;
-    check_shape_and_node_order(nodes, levels, false)?;
-    check_leaf_order(nodes, leaves)
+    if !check_shape_and_node_order(nodes, levels, false, leaves)? {
+        check_leaf_order(nodes, leaves)?;
+    }
+    Ok(())
 }
 
 /// Checks 15 and 16 on the node array of a tree of `depth` levels: walks the nodes in the
 /// canonical placement order (a node's children block, then the children's subtrees from the
 /// last child to the first), and requires each block where the next free index is. Only the
 /// root may have no children, and only if `empty_root` (a version-3 chunk's may not).
+///
+/// The same walk tells whether check 17 holds for `leaf_count` leaves (`Ok(true)`): it meets
+/// the leaf parents, all on one level, in the reverse of their depth-first order, so their
+/// leaves must end at `leaf_count` and each parent's must end where the one met before it
+/// starts. Only where it does not hold need [`check_leaf_order`] walk again, for its message.
 pub(crate) fn check_shape_and_node_order(
     nodes: &[Node],
     depth: u8,
     empty_root: bool,
-) -> Result<(), Failure> {
+    leaf_count: u64,
+) -> Result<bool, Failure> {
     let n = nodes.len();
     let mut next = 1usize;
-    let mut stack: Vec<(usize, u8)> = vec![(0, 0)];
+    let (mut leaves_end, mut leaf_order) = (leaf_count, true);
+    let mut stack: Vec<(usize, u8)> = Vec::with_capacity(7 * usize::from(depth) + 2);
+    stack.push((0, 0));
     while let Some((i, level)) = stack.pop() {
         let node = nodes[i];
         let mask = node.child_mask();
@@ -186,6 +198,10 @@ pub(crate) fn check_shape_and_node_order(
             ));
         }
         if leaf_level {
+            // A leaf parent (just checked): its leaves end where the next one's start.
+            let base = u64::from(node.leaf_base().unwrap_or(0));
+            leaf_order &= base + k as u64 == leaves_end;
+            leaves_end = base;
             continue;
         }
         let first = node.first as usize;
@@ -199,7 +215,9 @@ pub(crate) fn check_shape_and_node_order(
             ));
         }
         next += k;
-        stack.extend((first..first + k).map(|j| (j, level + 1)));
+        for j in first..first + k {
+            stack.push((j, level + 1));
+        }
     }
     if next != n {
         return Err((
@@ -207,7 +225,7 @@ pub(crate) fn check_shape_and_node_order(
             format!("nodes {next}..{n} are not in the tree"),
         ));
     }
-    Ok(())
+    Ok(leaf_order && leaves_end == 0)
 }
 
 /// Check 17: the leaf parents, visited depth-first in child order, number their leaves from 0
@@ -292,5 +310,71 @@ fn first_bad(c: &Channel<u32>, bad: impl Fn(u32) -> bool) -> Option<(String, u32
             .position(|&w| bad(w))
             .map(|i| (format!("leaf {i}"), v[i])),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::octree::{RootCube, Voxel};
+    use glam::{DVec3, UVec3};
+
+    /// What the shape walk says of check 17 is what check 17's own walk finds: on seeded
+    /// random trees, and on the same trees with one leaf more or fewer counted, with two leaf
+    /// parents' leaves swapped, and with one leaf parent's leaves moved by one.
+    #[test]
+    fn the_shape_walk_tells_the_leaf_order_as_its_own_walk_does() {
+        let mut next = crate::test_rng::xorshift(0x001E_AF0D);
+        let (mut valid, mut invalid) = (0, 0);
+        for depth in 1..=7u8 {
+            for count in [1usize, 3, 20, 300] {
+                let n = 1u64 << depth;
+                let cells: Vec<(UVec3, Voxel)> = (0..count)
+                    .map(|_| {
+                        let mut c = || (next() % n) as u32;
+                        (UVec3::new(c(), c(), c()), Voxel::default())
+                    })
+                    .collect();
+                let root = RootCube {
+                    origin: DVec3::ZERO,
+                    side: 1.0,
+                };
+                let t = Octree::from_cells(root, depth, cells).unwrap();
+                let leaves = u64::from(t.leaf_count);
+                let parents: Vec<usize> = (0..t.nodes.len())
+                    .filter(|&i| t.nodes[i].is_leaf_parent())
+                    .collect();
+                let mut cases = vec![(t.nodes.clone(), leaves)];
+                cases.push((t.nodes.clone(), leaves + 1));
+                cases.push((t.nodes.clone(), leaves - 1));
+                if parents.len() >= 2 {
+                    let mut swapped = t.nodes.clone();
+                    let (a, b) = (parents[0], parents[parents.len() - 1]);
+                    let first = swapped[a].first;
+                    swapped[a].first = swapped[b].first;
+                    swapped[b].first = first;
+                    cases.push((swapped, leaves));
+                }
+                let mut moved = t.nodes.clone();
+                let p = parents[next() as usize % parents.len()];
+                moved[p].first = moved[p].first.wrapping_sub(1);
+                cases.push((moved, leaves));
+                for (nodes, leaves) in cases {
+                    let shape = check_shape_and_node_order(&nodes, depth, true, leaves)
+                        .expect("the shape is a tree's");
+                    let own = check_leaf_order(&nodes, leaves).is_ok();
+                    assert_eq!(shape, own, "depth {depth}, {count} cells, {leaves} leaves");
+                    if own {
+                        valid += 1;
+                    } else {
+                        invalid += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            valid >= 28 && invalid >= 60,
+            "{valid} valid, {invalid} invalid"
+        );
     }
 }
