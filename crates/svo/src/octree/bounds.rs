@@ -21,6 +21,7 @@
 //! [`Octree::validate`] refuses them.
 
 use crate::octree::tree::{Node, Octree};
+#[cfg(any(feature = "trace", test))]
 use glam::UVec3;
 
 /// Bits 8-31 of `info`.
@@ -199,6 +200,7 @@ const LEAF_PARENT: [u32; 256] = {
 /// The low and high corners (in cells) of the box that the 24-bit `code` of a node of `side`
 /// cells at `corner` holds. The traversal passes a [`mirrored`] code and the node's mirrored
 /// corner, and gets the box's corners in the mirrored space.
+#[cfg(any(feature = "trace", test))]
 #[inline(always)]
 pub(crate) fn cell_box(code: u32, corner: UVec3, side: u32) -> (UVec3, UVec3) {
     let sh = unit_shift(side);
@@ -210,12 +212,14 @@ pub(crate) fn cell_box(code: u32, corner: UVec3, side: u32) -> (UVec3, UVec3) {
 }
 
 /// `log2` of the unit of a node of `side` cells: `max(1, side / 16)`.
+#[cfg(any(feature = "trace", test))]
 #[inline(always)]
 fn unit_shift(side: u32) -> u32 {
     side.trailing_zeros().saturating_sub(4)
 }
 
 /// The code's low sides and distances from the high sides, in units.
+#[cfg(any(feature = "trace", test))]
 #[inline(always)]
 fn nibbles(code: u32) -> (UVec3, UVec3) {
     (
@@ -269,6 +273,7 @@ mod tests {
     use glam::DVec3;
 
     /// The 24-bit code of the box `[lo, hi]` (cells, relative to the node) of a node of `side`.
+    #[cfg(feature = "trace")]
     fn encode(lo: UVec3, hi: UVec3, side: u32) -> u32 {
         let sh = unit_shift(side);
         let a = lo >> sh;
