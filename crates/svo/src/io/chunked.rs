@@ -206,7 +206,7 @@ impl ChunkedFile {
             attributes: a.attributes,
         };
         check_values(&tree, self.read.preamble.version).map_err(corrupt)?;
-        tree.refresh_bounds();
+        tree.refresh_checked_bounds();
         Ok(tree)
     }
 

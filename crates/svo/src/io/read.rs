@@ -414,7 +414,7 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
         _ => check_tree(&tree, p.version, InfoBits::Zero),
     }
     .map_err(|(check, detail)| corrupt(check, detail))?;
-    tree.refresh_bounds();
+    tree.refresh_checked_bounds();
     Ok((tree, p))
 }
 

@@ -80,30 +80,74 @@ pub(crate) fn derive(nodes: &mut [Node], depth: u8) {
         if side_log == 1 || first <= i || first + mask.count_ones() as usize > n {
             continue;
         }
-        // The children's codes in the parent's units, six 5-bit lanes at a time (see
-        // `lanes`): a child's box moves by its offset in the parent, and a unit doubles from
-        // a side of 32 up (the parent's unit is then twice the child's), which halves the
-        // child's numbers; below, both units are one cell.
-        let (mut rest, mut j) = (mask, first);
-        let (mut acc, mut whole) = (LANES_MAX, false);
-        let half = 1u32 << (side_log - 1);
-        while rest != 0 {
-            let c = usize::from(rest.trailing_zeros() as u8);
-            rest &= rest - 1;
-            whole |= level[j] != l + 1;
-            let v = lanes(nodes[j].info >> SHIFT);
-            let v = if side_log >= 5 {
-                ((v >> 1) & LANES_LOW4) + LANE_OFFSET[c] * 8
-            } else {
-                v + LANE_OFFSET[c] * half
-            };
-            acc = lanes_min(acc, v);
-            j += 1;
-        }
+        let whole = level[first..first + mask.count_ones() as usize]
+            .iter()
+            .any(|&lc| lc != l + 1);
         if !whole {
-            nodes[i].info |= unlanes(acc) << SHIFT;
+            nodes[i].info |= combine(nodes, first, mask, side_log) << SHIFT;
         }
     }
+}
+
+/// [`derive`] for a tree that passed checks 15 and 16 (every node reached once, the leaf
+/// parents on the level above the leaves, children after their parents): one backward pass,
+/// each node's side taken from its first child's, no levels from the root. The same bits as
+/// [`derive`] there; on any other tree, bounds that may hide leaves (never a panic).
+pub(crate) fn derive_checked(nodes: &mut [Node], depth: u8) {
+    let n = nodes.len();
+    if n == 0 || depth == 0 || depth > crate::MAX_DEPTH {
+        derive(nodes, depth);
+        return;
+    }
+    // log2 of each node's side, filled from the leaves up.
+    let mut side_logs = vec![0u8; n];
+    for i in (0..n).rev() {
+        nodes[i].info &= 0xFF;
+        let node = nodes[i];
+        let mask = node.child_mask();
+        if mask == 0 {
+            continue;
+        }
+        if node.is_leaf_parent() {
+            side_logs[i] = 1;
+            nodes[i].info |= LEAF_PARENT[usize::from(mask)] << SHIFT;
+            continue;
+        }
+        let first = node.first as usize;
+        let Some(&below) = side_logs.get(first).filter(|_| first > i) else {
+            continue;
+        };
+        if below == 0 || below >= depth || first + mask.count_ones() as usize > n {
+            continue;
+        }
+        side_logs[i] = below + 1;
+        nodes[i].info |= combine(nodes, first, mask, u32::from(below) + 1) << SHIFT;
+    }
+}
+
+/// The code of a node of side `2^side_log` (at least 4) whose children, in `mask`, start at
+/// `first`, from the children's codes. They are combined in the parent's units, six 5-bit
+/// lanes at a time (see [`lanes`]): a child's box moves by its offset in the parent, and a
+/// unit doubles from a side of 32 up (the parent's unit is then twice the child's), which
+/// halves the child's numbers; below, both units are one cell.
+#[inline]
+fn combine(nodes: &[Node], first: usize, mask: u8, side_log: u32) -> u32 {
+    let (mut rest, mut j) = (mask, first);
+    let mut acc = LANES_MAX;
+    let half = 1u32 << (side_log - 1);
+    while rest != 0 {
+        let c = usize::from(rest.trailing_zeros() as u8);
+        rest &= rest - 1;
+        let v = lanes(nodes[j].info >> SHIFT);
+        let v = if side_log >= 5 {
+            ((v >> 1) & LANES_LOW4) + LANE_OFFSET[c] * 8
+        } else {
+            v + LANE_OFFSET[c] * half
+        };
+        acc = lanes_min(acc, v);
+        j += 1;
+    }
+    unlanes(acc)
 }
 
 /// A 24-bit code's six 4-bit numbers in six 5-bit lanes (bits `5k..5k+4`), the top bit of
@@ -257,6 +301,12 @@ impl Octree {
         derive(&mut self.nodes, self.depth);
     }
 
+    /// [`Octree::refresh_bounds`] for a tree that passed checks 15 and 16 ([`derive_checked`]).
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
+    pub(crate) fn refresh_checked_bounds(&mut self) {
+        derive_checked(&mut self.nodes, self.depth);
+    }
+
     /// Clears bits 8-31 of every node: the tree as a file stores it, traversed with more
     /// steps to the same leaves.
     pub fn clear_bounds(&mut self) {
@@ -287,6 +337,39 @@ mod tests {
             side: 1.0,
         };
         Octree::from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default()))).unwrap()
+    }
+
+    /// The one-pass derive for checked trees gives [`derive`]'s bits on seeded random trees
+    /// (depths 1 to 12, sparse and dense), and neither panics on broken ones.
+    #[test]
+    fn the_derive_for_checked_trees_equals_the_derive() {
+        let mut next = crate::test_rng::xorshift(0x00DE_C4ED);
+        let mut compared = 0usize;
+        for depth in 1..=12u8 {
+            for count in [1usize, 5, 60, 900] {
+                let n = 1u64 << depth;
+                let cells: Vec<UVec3> = (0..count)
+                    .map(|_| {
+                        let mut c = || (next() % n) as u32;
+                        UVec3::new(c(), c(), c())
+                    })
+                    .collect();
+                let t = tree(depth, &cells);
+                let mut fast = t.nodes.clone();
+                derive_checked(&mut fast, depth);
+                assert_eq!(fast, t.nodes, "depth {depth}, {count} cells");
+                compared += t.nodes.len();
+                // Broken trees: children pointing back, a node's level lied about.
+                let mut broken = t.nodes.clone();
+                for node in broken.iter_mut().filter(|n| !n.is_leaf_parent()) {
+                    node.first = node.first.wrapping_sub(1 + (next() % 3) as u32);
+                }
+                derive_checked(&mut broken, depth);
+                derive_checked(&mut broken, 30);
+                derive(&mut broken, depth);
+            }
+        }
+        assert!(compared > 10_000, "{compared} nodes");
     }
 
     /// Every node's box, decoded, holds each of its leaves, and is the tightest box the

@@ -108,7 +108,7 @@ pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failur
     if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
         // The shape is sound, so each node's bounds are known.
         let mut derived = t.nodes.clone();
-        crate::octree::bounds::derive(&mut derived, t.depth);
+        crate::octree::bounds::derive_checked(&mut derived, t.depth);
         for (i, (node, want)) in t.nodes.iter().zip(derived).enumerate() {
             let (have, want) = (node.info & !0xFF, want.info & !0xFF);
             if have != 0 && have != want {
