@@ -347,13 +347,7 @@ mod tests {
         let mut compared = 0usize;
         for depth in 1..=12u8 {
             for count in [1usize, 5, 60, 900] {
-                let n = 1u64 << depth;
-                let cells: Vec<UVec3> = (0..count)
-                    .map(|_| {
-                        let mut c = || (next() % n) as u32;
-                        UVec3::new(c(), c(), c())
-                    })
-                    .collect();
+                let cells = crate::test_rng::random_cells(&mut next, depth, count);
                 let t = tree(depth, &cells);
                 let mut fast = t.nodes.clone();
                 derive_checked(&mut fast, depth);
@@ -380,15 +374,7 @@ mod tests {
         for depth in 1..=9u8 {
             for count in [1usize, 2, 7, 40] {
                 let n = 1u32 << depth;
-                let cells: Vec<UVec3> = (0..count)
-                    .map(|_| {
-                        UVec3::new(
-                            (next() % u64::from(n)) as u32,
-                            (next() % u64::from(n)) as u32,
-                            (next() % u64::from(n)) as u32,
-                        )
-                    })
-                    .collect();
+                let cells = crate::test_rng::random_cells(&mut next, depth, count);
                 let t = tree(depth, &cells);
                 let mut checked = 0;
                 for level in 0..depth {
@@ -409,9 +395,9 @@ mod tests {
                         let tight_hi = inside
                             .iter()
                             .fold(UVec3::ZERO, |a, &c| a.max(c + UVec3::ONE));
-                        let u = 1u32 << unit_shift(side);
                         assert!(lo.cmple(tight_lo).all() && hi.cmpge(tight_hi).all());
                         let sh = unit_shift(side);
+                        let u = 1u32 << sh;
                         let (want_lo, want_hi) = (
                             tight_lo >> sh << sh,
                             UVec3::splat(side) - ((UVec3::splat(side) - tight_hi) >> sh << sh),

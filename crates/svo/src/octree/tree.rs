@@ -574,13 +574,9 @@ mod tests {
         let mut rnd = crate::test_rng::xorshift(0x5851_f42d_4c95_7f2d);
         for depth in 1..=9u8 {
             for count in [1usize, 2, 7, 100] {
-                let side = 1u64 << depth;
-                let cells: Vec<(UVec3, Voxel)> = (0..count)
-                    .map(|_| {
-                        let mut c = || (rnd() % side) as u32;
-                        (UVec3::new(c(), c(), c()), Voxel::default())
-                    })
-                    .collect();
+                let cells = crate::test_rng::random_cells(&mut rnd, depth, count)
+                    .into_iter()
+                    .map(|c| (c, Voxel::default()));
                 let tree = from_cells(root, depth, cells).unwrap();
                 let (mut lo, mut hi) = (UVec3::MAX, UVec3::ZERO);
                 for l in tree.leaves() {

@@ -317,7 +317,7 @@ fn first_bad(c: &Channel<u32>, bad: impl Fn(u32) -> bool) -> Option<(String, u32
 mod tests {
     use super::*;
     use crate::octree::{RootCube, Voxel};
-    use glam::{DVec3, UVec3};
+    use glam::DVec3;
 
     /// What the shape walk says of check 17 is what check 17's own walk finds: on seeded
     /// random trees, and on the same trees with one leaf more or fewer counted, with two leaf
@@ -328,13 +328,9 @@ mod tests {
         let (mut valid, mut invalid) = (0, 0);
         for depth in 1..=7u8 {
             for count in [1usize, 3, 20, 300] {
-                let n = 1u64 << depth;
-                let cells: Vec<(UVec3, Voxel)> = (0..count)
-                    .map(|_| {
-                        let mut c = || (next() % n) as u32;
-                        (UVec3::new(c(), c(), c()), Voxel::default())
-                    })
-                    .collect();
+                let cells = crate::test_rng::random_cells(&mut next, depth, count)
+                    .into_iter()
+                    .map(|c| (c, Voxel::default()));
                 let root = RootCube {
                     origin: DVec3::ZERO,
                     side: 1.0,
