@@ -420,12 +420,13 @@ impl<'a> PrimaryBand<'a> {
         (self.view.width as usize).div_ceil(64)
     }
 
-    /// Decides the band's rays on `tree`, with `hit_t` the surfaces' hit test of a leaf
-    /// entry (the parameter of the hit, or `None` where the ray goes on through the leaf).
-    pub(crate) fn decide(
+    /// Decides the band's rays on `tree`, with `leaf_test(leaf)` the surfaces' hit test of
+    /// that leaf's entries (the parameter of the hit, or `None` where the ray goes on through
+    /// the leaf), made once for all the rays tested against the leaf.
+    pub(crate) fn decide<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
         tree: &Octree,
-        hit_t: impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+        leaf_test: impl Fn(u32) -> T,
     ) {
         let depth = tree.depth;
         if !(1..=24).contains(&depth) {
@@ -477,7 +478,7 @@ impl<'a> PrimaryBand<'a> {
                 continue;
             };
             if open <= WALK_PIXELS {
-                self.walk_node(tree, p, rect, &hit_t);
+                self.walk_node(tree, p, rect, &leaf_test);
                 continue;
             }
             let half = p.side / 2;
@@ -499,7 +500,7 @@ impl<'a> PrimaryBand<'a> {
                     };
                     let cell = child(c);
                     if let Some(r) = self.rect(cell, 1) {
-                        self.test_leaf(base + rank, cell, r, &hit_t);
+                        self.test_leaf(base + rank, cell, r, &leaf_test);
                     }
                 }
             } else if half >= 2 {
@@ -590,12 +591,12 @@ impl<'a> PrimaryBand<'a> {
 
     /// Decides the open pixels of `r` by walking node `p`'s subtree along each one's ray
     /// ([`traverse_node`]: the leaves and entries of the walk from the root, within it).
-    fn walk_node(
+    fn walk_node<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
         tree: &Octree,
         p: Pending,
         r: Rect,
-        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+        leaf_test: &impl Fn(u32) -> T,
     ) {
         let start = StartNode {
             index: p.index,
@@ -605,7 +606,7 @@ impl<'a> PrimaryBand<'a> {
         self.each_open(r, |band, at, b, i, x, y| {
             let ray = band.view.ray(x, y);
             let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                hit_t(&ray, e).map(|t| (*e, t))
+                leaf_test(e.leaf)(&ray, e).map(|t| (*e, t))
             });
             let s = &mut *band.s;
             match walk {
@@ -624,13 +625,15 @@ impl<'a> PrimaryBand<'a> {
     }
 
     /// Tests leaf `leaf` at `cell` against the open pixels of `r`.
-    fn test_leaf(
+    fn test_leaf<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
         leaf: u32,
         cell: UVec3,
         r: Rect,
-        hit_t: &impl Fn(&GridRay, &LeafEntry) -> Option<f32>,
+        leaf_test: &impl Fn(u32) -> T,
     ) {
+        // The leaf's test, made when the first ray enters the cell.
+        let mut test = None;
         // The cell's planes relative to the eye, as the traversal has them.
         let eye = Vec3A::from(self.view.eye);
         let lo = Vec3A::from(cell.as_vec3()) - eye;
@@ -649,6 +652,7 @@ impl<'a> PrimaryBand<'a> {
                     let ray = view.ray(x, y);
                     match leaf_entry(t0, t1, mask, leaf, cell) {
                         Some(e) => {
+                            let hit_t = test.get_or_insert_with(|| leaf_test(leaf));
                             if let Some(t) = hit_t(&ray, &e) {
                                 s.close_hit(at, b, i, (e, t));
                             }

@@ -10,7 +10,7 @@ use crate::octree::tree::Octree;
 use crate::render::primary_prepass::PrimaryBand;
 use crate::render::whitted::PrimaryStart;
 use crate::trace::grid_ray::GridRay;
-use crate::trace::leaf_hit::{HitMode, leaf_hit};
+use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
 use crate::trace::packet::{LANES, traverse_packet};
 use crate::trace::traverse::{LeafEntry, traverse};
 use glam::Vec3;
@@ -290,23 +290,49 @@ pub trait LeafShape: Sync {
     fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
         self.hit(tree, ray, e).map(|h| h.0)
     }
+
+    /// [`Self::hit_t`] for entries of leaf `leaf` only, for testing many rays against one leaf
+    /// (what a shape reads of the leaf may be read once).
+    fn leaf_hit_t<'a>(
+        &'a self,
+        tree: &'a Octree,
+        leaf: u32,
+    ) -> impl Fn(&GridRay, &LeafEntry) -> Option<f32> + 'a {
+        let _ = leaf;
+        move |ray, e| self.hit_t(tree, ray, e)
+    }
 }
 
 impl LeafShape for HitMode {
     #[inline]
     fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)> {
-        let h = leaf_hit(tree, ray, e, *self)?;
-        let n = tree
-            .attributes
-            .normal
-            .get(e.leaf as usize)
-            .map_or(h.normal, crate::octree::normal_encoding::decode);
+        let test = LeafTest::new(tree, e.leaf, *self);
+        let h = test.hit(ray, e)?;
+        let n = match test {
+            // The slab's normal is the stored one, decoded.
+            LeafTest::Slab { n, .. } => n,
+            LeafTest::Cube => tree
+                .attributes
+                .normal
+                .get(e.leaf as usize)
+                .map_or(h.normal, crate::octree::normal_encoding::decode),
+        };
         Some((h.t, n))
     }
 
     #[inline]
     fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
         leaf_hit(tree, ray, e, *self).map(|h| h.t)
+    }
+
+    #[inline]
+    fn leaf_hit_t<'a>(
+        &'a self,
+        tree: &'a Octree,
+        leaf: u32,
+    ) -> impl Fn(&GridRay, &LeafEntry) -> Option<f32> + 'a {
+        let test = LeafTest::new(tree, leaf, *self);
+        move |ray, e| test.hit(ray, e).map(|h| h.t)
     }
 }
 
@@ -471,11 +497,10 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn primary_band(&self, band: &mut PrimaryBand<'_>) {
-        band.decide(self.tree, |ray, e| {
-            if self.passes_through(e.leaf) {
-                return None;
-            }
-            self.shape.hit_t(self.tree, ray, e)
+        band.decide(self.tree, |leaf| {
+            let through = self.passes_through(leaf);
+            let hit_t = self.shape.leaf_hit_t(self.tree, leaf);
+            move |ray: &GridRay, e: &LeafEntry| if through { None } else { hit_t(ray, e) }
         });
     }
 

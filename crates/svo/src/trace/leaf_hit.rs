@@ -129,19 +129,46 @@ pub(crate) fn slab_hit(
 /// The hit of `ray` on leaf entry `e` in `mode`.
 #[inline]
 pub fn leaf_hit(tree: &Octree, ray: &GridRay, e: &LeafEntry, mode: HitMode) -> Option<LeafHit> {
-    match mode {
-        HitMode::Cube | HitMode::Exact => Some(cube_hit(e)),
-        HitMode::Contour => {
-            let a = &tree.attributes;
-            let (Some(nw), Some(cw)) = (
-                channel_word(&a.normal, e.leaf),
-                channel_word(&a.contour, e.leaf),
-            ) else {
-                return Some(cube_hit(e));
-            };
-            let n = normal_encoding::decode(nw);
-            let (near, far) = contour::offsets(cw, n);
-            slab_hit(ray, e, n, near, far)
+    LeafTest::new(tree, e.leaf, mode).hit(ray, e)
+}
+
+/// [`leaf_hit`] for one leaf, its stored normal and contour decoded once, for testing many
+/// rays against it (the same hits).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum LeafTest {
+    /// Hit where the ray enters the cell.
+    Cube,
+    /// Hit on the slab of unit normal `n` between offsets `near` and `far` from the centre.
+    Slab { n: Vec3, near: f32, far: f32 },
+}
+
+impl LeafTest {
+    /// The test of leaf `leaf` of `tree` in `mode`.
+    #[inline]
+    pub(crate) fn new(tree: &Octree, leaf: u32, mode: HitMode) -> Self {
+        match mode {
+            HitMode::Cube | HitMode::Exact => Self::Cube,
+            HitMode::Contour => {
+                let a = &tree.attributes;
+                let (Some(nw), Some(cw)) = (
+                    channel_word(&a.normal, leaf),
+                    channel_word(&a.contour, leaf),
+                ) else {
+                    return Self::Cube;
+                };
+                let n = normal_encoding::decode(nw);
+                let (near, far) = contour::offsets(cw, n);
+                Self::Slab { n, near, far }
+            }
+        }
+    }
+
+    /// The hit of `ray` on entry `e` of the leaf.
+    #[inline]
+    pub(crate) fn hit(self, ray: &GridRay, e: &LeafEntry) -> Option<LeafHit> {
+        match self {
+            Self::Cube => Some(cube_hit(e)),
+            Self::Slab { n, near, far } => slab_hit(ray, e, n, near, far),
         }
     }
 }
