@@ -207,16 +207,26 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
         .node_count
         .checked_mul(8)
         .ok_or_else(|| corrupt(Check::ArrayLayout, "the node count overflows"))?;
+    // Check 9 bounds the chunk count by the node count and the leaf count by eight a node,
+    // which keeps neither array's size below 2^64.
+    let overflows = |what: &str| corrupt(Check::ArrayLayout, format!("the {what} overflows"));
     let mut refs: Vec<(ArrayRef, u64)> = Vec::new();
     if let Some(c) = h.chunks {
-        // Check 9 bounds the count by the node count, so this does not overflow.
-        refs.push((c.table, c.count * size_of::<ChunkRecord>() as u64));
+        let table = c
+            .count
+            .checked_mul(size_of::<ChunkRecord>() as u64)
+            .ok_or_else(|| overflows("chunk table's size"))?;
+        refs.push((c.table, table));
     }
     refs.push((h.nodes, node_bytes));
     for e in &h.channels {
         if let Storage::PerLeaf(r) = e.storage {
             let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
-            refs.push((r, h.leaf_count * size));
+            let bytes = h
+                .leaf_count
+                .checked_mul(size)
+                .ok_or_else(|| overflows("channel array's size"))?;
+            refs.push((r, bytes));
         }
     }
     let pad8 = |x: u64| x.div_ceil(8) * 8;
@@ -232,7 +242,7 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
                 ),
             ));
         }
-        let end = at + r.len;
+        let end = at.saturating_add(r.len);
         if end > data_end {
             return Err(truncated(
                 Check::ArrayLayout,
