@@ -151,6 +151,53 @@ fn header_lies_about_counts() {
 }
 
 #[test]
+fn a_chunked_header_whose_array_sizes_overflow_is_refused() {
+    // A version-3 header may claim up to 2^64 - 1 nodes; check 9 bounds the leaves by eight
+    // a node and the chunks by the cells at the chunk level, which leaves the sizes of the
+    // per-leaf arrays and of the chunk table free to pass 2^64 bytes. Check 12 must refuse
+    // both as corrupt (a size that overflows), with overflow checks on or off.
+    let tree = small_tree();
+    let mut bytes = Vec::new();
+    crate::io::write_chunked_to(&tree, &info(), 1, &mut bytes).unwrap();
+    let h = read_header(&bytes).unwrap().header;
+    let c = h.chunks.expect("a chunked header");
+    assert!(
+        h.channels
+            .iter()
+            .any(|e| matches!(e.storage, crate::io::header::Storage::PerLeaf(_))),
+        "the tree needs a per-leaf channel"
+    );
+    for lie in 0..2 {
+        let mut hh = h.clone();
+        // The most nodes whose array size fits 64 bits.
+        hh.node_count = u64::MAX / 8;
+        let mut cc = c;
+        match lie {
+            // 2^62 leaves of four-byte colours: 2^64 bytes.
+            0 => hh.leaf_count = 1 << 62,
+            // 2^60 chunks at level 21 (8^21 = 2^63 cells) of 24-byte records.
+            _ => {
+                hh.depth = 22;
+                cc.level = 21;
+                cc.count = 1 << 60;
+            }
+        }
+        let v3 = crate::io::header::HeaderV3::of(&hh, cc);
+        let enc = bincode::serde::encode_to_vec(&v3, bincode_config()).unwrap();
+        let mut b = bytes.clone();
+        b.splice(16..16 + enc.len(), enc.iter().copied());
+        rechecksum(&mut b);
+        let e = from_bytes(&b).unwrap_err();
+        assert_eq!(e.check(), Some(Check::ArrayLayout), "lie {lie}: {e}");
+        let what = ["channel array's size", "chunk table's size"][lie];
+        assert!(
+            e.to_string().contains(&format!("the {what} overflows")),
+            "lie {lie}: {e}"
+        );
+    }
+}
+
+#[test]
 fn the_writer_refuses_a_tree_the_reader_would_refuse() {
     // A node out of the canonical order, a contour without a normal: nothing is written, and
     // the error names the check.
