@@ -291,6 +291,14 @@ pub trait LeafShape: Sync {
         self.hit(tree, ray, e).map(|h| h.0)
     }
 
+    /// [`Self::hit`] of entry `e`, known to be hit at parameter `t` (found by
+    /// [`Self::leaf_hit_t`] on the same ray and entry): the same parameter and normal. Shapes
+    /// whose normal does not depend on the ray's path through the cell need not test again.
+    fn hit_at(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry, t: f32) -> Option<(f32, Vec3)> {
+        let _ = t;
+        self.hit(tree, ray, e)
+    }
+
     /// [`Self::hit_t`] for entries of leaf `leaf` only, for testing many rays against one leaf
     /// (what a shape reads of the leaf may be read once).
     fn leaf_hit_t<'a>(
@@ -323,6 +331,18 @@ impl LeafShape for HitMode {
     #[inline]
     fn hit_t(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
         leaf_hit(tree, ray, e, *self).map(|h| h.t)
+    }
+
+    /// The stored normal wherever there is one (a slab's normal is that normal decoded), else
+    /// the face the ray entered through: [`Self::hit`]'s normal without the test.
+    #[inline]
+    fn hit_at(&self, tree: &Octree, _: &GridRay, e: &LeafEntry, t: f32) -> Option<(f32, Vec3)> {
+        let n = tree
+            .attributes
+            .normal
+            .get(e.leaf as usize)
+            .map_or(e.entry_normal, crate::octree::normal_encoding::decode);
+        Some((t, n))
     }
 
     #[inline]
@@ -405,6 +425,20 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             return None;
         }
         let (t, normal) = self.shape.hit(self.tree, ray, e)?;
+        Some(SurfaceHit {
+            t,
+            t_exit: e.t_exit,
+            id: e.leaf,
+            normal,
+            material: self.material(e.leaf),
+            medium: self.medium_of(e.leaf),
+        })
+    }
+
+    /// [`Self::surface_hit`] of an entry the prepass found hit at `t`.
+    #[inline]
+    fn decided_hit(&self, ray: &GridRay, e: &LeafEntry, t: f32) -> Option<SurfaceHit> {
+        let (t, normal) = self.shape.hit_at(self.tree, ray, e, t)?;
         Some(SurfaceHit {
             t,
             t_exit: e.t_exit,
@@ -515,7 +549,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
                 steps: tests,
                 capped: false,
             },
-            PrimaryStart::Leaf { entry, tests, .. } => match self.surface_hit(ray, &entry) {
+            PrimaryStart::Leaf { entry, t, tests } => match self.decided_hit(ray, &entry, t) {
                 Some(h) => Traced {
                     hit: Some(h),
                     steps: tests,

@@ -605,6 +605,12 @@ impl<S: Surfaces> Tracer<S> {
         // Reflection and refraction, while the path has bounces left.
         let path_left =
             u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
+        let limits_left =
+            task.refl < self.opts.max_reflections || task.refr < self.opts.max_refractions;
+        if !path_left || !limits_left || *len >= STACK {
+            // Nothing could be pushed: skip the Fresnel terms and the refracted direction.
+            return;
+        }
         // From the medium the ray is in into the leaf's, or out of the leaf's into the
         // one around it.
         let (here, around) = (task.iors & 0xFFFF, task.iors >> 16);
@@ -633,7 +639,7 @@ impl<S: Surfaces> Tracer<S> {
                 fr += kt;
             }
         }
-        if fr > 0.0 && path_left && task.refl < self.opts.max_reflections && *len < STACK {
+        if fr > 0.0 && task.refl < self.opts.max_reflections && *len < STACK {
             stack[*len] = Task {
                 origin: p + n_f * bias,
                 dir: reflect(task.dir, n_f).normalize(),
@@ -649,7 +655,6 @@ impl<S: Surfaces> Tracer<S> {
         }
         if let Some(td) = t_dir
             && ft > 0.0
-            && path_left
             && task.refr < self.opts.max_refractions
             && *len < STACK
         {
