@@ -425,28 +425,28 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             return None;
         }
         let (t, normal) = self.shape.hit(self.tree, ray, e)?;
-        Some(SurfaceHit {
-            t,
-            t_exit: e.t_exit,
-            id: e.leaf,
-            normal,
-            material: self.material(e.leaf),
-            medium: self.medium_of(e.leaf),
-        })
+        Some(self.hit_of(e, t, normal))
     }
 
     /// [`Self::surface_hit`] of an entry the prepass found hit at `t`.
     #[inline]
     fn decided_hit(&self, ray: &GridRay, e: &LeafEntry, t: f32) -> Option<SurfaceHit> {
         let (t, normal) = self.shape.hit_at(self.tree, ray, e, t)?;
-        Some(SurfaceHit {
+        Some(self.hit_of(e, t, normal))
+    }
+
+    /// The hit of entry `e` at `t` with shading normal `normal`: the leaf's material and
+    /// medium read.
+    #[inline]
+    fn hit_of(&self, e: &LeafEntry, t: f32, normal: Vec3) -> SurfaceHit {
+        SurfaceHit {
             t,
             t_exit: e.t_exit,
             id: e.leaf,
             normal,
             material: self.material(e.leaf),
             medium: self.medium_of(e.leaf),
-        })
+        }
     }
 
     /// The closest-hit walk's callback for leaf entry `e` of `ray` under query `q`.
