@@ -319,11 +319,7 @@ impl LeafShape for HitMode {
         let n = match test {
             // The slab's normal is the stored one, decoded.
             LeafTest::Slab { n, .. } => n,
-            LeafTest::Cube => tree
-                .attributes
-                .normal
-                .get(e.leaf as usize)
-                .map_or(h.normal, crate::octree::normal_encoding::decode),
+            LeafTest::Cube => stored_normal_or(tree, e.leaf, h.normal),
         };
         Some((h.t, n))
     }
@@ -337,12 +333,7 @@ impl LeafShape for HitMode {
     /// the face the ray entered through: [`Self::hit`]'s normal without the test.
     #[inline]
     fn hit_at(&self, tree: &Octree, _: &GridRay, e: &LeafEntry, t: f32) -> Option<(f32, Vec3)> {
-        let n = tree
-            .attributes
-            .normal
-            .get(e.leaf as usize)
-            .map_or(e.entry_normal, crate::octree::normal_encoding::decode);
-        Some((t, n))
+        Some((t, stored_normal_or(tree, e.leaf, e.entry_normal)))
     }
 
     #[inline]
@@ -354,6 +345,15 @@ impl LeafShape for HitMode {
         let test = LeafTest::new(tree, leaf, *self);
         move |ray, e| test.hit(ray, e).map(|h| h.t)
     }
+}
+
+/// Leaf `leaf`'s stored normal, decoded, or `geometric` where the tree stores none.
+#[inline]
+fn stored_normal_or(tree: &Octree, leaf: u32, geometric: Vec3) -> Vec3 {
+    tree.attributes
+        .normal
+        .get(leaf as usize)
+        .map_or(geometric, crate::octree::normal_encoding::decode)
 }
 
 /// An octree traced with a leaf shape: one of the hit modes by default.
