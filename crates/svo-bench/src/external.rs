@@ -12,8 +12,40 @@ pub fn scripts() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/bench")
 }
 
+/// A baseline tool run through Python: its name, the modules it needs and how to install
+/// them.
+pub struct Baseline {
+    /// The tool's name in the report.
+    pub name: &'static str,
+    /// The Python modules its script imports.
+    pub modules: &'static [&'static str],
+    /// The command that installs them.
+    pub install: &'static str,
+}
+
+/// open3d's voxelizer (`docs/bench/open3d_voxelize.py`).
+pub const OPEN3D: Baseline = Baseline {
+    name: "open3d",
+    modules: &["open3d", "numpy"],
+    install: "pip install open3d",
+};
+
+/// Embree through embreex (`docs/bench/embree_primary.py`).
+pub const EMBREE: Baseline = Baseline {
+    name: "Embree",
+    modules: &["embreex", "trimesh", "numpy"],
+    install: "pip install embreex trimesh",
+};
+
+impl Baseline {
+    /// Whether its modules import here.
+    pub fn available(&self) -> bool {
+        python_has(self.modules)
+    }
+}
+
 /// Whether `python3` can import every module named.
-pub fn python_has(modules: &[&str]) -> bool {
+fn python_has(modules: &[&str]) -> bool {
     Command::new("python3")
         .args(["-c", &format!("import {}", modules.join(", "))])
         .output()

@@ -132,6 +132,14 @@ struct DepthResults {
     geometry: Vec<(&'static str, GeometryError)>,
 }
 
+/// The report's line for a baseline that is not installed.
+fn not_installed(b: &external::Baseline) -> String {
+    format!(
+        "{} is not installed here (`{}`), so it was not measured.",
+        b.name, b.install
+    )
+}
+
 fn log(start: Instant, msg: &str) {
     eprintln!("[{:7.1} s] {msg}", start.elapsed().as_secs_f64());
 }
@@ -166,6 +174,18 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     );
     let tmp = tempfile::tempdir()?;
     let lg = |m: &str| log(start, m);
+    // Said at the start, not only in the report: without them the report is shorter.
+    if !opts.quick && !opts.no_external {
+        for b in [external::OPEN3D, external::EMBREE] {
+            if !b.available() {
+                lg(&format!(
+                    "notice: {} is not installed here (`{}`): the report will leave its rows \
+                     out",
+                    b.name, b.install
+                ));
+            }
+        }
+    }
 
     // Bake tables.
     let tables = bake_tables::measure(&mesh, plan.bake_max_depth, &plan.bake_runs, &lg)?;
@@ -381,7 +401,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
             )?);
         }
     }
-    let embree = if external && external::python_has(&["embreex", "trimesh", "numpy"]) {
+    let embree = if external && external::EMBREE.available() {
         lg("embree");
         let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
         let cam = View::Framed.camera(lo, hi, plan.framed_size.0, plan.framed_size.1);
@@ -630,10 +650,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
                 r.para(&fail);
             }
         }
-        None => r.para(if m.external {
-            "open3d is not installed here (`pip install open3d`), so it was not measured."
+        None => r.para(&if m.external {
+            not_installed(&external::OPEN3D)
         } else {
-            "Not run in this variant."
+            "Not run in this variant.".to_string()
         }),
     }
 
@@ -865,10 +885,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     if let Some(Err(e)) = &m.embree {
         r.para(&format!("Embree failed: {e:#}"));
     } else if m.embree.is_none() {
-        r.para(if m.external {
-            "Embree is not installed here (`pip install embreex trimesh`), so it was not measured."
+        r.para(&if m.external {
+            not_installed(&external::EMBREE)
         } else {
-            "Embree: not run in this variant."
+            "Embree: not run in this variant.".to_string()
         });
     }
 

@@ -160,7 +160,7 @@ fn version_of(head: &str) -> String {
 
 /// Whether open3d (and numpy) can be imported here.
 pub fn available() -> bool {
-    external::python_has(&["open3d", "numpy"])
+    external::OPEN3D.available()
 }
 
 #[cfg(test)]
