@@ -554,3 +554,69 @@ fn chunked_files_read_chunk_by_chunk() {
     let e = ChunkedFile::open(&path).unwrap_err();
     assert_eq!(e.check(), Some(svo::io::Check::Depth), "{e}");
 }
+
+/// A version-3 file of hundreds of chunks with one or more damaged chunks anywhere: opening
+/// it (each chunk checked in turn) and reading it whole (the chunks checked on every thread)
+/// both name the first damaged chunk in the file's order.
+#[test]
+fn the_first_damaged_chunk_is_named() {
+    let mut r = rng(0x3c5);
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let cells: Vec<_> = (0..6000)
+        .map(|_| {
+            let c = UVec3::new(
+                r.random_range(0..64),
+                r.random_range(0..64),
+                r.random_range(0..64),
+            );
+            (c, Voxel::glass())
+        })
+        .collect();
+    let tree = Octree::from_cells(root, 6, cells).unwrap();
+    let clean = chunked(&tree, 3);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("chunks.svo");
+    std::fs::write(&path, &clean).unwrap();
+    let count = ChunkedFile::open(&path).unwrap().len();
+    assert!(count > 400, "{count}");
+    let field = |at: usize| u64::from_le_bytes(clean[at..at + 8].try_into().unwrap()) as usize;
+    let nodes_at = field(16 + 74);
+    let table_at = nodes_at - 24 * count;
+    // Where each chunk's root node is in the file.
+    let mut roots = Vec::with_capacity(count);
+    let mut at = nodes_at;
+    for i in 0..count {
+        roots.push(at);
+        at += 8 * field(table_at + 24 * i + 8);
+    }
+    let cases: [&[usize]; 8] = [
+        &[0],
+        &[63],
+        &[64],
+        &[65, 70],
+        &[100, 300],
+        &[127, 128],
+        &[200, 20 + count / 2, count - 1],
+        &[count - 1],
+    ];
+    for damaged in cases {
+        let mut b = clean.clone();
+        for &k in damaged {
+            // A chunk's root must have children.
+            b[roots[k]] = 0;
+        }
+        rechecksum(&mut b);
+        std::fs::write(&path, &b).unwrap();
+        let e = ChunkedFile::open(&path).unwrap_err();
+        let whole = ChunkedFile::load(&path).unwrap_err();
+        assert!(e.check().is_some(), "{damaged:?}: {e}");
+        assert!(
+            e.to_string().contains(&format!("chunk {} (", damaged[0])),
+            "{damaged:?}: {e}"
+        );
+        assert_eq!(e.to_string(), whole.to_string(), "{damaged:?}");
+    }
+}
