@@ -174,18 +174,19 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     );
     let tmp = tempfile::tempdir()?;
     let lg = |m: &str| log(start, m);
-    // Said at the start, not only in the report: without them the report is shorter.
-    if !opts.quick && !opts.no_external {
-        for b in [external::OPEN3D, external::EMBREE] {
-            if !b.available() {
-                lg(&format!(
-                    "notice: {} is not installed here (`{}`): the report will leave its rows \
-                     out",
-                    b.name, b.install
-                ));
-            }
+    // Which external baselines run, asked once and said at the start, not only in the
+    // report: without them the report is shorter.
+    let external = !opts.quick && !opts.no_external;
+    let [has_open3d, has_embree] = [external::OPEN3D, external::EMBREE].map(|b| {
+        let has = external && b.available();
+        if external && !has {
+            lg(&format!(
+                "notice: {} is not installed here (`{}`): the report will leave its rows out",
+                b.name, b.install
+            ));
         }
-    }
+        has
+    });
 
     // Bake tables.
     let tables = bake_tables::measure(&mesh, plan.bake_max_depth, &plan.bake_runs, &lg)?;
@@ -241,8 +242,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     }
 
     // External baselines.
-    let external = !opts.quick && !opts.no_external;
-    let open3d = if external && side_by_side::available() {
+    let open3d = if has_open3d {
         let plans = |depths: &[u8]| -> Vec<side_by_side::Plan> {
             depths
                 .iter()
@@ -401,7 +401,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
             )?);
         }
     }
-    let embree = if external && external::EMBREE.available() {
+    let embree = if has_embree {
         lg("embree");
         let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
         let cam = View::Framed.camera(lo, hi, plan.framed_size.0, plan.framed_size.1);

@@ -1,10 +1,10 @@
 //! Our bake against open3d's voxelizer in one sitting: rounds that alternate open3d's runs
-//! (the script kept loaded, [`external::Open3dServer`]) with ours, so that both tools see the
+//! (the script kept loaded, [`Open3dServer`]) with ours, so that both tools see the
 //! same state of a shared machine. On the 2-core VM the same command's median moves by 1.5x
 //! within minutes; figures taken minutes apart can disagree by that much, figures taken in
 //! alternation cannot.
 
-use crate::external::{self, Open3dServer};
+use crate::external::Open3dServer;
 use crate::report::median;
 use std::path::Path;
 use std::time::Instant;
@@ -156,11 +156,6 @@ fn version_of(head: &str) -> String {
         .find(|p| p.starts_with("open3d"))
         .unwrap_or("open3d")
         .to_string()
-}
-
-/// Whether open3d (and numpy) can be imported here.
-pub fn available() -> bool {
-    external::OPEN3D.available()
 }
 
 #[cfg(test)]
