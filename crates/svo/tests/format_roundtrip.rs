@@ -232,6 +232,7 @@ fn lights_and_cameras_round_trip_and_are_checked() {
 }
 
 #[test]
+#[cfg(feature = "obj")]
 fn version_1_files_still_read() {
     // Written by svo before version 2 (the torus fixture at depth 4).
     let path = concat!(
