@@ -66,6 +66,11 @@ pub struct GpuLayout {
     /// reads it saves, docs/gpu-benchmarks.md), they descend from the root as any ray. The
     /// image and the steps are the same.
     pub hit_paths: bool,
+    /// The traversal walks the tree's 64-ary view ([`crate::wide_view`]: 4x4x4 cells a
+    /// node, built when the tree is uploaded) instead of the octree, where the tree has one
+    /// (even depths); off by default. The image is the same; the steps count the view's
+    /// cells. Hit paths go with the octree's walk, so they are off with it.
+    pub wide_view: bool,
 }
 
 /// The render's workgroup unless one is given: on the H100 (docs/gpu-benchmarks.md) 8x8 was
@@ -82,6 +87,7 @@ impl Default for GpuLayout {
             workgroup: None,
             checks: ShaderChecks::NoLoopBounds,
             hit_paths: false,
+            wide_view: false,
         }
     }
 }
@@ -103,8 +109,11 @@ pub const MAX_ARENA_CHUNKS: usize = 4;
 /// Where the tree's arrays sit in the arena.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct ArenaLayout {
-    /// Word offsets: nodes, then the six channels in `ChannelKind` order.
-    at: [u32; 7],
+    /// Word offsets: nodes, then the six channels in `ChannelKind` order, then the 64-ary
+    /// view.
+    at: [u32; 8],
+    /// Whether the 64-ary view is there ([`GpuLayout::wide_view`], where the tree has one).
+    wide: bool,
     /// log2 of the words per chunk.
     shift: u32,
     /// Chunks in use.
@@ -120,21 +129,29 @@ impl ArenaLayout {
         p.reflectivity_at = self.at[4];
         p.refractivity_at = self.at[5];
         p.ior_at = self.at[6];
+        p.view_at = self.at[7];
         p.arena_shift = self.shift;
     }
 }
 
 /// The arena of `tree` for `variant` (constant channels expanded when it reads them per
-/// leaf), in chunks of at most `chunk_limit` bytes: the layout and the chunks' bytes.
+/// leaf), with the 64-ary view after them when `wide` asks for it and the tree has one, in
+/// chunks of at most `chunk_limit` bytes: the layout and the chunks' bytes.
 fn build_arena(
     tree: &Octree,
     variant: &ShaderVariant,
     chunk_limit: u64,
+    wide: bool,
 ) -> Result<(ArenaLayout, Vec<Vec<u8>>), GpuError> {
     let a = &tree.attributes;
     let n = tree.leaf_count as usize;
     let per_leaf = |k: usize| variant.channels[k] == 2;
-    let parts: [Vec<u8>; 7] = [
+    let view = if wide {
+        crate::wide_view::build(tree)
+    } else {
+        None
+    };
+    let parts: [Vec<u8>; 8] = [
         bytemuck::cast_slice(&tree.nodes).to_vec(),
         channel_bytes(&a.normal, per_leaf(0), n),
         channel_bytes(&a.contour, per_leaf(1), n),
@@ -142,6 +159,9 @@ fn build_arena(
         channel_bytes(&a.reflectivity, per_leaf(3), n),
         channel_bytes(&a.refractivity, per_leaf(4), n),
         channel_bytes(&a.ior, per_leaf(5), n),
+        view.as_ref()
+            .map(|v| bytemuck::cast_slice(v).to_vec())
+            .unwrap_or_default(),
     ];
     let total: u64 = parts.iter().map(|p| p.len() as u64).sum();
     // Words per chunk: the largest power of two within the limit (at least 256 bytes).
@@ -163,6 +183,7 @@ fn build_arena(
     let mut layout = ArenaLayout {
         shift,
         chunks: chunks as u32,
+        wide: view.is_some(),
         ..ArenaLayout::default()
     };
     let mut arena = Vec::with_capacity(total as usize);
@@ -318,7 +339,7 @@ impl GpuRenderer {
         if tree.nodes.is_empty() {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
         }
-        let (arena, chunks) = build_arena(tree, &variant, chunk_limit)?;
+        let (arena, chunks) = build_arena(tree, &variant, chunk_limit, gpu_layout.wide_view)?;
         for c in &chunks {
             ctx.fits("an arena chunk", c.len() as u64)?;
         }
@@ -362,6 +383,7 @@ impl GpuRenderer {
             workgroup: gpu_layout.workgroup,
             checks: gpu_layout.checks,
             hit_paths: gpu_layout.hit_paths,
+            wide_view: arena.wide,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
         let tile_pipeline = variant
@@ -397,6 +419,11 @@ impl GpuRenderer {
             pipelines: Vec::new(),
             tree_bytes,
         })
+    }
+
+    /// Whether the traversal walks the tree's 64-ary view ([`GpuLayout::wide_view`]).
+    pub fn wide_view(&self) -> bool {
+        self.arena.wide
     }
 
     /// Bindings the arena is split over.
@@ -656,6 +683,8 @@ struct Placement {
     checks: ShaderChecks,
     /// [`GpuLayout::hit_paths`].
     hit_paths: bool,
+    /// Whether the arena holds the 64-ary view, which the traversal then walks.
+    wide_view: bool,
 }
 
 impl Placement {
@@ -690,7 +719,9 @@ impl Placement {
             ("RSTACK", entries(wr, variant.ray_stack)),
             ("WG_X", f64::from(wx)),
             ("WG_Y", f64::from(wy)),
-            ("HIT_PATHS", flag(self.hit_paths)),
+            // The view's walk records no paths: hit paths go with the octree's walk.
+            ("HIT_PATHS", flag(self.hit_paths && !self.wide_view)),
+            ("WIDE_VIEW", flag(self.wide_view)),
         ]
     }
 }

@@ -106,8 +106,8 @@ pub struct GpuParams {
     pub arena_shift: u32,
     /// The most reflections and refractions together along one path.
     pub max_path_bounces: u32,
-    /// Padding.
-    pub pad2: u32,
+    /// Word offset of the 64-ary view (where the traversal walks it).
+    pub view_at: u32,
 }
 
 /// A point light in grid space (WGSL `Light`).

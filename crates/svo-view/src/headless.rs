@@ -174,6 +174,8 @@ pub struct GpuFrame {
     pub workgroup_stacks: (bool, bool),
     /// The workgroup, pixels across and down.
     pub workgroup: [u32; 2],
+    /// Whether the traversal walked the 64-ary view.
+    pub wide_view: bool,
 }
 
 /// Renders `scene` on `ctx` with `trace`'s settings: one untimed frame (pipeline compilation
@@ -226,6 +228,7 @@ pub fn render_scene(
         tree_bytes: renderer.tree_bytes,
         workgroup_stacks: renderer.workgroup_stacks(),
         workgroup: renderer.workgroup(),
+        wide_view: renderer.wide_view(),
     })
 }
 
@@ -287,12 +290,17 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     Ok(HeadlessReport {
         adapter: ctx.adapter_name(),
         variant: format!(
-            "{}; stacks: ancestors {}, pending rays {}; workgroup {}x{}",
+            "{}; stacks: ancestors {}, pending rays {}; workgroup {}x{}{}",
             variant.describe(),
             stack_place(r.workgroup_stacks.0, u32::from(scene.tree.depth)),
             stack_place(r.workgroup_stacks.1, variant.ray_stack),
             r.workgroup[0],
-            r.workgroup[1]
+            r.workgroup[1],
+            if r.wide_view {
+                "; walks the 64-ary view"
+            } else {
+                ""
+            }
         ),
         width: scene.camera.width,
         height: scene.camera.height,

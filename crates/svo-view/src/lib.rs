@@ -5,6 +5,8 @@
 //!   (pipeline-overridable constants that leave out what a scene does not need);
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
 //! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
+//! - [`wide_view`]: the tree's 64-ary view, which the GPU's traversal can walk instead of
+//!   the octree;
 //! - [`headless`]: `svo-view --headless`, a render job on the GPU, optionally compared with
 //!   the CPU reference;
 //! - [`camera_control`]: the window's orbit and fly camera;
@@ -20,6 +22,7 @@ pub mod gpu_context;
 pub mod gpu_render;
 pub mod gpu_types;
 pub mod headless;
+pub mod wide_view;
 #[cfg(feature = "window")]
 pub mod window;
 pub mod window_blit;

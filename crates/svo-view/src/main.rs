@@ -61,6 +61,12 @@ struct Args {
     /// image and the steps are the same).
     #[arg(long, requires = "headless")]
     hit_paths: bool,
+    /// With --headless: the traversal walks the tree's 64-ary view (4x4x4 cells a node,
+    /// built on upload; trees of even depth) instead of the octree: faster where rays bounce
+    /// (docs/gpu-benchmarks.md), slower for the bunny's primary rays alone. The image is the
+    /// same; the steps count the view's cells.
+    #[arg(long, requires = "headless", conflicts_with = "hit_paths")]
+    wide_view: bool,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
     quit_after: Option<u32>,
@@ -254,6 +260,7 @@ fn real_main() -> anyhow::Result<()> {
                 workgroup: args.workgroup,
                 checks: args.shader_checks,
                 hit_paths: args.hit_paths,
+                wide_view: args.wide_view,
                 ..Default::default()
             },
             tiles: args.tiles,

@@ -72,7 +72,7 @@ fn shared_structs_match_the_wgsl() {
                 n_nodes, const_normal, const_contour, const_colour, const_reflectivity,
                 const_refractivity, const_ior, specular, shininess, infinity, shadow_mode,
                 nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
-                ior_at, arena_shift, max_path_bounces, pad2),
+                ior_at, arena_shift, max_path_bounces, view_at),
         ),
         (
             "Light",
@@ -130,7 +130,7 @@ fn shader_constants_name_real_overrides() {
         ),
     );
     // The renderer adds the arena's chunk count, the stacks' placement, the workgroup shape
-    // and whether hit paths are used; BOUNCES and WORKGROUP are derived in the shader.
+    // whether hit paths are used and whether the 64-ary view is walked; BOUNCES and WORKGROUP are derived in the shader.
     let mut constants = v.constants();
     for c in [
         "ARENA_CHUNKS",
@@ -141,6 +141,7 @@ fn shader_constants_name_real_overrides() {
         "WG_X",
         "WG_Y",
         "HIT_PATHS",
+        "WIDE_VIEW",
     ] {
         constants.push((c, 1.0));
     }

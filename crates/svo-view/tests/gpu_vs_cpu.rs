@@ -393,6 +393,36 @@ fn primary_tiles_change_nothing_on_random_views() {
     assert!(with_steps < without_steps);
 }
 
+/// Scenes that take every path of the shader: glass (contours and cubes, the glass tori at
+/// `glass_depth`; shadow rays traced between the hit and its rays), a mirror, a solid
+/// bake's interior leaves and a volumetric medium (depth 6 and 5).
+fn scenes_of_every_path(glass_depth: u8) -> Vec<(&'static str, Octree, TraceOptions)> {
+    let glass = GLASS_MTL;
+    let cube = TraceOptions {
+        mode: HitMode::Cube,
+        ..TraceOptions::default()
+    };
+    let opaque_shadows = TraceOptions {
+        shadows: ShadowMode::Opaque,
+        ..TraceOptions::default()
+    };
+    vec![
+        (
+            "glass torus",
+            torus(Some(glass), glass_depth),
+            TraceOptions::default(),
+        ),
+        ("glass torus, cubes", torus(Some(glass), glass_depth), cube),
+        ("copper torus", torus(None, 6), TraceOptions::default()),
+        (
+            "solid glass torus",
+            torus_with(Some(glass), 6, Some(svo::bake::SolidMode::Closed)),
+            TraceOptions::default(),
+        ),
+        ("glass block", glass_block_on_a_floor(), opaque_shadows),
+    ]
+}
+
 /// Rays spawned at a primary hit descend the hit's path without reading its nodes: with and
 /// without that (`GpuLayout::hit_paths`), the same frames bit for bit and the same counters,
 /// steps included, on glass (contours and cubes, shadow rays traced between the hit and its
@@ -403,31 +433,7 @@ fn hit_paths_change_nothing() {
     let Some(ctx) = gpu() else {
         return;
     };
-    let glass = GLASS_MTL;
-    let cube = TraceOptions {
-        mode: HitMode::Cube,
-        ..TraceOptions::default()
-    };
-    let opaque_shadows = TraceOptions {
-        shadows: ShadowMode::Opaque,
-        ..TraceOptions::default()
-    };
-    let cases = [
-        (
-            "glass torus",
-            torus(Some(glass), 5),
-            TraceOptions::default(),
-        ),
-        ("glass torus, cubes", torus(Some(glass), 5), cube),
-        ("copper torus", torus(None, 6), TraceOptions::default()),
-        (
-            "solid glass torus",
-            torus_with(Some(glass), 6, Some(svo::bake::SolidMode::Closed)),
-            TraceOptions::default(),
-        ),
-        ("glass block", glass_block_on_a_floor(), opaque_shadows),
-    ];
-    for (name, tree, trace) in cases {
+    for (name, tree, trace) in scenes_of_every_path(5) {
         let s = scene(tree, &job(trace)).unwrap();
         let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
         for stacks in [StackPlacement::Private, StackPlacement::Workgroup] {
@@ -456,6 +462,91 @@ fn hit_paths_change_nothing() {
             assert_eq!(a.stats, b.stats, "{what}");
         }
     }
+}
+
+/// The traversal through the tree's 64-ary view (`GpuLayout::wide_view`) against the
+/// octree's walk: the same frames bit for bit (colour, depth, normal, leaf) and the same rays
+/// of each kind, on glass (contours and cubes, shadow rays traced between the hit and its
+/// rays), a mirror, a solid bake's interior leaves and a volumetric medium at even depths, with
+/// the stacks private and in workgroup memory, primary tiles on and off, and every shader
+/// path compiled in; trees of odd depth have no view and are walked as octrees. Its steps
+/// count cells, so they differ; at depth 6 they are fewer.
+#[test]
+fn the_wide_view_renders_the_same() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let opaque_shadows = TraceOptions {
+        shadows: ShadowMode::Opaque,
+        ..TraceOptions::default()
+    };
+    let mut cases = scenes_of_every_path(6);
+    cases.push((
+        "glass torus, odd depth",
+        torus(Some(GLASS_MTL), 5),
+        TraceOptions::default(),
+    ));
+    cases.push(("copper torus, depth 2", torus(None, 2), opaque_shadows));
+    let mut walked = 0;
+    for (name, tree, trace) in cases {
+        let even = tree.depth.is_multiple_of(2);
+        let s = scene(tree, &job(trace)).unwrap();
+        for (tiles, full, stacks) in [
+            (false, false, StackPlacement::Private),
+            (true, false, StackPlacement::Workgroup),
+            (false, true, StackPlacement::Private),
+        ] {
+            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+            if full {
+                variant = variant.everything();
+            }
+            variant.primary_tiles = tiles;
+            let frame = |wide_view: bool| {
+                let layout = GpuLayout {
+                    stacks,
+                    wide_view,
+                    ..GpuLayout::default()
+                };
+                let r = renderer_or_skip(&ctx, &s, variant, &layout)?;
+                assert_eq!(r.wide_view(), wide_view && even, "{name}");
+                Some(render_with(&ctx, &s, &trace, &r))
+            };
+            let (Some(a), Some(b)) = (frame(false), frame(true)) else {
+                continue;
+            };
+            walked += usize::from(even);
+            let what = format!("{name}, tiles {tiles}, full shader {full}, {stacks:?}");
+            assert!(a.stats.primary_hits > 0, "{what}");
+            assert_eq!(a.colour, b.colour, "{what}");
+            assert_eq!(a.depth, b.depth, "{what}");
+            assert_eq!(a.normal, b.normal, "{what}");
+            assert_eq!(a.leaf, b.leaf, "{what}");
+            let rays = |f: &Frame| {
+                let st = &f.stats;
+                (
+                    st.primary_rays,
+                    st.primary_hits,
+                    st.secondary_rays,
+                    st.shadow_rays,
+                    st.capped,
+                )
+            };
+            assert_eq!(rays(&a), rays(&b), "{what}");
+            if even && s.tree.depth >= 6 {
+                // A tree this deep has empty 4x4x4 regions to cross in fewer steps (at depth 2
+                // the octree steps over an empty 2x2x2 block where the view walks its cells).
+                assert!(
+                    b.stats.steps < a.stats.steps,
+                    "{what}: {:?} {:?}",
+                    a.stats,
+                    b.stats
+                );
+            } else if !even {
+                assert_eq!(a.stats, b.stats, "{what}");
+            }
+        }
+    }
+    assert!(walked >= 10, "{walked}");
 }
 
 /// The 2015 thesis's own scene (`examples/scenes/pool.toml`: the Stanford bunny from
@@ -799,6 +890,24 @@ fn check_batch(
     );
     if max_steps == MAX_STEPS {
         assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
+        // Through the 64-ary view (trees of even depth): the same hits as the octree's walk
+        // on the GPU, bit for bit (its steps count cells, and the cap does not bind here).
+        let layout = GpuLayout {
+            wide_view: true,
+            ..GpuLayout::default()
+        };
+        let w = GpuRenderer::with_options(ctx, tree, variant, 1, 1, &layout).unwrap();
+        assert_eq!(w.wide_view(), tree.depth.is_multiple_of(2));
+        let wide = w
+            .cast(ctx, &tree_uniforms(tree, &trace), &gpu_rays)
+            .unwrap();
+        for ((o, d, _), (g, v)) in rays.iter().zip(hits.iter().zip(&wide)) {
+            assert_eq!(
+                (g.leaf, g.t.to_bits(), g.capped),
+                (v.leaf, v.t.to_bits(), v.capped),
+                "ray {o} {d} through the view"
+            );
+        }
     }
     assert!(
         differ <= allowed(ctx, rays.len(), 1000),
@@ -1029,6 +1138,7 @@ fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() 
             workgroup: Some(workgroup),
             checks,
             hit_paths: true,
+            wide_view: false,
         };
         let Some(r) = renderer_or_skip(&ctx, &s, variant, &layout) else {
             continue;

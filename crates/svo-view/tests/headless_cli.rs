@@ -6,7 +6,7 @@
 use std::process::Command;
 
 mod common;
-use common::torus_svo;
+use common::{torus_svo, torus_svo_at};
 
 fn view(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_svo-view"))
@@ -81,6 +81,31 @@ fn headless_renders_on_the_gpu() {
     assert_eq!((w, h), (40, 30));
     assert!(v[0].is_infinite());
     assert!(v.iter().filter(|x| x.is_finite()).count() > 30);
+
+    // `--wide-view` on a tree of even depth: the report says so, and the image is the
+    // octree walk's, byte for byte.
+    let e = tempfile::tempdir().unwrap();
+    let even = torus_svo_at(e.path(), 6);
+    let render = |wide: bool| {
+        let png = e.path().join(format!("w{wide}.png"));
+        let mut args = vec![
+            even.to_str().unwrap(),
+            "--headless",
+            "--size",
+            "48x36",
+            "-o",
+        ];
+        args.push(png.to_str().unwrap());
+        if wide {
+            args.push("--wide-view");
+        }
+        let o = view(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert_eq!(out.contains("walks the 64-ary view"), wide, "{out}");
+        std::fs::read(&png).unwrap()
+    };
+    assert_eq!(render(false), render(true));
 }
 
 #[test]

@@ -43,6 +43,8 @@ override HIT_PATHS: bool = false;
 // The tree's arrays live in one arena of u32 words split over this many bindings (1-4), so a
 // tree larger than one storage binding still fits (gpu_render.rs).
 override ARENA_CHUNKS: u32 = 1u;
+// The traversal walks the tree's 64-ary view (wide_view.rs) instead of the octree.
+override WIDE_VIEW: bool = false;
 
 const MAX_LIGHTS: u32 = 16u;
 // The private stacks' sizes: the most the shader allows (RAY_STACK: 2 * MAX_BOUNCES + 2, as
@@ -105,7 +107,7 @@ struct Params {
     ior_at: u32,
     arena_shift: u32,
     max_path_bounces: u32,     // reflections and refractions together along one path
-    pad2: u32,
+    view_at: u32,              // the 64-ary view (WIDE_VIEW), 4 words a node
 }
 
 struct Light {
@@ -579,17 +581,35 @@ fn shape_hit(ray_o: vec3<f32>, ray_d: vec3<f32>, leaf: u32, cell: vec3<u32>, t_e
     return h;
 }
 
-// Loops: the renderer compiles this shader without wgpu's loop bounds (gpu_render.rs,
-// ShaderChecks), so every loop here must end on its own. traverse's outer loop and its inner
-// loop over a node's children count a step in every pass and return past max_steps (below
-// u32::MAX), its pop loop shrinks the stack in every pass, its descent along a hit's path
-// deepens the stack in every pass and stops at the path's end, and the copy of a path
-// counts to the stack's length; the light loop counts to a constant; the Whitted loop takes a ray off its stack in every pass and pushes at most
-// two, each with a reflection or refraction count one higher and below its limit.
-//
-// traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
-// OctreeSurfaces::walk (kind 1).
-fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
+// Where a ray enters the root: its mirrored ray, the root's far planes and the entry, if it
+// enters a tree with leaves within [tmin, tmax].
+struct RootEntry {
+    enters: bool,
+    r: MRay,
+    t1: vec3<f32>,
+    enter: f32,
+}
+
+fn enter_root(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> RootEntry {
+    var e: RootEntry;
+    e.enters = false;
+    let depth = u.params.depth;
+    if (node_at(0u).info & 0xffu) == 0u || depth == 0u || depth > MAX_DEPTH {
+        return e;
+    }
+    let n = 1u << depth;
+    e.r = mirror(ray_o, ray_d, n);
+    if !e.r.valid || !(q.tmin <= q.tmax) {
+        return e;
+    }
+    e.t1 = t_planes(e.r, vec3<u32>(n));
+    e.enter = max(max3(t_planes(e.r, vec3<u32>(0u))), q.tmin);
+    e.enters = e.enter <= min(min3(e.t1), q.tmax);
+    return e;
+}
+
+// A traversal's outcome before any leaf.
+fn no_outcome() -> Outcome {
     var out: Outcome;
     out.hit = false;
     out.steps = 0u;
@@ -599,28 +619,288 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     out.max_kt = 0.0;
     out.trans = 1.0;
     out.last_exit = -u.params.infinity;
-    // Inside a medium: the run of its cells ends at (run_t, run_n, run_leaf).
-    var run = false;
-    var run_t = 0.0;
-    var run_n = vec3<f32>(0.0);
-    var run_leaf = 0u;
+    return out;
+}
 
+// A closest query's run of cells of its medium: where it ends, and its last leaf.
+struct Run {
+    on: bool,
+    t: f32,
+    n: vec3<f32>,
+    leaf: u32,
+}
+
+// What a walk does after a leaf: go on, end the walk (the ray left its medium), or return
+// `out` (a hit, or a blocked shadow ray).
+const LEAF_NEXT: u32 = 0u;
+const LEAF_END: u32 = 1u;
+const LEAF_DONE: u32 = 2u;
+
+// The callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
+// OctreeSurfaces::walk (kind 1) for the leaf the walk hands over: its index, real cell and
+// mirrored corner, where the ray enters and leaves it and its exit planes `c1`. Shared by
+// both walks.
+fn visit_leaf(out: ptr<function, Outcome>, run: ptr<function, Run>, r: MRay, ray_o: vec3<f32>,
+              ray_d: vec3<f32>, q: Query, leaf: u32, cell: vec3<u32>, corner: vec3<u32>,
+              t_enter: f32, t_exit: f32, c1: vec3<f32>) -> u32 {
+    if q.kind == 0u && MEDIA && q.medium.x != NO_MEDIUM.x {
+        if (*run).on && t_enter > (*run).t {
+            // A gap after the medium's cells: the ray left it there.
+            return LEAF_END;
+        }
+        if all(medium_of(leaf) == q.medium) {
+            *run = Run(true, t_exit, exit_normal_of(r, c1), leaf);
+            return LEAF_NEXT;
+        }
+    }
+    if leaf == q.skip {
+        return LEAF_NEXT;
+    }
+    let h = shape_hit(ray_o, ray_d, leaf, cell, t_enter, t_exit, entry_normal_of(r, t_planes(r, corner), q.tmin));
+    if !h.hit {
+        return LEAF_NEXT;
+    }
+    if q.kind == 0u {
+        (*out).hit = true;
+        (*out).t = h.t;
+        (*out).t_exit = t_exit;
+        (*out).leaf = leaf;
+        (*out).normal = h.normal;
+        return LEAF_DONE;
+    }
+    if shadows() == 1u {
+        (*out).blocked = true;
+        return LEAF_DONE;
+    }
+    let kt = material(leaf).refractivity;
+    if kt <= 0.0 {
+        (*out).trans = 0.0;
+        (*out).blocked = true;
+        return LEAF_DONE;
+    }
+    (*out).any_kt = true;
+    (*out).max_kt = max((*out).max_kt, kt);
+    if h.t > (*out).last_exit + q.half_cell {
+        (*out).trans *= kt;
+    }
+    (*out).last_exit = t_exit;
+    return LEAF_NEXT;
+}
+
+// The closest query inside a medium: the end of the run is the boundary.
+fn ended(o: Outcome, run: Run, q: Query) -> Outcome {
+    var out = o;
+    if MEDIA && q.kind == 0u && run.on && !out.capped {
+        out.hit = true;
+        out.t = run.t;
+        out.t_exit = run.t;
+        out.leaf = run.leaf;
+        out.normal = run.n;
+    }
+    return out;
+}
+
+// Loops: the renderer compiles this shader without wgpu's loop bounds (gpu_render.rs,
+// ShaderChecks), so every loop here must end on its own. traverse's outer loop and its inner
+// loop over a node's children count a step in every pass and return past max_steps (below
+// u32::MAX), its pop loop shrinks the stack in every pass, its descent along a hit's path
+// deepens the stack in every pass and stops at the path's end, and the copy of a path
+// counts to the stack's length; traverse_wide's loops do the same (a step counted in every
+// pass of its cell loop, its pop loop shrinking its stack); the light loop counts to a constant; the Whitted loop takes a ray off its stack in every pass and pushes at most
+// two, each with a reflection or refraction count one higher and below its limit.
+//
+// traverse + the callbacks of OctreeSurfaces::closest (kind 0) and Tracer::shadow over
+// OctreeSurfaces::walk (kind 1).
+fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
+    if WIDE_VIEW {
+        return traverse_wide(ray_o, ray_d, q);
+    }
+    return traverse_octree(ray_o, ray_d, q);
+}
+
+// ---- the walk of the 64-ary view (wide_view.rs) ----------------------------------------
+//
+// A DDA through each view node's 4x4x4 cells in the mirrored space: a cell's exit is the
+// least of its three far planes, and the next cell adds one on every axis whose plane ties
+// there; the node is done when such an axis was on its last cell. The cell a ray enters a
+// node in is, per axis, the octree's two first_child decisions (mid plane, then the mid
+// plane of that half), and the planes are the octree walk's own integer planes through
+// t_planes, so a ray meets the same leaves with the same parameters as traverse_octree (the
+// golden tests compare the images bit for bit); the steps count cells. A child view node is
+// entered only where the ray meets its box of leaves (passes_beside, as the octree walk);
+// the boxes of the odd levels in between are not kept, which only adds steps.
+
+// An ancestor: its mask and first index, its next cell (2 bits an axis) with bit 6 set when
+// none is left, and that cell's entry.
+struct WideSaved {
+    lo: u32,
+    hi: u32,
+    first: u32,
+    cell_done: u32,
+    enter: f32,
+}
+
+// Ancestors of a tree of depth 30 at most: 14 view levels above the leaves' parents.
+var<private> wstack: array<WideSaved, 15>;
+
+fn view_word(i: u32) -> u32 {
+    return word(u.params.view_at + i);
+}
+
+// The cell of a 4x4x4 node (mirrored corner `origin`, cells of `qs`) that a ray entering at
+// `t` starts in: per axis, the octree's two first_child decisions.
+fn first_cell(r: MRay, origin: vec3<u32>, qs: u32, t: f32) -> vec3<u32> {
+    let tv = vec3<f32>(t);
+    let one = vec3<u32>(1u);
+    let zero = vec3<u32>(0u);
+    return select(zero, one, t_planes(r, origin + vec3<u32>(qs)) <= tv)
+        + select(zero, one, t_planes(r, origin + vec3<u32>(2u * qs)) <= tv)
+        + select(zero, one, t_planes(r, origin + vec3<u32>(3u * qs)) <= tv);
+}
+
+// traverse_octree's leaves, entries, callbacks and outcome, walked through the view.
+fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
+    var out = no_outcome();
+    // Inside a medium: the run of its cells ends at (run.t, run.n, run.leaf).
+    var run = Run(false, 0.0, vec3<f32>(0.0), 0u);
+    let e = enter_root(ray_o, ray_d, q);
+    if !e.enters {
+        return out;
+    }
+    let depth = u.params.depth;
+    let n = 1u << depth;
+    let r = e.r;
+    let enter0 = e.enter;
+    let mask = r.mask;
+    let swap = swap_mask(mask);
+    // A cell's bit in a node's mask from its mirrored coordinates: mirroring an axis flips
+    // both its bits (outer and inner) of the bit index.
+    let flip_bits = (mask << 3u) | mask;
+    var lo = view_word(0u);
+    var hi = view_word(1u);
+    var first = view_word(2u);
+    var origin = vec3<u32>(0u);
+    var qs = n / 4u;
+    var cell = first_cell(r, origin, qs, enter0);
+    var enter = enter0;
+    var done = false;
+    var len = 0u;
+    loop {
+        if done {
+            var found = false;
+            loop {
+                if len == 0u {
+                    break;
+                }
+                len -= 1u;
+                let sv = wstack[len];
+                if (sv.cell_done & 64u) == 0u {
+                    found = true;
+                    lo = sv.lo;
+                    hi = sv.hi;
+                    first = sv.first;
+                    cell = vec3<u32>(sv.cell_done & 3u, (sv.cell_done >> 2u) & 3u, (sv.cell_done >> 4u) & 3u);
+                    enter = sv.enter;
+                    break;
+                }
+            }
+            if !found {
+                break;
+            }
+            done = false;
+            let side = n >> (2u * len);
+            origin &= vec3<u32>(~(side - 1u));
+            qs = side / 4u;
+        }
+        var c = vec3<u32>(0u);
+        var t_enter = 0.0;
+        var c1 = vec3<f32>(0.0);
+        var m = 0.0;
+        var b = 0u;
+        var exists = false;
+        loop {
+            c = cell;
+            t_enter = enter;
+            c1 = t_planes(r, origin + (c + vec3<u32>(1u)) * qs);
+            m = min3(c1);
+            let tied = c1 == vec3<f32>(m);
+            done = any(tied & (c == vec3<u32>(3u)));
+            cell = c + select(vec3<u32>(0u), vec3<u32>(1u), tied);
+            enter = select(q.tmin, m, m > q.tmin);
+            out.steps += 1u;
+            if out.steps > u.params.max_steps {
+                out.capped = true;
+                return out;
+            }
+            b = (((c.x >> 1u) << 5u) | ((c.y >> 1u) << 4u) | ((c.z >> 1u) << 3u)
+                | ((c.x & 1u) << 2u) | ((c.y & 1u) << 1u) | (c.z & 1u)) ^ flip_bits;
+            exists = ((select(hi, lo, b < 32u) >> (b & 31u)) & 1u) != 0u;
+            if exists || done {
+                break;
+            }
+        }
+        if !exists {
+            continue;
+        }
+        if t_enter > q.tmax {
+            break;
+        }
+        let t_exit = select(q.tmax, m, m < q.tmax);
+        if t_exit < t_enter {
+            continue;
+        }
+        let below = (1u << (b & 31u)) - 1u;
+        let rank = select(countOneBits(lo) + countOneBits(hi & below), countOneBits(lo & below), b < 32u);
+        let corg = origin + c * qs;
+        if qs == 1u {
+            let v = visit_leaf(&out, &run, r, ray_o, ray_d, q, first + rank, unmirror_cell(r, corg), corg, t_enter, t_exit, c1);
+            if v == LEAF_END {
+                break;
+            }
+            if v == LEAF_DONE {
+                return out;
+            }
+        } else {
+            if len >= 15u {
+                continue;
+            }
+            let k = 4u * (first + rank);
+            let clo = view_word(k);
+            let chi = view_word(k + 1u);
+            let cfirst = view_word(k + 2u);
+            let cinfo = view_word(k + 3u);
+            if passes_beside(r, swap, cinfo, corg, qs, t_enter, t_exit) {
+                continue;
+            }
+            wstack[len] = WideSaved(lo, hi, first, (cell.x & 3u) | ((cell.y & 3u) << 2u) | ((cell.z & 3u) << 4u) | select(0u, 64u, done), enter);
+            len += 1u;
+            lo = clo;
+            hi = chi;
+            first = cfirst;
+            origin = corg;
+            qs = qs / 4u;
+            cell = first_cell(r, origin, qs, t_enter);
+            enter = t_enter;
+            done = false;
+        }
+    }
+    return ended(out, run, q);
+}
+
+fn traverse_octree(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
+    var out = no_outcome();
+    // Inside a medium: the run of its cells ends at (run.t, run.n, run.leaf).
+    var run = Run(false, 0.0, vec3<f32>(0.0), 0u);
+    let e = enter_root(ray_o, ray_d, q);
+    if !e.enters {
+        return out;
+    }
     let depth = u.params.depth;
     let root = node_at(0u);
-    if (root.info & 0xffu) == 0u || depth == 0u || depth > MAX_DEPTH {
-        return out;
-    }
     let n = 1u << depth;
-    let r = mirror(ray_o, ray_d, n);
-    if !r.valid || !(q.tmin <= q.tmax) {
-        return out;
-    }
-    let rt0 = t_planes(r, vec3<u32>(0u));
-    let rt1 = t_planes(r, vec3<u32>(n));
-    let enter0 = max(max3(rt0), q.tmin);
-    if !(enter0 <= min(min3(rt1), q.tmax)) {
-        return out;
-    }
+    let r = e.r;
+    let rt1 = e.t1;
+    let enter0 = e.enter;
     var cur: Frame;
     cur.node = root;
     cur.origin = vec3<u32>(0u);
@@ -756,33 +1036,14 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
         if bitcast<i32>(cur.node.first) < 0 {
             // A leaf: the callbacks. The cell's entry planes, the values the traversal would
             // have carried down (the same integer planes).
-            let c0 = t_planes(r, origin);
             let leaf = u32(-(bitcast<i32>(cur.node.first) + 1)) + rank;
             let cell = unmirror_cell(r, origin);
-            if q.kind == 0u {
-                if MEDIA && q.medium.x != NO_MEDIUM.x {
-                    if run && t_enter > run_t {
-                        // A gap after the medium's cells: the ray left it there.
-                        break;
-                    }
-                    if all(medium_of(leaf) == q.medium) {
-                        run = true;
-                        run_t = t_exit;
-                        run_n = exit_normal_of(r, c1);
-                        run_leaf = leaf;
-                        continue;
-                    }
-                }
-                if leaf == q.skip {
-                    continue;
-                }
-                let h = shape_hit(ray_o, ray_d, leaf, cell, t_enter, t_exit, entry_normal_of(r, c0, q.tmin));
-                if h.hit {
-                    out.hit = true;
-                    out.t = h.t;
-                    out.t_exit = t_exit;
-                    out.leaf = leaf;
-                    out.normal = h.normal;
+            let v = visit_leaf(&out, &run, r, ray_o, ray_d, q, leaf, cell, origin, t_enter, t_exit, c1);
+            if v == LEAF_END {
+                break;
+            }
+            if v == LEAF_DONE {
+                if q.kind == 0u {
                     if BOUNCES && HIT_PATHS && q.path == 1u && len < MAX_DEPTH {
                         for (var i = 0u; i < len; i++) {
                             var sv: Saved;
@@ -809,32 +1070,8 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                             }
                         }
                     }
-                    return out;
                 }
-            } else {
-                if leaf == q.skip {
-                    continue;
-                }
-                let h = shape_hit(ray_o, ray_d, leaf, cell, t_enter, t_exit, entry_normal_of(r, c0, q.tmin));
-                if !h.hit {
-                    continue;
-                }
-                if shadows() == 1u {
-                    out.blocked = true;
-                    return out;
-                }
-                let kt = material(leaf).refractivity;
-                if kt <= 0.0 {
-                    out.trans = 0.0;
-                    out.blocked = true;
-                    return out;
-                }
-                out.any_kt = true;
-                out.max_kt = max(out.max_kt, kt);
-                if h.t > out.last_exit + q.half_cell {
-                    out.trans *= kt;
-                }
-                out.last_exit = t_exit;
+                return out;
             }
         } else {
             if len == cap || cur.half < 2u {
@@ -865,15 +1102,7 @@ fn traverse(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             cur.enter = t_enter;
         }
     }
-    // The closest query inside a medium: the end of the run is the boundary.
-    if MEDIA && q.kind == 0u && run && !out.capped {
-        out.hit = true;
-        out.t = run_t;
-        out.t_exit = run_t;
-        out.leaf = run_leaf;
-        out.normal = run_n;
-    }
-    return out;
+    return ended(out, run, q);
 }
 
 // ---- shading (render/shading.rs, render/sky.rs) -------------------------------------------------------

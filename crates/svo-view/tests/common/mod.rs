@@ -10,9 +10,14 @@ pub fn torus_obj() -> PathBuf {
 
 /// Bakes the torus fixture at depth 5 into `dir/torus.svo`.
 pub fn torus_svo(dir: &Path) -> PathBuf {
+    torus_svo_at(dir, 5)
+}
+
+/// Bakes the torus fixture at `depth` into `dir/torus.svo`.
+pub fn torus_svo_at(dir: &Path, depth: u8) -> PathBuf {
     let mesh = svo::Mesh::load(torus_obj()).unwrap();
     let opts = svo::BakeOptions {
-        depth: 5,
+        depth,
         ..svo::BakeOptions::default()
     };
     let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();

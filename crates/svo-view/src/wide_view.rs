@@ -1,0 +1,185 @@
+//! The 64-ary view of an octree, built when a tree is uploaded for the GPU's traversal
+//! ([`crate::gpu_render::GpuLayout::wide_view`]): every second level of the octree as nodes
+//! of 4x4x4 cells, so a ray crosses a node's cells in one loop instead of descending through
+//! the level between.
+//!
+//! A view node stands for an octree node at an even level (the root first) and holds its
+//! grandchildren: four words, the 64-bit mask of the grandchildren that exist (low word
+//! first), the index of the first of them, and the octree node's `info` word (its child
+//! mask and its box of leaves, [`svo::octree::Node::info`]). Bit `8 * o + i` of the mask is
+//! grandchild `i` of child `o`, the octree's own child indices (bit 2 x, 1 y, 0 z), so a cell
+//! at coordinates `(x, y, z)` in `0..4` is bit `8 * (x / 2 * 4 + y / 2 * 2 + z / 2) + (x % 2 *
+//! 4 + y % 2 * 2 + z % 2)`, and the grandchildren that exist are numbered by the bits below
+//! theirs. Above the leaves they are view nodes, numbered breadth first; at the level above
+//! the leaves they are leaves, whose indices must then run on without gaps (the depth-first
+//! order of the leaf arrays of every tree `svo` builds or reads).
+//!
+//! The view covers even depths. A tree of odd depth, or whose leaves are in another order,
+//! has none ([`build`] returns `None`) and is walked as an octree.
+//!
+//! Its size is 16 bytes a node for the octree's nodes at even levels: for the bunny at depth
+//! 8 (224,716 leaves) 14,842 nodes, 0.24 MB, about 1.06 bytes a leaf.
+
+use svo::octree::Octree;
+
+/// Words of a view node.
+pub const NODE_WORDS: usize = 4;
+
+/// The 64-ary view of `tree` as `u32` words, four a node, the root first; `None` for trees
+/// of odd depth or whose leaves are not in depth-first order (and for malformed trees).
+pub fn build(tree: &Octree) -> Option<Vec<u32>> {
+    let depth = u32::from(tree.depth);
+    if depth < 2 || depth % 2 != 0 {
+        return None;
+    }
+    let nodes = &tree.nodes;
+    let mut out: Vec<u32> = Vec::new();
+    // The octree nodes the view nodes stand for, with their levels, in view order.
+    let mut queue = std::collections::VecDeque::from([(0u32, 0u32)]);
+    let mut next_free = 1u64;
+    let mut kids: Vec<u32> = Vec::with_capacity(64);
+    while let Some((index, level)) = queue.pop_front() {
+        let node = *nodes.get(index as usize)?;
+        let last = level + 2 == depth;
+        let mut mask = 0u64;
+        kids.clear();
+        for o in 0..8u8 {
+            let Some(r) = node.child_rank(o) else {
+                continue;
+            };
+            if node.is_leaf_parent() {
+                return None;
+            }
+            let child = *nodes.get(node.first.checked_add(r)? as usize)?;
+            for i in 0..8u8 {
+                let Some(r2) = child.child_rank(i) else {
+                    continue;
+                };
+                mask |= 1u64 << (8 * u32::from(o) + u32::from(i));
+                kids.push(match (child.leaf_base(), last) {
+                    (Some(base), true) => base.checked_add(r2)?,
+                    (None, false) => child.first.checked_add(r2)?,
+                    _ => return None,
+                });
+            }
+        }
+        let first = if last {
+            let f = kids.first().copied().unwrap_or(0);
+            if kids
+                .iter()
+                .zip(0u32..)
+                .any(|(&l, k)| Some(l) != f.checked_add(k))
+            {
+                return None;
+            }
+            f
+        } else {
+            let f = u32::try_from(next_free).ok()?;
+            next_free += kids.len() as u64;
+            queue.extend(kids.iter().map(|&k| (k, level + 2)));
+            f
+        };
+        out.extend([mask as u32, (mask >> 32) as u32, first, node.info]);
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec3, UVec3};
+    use svo::octree::{RootCube, Voxel};
+
+    fn tree_of(depth: u8, cells: &[UVec3]) -> Octree {
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: 1.0,
+        };
+        Octree::from_cells(root, depth, cells.iter().map(|&c| (c, Voxel::default()))).unwrap()
+    }
+
+    /// The leaf that the view finds for `cell` by walking its nodes as the shader does.
+    fn view_leaf(view: &[u32], depth: u8, cell: UVec3) -> Option<u32> {
+        let mut node = 0usize;
+        let mut side = 1u32 << depth;
+        loop {
+            let q = side / 4;
+            let c = (cell % side) / q;
+            let (o, i) = (c / 2, c % 2);
+            let b = 8 * (o.x * 4 + o.y * 2 + o.z) + (i.x * 4 + i.y * 2 + i.z);
+            let w = &view[NODE_WORDS * node..NODE_WORDS * node + NODE_WORDS];
+            let mask = u64::from(w[0]) | u64::from(w[1]) << 32;
+            if mask >> b & 1 == 0 {
+                return None;
+            }
+            let index = w[2] + (mask & ((1u64 << b) - 1)).count_ones();
+            if q == 1 {
+                return Some(index);
+            }
+            node = index as usize;
+            side = q;
+        }
+    }
+
+    /// Seeded random trees at even depths: every cell's leaf through the view is the
+    /// octree's, every empty cell is empty, and each view node carries its octree node's
+    /// `info` (child mask and box).
+    #[test]
+    fn the_view_finds_every_leaf_of_the_octree() {
+        let mut state = 0x5EED_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for depth in [2u8, 4, 6] {
+            for density in [1u64, 10, 60] {
+                let n = 1u32 << depth;
+                let mut cells = Vec::new();
+                for x in 0..n {
+                    for y in 0..n {
+                        for z in 0..n {
+                            if next() % 100 < density {
+                                cells.push(UVec3::new(x, y, z));
+                            }
+                        }
+                    }
+                }
+                if cells.is_empty() {
+                    continue;
+                }
+                let tree = tree_of(depth, &cells);
+                let view = build(&tree).expect("an even depth has a view");
+                assert_eq!(view[3], tree.nodes[0].info);
+                for x in 0..n {
+                    for y in 0..n {
+                        for z in 0..n {
+                            let cell = UVec3::new(x, y, z);
+                            assert_eq!(view_leaf(&view, depth, cell), tree.leaf_at(cell));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Odd depths have no view; neither have leaves out of depth-first order.
+    #[test]
+    fn odd_depths_and_other_leaf_orders_have_none() {
+        let cells = [UVec3::new(0, 0, 0), UVec3::new(3, 3, 3)];
+        assert!(build(&tree_of(3, &cells)).is_none());
+        assert!(build(&tree_of(1, &cells[..1])).is_none());
+        // Two leaves under different children of the root, their indices swapped.
+        let mut tree = tree_of(2, &cells);
+        assert!(build(&tree).is_some());
+        let parents: Vec<usize> = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].is_leaf_parent())
+            .collect();
+        assert_eq!(parents.len(), 2);
+        let (a, b) = (tree.nodes[parents[0]].first, tree.nodes[parents[1]].first);
+        tree.nodes[parents[0]].first = b;
+        tree.nodes[parents[1]].first = a;
+        assert!(build(&tree).is_none());
+    }
+}
