@@ -5,7 +5,9 @@
 //!
 //! ## The arena
 //! The node array and the per-leaf channels are copied as they are stored, one after the
-//! other, into one arena of `u32` words; the shader finds each array by its word offset.
+//! other, into one arena of `u32` words, followed by the tree's 64-ary view where
+//! [`GpuLayout::wide_view`] asks for it ([`crate::wide_view`]); the shader finds each array
+//! by its word offset.
 //! The arena is split into up to [`MAX_ARENA_CHUNKS`] bindings of `2^k` words, `2^k` the
 //! largest power of two the adapter's per-binding limit allows (lavapipe: 128 MiB), so a tree
 //! larger than one binding still fits; with one chunk the shader's chunk selection compiles
