@@ -11,7 +11,9 @@
 # one refraction allowed on each path (--bounces 1 alone, the setting of the tables before
 # 2026-11-25, which also traces a refracted ray's reflection); "tiles" runs repeat them
 # with the primary tiles pass (--tiles, off by default), and "hit-paths" runs with hit paths
-# (--hit-paths, off by default), for what each costs or saves side by side. "stacks" runs
+# (--hit-paths, off by default), and "wide" runs with the 64-ary view (--wide-view, off by
+# default; at the even depths, the others have no view), for what each costs or saves side
+# by side. "stacks" runs
 # repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so
@@ -47,6 +49,14 @@ for v in water bunny parallel; do
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --tiles
   echo "--- hit-paths depth 8 view $v size 1920x1200"
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --hit-paths
+done
+for d in 4 6 8 10; do
+  for v in water bunny parallel; do
+    for size in 640x480 1920x1200; do
+      echo "--- wide depth $d view $v size $size"
+      view "$work/pool$d.svo" --view $v --size $size --bounces 1 --path-bounces 1 --shadows none --wide-view
+    done
+  done
 done
 for v in water bunny parallel; do
   for st in private workgroup; do
