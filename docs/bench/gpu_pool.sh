@@ -12,8 +12,7 @@
 # 2026-11-25, which also traces a refracted ray's reflection); "tiles" runs repeat them
 # with the primary tiles pass (--tiles, off by default), and "hit-paths" runs with hit paths
 # (--hit-paths, off by default), and "wide" runs with the 64-ary view (--wide-view, off by
-# default; at the even depths, the others have no view), for what each costs or saves side
-# by side. "stacks" runs
+# default), for what each costs or saves side by side. "stacks" runs
 # repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so

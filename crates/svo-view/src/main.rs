@@ -62,7 +62,7 @@ struct Args {
     #[arg(long, requires = "headless")]
     hit_paths: bool,
     /// With --headless: the traversal walks the tree's 64-ary view (4x4x4 cells a node,
-    /// built on upload; trees of even depth) instead of the octree: faster where rays bounce
+    /// built on upload) instead of the octree: faster where rays bounce
     /// (docs/gpu-benchmarks.md), slower for the bunny's primary rays alone. The image is the
     /// same; the steps count the view's cells.
     #[arg(long, requires = "headless", conflicts_with = "hit_paths")]

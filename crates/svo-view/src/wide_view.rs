@@ -3,22 +3,23 @@
 //! of 4x4x4 cells, so a ray crosses a node's cells in one loop instead of descending through
 //! the level between.
 //!
-//! A view node stands for an octree node at an even level (the root first) and holds its
-//! grandchildren: four words, the 64-bit mask of the grandchildren that exist (low word
-//! first), the index of the first of them, and the octree node's `info` word (its child
-//! mask and its box of leaves, [`svo::octree::Node::info`]). Bit `8 * o + i` of the mask is
-//! grandchild `i` of child `o`, the octree's own child indices (bit 2 x, 1 y, 0 z), so a cell
-//! at coordinates `(x, y, z)` in `0..4` is bit `8 * (x / 2 * 4 + y / 2 * 2 + z / 2) + (x % 2 *
-//! 4 + y % 2 * 2 + z % 2)`, and the grandchildren that exist are numbered by the bits below
-//! theirs. Above the leaves they are view nodes, numbered breadth first; at the level above
-//! the leaves they are leaves, whose indices must then run on without gaps (the depth-first
-//! order of the leaf arrays of every tree `svo` builds or reads).
+//! A view node stands for an octree node two, four, six... levels above the leaves and
+//! holds its grandchildren: four words, the 64-bit mask of the grandchildren that exist
+//! (low word first), the index of the first of them, and the octree node's `info` word (its
+//! child mask and its box of leaves, [`svo::octree::Node::info`]). Bit `8 * o + i` of the
+//! mask is grandchild `i` of child `o`, the octree's own child indices (bit 2 x, 1 y, 0 z),
+//! so a cell at coordinates `(x, y, z)` in `0..4` is bit `8 * (x / 2 * 4 + y / 2 * 2 + z /
+//! 2) + (x % 2 * 4 + y % 2 * 2 + z % 2)`, and the grandchildren that exist are numbered by
+//! the bits below theirs. Above the leaves they are view nodes, numbered breadth first; at
+//! the level above the leaves they are leaves, whose indices must then run on without gaps
+//! (the depth-first order of the leaf arrays of every tree `svo` builds or reads).
 //!
-//! The view covers even depths. A tree of odd depth, or whose leaves are in another order,
-//! has none ([`build`] returns `None`) and is walked as an octree.
+//! A tree of odd depth has, above those, a root of 2x2x2 cells (bit `o` of its mask for
+//! child `o`). A tree whose leaves are in another order has no view ([`build`] returns
+//! `None`) and is walked as an octree.
 //!
-//! Its size is 16 bytes a node for the octree's nodes at even levels: for the bunny at depth
-//! 8 (224,716 leaves) 14,842 nodes, 0.24 MB, about 1.06 bytes a leaf.
+//! Its size is 16 bytes a node for every second level of the octree's nodes: for the bunny
+//! at depth 8 (224,716 leaves) 14,842 nodes, 0.24 MB, about 1.06 bytes a leaf.
 
 use svo::octree::Octree;
 
@@ -26,18 +27,54 @@ use svo::octree::Octree;
 pub const NODE_WORDS: usize = 4;
 
 /// The 64-ary view of `tree` as `u32` words, four a node, the root first; `None` for trees
-/// of odd depth or whose leaves are not in depth-first order (and for malformed trees).
+/// whose leaves are not in depth-first order (and for malformed trees).
 pub fn build(tree: &Octree) -> Option<Vec<u32>> {
     let depth = u32::from(tree.depth);
-    if depth < 2 || depth % 2 != 0 {
+    let nodes = &tree.nodes;
+    let root = *nodes.first()?;
+    if depth == 0 {
         return None;
     }
-    let nodes = &tree.nodes;
     let mut out: Vec<u32> = Vec::new();
     // The octree nodes the view nodes stand for, with their levels, in view order.
-    let mut queue = std::collections::VecDeque::from([(0u32, 0u32)]);
+    let mut queue = std::collections::VecDeque::new();
     let mut next_free = 1u64;
     let mut kids: Vec<u32> = Vec::with_capacity(64);
+    // The first of a node's children in the view: the first of its leaves, which must run on
+    // without gaps, or the next view node, the children queued.
+    let mut first_of = |kids: &[u32],
+                        leaves: bool,
+                        level: u32,
+                        queue: &mut std::collections::VecDeque<(u32, u32)>| {
+        if leaves {
+            let f = kids.first().copied().unwrap_or(0);
+            let runs_on = kids
+                .iter()
+                .zip(0u32..)
+                .all(|(&l, k)| Some(l) == f.checked_add(k));
+            return runs_on.then_some(f);
+        }
+        let f = u32::try_from(next_free).ok()?;
+        next_free += kids.len() as u64;
+        queue.extend(kids.iter().map(|&k| (k, level)));
+        Some(f)
+    };
+    if depth % 2 == 1 {
+        // An odd depth: the root alone is a node of 2x2x2 cells, bit `o` for its child `o`.
+        for o in 0..8u8 {
+            if let Some(r) = root.child_rank(o) {
+                kids.push(match (root.leaf_base(), depth == 1) {
+                    (Some(base), true) => base.checked_add(r)?,
+                    (None, false) => root.first.checked_add(r)?,
+                    _ => return None,
+                });
+            }
+        }
+        let first = first_of(&kids, depth == 1, 1, &mut queue)?;
+        out.extend([u32::from(root.child_mask()), 0, first, root.info]);
+    } else {
+        queue.push_back((0u32, 0u32));
+    }
     while let Some((index, level)) = queue.pop_front() {
         let node = *nodes.get(index as usize)?;
         let last = level + 2 == depth;
@@ -63,22 +100,7 @@ pub fn build(tree: &Octree) -> Option<Vec<u32>> {
                 });
             }
         }
-        let first = if last {
-            let f = kids.first().copied().unwrap_or(0);
-            if kids
-                .iter()
-                .zip(0u32..)
-                .any(|(&l, k)| Some(l) != f.checked_add(k))
-            {
-                return None;
-            }
-            f
-        } else {
-            let f = u32::try_from(next_free).ok()?;
-            next_free += kids.len() as u64;
-            queue.extend(kids.iter().map(|&k| (k, level + 2)));
-            f
-        };
+        let first = first_of(&kids, last, level + 2, &mut queue)?;
         out.extend([mask as u32, (mask >> 32) as u32, first, node.info]);
     }
     Some(out)
@@ -102,11 +124,14 @@ mod tests {
     fn view_leaf(view: &[u32], depth: u8, cell: UVec3) -> Option<u32> {
         let mut node = 0usize;
         let mut side = 1u32 << depth;
+        // The root of an odd depth has 2x2x2 cells.
+        let mut cells = if depth % 2 == 1 { 2 } else { 4 };
         loop {
-            let q = side / 4;
+            let q = side / cells;
             let c = (cell % side) / q;
             let (o, i) = (c / 2, c % 2);
             let b = 8 * (o.x * 4 + o.y * 2 + o.z) + (i.x * 4 + i.y * 2 + i.z);
+            cells = 4;
             let w = &view[NODE_WORDS * node..NODE_WORDS * node + NODE_WORDS];
             let mask = u64::from(w[0]) | u64::from(w[1]) << 32;
             if mask >> b & 1 == 0 {
@@ -121,7 +146,7 @@ mod tests {
         }
     }
 
-    /// Seeded random trees at even depths: every cell's leaf through the view is the
+    /// Seeded random trees at depths 1 to 7: every cell's leaf through the view is the
     /// octree's, every empty cell is empty, and each view node carries its octree node's
     /// `info` (child mask and box).
     #[test]
@@ -133,7 +158,7 @@ mod tests {
             state ^= state << 17;
             state
         };
-        for depth in [2u8, 4, 6] {
+        for depth in 1..=7u8 {
             for density in [1u64, 10, 60] {
                 let n = 1u32 << depth;
                 let mut cells = Vec::new();
@@ -150,7 +175,7 @@ mod tests {
                     continue;
                 }
                 let tree = tree_of(depth, &cells);
-                let view = build(&tree).expect("an even depth has a view");
+                let view = build(&tree).expect("a tree svo builds has a view");
                 assert_eq!(view[3], tree.nodes[0].info);
                 for x in 0..n {
                     for y in 0..n {
@@ -164,22 +189,22 @@ mod tests {
         }
     }
 
-    /// Odd depths have no view; neither have leaves out of depth-first order.
+    /// Leaves out of depth-first order under one view node have no view, at even and odd
+    /// depths.
     #[test]
-    fn odd_depths_and_other_leaf_orders_have_none() {
-        let cells = [UVec3::new(0, 0, 0), UVec3::new(3, 3, 3)];
-        assert!(build(&tree_of(3, &cells)).is_none());
-        assert!(build(&tree_of(1, &cells[..1])).is_none());
-        // Two leaves under different children of the root, their indices swapped.
-        let mut tree = tree_of(2, &cells);
-        assert!(build(&tree).is_some());
-        let parents: Vec<usize> = (0..tree.nodes.len())
-            .filter(|&i| tree.nodes[i].is_leaf_parent())
-            .collect();
-        assert_eq!(parents.len(), 2);
-        let (a, b) = (tree.nodes[parents[0]].first, tree.nodes[parents[1]].first);
-        tree.nodes[parents[0]].first = b;
-        tree.nodes[parents[1]].first = a;
-        assert!(build(&tree).is_none());
+    fn other_leaf_orders_have_none() {
+        for depth in [2u8, 3] {
+            let cells = [UVec3::new(0, 0, 0), UVec3::new(3, 3, 3)];
+            let mut tree = tree_of(depth, &cells);
+            assert!(build(&tree).is_some());
+            let parents: Vec<usize> = (0..tree.nodes.len())
+                .filter(|&i| tree.nodes[i].is_leaf_parent())
+                .collect();
+            assert_eq!(parents.len(), 2);
+            let (a, b) = (tree.nodes[parents[0]].first, tree.nodes[parents[1]].first);
+            tree.nodes[parents[0]].first = b;
+            tree.nodes[parents[1]].first = a;
+            assert!(build(&tree).is_none(), "depth {depth}");
+        }
     }
 }

@@ -82,7 +82,7 @@ fn headless_renders_on_the_gpu() {
     assert!(v[0].is_infinite());
     assert!(v.iter().filter(|x| x.is_finite()).count() > 30);
 
-    // `--wide-view` on a tree of even depth: the report says so, and the image is the
+    // `--wide-view` on a tree of depth 6: the report says so, and the image is the
     // octree walk's, byte for byte.
     let e = tempfile::tempdir().unwrap();
     let even = torus_svo_at(e.path(), 6);

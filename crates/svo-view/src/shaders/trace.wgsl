@@ -628,12 +628,16 @@ fn view_word(i: u32) -> u32 {
     return word(u.params.view_at + i);
 }
 
-// The cell of a 4x4x4 node (mirrored corner `origin`, cells of `qs`) that a ray entering at
-// `t` starts in: per axis, the octree's two first_child decisions.
-fn first_cell(r: MRay, origin: vec3<u32>, qs: u32, t: f32) -> vec3<u32> {
+// The cell of a node (mirrored corner `origin`, cells of `qs`, `last` + 1 of them an axis)
+// that a ray entering at `t` starts in: per axis, the octree's first_child decisions, two
+// for 4x4x4 cells, one for the 2x2x2 root of an odd depth.
+fn first_cell(r: MRay, origin: vec3<u32>, qs: u32, last: u32, t: f32) -> vec3<u32> {
     let tv = vec3<f32>(t);
     let one = vec3<u32>(1u);
     let zero = vec3<u32>(0u);
+    if last == 1u {
+        return select(zero, one, t_planes(r, origin + vec3<u32>(qs)) <= tv);
+    }
     return select(zero, one, t_planes(r, origin + vec3<u32>(qs)) <= tv)
         + select(zero, one, t_planes(r, origin + vec3<u32>(2u * qs)) <= tv)
         + select(zero, one, t_planes(r, origin + vec3<u32>(3u * qs)) <= tv);
@@ -675,14 +679,18 @@ fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
     let mask = r.mask;
     let swap = swap_mask(mask);
     // A cell's bit in a node's mask from its mirrored coordinates: mirroring an axis flips
-    // both its bits (outer and inner) of the bit index.
+    // both its bits (outer and inner) of the bit index; in the 2x2x2 root of an odd depth
+    // (cells 0 and 1, so no outer bits) only the inner one.
     let flip_bits = (mask << 3u) | mask;
+    let odd = depth & 1u;
     var lo = view_word(0u);
     var hi = view_word(1u);
     var first = view_word(2u);
     var origin = vec3<u32>(0u);
-    var qs = n / 4u;
-    var cell = first_cell(r, origin, qs, enter0);
+    var qs = n >> (2u - odd);
+    var last = select(3u, 1u, odd == 1u);
+    var flip = select(flip_bits, mask, odd == 1u);
+    var cell = first_cell(r, origin, qs, last, enter0);
     var enter = enter0;
     var done = false;
     var len = 0u;
@@ -709,9 +717,12 @@ fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 break;
             }
             done = false;
-            let side = n >> (2u * len);
+            let root = len == 0u;
+            let side = select(n >> (2u * len - odd), n, root);
             origin &= vec3<u32>(~(side - 1u));
-            qs = side / 4u;
+            last = select(3u, 1u, root && odd == 1u);
+            flip = select(flip_bits, mask, root && odd == 1u);
+            qs = side / (last + 1u);
         }
         var c = vec3<u32>(0u);
         var t_enter = 0.0;
@@ -725,7 +736,7 @@ fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             c1 = t_planes(r, origin + (c + vec3<u32>(1u)) * qs);
             m = min3(c1);
             let tied = c1 == vec3<f32>(m);
-            done = any(tied & (c == vec3<u32>(3u)));
+            done = any(tied & (c == vec3<u32>(last)));
             cell = c + select(vec3<u32>(0u), vec3<u32>(1u), tied);
             enter = select(q.tmin, m, m > q.tmin);
             out.steps += 1u;
@@ -734,7 +745,7 @@ fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
                 return out;
             }
             b = (((c.x >> 1u) << 5u) | ((c.y >> 1u) << 4u) | ((c.z >> 1u) << 3u)
-                | ((c.x & 1u) << 2u) | ((c.y & 1u) << 1u) | (c.z & 1u)) ^ flip_bits;
+                | ((c.x & 1u) << 2u) | ((c.y & 1u) << 1u) | (c.z & 1u)) ^ flip;
             exists = ((select(hi, lo, b < 32u) >> (b & 31u)) & 1u) != 0u;
             if exists || done {
                 break;
@@ -829,7 +840,9 @@ fn traverse_wide(ray_o: vec3<f32>, ray_d: vec3<f32>, q: Query) -> Outcome {
             first = cfirst;
             origin = corg;
             qs = qs / 4u;
-            cell = first_cell(r, origin, qs, t_enter);
+            last = 3u;
+            flip = flip_bits;
+            cell = first_cell(r, origin, qs, last, t_enter);
             enter = t_enter;
             done = false;
         }
