@@ -970,20 +970,27 @@ fn step_cap_stops_gpu_rays_where_it_stops_cpu_rays() {
     }
 }
 
-/// Deep trees (depths 16, 20 and 24): clusters of leaves in the middle and the far corner of
+/// Deep trees (depths 16, 20, 21, 24): clusters of leaves in the middle and the far corner of
 /// the root, where `f32` grid coordinates are coarsest, hit by rays from a few to a few
 /// hundred cells away (as `crates/svo/tests/deep_precision.rs` does on the CPU against an
-/// `f64` reference): the GPU finds the CPU's leaf with the same steps and `t`.
+/// `f64` reference): the GPU finds the CPU's leaf with the same steps and `t`. At depths 29
+/// and 30, the deepest (whose 64-ary views have 15 levels, a 2x2x2 root at the odd one), the
+/// cluster sits near the root's low corner, where `f32` still resolves a cell.
 #[test]
 fn deep_tree_batch_rays_hit_the_same_leaves() {
     let Some(ctx) = gpu() else {
         return;
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xDEE9);
-    for depth in [16u8, 20, 24] {
+    for depth in [16u8, 20, 21, 24, 29, 30] {
         let side = 1u64 << depth;
         let mut cells = Vec::new();
-        for centre in [side / 2, side - 6] {
+        let centres = if depth <= 24 {
+            vec![side / 2, side - 6]
+        } else {
+            vec![6]
+        };
+        for centre in centres {
             for _ in 0..30 {
                 let mut c =
                     || (centre as i64 + rng.random_range(-4..4)).clamp(0, side as i64 - 1) as u32;
