@@ -638,9 +638,11 @@ fn first_cell(r: MRay, origin: vec3<u32>, qs: u32, last: u32, t: f32) -> vec3<u3
     if last == 1u {
         return select(zero, one, t_planes(r, origin + vec3<u32>(qs)) <= tv);
     }
-    return select(zero, one, t_planes(r, origin + vec3<u32>(qs)) <= tv)
-        + select(zero, one, t_planes(r, origin + vec3<u32>(2u * qs)) <= tv)
-        + select(zero, one, t_planes(r, origin + vec3<u32>(3u * qs)) <= tv);
+    // The mid plane's decision, then the quarter plane of the half it picks: the planes'
+    // parameters grow with the mirrored coordinate, so this counts the three planes at or
+    // before t with two of them computed.
+    let half = select(zero, vec3<u32>(2u), t_planes(r, origin + vec3<u32>(2u * qs)) <= tv);
+    return half + select(zero, one, t_planes(r, origin + (half + one) * qs) <= tv);
 }
 
 // traverse_octree's leaves, entries, callbacks and outcome, walked through the view.
