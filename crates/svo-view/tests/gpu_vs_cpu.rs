@@ -894,8 +894,9 @@ fn check_batch(
     );
     if max_steps == MAX_STEPS {
         assert!(hit_count > rays.len() / 10, "too few hits to mean anything");
-        // Through the 64-ary view (at odd depths its root has 2x2x2 cells): the same hits as the octree's walk
-        // on the GPU, bit for bit (its steps count cells, and the cap does not bind here).
+        // Through the 64-ary view (at odd depths its root has 2x2x2 cells): the same hits as
+        // the octree's walk on the GPU, bit for bit (its steps count cells, and the cap does
+        // not bind here).
         let layout = GpuLayout {
             wide_view: true,
             ..GpuLayout::default()
