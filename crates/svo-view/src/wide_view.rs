@@ -21,7 +21,7 @@
 //! Its size is 16 bytes a node for every second level of the octree's nodes: for the bunny
 //! at depth 8 (224,716 leaves) 14,842 nodes, 0.24 MB, about 1.06 bytes a leaf.
 
-use svo::octree::Octree;
+use svo::octree::{Node, Octree};
 
 /// Words of a view node.
 pub const NODE_WORDS: usize = 4;
@@ -61,15 +61,7 @@ pub fn build(tree: &Octree) -> Option<Vec<u32>> {
     };
     if depth % 2 == 1 {
         // An odd depth: the root alone is a node of 2x2x2 cells, bit `o` for its child `o`.
-        for o in 0..8u8 {
-            if let Some(r) = root.child_rank(o) {
-                kids.push(match (root.leaf_base(), depth == 1) {
-                    (Some(base), true) => base.checked_add(r)?,
-                    (None, false) => root.first.checked_add(r)?,
-                    _ => return None,
-                });
-            }
-        }
+        push_children(root, depth == 1, &mut kids)?;
         let first = first_of(&kids, depth == 1, 1, &mut queue)?;
         out.extend([u32::from(root.child_mask()), 0, first, root.info]);
     } else {
@@ -88,22 +80,30 @@ pub fn build(tree: &Octree) -> Option<Vec<u32>> {
                 return None;
             }
             let child = *nodes.get(node.first.checked_add(r)? as usize)?;
-            for i in 0..8u8 {
-                let Some(r2) = child.child_rank(i) else {
-                    continue;
-                };
-                mask |= 1u64 << (8 * u32::from(o) + u32::from(i));
-                kids.push(match (child.leaf_base(), last) {
-                    (Some(base), true) => base.checked_add(r2)?,
-                    (None, false) => child.first.checked_add(r2)?,
-                    _ => return None,
-                });
-            }
+            push_children(child, last, &mut kids)?;
+            mask |= u64::from(child.child_mask()) << (8 * u32::from(o));
         }
         let first = first_of(&kids, last, level + 2, &mut queue)?;
         out.extend([mask as u32, (mask >> 32) as u32, first, node.info]);
     }
     Some(out)
+}
+
+/// Pushes the index of each of `node`'s children onto `kids` in child order: its leaves'
+/// where `leaves`, else its child nodes'; `None` where the node's children are of the other
+/// kind (or their indices overflow).
+fn push_children(node: Node, leaves: bool, kids: &mut Vec<u32>) -> Option<()> {
+    for i in 0..8u8 {
+        let Some(r) = node.child_rank(i) else {
+            continue;
+        };
+        kids.push(match (node.leaf_base(), leaves) {
+            (Some(base), true) => base.checked_add(r)?,
+            (None, false) => node.first.checked_add(r)?,
+            _ => return None,
+        });
+    }
+    Some(())
 }
 
 #[cfg(test)]
