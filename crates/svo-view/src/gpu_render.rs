@@ -70,8 +70,9 @@ pub struct GpuLayout {
     pub hit_paths: bool,
     /// The traversal walks the tree's 64-ary view ([`crate::wide_view`]: 4x4x4 cells a
     /// node, built when the tree is uploaded) instead of the octree, where the tree has one
-    /// (leaves in depth-first order, as every tree `svo` builds or reads); off by default. The image is the same; the steps count the view's
-    /// cells. Hit paths go with the octree's walk, so they are off with it.
+    /// (leaves in depth-first order, as every tree `svo` builds or reads); off by default.
+    /// The image is the same; the steps count the view's cells. Hit paths go with the
+    /// octree's walk, so they are off with it.
     pub wide_view: bool,
 }
 
