@@ -107,7 +107,8 @@ impl Lanes {
 /// passes through, front to back, until it returns `Some`; at most `max_steps` children
 /// examined per lane. Lane `l`'s outcome, its callbacks and their order equal those of
 /// [`crate::trace::traverse`] for ray `l` alone; callbacks of different lanes interleave.
-/// Lanes outside `active` are not traced (no hit, no steps).
+/// Lanes outside `active` are not traced (no hit, no steps). The lanes count their steps in
+/// `f32`, exact below 2^24; a cap of 2^24 steps or more walks the lanes one at a time.
 pub fn traverse_packet<T>(
     tree: &Octree,
     rays: &[GridRay; LANES],
@@ -195,8 +196,9 @@ fn walk<const STACK: usize, T>(
     let Some(any) = first else {
         return out;
     };
-    if mixed {
-        // Lanes in different octants have different front-to-back orders: one at a time.
+    if mixed || max_steps >= 1 << 24 {
+        // Lanes in different octants have different front-to-back orders: one at a time
+        // (and so are caps beyond the packet's f32 step counters).
         for (l, o) in out.iter_mut().enumerate() {
             if lanes >> l & 1 != 0 {
                 *o = crate::trace::traverse(tree, &rays[l], tmin[l], tmax[l], max_steps, |e| {
@@ -225,6 +227,10 @@ fn walk<const STACK: usize, T>(
     };
     let bits = |b: u8| LANE_MASKS[usize::from(b & 15)];
     let mut alive = bits(lanes);
+    // Steps are counted in f32 lanes, exact below 2^24 (larger caps were walked above).
+    let mut steps = Vec4::ZERO;
+    let mut capped = BVec4A::FALSE;
+    let cap = Vec4::splat(max_steps as f32);
     // The node being walked lives in locals; the stack holds its ancestors (`len - 1`).
     let mut stack = [EMPTY; STACK];
     let mut half = n / 2;
@@ -270,8 +276,8 @@ fn walk<const STACK: usize, T>(
             y: Vec4::select(f.by, t1.y, tm.y),
             z: Vec4::select(f.bz, t1.z, tm.z),
         };
-        let m = Vec4::select(c1.x.cmplt(c1.y), c1.x, c1.y);
-        let m = Vec4::select(m.cmplt(c1.z), m, c1.z);
+        // `min` is the single walk's `if a < b { a } else { b }`, lane by lane.
+        let m = c1.x.min(c1.y).min(c1.z);
         let (tx, ty, tz) = (c1.x.cmpeq(m), c1.y.cmpeq(m), c1.z.cmpeq(m));
         let leaves_node = (f.bx & tx) | (f.by & ty) | (f.bz & tz);
         let t_enter = f.enter;
@@ -279,19 +285,12 @@ fn walk<const STACK: usize, T>(
         f.by |= at & ty;
         f.bz |= at & tz;
         f.chain &= !(at & leaves_node);
-        f.enter = Vec4::select(at, Vec4::select(m.cmpgt(ls.tmin), m, ls.tmin), f.enter);
-        let mut over = false;
-        for (l, o) in out.iter_mut().enumerate() {
-            o.steps += at_bits >> l & 1;
-            over |= o.steps > max_steps;
-        }
-        if over {
-            for (l, o) in out.iter_mut().enumerate() {
-                if o.steps > max_steps && !o.capped {
-                    o.capped = true;
-                    alive &= !bits(1 << l);
-                }
-            }
+        f.enter = Vec4::select(at, m.max(ls.tmin), f.enter);
+        steps += Vec4::select(at, Vec4::ONE, Vec4::ZERO);
+        let over = at & steps.cmpgt(cap);
+        if over.any() {
+            capped |= over;
+            alive &= !over;
         }
         let real = c ^ mask;
         let node = f.node;
@@ -303,12 +302,12 @@ fn walk<const STACK: usize, T>(
         // Front to back: a lane past its tmax is done.
         let past = stepping & t_enter.cmpgt(ls.tmax);
         alive &= !past;
-        let t_exit = Vec4::select(m.cmplt(ls.tmax), m, ls.tmax);
+        let t_exit = m.min(ls.tmax);
         let enters = stepping & !past & !t_exit.cmplt(t_enter);
         if !enters.any() {
             continue;
         }
-        let rank = (child_mask & ((1u16 << real) - 1) as u8).count_ones();
+        let rank = super::traverse::rank(child_mask, real);
         let origin = f.corner + super::traverse::child_bits(c) * half;
         if let Some(base) = node.leaf_base() {
             let enters = enters.bitmask();
@@ -364,6 +363,10 @@ fn walk<const STACK: usize, T>(
         };
         first_bits(&mut f, &tm, t_enter);
         len += 1;
+    }
+    for (l, o) in out.iter_mut().enumerate() {
+        o.steps = lane(steps, l) as u32;
+        o.capped = capped.bitmask() >> l & 1 != 0;
     }
     out
 }
@@ -533,6 +536,9 @@ mod tests {
                     };
                     let max_steps = if next().is_multiple_of(6) {
                         (next() % 12) as u32
+                    } else if next().is_multiple_of(10) {
+                        // Beyond the packet's step counters: walked one lane at a time.
+                        u32::MAX
                     } else {
                         MAX_STEPS
                     };
