@@ -307,7 +307,7 @@ fn walk<const STACK: usize, T>(
         if !enters.any() {
             continue;
         }
-        let rank = super::traverse::rank(child_mask, real);
+        let rank = node.slot(real);
         let origin = f.corner + super::traverse::child_bits(c) * half;
         if let Some(base) = node.leaf_base() {
             let enters = enters.bitmask();

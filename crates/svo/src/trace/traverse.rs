@@ -118,29 +118,6 @@ fn next_child(c: u8, exit: Vec3A, m: f32) -> u8 {
     if c & tied != 0 { DONE } else { c | tied }
 }
 
-/// Per child mask (the node's info byte) and child index, how many existing children come
-/// before it: the child's slot after the node's `first`. A table, as the baseline x86-64
-/// target has no population count instruction.
-static RANK: [[u8; 8]; 256] = {
-    let mut t = [[0u8; 8]; 256];
-    let mut m = 0;
-    while m < 256 {
-        let mut c = 0;
-        while c < 8 {
-            t[m][c] = ((m as u8) & ((1u16 << c) - 1) as u8).count_ones() as u8;
-            c += 1;
-        }
-        m += 1;
-    }
-    t
-};
-
-/// The slot of child `real` among the existing children in `child_mask`.
-#[inline]
-pub(crate) fn rank(child_mask: u8, real: u8) -> u32 {
-    u32::from(RANK[usize::from(child_mask)][usize::from(real & 7)])
-}
-
 #[inline]
 pub(crate) fn child_bits(c: u8) -> UVec3 {
     UVec3::new(
@@ -349,7 +326,7 @@ fn traverse_with<const STACK: usize, T>(
         if t_exit < t_enter {
             continue;
         }
-        let rank = rank(child_mask, real);
+        let rank = node.slot(real);
         let origin = corner + child_bits(c) * half;
         if let Some(base) = node.leaf_base() {
             // The cell's entry planes are its integer low planes: the values a walk that
