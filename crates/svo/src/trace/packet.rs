@@ -77,8 +77,6 @@ struct Planes {
 
 /// The lanes' rays in the shared mirrored space.
 struct Lanes {
-    /// A lane's mirrored ray, for what is done per lane (the mirror mask is shared).
-    rays: [Option<MirroredRay>; LANES],
     ox: Vec4,
     oy: Vec4,
     oz: Vec4,
@@ -215,7 +213,6 @@ fn walk<const STACK: usize, T>(
     let v =
         |f: &dyn Fn(&MirroredRay) -> f32| Vec4::new(f(&get(0)), f(&get(1)), f(&get(2)), f(&get(3)));
     let ls = Lanes {
-        rays: r,
         ox: v(&|m| m.o.x),
         oy: v(&|m| m.o.y),
         oz: v(&|m| m.o.z),
@@ -312,7 +309,7 @@ fn walk<const STACK: usize, T>(
         if let Some(base) = node.leaf_base() {
             let enters = enters.bitmask();
             for l in 0..LANES {
-                let Some(ray) = ls.rays[l].as_ref().filter(|_| enters >> l & 1 != 0) else {
+                let Some(ray) = r[l].as_ref().filter(|_| enters >> l & 1 != 0) else {
                     continue;
                 };
                 let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
