@@ -663,6 +663,99 @@ fn with_and_without_prepass(
     (a, b)
 }
 
+/// A shape whose parameter reads the entry's face normal: a cube hit only where the ray
+/// came in through a face (an entry whose normal were left zero would never be hit).
+struct FaceEntries;
+
+impl svo::render::LeafShape for FaceEntries {
+    fn hit(
+        &self,
+        _: &Octree,
+        _: &svo::trace::GridRay,
+        e: &svo::trace::LeafEntry,
+    ) -> Option<(f32, Vec3)> {
+        (e.entry_normal != Vec3::ZERO).then_some((e.t_enter, e.entry_normal))
+    }
+}
+
+/// The prepass gives a shape that reads the face normals entries that have them (the
+/// default of `LeafShape::hit_t_reads_normals`), and the built-in hit tests' parameters,
+/// tested by the prepass on entries without normals, do not depend on them.
+#[test]
+fn prepass_entries_have_the_normals_a_shape_reads() {
+    let tree = torus_tree(6);
+    let (lo, hi) = tree.occupied_bounds();
+    let cam = Camera::framing(lo, hi, 96, 72, 40.0);
+    let c = (lo + hi) * 0.5;
+    for cam in [
+        cam,
+        Camera {
+            eye: c + (cam.eye - c) * 0.35,
+            ..cam
+        },
+    ] {
+        let tracer = |prepass: bool| {
+            Tracer::new(
+                OctreeSurfaces::with_shape(&tree, FaceEntries),
+                &[],
+                Sky::default(),
+                Phong::default(),
+                TraceOptions {
+                    prepass,
+                    ..TraceOptions::default()
+                },
+            )
+        };
+        let (a, b) = (
+            render(&tracer(true), &cam).unwrap(),
+            render(&tracer(false), &cam).unwrap(),
+        );
+        assert!(a.stats.primary_hits > 0);
+        assert_eq!(a.leaf, b.leaf);
+        assert_eq!(a.normal, b.normal);
+        assert!(a.colour == b.colour);
+    }
+    // Every entry of every leaf a ray enters: the same parameter with the normals zero.
+    let mut rng = common::rng(0x4E0_4A15);
+    let mut entries = 0;
+    for _ in 0..400 {
+        let n = f32::from(1u16 << tree.depth);
+        let o = Vec3::new(
+            rng.random_range(-0.5 * n..1.5 * n),
+            rng.random_range(-0.5 * n..1.5 * n),
+            rng.random_range(-0.5 * n..1.5 * n),
+        );
+        let target = Vec3::new(
+            rng.random_range(0.0..n),
+            rng.random_range(0.0..n),
+            rng.random_range(0.0..n),
+        );
+        let ray = svo::trace::GridRay {
+            origin: o,
+            dir: (target - o).normalize(),
+        };
+        svo::trace::traverse(&tree, &ray, 0.0, f32::INFINITY, 1 << 16, |e| {
+            let bare = svo::trace::LeafEntry {
+                entry_normal: Vec3::ZERO,
+                exit_normal: Vec3::ZERO,
+                ..*e
+            };
+            for mode in [HitMode::Cube, HitMode::Contour] {
+                use svo::render::LeafShape;
+                assert!(!mode.hit_t_reads_normals());
+                let t = mode.leaf_hit_t(&tree, e.leaf);
+                assert_eq!(
+                    t(&ray, e).map(f32::to_bits),
+                    t(&ray, &bare).map(f32::to_bits)
+                );
+            }
+            entries += 1;
+            None::<()>
+        });
+    }
+    assert!(entries > 1000, "{entries}");
+}
+
 /// The prepass against tracing every ray from the eye on seeded random sparse trees and the
 /// torus at several depths, from random eyes around and inside them and from eyes on the
 /// lattice looking along an axis or a lattice diagonal (rays along cell faces and through

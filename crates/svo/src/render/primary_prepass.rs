@@ -272,11 +272,9 @@ const WALK_PIXELS: u32 = 8;
 /// Per-band buffers, reused from band to band by one worker.
 #[derive(Debug, Default)]
 pub struct PrimaryScratch {
-    /// Per pixel, `1 / d` of its grid ray as the traversal makes it (per axis).
-    ix: Vec<f32>,
-    iy: Vec<f32>,
-    iz: Vec<f32>,
-    /// Per pixel, one bit: the inverse above is made.
+    /// Per pixel, its grid ray's direction and `1 / d` as the traversal makes them.
+    rays: Vec<PixelRay>,
+    /// Per pixel, one bit: the direction and inverse above are made.
     ready: Vec<u64>,
     /// Per pixel, one bit: the ray has no decided hit yet.
     open: Vec<u64>,
@@ -287,6 +285,16 @@ pub struct PrimaryScratch {
     /// The decided hits: the leaf's entry and the hit's parameter.
     hits: Vec<(LeafEntry, f32)>,
     stack: Vec<Pending>,
+}
+
+/// A pixel's grid ray, as the prepass keeps it once made ([`PrimaryView::ray`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelRay {
+    dir: Vec3,
+    /// `1 / dir` as the traversal makes it ([`safe_inverse`]).
+    inv: Vec3A,
+    /// The ray's mirrored axes (negative direction components: x = 4, y = 2, z = 1).
+    mask: u8,
 }
 
 /// How a pixel's ray meets a box whose planes are the grid's.
@@ -305,7 +313,7 @@ impl PrimaryScratch {
     /// box whose low and high planes, relative to the eye, are `lo` and `hi`: the
     /// traversal's `(p - o) * (1 / d)` for each plane, so the traversal sees the same.
     #[allow(clippy::too_many_arguments)]
-    #[inline]
+    #[inline(always)]
     fn planes(
         &mut self,
         view: &PrimaryView,
@@ -317,30 +325,31 @@ impl PrimaryScratch {
         lo: Vec3A,
         hi: Vec3A,
     ) -> Pass {
+        let ray = &mut self.rays[i];
         if self.ready[at] >> b & 1 == 0 {
-            let inv = safe_inverse(view.ray(x, y).dir);
-            self.ix[i] = inv.x;
-            self.iy[i] = inv.y;
-            self.iz[i] = inv.z;
+            ray.dir = view.ray(x, y).dir;
+            ray.inv = safe_inverse(ray.dir);
+            // The inverse keeps the direction's sign.
+            let inv = ray.inv;
+            ray.mask =
+                (u8::from(inv.x < 0.0) << 2) | (u8::from(inv.y < 0.0) << 1) | u8::from(inv.z < 0.0);
             self.ready[at] |= 1 << b;
         }
-        let (ix, iy, iz) = (self.ix[i], self.iy[i], self.iz[i]);
-        let (x0, x1) = (lo.x * ix, hi.x * ix);
-        let (y0, y1) = (lo.y * iy, hi.y * iy);
-        let (z0, z1) = (lo.z * iz, hi.z * iz);
-        let enter = max(max(max(min(x0, x1), min(y0, y1)), min(z0, z1)), 0.0);
-        let exit = min(min(max(x0, x1), max(y0, y1)), max(z0, z1));
+        let (a, c) = (lo * ray.inv, hi * ray.inv);
+        // The entry plane of an axis is the low one where the direction is positive: the
+        // smaller parameter either way. Lane by lane `min` and `max` here are the scalar
+        // `if a < b { a } else { b }` and its twin: a cell's two planes never give equal
+        // parameters (they are a cell apart, and the inverse is finite and non-zero), and
+        // none is NaN.
+        let (t0, t1) = (a.min(c), a.max(c));
+        let enter = max(max(max(t0.x, t0.y), t0.z), 0.0);
+        let exit = min(min(t1.x, t1.y), t1.z);
         if enter > exit {
             Pass::Misses
         } else if enter == exit {
             Pass::Touches
         } else {
-            // The entry plane of an axis is the low one where the direction is positive
-            // (the inverse keeps the direction's sign): the smaller parameter either way.
-            let t0 = Vec3A::new(min(x0, x1), min(y0, y1), min(z0, z1));
-            let t1 = Vec3A::new(max(x0, x1), max(y0, y1), max(z0, z1));
-            let mask = (u8::from(ix < 0.0) << 2) | (u8::from(iy < 0.0) << 1) | u8::from(iz < 0.0);
-            Pass::Enters(t0, t1, mask)
+            Pass::Enters(t0, t1, ray.mask)
         }
     }
 
@@ -422,10 +431,13 @@ impl<'a> PrimaryBand<'a> {
 
     /// Decides the band's rays on `tree`, with `leaf_test(leaf)` the surfaces' hit test of
     /// that leaf's entries (the parameter of the hit, or `None` where the ray goes on through
-    /// the leaf), made once for all the rays tested against the leaf.
+    /// the leaf), made once for all the rays tested against the leaf. Unless `reads_normals`,
+    /// the test is given the entries with their face normals zero, and a hit's entry gets
+    /// them before it is kept.
     pub(crate) fn decide<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
         tree: &Octree,
+        reads_normals: bool,
         leaf_test: impl Fn(u32) -> T,
     ) {
         let depth = tree.depth;
@@ -437,9 +449,7 @@ impl<'a> PrimaryBand<'a> {
         let px = w * self.rows as usize;
         let words = self.words();
         let s = &mut *self.s;
-        s.ix.resize(px, 0.0);
-        s.iy.resize(px, 0.0);
-        s.iz.resize(px, 0.0);
+        s.rays.resize(px, PixelRay::default());
         s.tests.clear();
         s.tests.resize(px, 0);
         s.slot.clear();
@@ -500,7 +510,7 @@ impl<'a> PrimaryBand<'a> {
                     };
                     let cell = child(c);
                     if let Some(r) = self.rect(cell, 1) {
-                        self.test_leaf(base + rank, cell, r, &leaf_test);
+                        self.test_leaf(base + rank, cell, r, reads_normals, &leaf_test);
                     }
                 }
             } else if half >= 2 {
@@ -604,7 +614,14 @@ impl<'a> PrimaryBand<'a> {
             side: p.side,
         };
         self.each_open(r, |band, at, b, i, x, y| {
-            let ray = band.view.ray(x, y);
+            let ray = if band.s.ready[at] >> b & 1 != 0 {
+                GridRay {
+                    origin: band.view.eye,
+                    dir: band.s.rays[i].dir,
+                }
+            } else {
+                band.view.ray(x, y)
+            };
             let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
                 leaf_test(e.leaf)(&ray, e).map(|t| (*e, t))
             });
@@ -624,12 +641,14 @@ impl<'a> PrimaryBand<'a> {
         });
     }
 
-    /// Tests leaf `leaf` at `cell` against the open pixels of `r`.
+    /// Tests leaf `leaf` at `cell` against the open pixels of `r` (the entries' face normals
+    /// made before the test where it `reads_normals`, else for the hits alone).
     fn test_leaf<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
         leaf: u32,
         cell: UVec3,
         r: Rect,
+        reads_normals: bool,
         leaf_test: &impl Fn(u32) -> T,
     ) {
         // The leaf's test, made when the first ray enters the cell.
@@ -649,11 +668,20 @@ impl<'a> PrimaryBand<'a> {
                 Pass::Touches => s.close(at, b, i, DEFER),
                 Pass::Enters(t0, t1, mask) => {
                     // The ray passes through the cell: the traversal's entry for it.
-                    let ray = view.ray(x, y);
-                    match leaf_entry(t0, t1, mask, leaf, cell) {
-                        Some(e) => {
+                    let ray = GridRay {
+                        origin: view.eye,
+                        dir: s.rays[i].dir,
+                    };
+                    match leaf_entry(t0, t1, leaf, cell) {
+                        Some(mut e) => {
+                            if reads_normals {
+                                add_normals(&mut e, t0, t1, mask);
+                            }
                             let hit_t = test.get_or_insert_with(|| leaf_test(leaf));
                             if let Some(t) = hit_t(&ray, &e) {
+                                if !reads_normals {
+                                    add_normals(&mut e, t0, t1, mask);
+                                }
                                 s.close_hit(at, b, i, (e, t));
                             }
                         }
@@ -692,19 +720,28 @@ fn span_mask(k: usize, x0: u32, x1: u32) -> u64 {
 
 /// The traversal's [`LeafEntry`] (from parameter 0, unbounded) of leaf `leaf` at `cell`
 /// for a ray whose parameters at the cell's entry planes are `t0` and at its exit planes
-/// `t1` (the traversal's `(p - o) * (1 / d)`), and whose mirrored axes (negative direction
-/// components) are `mask`, when the ray passes through the cell with positive length.
-fn leaf_entry(t0: Vec3A, t1: Vec3A, mask: u8, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
+/// `t1` (the traversal's `(p - o) * (1 / d)`), when the ray passes through the cell with
+/// positive length; its face normals zero until [`add_normals`] makes them.
+#[inline]
+fn leaf_entry(t0: Vec3A, t1: Vec3A, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
     let t_enter = max(t0.max_element(), 0.0);
     let t_exit = t1.min_element();
-    (t_enter < t_exit).then(|| LeafEntry {
+    (t_enter < t_exit).then_some(LeafEntry {
         leaf,
         cell,
         t_enter,
         t_exit,
-        entry_normal: entry_normal_of(mask, t0, 0.0),
-        exit_normal: exit_normal_of(mask, t1),
+        entry_normal: Vec3::ZERO,
+        exit_normal: Vec3::ZERO,
     })
+}
+
+/// The face normals of entry `e` ([`leaf_entry`]'s `t0` and `t1`) for a ray whose mirrored
+/// axes (negative direction components) are `mask`, as the traversal makes them.
+#[inline]
+fn add_normals(e: &mut LeafEntry, t0: Vec3A, t1: Vec3A, mask: u8) {
+    e.entry_normal = entry_normal_of(mask, t0, 0.0);
+    e.exit_normal = exit_normal_of(mask, t1);
 }
 
 #[inline]

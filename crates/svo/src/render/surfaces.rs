@@ -309,6 +309,14 @@ pub trait LeafShape: Sync {
         let _ = leaf;
         move |ray, e| self.hit_t(tree, ray, e)
     }
+
+    /// Whether [`Self::leaf_hit_t`]'s answer depends on the entry's face normals
+    /// ([`LeafEntry::entry_normal`], [`LeafEntry::exit_normal`]). Where it does not, the
+    /// primary prepass tests its entries with those left zero and works them out for the
+    /// hits alone (an entry a hit keeps has them, as always).
+    fn hit_t_reads_normals(&self) -> bool {
+        true
+    }
 }
 
 impl LeafShape for HitMode {
@@ -344,6 +352,12 @@ impl LeafShape for HitMode {
     ) -> impl Fn(&GridRay, &LeafEntry) -> Option<f32> + 'a {
         let test = LeafTest::new(tree, leaf, *self);
         move |ray, e| test.hit(ray, e).map(|h| h.t)
+    }
+
+    /// The cube's and the slab's parameters come from the entry's parameters alone.
+    #[inline]
+    fn hit_t_reads_normals(&self) -> bool {
+        false
     }
 }
 
@@ -531,7 +545,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn primary_band(&self, band: &mut PrimaryBand<'_>) {
-        band.decide(self.tree, |leaf| {
+        band.decide(self.tree, self.shape.hit_t_reads_normals(), |leaf| {
             let through = self.passes_through(leaf);
             let hit_t = self.shape.leaf_hit_t(self.tree, leaf);
             move |ray: &GridRay, e: &LeafEntry| if through { None } else { hit_t(ray, e) }
