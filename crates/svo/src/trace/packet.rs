@@ -133,6 +133,48 @@ fn nothing<T>() -> [Traversal<T>; LANES] {
     })
 }
 
+/// The single walk's minimum `if a < b { a } else { b }`, lane by lane. SSE's `minps` is
+/// exactly that (the second operand unless the first is smaller, so of `-0.0` and `0.0` the
+/// second); other targets' vector minimum may take `-0.0` as the smaller, so they compare and
+/// select.
+#[inline]
+fn min4(a: Vec4, b: Vec4) -> Vec4 {
+    #[cfg(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    ))]
+    {
+        a.min(b)
+    }
+    #[cfg(not(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    )))]
+    {
+        Vec4::select(a.cmplt(b), a, b)
+    }
+}
+
+/// The single walk's maximum `if a > b { a } else { b }`, lane by lane ([`min4`]'s twin,
+/// `maxps` on SSE).
+#[inline]
+fn max4(a: Vec4, b: Vec4) -> Vec4 {
+    #[cfg(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    ))]
+    {
+        a.max(b)
+    }
+    #[cfg(not(all(
+        any(target_arch = "x86", target_arch = "x86_64"),
+        target_feature = "sse2"
+    )))]
+    {
+        Vec4::select(a.cmpgt(b), a, b)
+    }
+}
+
 #[inline]
 fn lane(v: Vec4, l: usize) -> f32 {
     v.to_array()[l]
@@ -273,8 +315,8 @@ fn walk<const STACK: usize, T>(
             y: Vec4::select(f.by, t1.y, tm.y),
             z: Vec4::select(f.bz, t1.z, tm.z),
         };
-        // `min` is the single walk's `if a < b { a } else { b }`, lane by lane.
-        let m = c1.x.min(c1.y).min(c1.z);
+        // The single walk's minimum and maximum, lane by lane ([`min4`], [`max4`]).
+        let m = min4(min4(c1.x, c1.y), c1.z);
         let (tx, ty, tz) = (c1.x.cmpeq(m), c1.y.cmpeq(m), c1.z.cmpeq(m));
         let leaves_node = (f.bx & tx) | (f.by & ty) | (f.bz & tz);
         let t_enter = f.enter;
@@ -282,7 +324,7 @@ fn walk<const STACK: usize, T>(
         f.by |= at & ty;
         f.bz |= at & tz;
         f.chain &= !(at & leaves_node);
-        f.enter = Vec4::select(at, m.max(ls.tmin), f.enter);
+        f.enter = Vec4::select(at, max4(m, ls.tmin), f.enter);
         steps += Vec4::select(at, Vec4::ONE, Vec4::ZERO);
         let over = at & steps.cmpgt(cap);
         if over.any() {
@@ -299,7 +341,7 @@ fn walk<const STACK: usize, T>(
         // Front to back: a lane past its tmax is done.
         let past = stepping & t_enter.cmpgt(ls.tmax);
         alive &= !past;
-        let t_exit = m.min(ls.tmax);
+        let t_exit = min4(m, ls.tmax);
         let enters = stepping & !past & !t_exit.cmplt(t_enter);
         if !enters.any() {
             continue;
@@ -340,8 +382,8 @@ fn walk<const STACK: usize, T>(
         if child.info >> 8 != 0 {
             let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
             let (b0, b1) = (ls.planes(&any, lo), ls.planes(&any, hi));
-            let first = b0.x.max(b0.y).max(b0.z).max(t_enter);
-            let last = b1.x.min(b1.y).min(b1.z).min(t_exit);
+            let first = max4(max4(max4(b0.x, b0.y), b0.z), t_enter);
+            let last = min4(min4(min4(b1.x, b1.y), b1.z), t_exit);
             enters &= !last.cmplt(first);
             if !enters.any() {
                 continue;
