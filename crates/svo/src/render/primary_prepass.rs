@@ -337,10 +337,11 @@ impl PrimaryScratch {
         }
         let (a, c) = (lo * ray.inv, hi * ray.inv);
         // The entry plane of an axis is the low one where the direction is positive: the
-        // smaller parameter either way. Lane by lane `min` and `max` here are the scalar
-        // `if a < b { a } else { b }` and its twin: a cell's two planes never give equal
-        // parameters (they are a cell apart, and the inverse is finite and non-zero), and
-        // none is NaN.
+        // smaller parameter either way. Lane by lane `min` and `max` here give what the
+        // scalar `if a < b { a } else { b }` and its twin give: an axis's two parameters are
+        // never NaN and never zeros of opposite signs (one plane is at least half a cell from
+        // the eye, and the inverse is finite and non-zero), and where they are equal they are
+        // the same bits.
         let (t0, t1) = (a.min(c), a.max(c));
         let enter = max(max(max(t0.x, t0.y), t0.z), 0.0);
         let exit = min(min(t1.x, t1.y), t1.z);
