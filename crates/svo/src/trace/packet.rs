@@ -283,15 +283,22 @@ fn walk<const STACK: usize, T>(
     };
     first_bits(&mut f, &tm, Vec4::from_array(enter));
     let mut len = 1usize;
-    loop {
+    'walk: loop {
         let walking = f.chain & alive;
         if !walking.any() {
-            len -= 1;
-            if len == 0 {
-                break;
+            // Back to the nearest ancestor with a walking lane; the planes of those passed
+            // on the way are not needed.
+            loop {
+                len -= 1;
+                if len == 0 {
+                    break 'walk;
+                }
+                f = stack[len - 1];
+                half *= 2;
+                if (f.chain & alive).any() {
+                    break;
+                }
             }
-            f = stack[len - 1];
-            half *= 2;
             let corner = f.corner;
             tm = ls.planes(&any, corner + UVec3::splat(half));
             t1 = ls.planes(&any, corner + UVec3::splat(2 * half));
