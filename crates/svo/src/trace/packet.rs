@@ -133,44 +133,32 @@ fn nothing<T>() -> [Traversal<T>; LANES] {
     })
 }
 
-/// The single walk's minimum `if a < b { a } else { b }`, lane by lane. SSE's `minps` is
-/// exactly that (the second operand unless the first is smaller, so of `-0.0` and `0.0` the
-/// second); other targets' vector minimum may take `-0.0` as the smaller, so they compare and
-/// select.
+/// Whether glam's `Vec4::min` and `max` are SSE's `minps` and `maxps`, which return the
+/// second operand unless the first is smaller (or larger): the single walk's
+/// `if a < b { a } else { b }` and its twin lane by lane, `-0.0` and `0.0` included. Other
+/// targets' vector minimum may take `-0.0` as the smaller, so there [`min4`] and [`max4`]
+/// compare and select.
+const SSE_MIN_MAX: bool = cfg!(all(
+    any(target_arch = "x86", target_arch = "x86_64"),
+    target_feature = "sse2"
+));
+
+/// The single walk's minimum `if a < b { a } else { b }`, lane by lane ([`SSE_MIN_MAX`]).
 #[inline]
 fn min4(a: Vec4, b: Vec4) -> Vec4 {
-    #[cfg(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "sse2"
-    ))]
-    {
+    if SSE_MIN_MAX {
         a.min(b)
-    }
-    #[cfg(not(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "sse2"
-    )))]
-    {
+    } else {
         Vec4::select(a.cmplt(b), a, b)
     }
 }
 
-/// The single walk's maximum `if a > b { a } else { b }`, lane by lane ([`min4`]'s twin,
-/// `maxps` on SSE).
+/// The single walk's maximum `if a > b { a } else { b }`, lane by lane ([`SSE_MIN_MAX`]).
 #[inline]
 fn max4(a: Vec4, b: Vec4) -> Vec4 {
-    #[cfg(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "sse2"
-    ))]
-    {
+    if SSE_MIN_MAX {
         a.max(b)
-    }
-    #[cfg(not(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "sse2"
-    )))]
-    {
+    } else {
         Vec4::select(a.cmpgt(b), a, b)
     }
 }
