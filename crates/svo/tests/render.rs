@@ -432,20 +432,7 @@ fn exact_hits_equal_the_triangle_reference() {
     let n = 32.0f32;
     let mut hits = 0;
     for _ in 0..20_000 {
-        let o = Vec3::new(
-            rng.random_range(-8.0..n + 8.0),
-            rng.random_range(-8.0..n + 8.0),
-            rng.random_range(-8.0..n + 8.0),
-        );
-        let target = Vec3::new(
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-        );
-        let ray = svo::trace::GridRay {
-            origin: o,
-            dir: (target - o).normalize(),
-        };
+        let ray = ray_into(&mut rng, n, 8.0);
         let a = exact.closest(&ray, &Query::all(1 << 16));
         let b = tris.closest(&ray, &Query::all(1 << 16));
         match (a.hit, b.hit) {
@@ -663,6 +650,25 @@ fn with_and_without_prepass(
     (a, b)
 }
 
+/// A seeded grid ray from a point within `margin` cells around a grid of `n` cells per axis
+/// toward a point inside it.
+fn ray_into(rng: &mut impl Rng, n: f32, margin: f32) -> svo::trace::GridRay {
+    let o = Vec3::new(
+        rng.random_range(-margin..n + margin),
+        rng.random_range(-margin..n + margin),
+        rng.random_range(-margin..n + margin),
+    );
+    let target = Vec3::new(
+        rng.random_range(0.0..n),
+        rng.random_range(0.0..n),
+        rng.random_range(0.0..n),
+    );
+    svo::trace::GridRay {
+        origin: o,
+        dir: (target - o).normalize(),
+    }
+}
+
 /// A shape whose parameter reads the entry's face normal: a cube hit only where the ray
 /// came in through a face (an entry whose normal were left zero would never be hit).
 struct FaceEntries;
@@ -720,20 +726,7 @@ fn prepass_entries_have_the_normals_a_shape_reads() {
     let mut entries = 0;
     for _ in 0..400 {
         let n = f32::from(1u16 << tree.depth);
-        let o = Vec3::new(
-            rng.random_range(-0.5 * n..1.5 * n),
-            rng.random_range(-0.5 * n..1.5 * n),
-            rng.random_range(-0.5 * n..1.5 * n),
-        );
-        let target = Vec3::new(
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-        );
-        let ray = svo::trace::GridRay {
-            origin: o,
-            dir: (target - o).normalize(),
-        };
+        let ray = ray_into(&mut rng, n, 0.5 * n);
         svo::trace::traverse(&tree, &ray, 0.0, f32::INFINITY, 1 << 16, |e| {
             let bare = svo::trace::LeafEntry {
                 entry_normal: Vec3::ZERO,
