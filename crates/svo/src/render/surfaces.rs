@@ -11,7 +11,7 @@ use crate::render::primary_prepass::PrimaryBand;
 use crate::render::whitted::PrimaryStart;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
-use crate::trace::packet::{LANES, traverse_packet};
+use crate::trace::packet::{LANES, traverse_packet, traverse_packet_with};
 use crate::trace::traverse::{LeafEntry, traverse};
 use glam::Vec3;
 
@@ -260,6 +260,8 @@ pub trait Surfaces: Sync {
     /// [`Self::walk`] for the lanes of `rays` in `active` (bit `l` for lane `l`), with
     /// `visit(l, hit)` per lane: the same outcome per lane as `walk` alone. Surfaces that walk
     /// rays in packets (the octree) walk them together; lanes outside `active` are not walked.
+    /// A hit's `normal` may be zero here (the octree leaves it out where its leaves' test does
+    /// not need it).
     #[doc(hidden)]
     fn walks(
         &self,
@@ -673,21 +675,41 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         max_steps: u32,
         visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
     ) -> [Walked; LANES] {
-        let r = traverse_packet(
-            self.tree,
-            rays,
-            [0.0; LANES],
-            tmax,
-            active,
-            max_steps,
-            |l, e| {
-                if Some(e.leaf) == skip[l] {
-                    return None;
-                }
-                let h = self.surface_hit(&rays[l], e)?;
-                visit(l, &h).then_some(())
-            },
-        );
+        // Where the shape's test reads no entry normals, the walk makes none and the hits
+        // carry no shading normal (a walk's hits are for visibility).
+        let r = if self.shape.hit_t_reads_normals() {
+            traverse_packet(
+                self.tree,
+                rays,
+                [0.0; LANES],
+                tmax,
+                active,
+                max_steps,
+                |l, e| {
+                    if Some(e.leaf) == skip[l] {
+                        return None;
+                    }
+                    let h = self.surface_hit(&rays[l], e)?;
+                    visit(l, &h).then_some(())
+                },
+            )
+        } else {
+            traverse_packet_with::<false, _>(
+                self.tree,
+                rays,
+                [0.0; LANES],
+                tmax,
+                active,
+                max_steps,
+                |l, e| {
+                    if Some(e.leaf) == skip[l] || self.passes_through(e.leaf) {
+                        return None;
+                    }
+                    let t = self.shape.hit_t(self.tree, &rays[l], e)?;
+                    visit(l, &self.hit_of(e, t, Vec3::ZERO)).then_some(())
+                },
+            )
+        };
         r.map(|w| Walked {
             blocked: w.hit.is_some(),
             steps: w.steps,

@@ -25,7 +25,7 @@ use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use crate::trace::traverse::{LeafEntry, Traversal};
-use glam::{BVec4A, UVec3, Vec3A, Vec4};
+use glam::{BVec4A, UVec3, Vec3, Vec3A, Vec4};
 
 /// Rays in a packet.
 pub const LANES: usize = 4;
@@ -116,12 +116,28 @@ pub fn traverse_packet<T>(
     max_steps: u32,
     on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
 ) -> [Traversal<T>; LANES] {
+    traverse_packet_with::<true, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+}
+
+/// [`traverse_packet`], with `NORMALS` false for callbacks that read no entry normals: the
+/// entries' `entry_normal` and `exit_normal` are then zero where the lanes walk together
+/// (a packet whose lanes are walked one at a time still gets them). Everything else is
+/// the same bit for bit.
+pub(crate) fn traverse_packet_with<const NORMALS: bool, T>(
+    tree: &Octree,
+    rays: &[GridRay; LANES],
+    tmin: [f32; LANES],
+    tmax: [f32; LANES],
+    active: u8,
+    max_steps: u32,
+    on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
+) -> [Traversal<T>; LANES] {
     if tree.depth <= 4 {
-        walk::<4, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<4, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
     } else if tree.depth <= 12 {
-        walk::<12, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<12, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
     } else {
-        walk::<32, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<32, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
     }
 }
 
@@ -178,7 +194,7 @@ fn first_bits(f: &mut Frame, tm: &Planes, t: Vec4) {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn walk<const STACK: usize, T>(
+fn walk<const STACK: usize, const NORMALS: bool, T>(
     tree: &Octree,
     rays: &[GridRay; LANES],
     tmin: [f32; LANES],
@@ -349,14 +365,22 @@ fn walk<const STACK: usize, T>(
                 let Some(ray) = r[l].as_ref().filter(|_| enters >> l & 1 != 0) else {
                     continue;
                 };
-                let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
+                let (entry_normal, exit_normal) = if NORMALS {
+                    let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
+                    (
+                        ray.entry_normal_of(ray.t_planes(origin), tmin[l]),
+                        ray.exit_normal_of(c1),
+                    )
+                } else {
+                    (Vec3::ZERO, Vec3::ZERO)
+                };
                 let entry = LeafEntry {
                     leaf: base + rank,
                     cell: ray.unmirror_cell(origin),
                     t_enter: lane(t_enter, l),
                     t_exit: lane(t_exit, l),
-                    entry_normal: ray.entry_normal_of(ray.t_planes(origin), tmin[l]),
-                    exit_normal: ray.exit_normal_of(c1),
+                    entry_normal,
+                    exit_normal,
                 };
                 if let Some(h) = on_leaf(l, &entry) {
                     out[l].hit = Some(h);
@@ -445,6 +469,31 @@ mod tests {
             seen[l].push(*e);
             stop(e).then_some(e.leaf)
         });
+        std::array::from_fn(|l| {
+            (
+                std::mem::take(&mut seen[l]),
+                t[l].hit,
+                t[l].steps,
+                t[l].capped,
+            )
+        })
+    }
+
+    fn packed_without_normals(
+        tree: &Octree,
+        rays: &[GridRay; LANES],
+        tmin: [f32; LANES],
+        tmax: [f32; LANES],
+        active: u8,
+        max_steps: u32,
+        stop: &dyn Fn(&LeafEntry) -> bool,
+    ) -> [Seen; LANES] {
+        let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
+        let t =
+            traverse_packet_with::<false, _>(tree, rays, tmin, tmax, active, max_steps, |l, e| {
+                seen[l].push(*e);
+                stop(e).then_some(e.leaf)
+            });
         std::array::from_fn(|l| {
             (
                 std::mem::take(&mut seen[l]),
@@ -579,6 +628,8 @@ mod tests {
                     let k = next() % 4;
                     let stop = move |e: &LeafEntry| k != 0 && u64::from(e.leaf) % 4 == k;
                     let got = packed(&tree, &rays, tmin, tmax, active, max_steps, &stop);
+                    let bare =
+                        packed_without_normals(&tree, &rays, tmin, tmax, active, max_steps, &stop);
                     for l in 0..LANES {
                         let want = if active >> l & 1 != 0 {
                             alone(&tree, &rays[l], tmin[l], tmax[l], max_steps, &stop)
@@ -590,6 +641,32 @@ mod tests {
                             "depth {depth}, lane {l} of {rays:?} in [{tmin:?}, {tmax:?}], \
                              {max_steps} steps"
                         );
+                        // Without normals: the same but for the normals, which are zero
+                        // where the lanes walk together.
+                        let strip = |s: &Seen| {
+                            let mut s = s.clone();
+                            for e in &mut s.0 {
+                                e.entry_normal = Vec3::ZERO;
+                                e.exit_normal = Vec3::ZERO;
+                            }
+                            s
+                        };
+                        assert_eq!(strip(&bare[l]), strip(&want), "without normals, lane {l}");
+                        let mixed = (0..LANES).any(|k| {
+                            active >> k & 1 != 0
+                                && rays[k].dir.is_negative_bitmask()
+                                    != rays[l].dir.is_negative_bitmask()
+                        });
+                        if !mixed && max_steps < 1 << 24 {
+                            assert!(
+                                bare[l]
+                                    .0
+                                    .iter()
+                                    .all(|e| e.entry_normal == Vec3::ZERO
+                                        && e.exit_normal == Vec3::ZERO),
+                                "no normals made, lane {l}"
+                            );
+                        }
                         compared += 1;
                         hits += usize::from(want.1.is_some());
                     }
