@@ -464,22 +464,11 @@ mod tests {
         max_steps: u32,
         stop: &dyn Fn(&LeafEntry) -> bool,
     ) -> [Seen; LANES] {
-        let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
-        let t = traverse_packet(tree, rays, tmin, tmax, active, max_steps, |l, e| {
-            seen[l].push(*e);
-            stop(e).then_some(e.leaf)
-        });
-        std::array::from_fn(|l| {
-            (
-                std::mem::take(&mut seen[l]),
-                t[l].hit,
-                t[l].steps,
-                t[l].capped,
-            )
-        })
+        packed_with::<true>(tree, rays, tmin, tmax, active, max_steps, stop)
     }
 
-    fn packed_without_normals(
+    /// What each lane of the packet walk saw, with or without the entries' normals.
+    fn packed_with<const NORMALS: bool>(
         tree: &Octree,
         rays: &[GridRay; LANES],
         tmin: [f32; LANES],
@@ -489,11 +478,18 @@ mod tests {
         stop: &dyn Fn(&LeafEntry) -> bool,
     ) -> [Seen; LANES] {
         let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
-        let t =
-            traverse_packet_with::<false, _>(tree, rays, tmin, tmax, active, max_steps, |l, e| {
+        let t = traverse_packet_with::<NORMALS, _>(
+            tree,
+            rays,
+            tmin,
+            tmax,
+            active,
+            max_steps,
+            |l, e| {
                 seen[l].push(*e);
                 stop(e).then_some(e.leaf)
-            });
+            },
+        );
         std::array::from_fn(|l| {
             (
                 std::mem::take(&mut seen[l]),
@@ -629,7 +625,7 @@ mod tests {
                     let stop = move |e: &LeafEntry| k != 0 && u64::from(e.leaf) % 4 == k;
                     let got = packed(&tree, &rays, tmin, tmax, active, max_steps, &stop);
                     let bare =
-                        packed_without_normals(&tree, &rays, tmin, tmax, active, max_steps, &stop);
+                        packed_with::<false>(&tree, &rays, tmin, tmax, active, max_steps, &stop);
                     for l in 0..LANES {
                         let want = if active >> l & 1 != 0 {
                             alone(&tree, &rays[l], tmin[l], tmax[l], max_steps, &stop)
