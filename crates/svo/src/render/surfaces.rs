@@ -677,38 +677,25 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     ) -> [Walked; LANES] {
         // Where the shape's test reads no entry normals, the walk makes none and the hits
         // carry no shading normal (a walk's hits are for visibility).
-        let r = if self.shape.hit_t_reads_normals() {
-            traverse_packet(
-                self.tree,
-                rays,
-                [0.0; LANES],
-                tmax,
-                active,
-                max_steps,
-                |l, e| {
-                    if Some(e.leaf) == skip[l] {
-                        return None;
-                    }
-                    let h = self.surface_hit(&rays[l], e)?;
-                    visit(l, &h).then_some(())
-                },
-            )
+        let normals = self.shape.hit_t_reads_normals();
+        let on_leaf = |l: usize, e: &LeafEntry| {
+            if Some(e.leaf) == skip[l] {
+                return None;
+            }
+            let h = if normals {
+                self.surface_hit(&rays[l], e)?
+            } else if self.passes_through(e.leaf) {
+                return None;
+            } else {
+                self.hit_of(e, self.shape.hit_t(self.tree, &rays[l], e)?, Vec3::ZERO)
+            };
+            visit(l, &h).then_some(())
+        };
+        let (tree, tmin) = (self.tree, [0.0; LANES]);
+        let r = if normals {
+            traverse_packet(tree, rays, tmin, tmax, active, max_steps, on_leaf)
         } else {
-            traverse_packet_with::<false, _>(
-                self.tree,
-                rays,
-                [0.0; LANES],
-                tmax,
-                active,
-                max_steps,
-                |l, e| {
-                    if Some(e.leaf) == skip[l] || self.passes_through(e.leaf) {
-                        return None;
-                    }
-                    let t = self.shape.hit_t(self.tree, &rays[l], e)?;
-                    visit(l, &self.hit_of(e, t, Vec3::ZERO)).then_some(())
-                },
-            )
+            traverse_packet_with::<false, _>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
         };
         r.map(|w| Walked {
             blocked: w.hit.is_some(),
