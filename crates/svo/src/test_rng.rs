@@ -1,8 +1,40 @@
 //! A seeded xorshift generator for the unit tests: the same sequence on every machine, and
 //! no dependency inside the library's own test modules.
+//!
+//! `SVO_TEST_SEED` (a number, decimal or `0x` hex) moves every seed of the seeded tests to
+//! other values, so a soak can run the same checks over new random cases; unset, the seeds are
+//! the ones written in the tests.
 
-/// The xorshift64 sequence from `seed` (non-zero).
-pub(crate) fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+/// `seed` as written, or mixed with `SVO_TEST_SEED` when that is set (never zero).
+pub(crate) fn seed(seed: u64) -> u64 {
+    match soak_salt() {
+        None => seed,
+        Some(salt) => splitmix(seed ^ splitmix(salt)).max(1),
+    }
+}
+
+/// The value of `SVO_TEST_SEED`; a value that is not a number fails the test that reads it.
+fn soak_salt() -> Option<u64> {
+    let v = std::env::var("SVO_TEST_SEED").ok()?;
+    let v = v.trim();
+    let parsed = match v.strip_prefix("0x") {
+        Some(hex) => u64::from_str_radix(hex, 16),
+        None => v.parse(),
+    };
+    Some(parsed.unwrap_or_else(|_| panic!("SVO_TEST_SEED={v:?} is not a number")))
+}
+
+/// One step of SplitMix64: a bijection that spreads nearby seeds apart.
+fn splitmix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// The xorshift64 sequence from `seed` (non-zero; moved by `SVO_TEST_SEED`, see [`seed`]).
+pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+    let mut seed = self::seed(seed);
     move || {
         seed ^= seed << 13;
         seed ^= seed >> 7;

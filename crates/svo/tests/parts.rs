@@ -4,6 +4,8 @@
 //! damaged one, and leaves no output when it does.
 #![cfg(feature = "io")]
 
+mod common;
+use rand::Rng;
 use std::path::{Path, PathBuf};
 use svo::bake::{
     BakeJob, BakeOptions, GivenOptions, MergeFormat, PartsError, bake_file, bake_parts, hash_file,
@@ -130,6 +132,107 @@ fn parts_merge_into_the_bytes_of_the_whole_bake() {
         }
     }
     assert!(checked >= 15);
+}
+
+/// A lattice coordinate in `[0, 64]` (sixteenths of the root's side of 4): half of them on a
+/// boundary of the parts' nodes at level 3 (multiples of 8), a quarter on one of level 4.
+fn lattice_coordinate(rng: &mut impl Rng) -> u32 {
+    match rng.random_range(0..4) {
+        0 | 1 => 8 * rng.random_range(0..=8),
+        2 => 4 * rng.random_range(0..=16),
+        _ => rng.random_range(0..=64),
+    }
+}
+
+/// A random soup of up to 14 triangles on the 1/16 lattice of `[0, 4]^3` scaled by `scale`
+/// (a power of two, so the lattice stays exact), written as an OBJ file: the root is pinned
+/// to that cube by a triangle at each of two opposite corners, and the other triangles have
+/// their vertices, edges and faces on the boundaries between parts, some degenerate (a
+/// vertex repeated, or three on a line) and some lying in one boundary plane.
+fn lattice_soup(rng: &mut impl Rng, scale: f64, path: &Path) {
+    let mut tris: Vec<[[u32; 3]; 3]> = vec![
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+        [[64, 64, 64], [63, 64, 64], [64, 63, 64]],
+    ];
+    for _ in 0..rng.random_range(1..=12) {
+        let mut t = [0; 3].map(|_| [0; 3].map(|_| lattice_coordinate(rng)));
+        match rng.random_range(0..8) {
+            0 => t[2] = t[rng.random_range(0..2)],
+            1 => {
+                // On a line through the first two vertices (within the lattice's bounds).
+                let (a, b) = (t[0], t[1]);
+                t[2] = [0, 1, 2].map(|k| (2 * b[k]).saturating_sub(a[k]).min(64));
+                if (0..3).any(|k| 2 * b[k] < a[k] || 2 * b[k] - a[k] > 64) {
+                    t[2] = b;
+                }
+            }
+            2 | 3 => {
+                let (axis, plane) = (rng.random_range(0..3), 8 * rng.random_range(0..=8));
+                for v in &mut t {
+                    v[axis] = plane;
+                }
+            }
+            _ => {}
+        }
+        tris.push(t);
+    }
+    let mut obj = String::new();
+    for t in &tris {
+        for v in t {
+            let c = v.map(|c| f64::from(c) / 16.0 * scale);
+            obj += &format!("v {:e} {:e} {:e}\n", c[0], c[1], c[2]);
+        }
+    }
+    for k in 0..tris.len() {
+        obj += &format!("f {} {} {}\n", 3 * k + 1, 3 * k + 2, 3 * k + 3);
+    }
+    std::fs::write(path, obj).unwrap();
+}
+
+/// Seeded random lattice soups whose triangles lie on the parts' boundaries (faces, edges and
+/// corners of the nodes the parts are made of; degenerate and in-plane triangles among them;
+/// coordinates scaled by 1, 2^-70 and 2^70), at depths 6 to 9 in 2 to 16 parts: the parts
+/// baked from their bins merge into the in-memory bake's bytes, and into its chunked file.
+#[test]
+fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = common::rng(0x9A27_5EED);
+    let mut empty_parts = 0;
+    for round in 0..30 {
+        let scale = [1.0, 1.0, 1.0, 2f64.powi(-70), 2f64.powi(70)][round % 5];
+        let mesh_path = dir.path().join("soup.obj");
+        lattice_soup(&mut rng, scale, &mesh_path);
+        let opts = BakeOptions {
+            depth: rng.random_range(6..=9),
+            channels: ["all", "none", "normal"][rng.random_range(0..3)]
+                .parse()
+                .unwrap(),
+            ..BakeOptions::default()
+        };
+        let parts = [2, 3, 5, 8, 16][rng.random_range(0..5)];
+        let whole = in_memory(&mesh_path, &opts, dir.path());
+        let plan = dir.path().join("soup.svoplan");
+        let (p, _) = svo::bake::plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let plan_hash = read_plan(&plan).unwrap().1;
+        for i in 0..parts {
+            let bin = svo::bake::read_bin(&svo::bake::bin_path(&plan, i), plan_hash, i).unwrap();
+            empty_parts += usize::from(bin.triangles.is_empty());
+            svo::bake::bake_part_file(&plan, i, None).unwrap();
+        }
+        let got = merged(&plan, dir.path()).unwrap();
+        assert!(
+            got == whole,
+            "round {round}: depth {}, {parts} parts at level {}, scale {scale:e}: the merged \
+             parts ({} bytes) differ from the in-memory bake ({} bytes)",
+            opts.depth,
+            p.level,
+            got.len(),
+            whole.len()
+        );
+        check_chunked(&plan, &whole, dir.path());
+    }
+    // The soups leave some parts without a triangle, whose merge must still hold.
+    assert!(empty_parts > 0);
 }
 
 /// A part baked again is the same file, byte for byte, alone or with the others.

@@ -9,8 +9,13 @@ use rand_chacha::ChaCha8Rng;
 /// Coordinates in the exact tests are integers divided by this.
 pub const DENOM: f64 = 16.0;
 
+/// The library's seed helpers (`SVO_TEST_SEED` moves every seed; see there).
+#[path = "../../src/test_rng.rs"]
+mod test_rng;
+
+/// The generator for `seed`, or for `seed` mixed with `SVO_TEST_SEED` when that is set.
 pub fn rng(seed: u64) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(seed)
+    ChaCha8Rng::seed_from_u64(test_rng::seed(seed))
 }
 
 mod exact_sat;
