@@ -13,10 +13,14 @@ pub(crate) fn seed(seed: u64) -> u64 {
     }
 }
 
-/// The value of `SVO_TEST_SEED`; a value that is not a number fails the test that reads it.
+/// The value of `SVO_TEST_SEED` (empty is unset); a value that is not a number fails the test
+/// that reads it.
 fn soak_salt() -> Option<u64> {
     let v = std::env::var("SVO_TEST_SEED").ok()?;
     let v = v.trim();
+    if v.is_empty() {
+        return None;
+    }
     let parsed = match v.strip_prefix("0x") {
         Some(hex) => u64::from_str_radix(hex, 16),
         None => v.parse(),
