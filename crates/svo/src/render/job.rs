@@ -69,11 +69,11 @@ fn load_reference(path: &std::path::Path) -> Result<crate::Mesh, RenderJobError>
     Ok(load_mesh(path)?)
 }
 
-/// The deepest tree the renderers trace. Traversal runs in `f32` grid coordinates: up to
-/// depth 16 every ray hits the leaf an `f64` reference hits; at depths 20-24 rays that graze
-/// a leaf by less than the coordinates' spacing (1/16 to 1 cell) can miss it (2 to 38 in
-/// 3,000 in `tests/deep_precision.rs`); from depth 26 most rays go wrong, so such trees are
-/// refused rather than rendered wrong.
+/// The deepest tree the renderers trace. Traversal runs in `f32` grid coordinates, whose cell
+/// planes are exact integers up to depth 24: there every ray hits each leaf it enters by more
+/// than the rounding of its plane parameters (`tests/deep_precision.rs`); from depth 25 the
+/// planes round and from depth 26 half the rays go wrong, so such trees are refused rather
+/// than rendered wrong.
 pub const MAX_TRACE_DEPTH: u8 = 24;
 
 /// The most frames a benchmark renders.
