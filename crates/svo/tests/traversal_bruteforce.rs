@@ -707,13 +707,14 @@ fn slabs_and_clusters(rng: &mut impl Rng, depth: u8) -> Vec<UVec3> {
 /// 8, and sparse trees of depth 12, 20 and 30 whose boxes are stored in coarse units), every
 /// ray family of this file with random `tmin` and `tmax`, walked to the end and stopped at a
 /// chosen leaf, hands over the same leaves with the same entries bit for bit as the walk of
-/// the same tree with its bounds cleared, and stops at the same leaf, never with more steps.
+/// the same tree with its bounds cleared, and stops at the same leaf, never with more steps
+/// (but for the few that a ray with a finite `tmax` may take after a box turned it away).
 /// Over all rays the boxes save at least a fifth of the steps.
 #[test]
 fn node_bounds_change_the_steps_and_nothing_else() {
     let mut rng = common::rng(0xB0_0B5);
     let (mut with, mut without, mut rays, mut handed) = (0u64, 0u64, 0usize, 0usize);
-    let mut boxed = 0;
+    let (mut boxed, mut more) = (0, 0);
     let mut trees = Vec::new();
     for depth in 1..=8u8 {
         for k in 0..3 {
@@ -774,12 +775,22 @@ fn node_bounds_change_the_steps_and_nothing_else() {
                 "{ray:?} {tmin} {tmax}"
             );
             let got = walk(tree, &ray, tmin, tmax, None);
+            // A walk ends at the first existing child past `tmax`. Where a box turns the
+            // ray away from a child whose walk would have ended there, the walk goes on over
+            // the child's later siblings and its ancestors' (at most three a level), so a
+            // finite `tmax` may cost those few steps; an infinite one never costs any.
+            let extra = if tmax.is_finite() {
+                3 * u32::from(*depth)
+            } else {
+                0
+            };
             assert!(
-                got.2 <= all.2,
-                "{ray:?}: {} steps with the bounds, {} without",
+                got.2 <= all.2 + extra,
+                "{ray:?} tmax {tmax}: {} steps with the bounds, {} without",
                 got.2,
                 all.2
             );
+            more += usize::from(got.2 > all.2);
             with += u64::from(got.2);
             without += u64::from(all.2);
             handed += all.0.len();
@@ -798,7 +809,7 @@ fn node_bounds_change_the_steps_and_nothing_else() {
         }
     }
     eprintln!(
-        "{rays} rays, {handed} leaves handed over; {with} steps with the bounds, {without} without"
+        "{rays} rays, {handed} leaves handed over; {with} steps with the bounds, {without} without; {more} rays with more steps"
     );
     assert!(handed > rays, "{handed} leaves for {rays} rays");
     assert!(
