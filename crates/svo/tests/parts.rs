@@ -159,12 +159,15 @@ fn lattice_soup(rng: &mut impl Rng, scale: f64, path: &Path) {
         match rng.random_range(0..8) {
             0 => t[2] = t[rng.random_range(0..2)],
             1 => {
-                // On a line through the first two vertices (within the lattice's bounds).
+                // On a line through the first two vertices: the first mirrored through the
+                // second where that stays on the lattice, else the second repeated.
                 let (a, b) = (t[0], t[1]);
-                t[2] = [0, 1, 2].map(|k| (2 * b[k]).saturating_sub(a[k]).min(64));
-                if (0..3).any(|k| 2 * b[k] < a[k] || 2 * b[k] - a[k] > 64) {
-                    t[2] = b;
-                }
+                let inside = (0..3).all(|k| a[k] <= 2 * b[k] && 2 * b[k] - a[k] <= 64);
+                t[2] = if inside {
+                    [0, 1, 2].map(|k| 2 * b[k] - a[k])
+                } else {
+                    b
+                };
             }
             2 | 3 => {
                 let (axis, plane) = (rng.random_range(0..3), 8 * rng.random_range(0..=8));
