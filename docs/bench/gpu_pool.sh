@@ -9,11 +9,8 @@
 # every ray hits the water, "requiring two more traversals for the reflection and
 # refraction rays"). "each" runs repeat the depth-8 1920x1200 ones with one reflection and
 # one refraction allowed on each path (--bounces 1 alone, the setting of the tables before
-# 2026-11-25, which also traces a refracted ray's reflection); "tiles" runs repeat them
-# with the primary tiles pass (--tiles, off by default), and "hit-paths" runs with hit paths
-# (--hit-paths, off by default), and "wide" runs with the 64-ary view (--wide-view, off by
-# default), for what each costs or saves side by side. "stacks" runs
-# repeat the depth-8 1920x1200 ones with the stacks placed by hand. "full" runs use
+# 2026-11-25, which also traces a refracted ray's reflection), and "wide" runs repeat the
+# thesis's at depths 4-10 with the 64-ary view (--wide-view, off by default). "full" runs use
 # svo-view's defaults (3 reflection and 3 refraction bounces, product shadows); at depth 8
 # each is then compared with the CPU reference tracer (--vs-cpu, 3 frames on each side, so
 # that the CPU's frames do not dominate the script's time).
@@ -44,10 +41,6 @@ done
 for v in water bunny parallel; do
   echo "--- each depth 8 view $v size 1920x1200"
   view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --shadows none
-  echo "--- tiles depth 8 view $v size 1920x1200"
-  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --tiles
-  echo "--- hit-paths depth 8 view $v size 1920x1200"
-  view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --hit-paths
 done
 for d in 4 6 8 10; do
   for v in water bunny parallel; do
@@ -55,12 +48,6 @@ for d in 4 6 8 10; do
       echo "--- wide depth $d view $v size $size"
       view "$work/pool$d.svo" --view $v --size $size --bounces 1 --path-bounces 1 --shadows none --wide-view
     done
-  done
-done
-for v in water bunny parallel; do
-  for st in private workgroup; do
-    echo "--- stacks $st depth 8 view $v size 1920x1200"
-    view "$work/pool8.svo" --view $v --size 1920x1200 --bounces 1 --path-bounces 1 --shadows none --stacks $st
   done
 done
 for d in 8 10; do

@@ -38,6 +38,9 @@ pub enum GpuError {
     /// wgpu reported an error (validation, out of memory, device lost).
     #[error("GPU error: {0}")]
     Wgpu(String),
+    /// The tracer's shader modules did not link.
+    #[error(transparent)]
+    Shader(#[from] crate::shader::ShaderError),
 }
 
 /// An open device with its queue and what the adapter is.

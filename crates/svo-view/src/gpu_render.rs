@@ -1,4 +1,5 @@
-//! The GPU renderer: the octree's arrays uploaded without reformatting, the traversal and Whitted shading of `shaders/trace.wgsl` as a compute pipeline built for
+//! The GPU renderer: the octree's arrays uploaded without reformatting, the traversal and
+//! Whitted shading of the tracer's shader ([`crate::shader`]) as a compute pipeline built for
 //! the scene's [`ShaderVariant`], one invocation per pixel, and the read-back into an
 //! [`svo::render::Frame`], the CPU renderer's own output type, so the same image writers,
 //! AOVs and comparisons apply.
@@ -15,95 +16,23 @@
 
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_types::{GpuPixel, GpuRay, GpuRayHit, GpuUniforms, ShaderVariant};
+use crate::shader::{ShaderLink, WORKGROUP, trace_source};
 use glam::Vec3;
 use std::time::{Duration, Instant};
 use svo::octree::{Channel, Octree};
 use svo::render::{Frame, NO_LEAF, RenderStats};
 
-/// The WGSL source of the tracer.
-pub const TRACE_WGSL: &str = include_str!("shaders/trace.wgsl");
-
-/// The line of [`TRACE_WGSL`] that sizes the traversal's private ancestor stack.
-const MAX_DEPTH_LINE: &str = "const MAX_DEPTH: u32 = 30u;";
-/// The line of [`TRACE_WGSL`] that sizes the private Whitted ray stack.
-const RAY_STACK_LINE: &str = "const RAY_STACK: u32 = 34u;";
-
-/// [`TRACE_WGSL`] with its two private stacks sized for a tree of `depth` levels and
-/// `ray_stack` pending rays ([`ShaderVariant::ray_stack`]) instead of the most the shader
-/// allows (30 levels, 34 rays). WGSL zero-initializes private and function variables, and
-/// the drivers store every element of an array that is indexed at run time: each pixel
-/// pays for its whole ancestor stack (12 bytes an entry) and its whole ray stack (56 bytes
-/// an entry). Arrays cannot be sized by pipeline constants, so the text is edited before
-/// compilation.
-pub fn trace_source(ray_stack: u32, depth: u32) -> String {
-    debug_assert!(TRACE_WGSL.contains(MAX_DEPTH_LINE) && TRACE_WGSL.contains(RAY_STACK_LINE));
-    TRACE_WGSL
-        .replacen(
-            MAX_DEPTH_LINE,
-            &format!("const MAX_DEPTH: u32 = {}u;", depth.clamp(1, 30)),
-            1,
-        )
-        .replacen(
-            RAY_STACK_LINE,
-            &format!("const RAY_STACK: u32 = {}u;", ray_stack.clamp(1, 34)),
-            1,
-        )
-}
-
 /// How the renderer lays its work out on the device: the defaults suit every adapter; the
 /// others are for tests and measurements.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GpuLayout {
     /// The most bytes of one arena chunk (binding); `None`: the adapter's limit.
     pub chunk_limit: Option<u64>,
-    /// Where the traversal's and the ray tracer's stacks live.
-    pub stacks: StackPlacement,
-    /// The render's workgroup, pixels across and down (`WG_X`, `WG_Y` in the shader);
-    /// `None`: [`DEFAULT_WORKGROUP`].
-    pub workgroup: Option<[u32; 2]>,
-    /// Which of wgpu's run-time checks the shader gets (index clamps, loop bounds).
-    pub checks: ShaderChecks,
-    /// Rays spawned at a primary hit descend the hit's path without reading its nodes
-    /// (`HIT_PATHS` in the shader); off (the default: on lavapipe it costs more than the
-    /// reads it saves, docs/gpu-benchmarks.md), they descend from the root as any ray. The
-    /// image and the steps are the same.
-    pub hit_paths: bool,
     /// The traversal walks the tree's 64-ary view ([`crate::wide_view`]: 4x4x4 cells a
     /// node, built when the tree is uploaded) instead of the octree, where the tree has one
     /// (leaves in depth-first order, as every tree `svo` builds or reads); off by default.
-    /// The image is the same; the steps count the view's cells. Hit paths go with the
-    /// octree's walk, so they are off with it.
+    /// The image is the same; the steps count the view's cells.
     pub wide_view: bool,
-}
-
-/// The render's workgroup unless one is given: on the H100 (docs/gpu-benchmarks.md) 8x8 was
-/// the fastest shape or within a few percent of it for every scene, with and without
-/// bounces, once the traversal stepped over empty children in an inner loop (before that,
-/// 16x16 had been faster for scenes without bounces).
-pub const DEFAULT_WORKGROUP: [u32; 2] = [8, 8];
-
-impl Default for GpuLayout {
-    fn default() -> Self {
-        Self {
-            chunk_limit: None,
-            stacks: StackPlacement::Auto,
-            workgroup: None,
-            checks: ShaderChecks::NoLoopBounds,
-            hit_paths: false,
-            wide_view: false,
-        }
-    }
-}
-
-/// Parses a workgroup shape `XxY` (at most 256 invocations, at least 1 a side).
-pub fn parse_workgroup(s: &str) -> Result<[u32; 2], String> {
-    let bad = || format!("workgroup '{s}': expected WIDTHxHEIGHT, at most 256 invocations");
-    let (x, y) = s.split_once('x').ok_or_else(bad)?;
-    let (x, y): (u32, u32) = (x.parse().map_err(|_| bad())?, y.parse().map_err(|_| bad())?);
-    if x == 0 || y == 0 || x.saturating_mul(y) > 256 {
-        return Err(bad());
-    }
-    Ok([x, y])
 }
 
 /// The most bindings the arena is split over (`arena0` to `arena3` in the shader).
@@ -215,8 +144,8 @@ fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) 
     b
 }
 
-/// Bindings 0-8 of the shader (uniforms, four arena chunks, pixels, batch rays in and out,
-/// the primary tiles), declared once for every entry point.
+/// Bindings 0-7 of the shader (uniforms, four arena chunks, pixels, batch rays in and out),
+/// declared once for every entry point.
 fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
@@ -235,7 +164,6 @@ fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     entries.push(entry(5, write));
     entries.push(entry(6, read));
     entries.push(entry(7, write));
-    entries.push(entry(8, write));
     dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("trace"),
         entries: &entries,
@@ -256,11 +184,6 @@ pub struct GpuRenderer {
     readback: wgpu::Buffer,
     unused_in: wgpu::Buffer,
     unused_out: wgpu::Buffer,
-    /// The primary tiles' start parameters (a float per 8x8 block of pixels).
-    tiles: wgpu::Buffer,
-    /// The `tile_bounds` pipeline, compiled when a variant first needs it (it uses nothing
-    /// that differs between the variants of one tree).
-    tile_pipeline: Option<wgpu::ComputePipeline>,
     width: u32,
     height: u32,
     variant: ShaderVariant,
@@ -298,20 +221,6 @@ fn frame_buffers(
     ))
 }
 
-/// Pixels across and down a primary tile (`TILE` in the shader).
-const TILE: u32 = 8;
-
-/// The primary tiles' buffer for a `width` x `height` frame: a float per block.
-fn tile_buffer(ctx: &GpuContext, width: u32, height: u32) -> wgpu::Buffer {
-    let blocks = u64::from(width.div_ceil(TILE)) * u64::from(height.div_ceil(TILE));
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("primary tiles"),
-        size: (blocks * 4).max(4),
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    })
-}
-
 impl GpuRenderer {
     /// Uploads `tree` and builds the pipeline for `variant` and `width` x `height` images.
     pub fn new(
@@ -325,8 +234,7 @@ impl GpuRenderer {
     }
 
     /// [`Self::new`] laid out as `gpu_layout` says: arena chunks of at most its `chunk_limit`
-    /// bytes (the adapter's limit, or less to test the split), the stacks placed as its
-    /// `stacks` says, its workgroup shape.
+    /// bytes (the adapter's limit, or less to test the split), and the walk.
     pub fn with_options(
         ctx: &GpuContext,
         tree: &Octree,
@@ -382,24 +290,16 @@ impl GpuRenderer {
         let placement = Placement {
             chunks: arena.chunks,
             depth: u32::from(tree.depth),
-            stacks: gpu_layout.stacks,
-            workgroup: gpu_layout.workgroup,
-            checks: gpu_layout.checks,
-            hit_paths: gpu_layout.hit_paths,
             wide_view: arena.wide,
         };
-        let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement);
-        let tile_pipeline = variant
-            .primary_tiles
-            .then(|| compute_pipeline(dev, &pipeline_layout, "tile_bounds", &variant, &placement));
+        let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement)?;
         ctx.check()?;
         let (unused_in, unused_out) = (dummy_buffer(dev), dummy_buffer(dev));
-        let tiles = tile_buffer(ctx, width, height);
         let bind_group = bind_group(
             dev,
             &layout,
             &tree_buffers,
-            [&pixels, &unused_in, &unused_out, &tiles],
+            [&pixels, &unused_in, &unused_out],
         );
         ctx.check()?;
         Ok(Self {
@@ -414,8 +314,6 @@ impl GpuRenderer {
             readback,
             unused_in,
             unused_out,
-            tiles,
-            tile_pipeline,
             width,
             height,
             variant,
@@ -432,17 +330,6 @@ impl GpuRenderer {
     /// Bindings the arena is split over.
     pub fn arena_chunks(&self) -> u32 {
         self.arena.chunks
-    }
-
-    /// Whether the current variant keeps (its ancestor stack, its ray stack) in workgroup
-    /// memory.
-    pub fn workgroup_stacks(&self) -> (bool, bool) {
-        self.placement.decide(&self.variant)
-    }
-
-    /// The current variant's workgroup, pixels across and down.
-    pub fn workgroup(&self) -> [u32; 2] {
-        self.placement.workgroup()
     }
 
     /// The first hits of a batch of grid-space rays (the `cast_rays` entry point: the
@@ -485,12 +372,12 @@ impl GpuRenderer {
             "cast_rays",
             &self.variant,
             &self.placement,
-        );
+        )?;
         let bg = bind_group(
             dev,
             &self.layout,
             &self.tree_buffers,
-            [&self.pixels, &ray_in, &ray_out, &self.tiles],
+            [&self.pixels, &ray_in, &ray_out],
         );
         ctx.check()?;
         self.write_uniforms(ctx, u);
@@ -545,21 +432,11 @@ impl GpuRenderer {
                     "main",
                     &variant,
                     &self.placement,
-                );
+                )?;
                 ctx.check()?;
                 p
             }
         };
-        if variant.primary_tiles && self.tile_pipeline.is_none() {
-            self.tile_pipeline = Some(compute_pipeline(
-                &ctx.device,
-                &self.pipeline_layout,
-                "tile_bounds",
-                &variant,
-                &self.placement,
-            ));
-            ctx.check()?;
-        }
         let old = std::mem::replace(&mut self.pipeline, pipeline);
         self.pipelines.push((self.variant, old));
         self.variant = variant;
@@ -572,14 +449,12 @@ impl GpuRenderer {
             return Ok(());
         }
         let (pixels, readback) = frame_buffers(ctx, width, height)?;
-        let tiles = tile_buffer(ctx, width, height);
         self.bind_group = bind_group(
             &ctx.device,
             &self.layout,
             &self.tree_buffers,
-            [&pixels, &self.unused_in, &self.unused_out, &tiles],
+            [&pixels, &self.unused_in, &self.unused_out],
         );
-        self.tiles = tiles;
         self.pixels = pixels;
         self.readback = readback;
         self.width = width;
@@ -600,32 +475,13 @@ impl GpuRenderer {
     /// Records one frame into `enc` with the uniforms written before (the window's path:
     /// the blit and the overlay follow in the same encoder).
     pub fn encode(&self, enc: &mut wgpu::CommandEncoder) {
-        if let Some(tp) = self
-            .tile_pipeline
-            .as_ref()
-            .filter(|_| self.variant.primary_tiles)
-        {
-            // Its own pass, before the frame's: the frame reads what it writes.
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("primary tiles"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(tp);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            // Workgroups of 8x8 blocks.
-            pass.dispatch_workgroups(
-                self.width.div_ceil(TILE).div_ceil(8),
-                self.height.div_ceil(TILE).div_ceil(8),
-                1,
-            );
-        }
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("trace"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        let [wx, wy] = self.placement.workgroup();
+        let [wx, wy] = WORKGROUP;
         pass.dispatch_workgroups(self.width.div_ceil(wx), self.height.div_ceil(wy), 1);
     }
 
@@ -673,119 +529,14 @@ impl GpuRenderer {
     }
 }
 
-/// Where a pipeline's stacks go, and the arena's chunk count: the constants the renderer
-/// adds to a variant's.
+/// What the renderer adds to a variant's pipeline: the arena's chunk count, the tree's depth
+/// (which sizes the ancestor stack) and the walk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Placement {
     chunks: u32,
     depth: u32,
-    stacks: StackPlacement,
-    /// The render's workgroup shape, if given.
-    workgroup: Option<[u32; 2]>,
-    /// [`GpuLayout::checks`].
-    checks: ShaderChecks,
-    /// [`GpuLayout::hit_paths`].
-    hit_paths: bool,
     /// Whether the arena holds the 64-ary view, which the traversal then walks.
     wide_view: bool,
-}
-
-impl Placement {
-    /// The render's workgroup: the given one, or [`DEFAULT_WORKGROUP`].
-    fn workgroup(&self) -> [u32; 2] {
-        self.workgroup.unwrap_or(DEFAULT_WORKGROUP)
-    }
-
-    /// `(ancestors in workgroup memory, pending rays in workgroup memory)` for `variant`.
-    fn decide(&self, variant: &ShaderVariant) -> (bool, bool) {
-        match self.stacks {
-            // Measured on the H100 (docs/gpu-benchmarks.md): with the private stacks sized
-            // for the scene and the ancestors zeroed once per pixel, private beats workgroup
-            // memory everywhere (1.2-1.4x without bounces, at the wider workgroup; 2.7-4.3x
-            // with bounces, where the shared memory lets fewer workgroups run at once).
-            StackPlacement::Auto | StackPlacement::Private => (false, false),
-            StackPlacement::Workgroup => (true, variant.reflections),
-        }
-    }
-
-    fn constants(&self, variant: &ShaderVariant) -> Vec<(&'static str, f64)> {
-        let (wt, wr) = self.decide(variant);
-        let [wx, wy] = self.workgroup();
-        // Flags, and entries per invocation (one where the stack is not there).
-        let flag = |on: bool| f64::from(u8::from(on));
-        let entries = |on: bool, n: u32| if on { f64::from(n.max(1)) } else { 1.0 };
-        vec![
-            ("ARENA_CHUNKS", f64::from(self.chunks)),
-            ("WG_TRAVERSE", flag(wt)),
-            ("TSTACK", entries(wt, self.depth)),
-            ("WG_RAYS", flag(wr)),
-            ("RSTACK", entries(wr, variant.ray_stack)),
-            ("WG_X", f64::from(wx)),
-            ("WG_Y", f64::from(wy)),
-            // The view's walk records no paths: hit paths go with the octree's walk.
-            ("HIT_PATHS", flag(self.hit_paths && !self.wide_view)),
-            ("WIDE_VIEW", flag(self.wide_view)),
-        ]
-    }
-}
-
-/// Where the traversal's ancestor stack and the Whitted ray stack live. WGSL zero-initializes
-/// function variables, so private stacks cost their whole size in stores for every ray;
-/// workgroup memory is not initialized (the pipelines turn that off) and is sized for the
-/// tree's depth and the bounce limits.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum StackPlacement {
-    /// What measured fastest (docs/gpu-benchmarks.md): private, now that the private
-    /// stacks are sized for the scene.
-    #[default]
-    Auto,
-    /// Private (function) memory.
-    Private,
-    /// Workgroup memory for both (the pipeline fails where it does not fit).
-    Workgroup,
-}
-
-impl std::str::FromStr for StackPlacement {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "auto" => Ok(Self::Auto),
-            "private" => Ok(Self::Private),
-            "workgroup" => Ok(Self::Workgroup),
-            _ => Err(format!(
-                "unknown stack placement '{s}': auto, private or workgroup"
-            )),
-        }
-    }
-}
-
-/// Which of wgpu's run-time checks the tracer's shader gets. Its index clamps (on the stacks,
-/// the uniform tables) cost nothing measurable and always stay; the loop bounds that wgpu
-/// adds to every loop by default (a counter per iteration, so that a loop without an end
-/// cannot hang the device) cost 6-18% of a frame on the H100 (docs/gpu-benchmarks.md), and the
-/// shader's loops all end on their own (the "Loops" comment in `shaders/trace.wgsl`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ShaderChecks {
-    /// Index clamps and loop bounds: wgpu's default, for measuring what the bounds cost.
-    Full,
-    /// Index clamps only (the default).
-    #[default]
-    NoLoopBounds,
-}
-
-impl std::str::FromStr for ShaderChecks {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "full" => Ok(Self::Full),
-            "no-loop-bounds" => Ok(Self::NoLoopBounds),
-            _ => Err(format!(
-                "unknown shader checks '{s}': full or no-loop-bounds"
-            )),
-        }
-    }
 }
 
 /// The pipeline of `entry` for `variant` with the renderer's `placement`.
@@ -795,45 +546,46 @@ fn compute_pipeline(
     entry: &str,
     variant: &ShaderVariant,
     placement: &Placement,
-) -> wgpu::ComputePipeline {
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    let source = trace_source(&ShaderLink {
+        wide_view: placement.wide_view,
+        depth: placement.depth,
+        ray_stack: variant.ray_stack,
+    })?;
     let desc = wgpu::ShaderModuleDescriptor {
-        label: Some("trace.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(trace_source(variant.ray_stack, placement.depth).into()),
+        label: Some("trace"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
     };
-    let module = match placement.checks {
-        ShaderChecks::Full => dev.create_shader_module(desc),
-        ShaderChecks::NoLoopBounds => {
-            let mut checks = wgpu::ShaderRuntimeChecks::checked();
-            checks.force_loop_bounding = false;
-            // SAFETY: the contract of `create_shader_module_trusted` is the checks turned
-            // off: with bounds checks kept, only the loop bounds are, and every loop of
-            // trace.wgsl ends on its own (the shader's "Loops" comment): `traverse` counts a
-            // step in every pass of its outer and inner loops and returns past `max_steps`
-            // (at most `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop
-            // shrinks the stack each pass, the light loop counts to a constant, and the
-            // Whitted loop takes a ray off its stack each pass and pushes at most two with a
-            // reflection or refraction count one higher, below the bounce limits; the
-            // primary tiles' walk counts a visit each pass and stops past `TILE_VISITS`.
-            #[allow(unsafe_code)]
-            unsafe {
-                dev.create_shader_module_trusted(desc, checks)
-            }
-        }
-    };
-
+    // wgpu's default checks bound every loop (a counter per iteration, so that a loop
+    // without an end cannot hang the device), which cost 6-18% of a frame on the H100
+    // (docs/gpu-benchmarks.md); the index clamps cost nothing measurable and stay.
+    let mut checks = wgpu::ShaderRuntimeChecks::checked();
+    checks.force_loop_bounding = false;
+    // SAFETY: the contract of `create_shader_module_trusted` is the checks turned off: with
+    // bounds checks kept, only the loop bounds are, and every loop of the shader ends on its
+    // own (the "Loops" comment of `shaders/trace/traverse.wesl`): the traversal counts a step
+    // in every pass of its outer and inner loops and returns past `max_steps` (at most
+    // `u32::MAX - 1`: `gpu_types::tree_uniforms` clamps it), its pop loop shrinks the stack
+    // each pass, the light loop counts to a constant, and the Whitted loop takes a ray off its
+    // stack each pass and pushes at most two with a reflection or refraction count one
+    // higher, below the bounce limits.
+    #[allow(unsafe_code)]
+    let module = unsafe { dev.create_shader_module_trusted(desc, checks) };
     let mut constants = variant.constants();
-    constants.extend(placement.constants(variant));
-    dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: Some(layout),
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions {
-            constants: &constants,
-            zero_initialize_workgroup_memory: false,
-        },
-        cache: None,
-    })
+    constants.push(("ARENA_CHUNKS", f64::from(placement.chunks)));
+    Ok(
+        dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: true,
+            },
+            cache: None,
+        }),
+    )
 }
 
 /// A small placeholder for bindings an entry point does not use.
@@ -846,12 +598,12 @@ fn dummy_buffer(dev: &wgpu::Device) -> wgpu::Buffer {
     })
 }
 
-/// Bindings 0-4 from `tree` (uniforms, arena chunks) and 5-8 from `rest`.
+/// Bindings 0-4 from `tree` (uniforms, arena chunks) and 5-7 from `rest`.
 fn bind_group(
     dev: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     tree: &[wgpu::Buffer],
-    rest: [&wgpu::Buffer; 4],
+    rest: [&wgpu::Buffer; 3],
 ) -> wgpu::BindGroup {
     let entries: Vec<wgpu::BindGroupEntry<'_>> = tree
         .iter()

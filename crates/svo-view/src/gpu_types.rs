@@ -1,8 +1,8 @@
-//! The structs the CPU shares with `shaders/trace.wgsl`, defined once here (`#[repr(C)]`,
-//! `bytemuck::Pod`), and the shader variant: the pipeline-overridable constants that leave
-//! out what a scene does not need.
+//! The structs the CPU shares with the tracer's shader (its module `bindings.wesl`), defined
+//! once here (`#[repr(C)]`, `bytemuck::Pod`), and the shader variant: the
+//! pipeline-overridable constants that leave out what a scene does not need.
 //!
-//! `tests/gpu_layout.rs` parses the WGSL with naga and checks every struct's size and
+//! `tests/gpu_layout.rs` parses the linked WGSL with naga and checks every struct's size and
 //! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
 
 use bytemuck::{Pod, Zeroable};
@@ -248,11 +248,6 @@ pub struct ShaderVariant {
     /// Pending rays a pixel can have: the bounce limits (the smaller of their sum and the
     /// path limit) plus two; one without bounces.
     pub ray_stack: u32,
-    /// Primary rays start where the primary tiles pass puts them (the renderer runs it
-    /// first): past the empty space before the nearest leaf cell of their 8x8 block. The
-    /// image is the same; only the work differs. Off unless set: on an H200 the pass cost
-    /// more than it saved on every scene measured (docs/gpu-benchmarks.md).
-    pub primary_tiles: bool,
 }
 
 impl ShaderVariant {
@@ -284,7 +279,6 @@ impl ShaderVariant {
             } else {
                 1
             },
-            primary_tiles: false,
             channels: [
                 channel_kind(&a.normal),
                 channel_kind(&a.contour),
@@ -305,7 +299,7 @@ impl ShaderVariant {
             reflections: true,
             refractions: true,
             shadows: 4,
-            ray_stack: 2 * u32::from(MAX_BOUNCES) + 2,
+            ray_stack: crate::shader::MAX_RAY_STACK,
             media: true,
             interior: true,
             channels: self.channels.map(|c| if c == 0 { 0 } else { 2 }),
@@ -332,7 +326,6 @@ impl ShaderVariant {
             ("FRESNEL_SCHLICK", b(self.fresnel_schlick)),
             ("MEDIA", b(self.media)),
             ("INTERIOR", b(self.interior)),
-            ("PRIMARY_TILES", b(self.primary_tiles)),
         ];
         c.extend(
             names
@@ -369,9 +362,6 @@ impl ShaderVariant {
         if self.interior {
             parts.push("interior");
         }
-        if self.primary_tiles {
-            parts.push("primary tiles");
-        }
         parts.join(", ")
     }
 }
@@ -386,7 +376,7 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
         bias: opts.bias_cells,
         depth: u32::from(depth),
         // Below u32::MAX, so that the shader's step counter always passes it (its loops run
-        // without wgpu's loop bounds: gpu_render::ShaderChecks).
+        // without wgpu's loop bounds: gpu_render.rs).
         max_steps: opts.max_steps.min(u32::MAX - 1),
         max_reflections: u32::from(opts.max_reflections),
         max_refractions: u32::from(opts.max_refractions),

@@ -128,10 +128,8 @@ pub struct HeadlessOptions {
     /// Compile every shader path in and read every channel per leaf
     /// ([`ShaderVariant::everything`]), to measure what the scene's variant saves.
     pub everything: bool,
-    /// Where the stacks live and the workgroup shape (the chunk limit is the adapter's).
+    /// How the work is laid out on the device: the walk (the chunk limit is the adapter's).
     pub layout: GpuLayout,
-    /// Run the primary tiles pass first ([`ShaderVariant::primary_tiles`]).
-    pub tiles: bool,
 }
 
 /// Refuses what the GPU path does not do (yet): the exact hit mode, a cube-map sky, more
@@ -170,10 +168,6 @@ pub struct GpuFrame {
     pub variant: ShaderVariant,
     /// Bytes of tree data uploaded.
     pub tree_bytes: u64,
-    /// Whether (the ancestor stack, the ray stack) were in workgroup memory.
-    pub workgroup_stacks: (bool, bool),
-    /// The workgroup, pixels across and down.
-    pub workgroup: [u32; 2],
     /// Whether the traversal walked the 64-ary view.
     pub wide_view: bool,
 }
@@ -199,7 +193,6 @@ pub fn render_scene(
     } = scene;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
-    variant.primary_tiles = opts.tiles;
     if opts.everything {
         variant = variant.everything();
     }
@@ -226,8 +219,6 @@ pub fn render_scene(
         times,
         variant,
         tree_bytes: renderer.tree_bytes,
-        workgroup_stacks: renderer.workgroup_stacks(),
-        workgroup: renderer.workgroup(),
         wide_view: renderer.wide_view(),
     })
 }
@@ -290,12 +281,10 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
     Ok(HeadlessReport {
         adapter: ctx.adapter_name(),
         variant: format!(
-            "{}; stacks: ancestors {}, pending rays {}; workgroup {}x{}{}",
+            "{}; stacks: ancestors {}, pending rays {}{}",
             variant.describe(),
-            stack_place(r.workgroup_stacks.0, u32::from(scene.tree.depth)),
-            stack_place(r.workgroup_stacks.1, variant.ray_stack),
-            r.workgroup[0],
-            r.workgroup[1],
+            scene.tree.depth,
+            variant.ray_stack,
             if r.wide_view {
                 "; walks the 64-ary view"
             } else {
@@ -318,12 +307,4 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<HeadlessReport, He
 
 fn rayon_threads() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
-}
-
-/// "N (workgroup)" or "N (private)": a stack's entries and where they live, for the report.
-fn stack_place(workgroup: bool, entries: u32) -> String {
-    format!(
-        "{entries} ({})",
-        if workgroup { "workgroup" } else { "private" }
-    )
 }

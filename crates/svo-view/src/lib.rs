@@ -5,6 +5,8 @@
 //!   (pipeline-overridable constants that leave out what a scene does not need);
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
 //! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
+//! - [`shader`]: the tracer's shader, WESL modules linked into WGSL for a walk, with the
+//!   constants it shares with Rust generated from their values;
 //! - [`wide_view`]: the tree's 64-ary view, which the GPU's traversal can walk instead of
 //!   the octree;
 //! - [`headless`]: `svo-view --headless`, a render job on the GPU, optionally compared with
@@ -14,7 +16,7 @@
 //! - `window` (feature `window`, on by default): `svo-view FILE`, the interactive window
 //!   (winit, egui overlay).
 //!
-//! The shader, `src/shaders/trace.wgsl`, ports `svo`'s traversal, leaf hits and Whitted
+//! The shader (`src/shaders/trace/*.wesl`) ports `svo`'s traversal, leaf hits and Whitted
 //! loop; the golden tests (`tests/gpu_vs_cpu.rs`) hold the two to the same images.
 
 pub mod camera_control;
@@ -22,6 +24,7 @@ pub mod gpu_context;
 pub mod gpu_render;
 pub mod gpu_types;
 pub mod headless;
+pub mod shader;
 pub mod wide_view;
 #[cfg(feature = "window")]
 pub mod window;

@@ -43,29 +43,11 @@ struct Args {
     /// not need; the image is the same, the time shows what leaving out saves.
     #[arg(long, requires = "headless")]
     full_shader: bool,
-    /// With --headless: where the traversal's ancestor stack and the ray stack live: auto
-    /// (what measured best: private), private or workgroup. The image is the same.
-    #[arg(long, requires = "headless", default_value = "auto")]
-    stacks: svo_view::gpu_render::StackPlacement,
-    /// With --headless: the workgroup shape, WIDTHxHEIGHT pixels (at most 256), for
-    /// measuring; the image is the same. Default: 8x8.
-    #[arg(long, requires = "headless", value_parser = svo_view::gpu_render::parse_workgroup)]
-    workgroup: Option<[u32; 2]>,
-    /// With --headless: which of wgpu's run-time checks the shader gets: no-loop-bounds
-    /// (index clamps only; every loop of the shader ends on its own) or full (also a bound
-    /// on every loop), for measuring what the bounds cost. The image is the same.
-    #[arg(long, requires = "headless", default_value = "no-loop-bounds")]
-    shader_checks: svo_view::gpu_render::ShaderChecks,
-    /// With --headless: rays spawned at a primary hit descend along the hit's recorded path
-    /// without reading its nodes, instead of from the root as any ray (for measuring; the
-    /// image and the steps are the same).
-    #[arg(long, requires = "headless")]
-    hit_paths: bool,
     /// With --headless: the traversal walks the tree's 64-ary view (4x4x4 cells a node,
     /// built on upload) instead of the octree: faster where rays bounce
     /// (docs/gpu-benchmarks.md), slower for the bunny's primary rays alone. The image is the
     /// same; the steps count the view's cells.
-    #[arg(long, requires = "headless", conflicts_with = "hit_paths")]
+    #[arg(long, requires = "headless")]
     wide_view: bool,
     /// In the window: close after this many frames (with -o, saving the last as a PNG).
     #[arg(long, conflicts_with_all = ["cpu", "headless"])]
@@ -138,11 +120,6 @@ struct Args {
     /// ray bounces). The image is the same.
     #[arg(long)]
     no_packets: bool,
-    /// With --headless: run the primary tiles pass first, which starts each 8x8 block's
-    /// rays at the nearest leaf cell in its cone (for measuring: slower on an H200 for every
-    /// scene measured; the image is the same).
-    #[arg(long, requires = "headless")]
-    tiles: bool,
     /// Offset of secondary and shadow rays from the surface, in cells.
     #[arg(long, default_value_t = TraceOptions::default().bias_cells)]
     bias: f32,
@@ -256,14 +233,9 @@ fn real_main() -> anyhow::Result<()> {
             vs_cpu: args.vs_cpu,
             everything: args.full_shader,
             layout: svo_view::gpu_render::GpuLayout {
-                stacks: args.stacks,
-                workgroup: args.workgroup,
-                checks: args.shader_checks,
-                hit_paths: args.hit_paths,
                 wide_view: args.wide_view,
                 ..Default::default()
             },
-            tiles: args.tiles,
         };
         let report = svo_view::headless::run(&job, &opts)
             .with_context(|| format!("rendering {} on the GPU", args.file.display()))?;

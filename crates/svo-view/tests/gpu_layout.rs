@@ -1,12 +1,14 @@
-//! CPU-only checks of the shaders: naga parses and validates every `.wgsl` file, and the
-//! structs shared with the GPU (`svo_view::gpu_types`, `svo::octree::Node`) have the sizes
-//! and member offsets the WGSL gives them.
+//! CPU-only checks of the shaders: naga parses and validates every `.wgsl` file and the
+//! tracer's modules linked for each walk, the structs shared with the GPU
+//! (`svo_view::gpu_types`, `svo::octree::Node`) have the sizes and member offsets the WGSL
+//! gives them, and the constants the shader shares with Rust have the Rust values.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
 use std::path::Path;
 use svo::octree::Node;
 use svo_view::gpu_types::{GpuLight, GpuParams, GpuPixel, GpuRay, GpuRayHit, GpuUniforms};
+use svo_view::shader::{MAX_RAY_STACK, ShaderLink, trace_source};
 
 fn shader_dir() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src/shaders")
@@ -15,6 +17,25 @@ fn shader_dir() -> std::path::PathBuf {
 fn parse(src: &str, name: &str) -> naga::Module {
     naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)))
+}
+
+/// The tracer's WGSL linked for `link`, parsed and validated.
+fn linked(link: &ShaderLink) -> (String, naga::Module) {
+    let src = trace_source(link).unwrap_or_else(|e| panic!("{link:?}: {e}"));
+    let m = parse(&src, &format!("the tracer linked for {link:?}"));
+    Validator::new(ValidationFlags::all(), Capabilities::empty())
+        .validate(&m)
+        .unwrap_or_else(|e| panic!("{link:?}: {}", e.emit_to_string(&src)));
+    (src, m)
+}
+
+/// The default link: the octree walk, stacks of the most the shader allows.
+fn default_link() -> ShaderLink {
+    ShaderLink {
+        wide_view: false,
+        depth: 30,
+        ray_stack: MAX_RAY_STACK,
+    }
 }
 
 #[test]
@@ -33,6 +54,36 @@ fn every_wgsl_file_parses_and_validates() {
         }
     }
     assert!(n >= 1, "no shaders found");
+    // The tracer's modules, linked for both walks: each link keeps its walk's pieces alone
+    // and both entry points.
+    for wide_view in [false, true] {
+        let (src, m) = linked(&ShaderLink {
+            wide_view,
+            ..default_link()
+        });
+        let has = |name: &str| {
+            m.global_variables
+                .iter()
+                .any(|(_, g)| g.name.as_deref() == Some(name))
+        };
+        assert_eq!(has("wstack"), wide_view, "{src}");
+        assert_eq!(has("tstack"), !wide_view, "{src}");
+        for entry in ["main", "cast_rays"] {
+            assert!(m.entry_points.iter().any(|e| e.name == entry), "{entry}");
+        }
+    }
+    // Every module is a file of the folder, and every file a module of the shader.
+    let files = std::fs::read_dir(shader_dir().join("trace"))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "wesl")
+        })
+        .count();
+    assert_eq!(files, svo_view::shader::module_count());
 }
 
 /// The WGSL struct `name`: its size and `(member, offset)` in order.
@@ -61,8 +112,7 @@ macro_rules! rust_struct {
 
 #[test]
 fn shared_structs_match_the_wgsl() {
-    let src = svo_view::gpu_render::TRACE_WGSL;
-    let m = parse(src, "trace.wgsl");
+    let (_, m) = linked(&default_link());
     let cases = [
         (
             "Params",
@@ -108,7 +158,7 @@ fn shared_structs_match_the_wgsl() {
 fn shader_constants_name_real_overrides() {
     // Every pipeline constant the variant sets exists in the shader (a typo would make
     // pipeline creation fail at run time, and only on a GPU).
-    let m = parse(svo_view::gpu_render::TRACE_WGSL, "trace.wgsl");
+    let (_, m) = linked(&default_link());
     let names: Vec<String> = m
         .overrides
         .iter()
@@ -129,64 +179,88 @@ fn shader_constants_name_real_overrides() {
             1,
         ),
     );
-    // The renderer adds the arena's chunk count, the stacks' placement, the workgroup shape
-    // whether hit paths are used and whether the 64-ary view is walked; BOUNCES and WORKGROUP are derived in the shader.
+    // The renderer adds the arena's chunk count; BOUNCES is derived in the shader.
     let mut constants = v.constants();
-    for c in [
-        "ARENA_CHUNKS",
-        "WG_TRAVERSE",
-        "TSTACK",
-        "WG_RAYS",
-        "RSTACK",
-        "WG_X",
-        "WG_Y",
-        "HIT_PATHS",
-        "WIDE_VIEW",
-    ] {
-        constants.push((c, 1.0));
-    }
+    constants.push(("ARENA_CHUNKS", 1.0));
     for (c, _) in &constants {
         assert!(
             names.iter().any(|n| n == c),
-            "{c} is not an override in trace.wgsl"
+            "{c} is not an override of the shader"
         );
     }
-    assert!(names.iter().any(|n| n == "BOUNCES") && names.iter().any(|n| n == "WORKGROUP"));
-    assert_eq!(names.len(), constants.len() + 2, "overrides {names:?}");
+    assert!(names.iter().any(|n| n == "BOUNCES"));
+    assert_eq!(names.len(), constants.len() + 1, "overrides {names:?}");
+}
+
+/// The value of the WGSL constant `name` of `m`, as `f64` (u32 or f32 literals).
+fn constant(m: &naga::Module, name: &str) -> f64 {
+    let (_, c) = m
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no constant {name}"));
+    match m.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => f64::from(v),
+        naga::Expression::Literal(naga::Literal::F32(v)) => f64::from(v),
+        ref other => panic!("{name} = {other:?}"),
+    }
+}
+
+#[test]
+fn constants_shared_with_rust_have_the_rust_values() {
+    // The module `constants` is generated from the Rust values; what naga reads from the
+    // linked WGSL is each value exactly, the float to the bit.
+    let (_, m) = linked(&default_link());
+    let tiny = constant(&m, "TINY") as f32;
+    assert_eq!(tiny.to_bits(), svo::trace::TINY.to_bits());
+    for (name, v) in [
+        ("MAX_LIGHTS", svo_view::gpu_types::MAX_LIGHTS as u32),
+        ("NO_LEAF", svo::render::NO_LEAF),
+        ("NO_NORMAL_WORD", svo::octree::NO_NORMAL),
+        ("WG_X", svo_view::shader::WORKGROUP[0]),
+        ("WG_Y", svo_view::shader::WORKGROUP[1]),
+    ] {
+        assert_eq!(constant(&m, name), f64::from(v), "{name}");
+    }
+    // The uniform table of lights is the Rust array's size.
+    let (_, members) = wgsl_struct(&m, "Uniforms");
+    assert_eq!(
+        members[2].1 - members[1].1,
+        size_of::<[GpuLight; svo_view::gpu_types::MAX_LIGHTS]>()
+    );
 }
 
 #[test]
 fn stacks_sized_for_the_scene_still_validate() {
-    // The renderer edits the stack sizes into the text (function arrays cannot be sized by
-    // pipeline constants): each size must land, and the result must still validate.
-    for (rays, depth) in [(1, 1), (4, 8), (8, 10), (34, 30)] {
-        let src = svo_view::gpu_render::trace_source(rays, depth);
-        assert!(
-            src.contains(&format!("const RAY_STACK: u32 = {rays}u;"))
-                && src.contains(&format!("const MAX_DEPTH: u32 = {depth}u;")),
-            "sizes {rays}, {depth} not in the source"
-        );
-        let m = parse(&src, "trace.wgsl (sized)");
-        let len = |ty: naga::Handle<naga::Type>| match &m.types[ty].inner {
-            naga::TypeInner::Array {
-                size: naga::ArraySize::Constant(n),
-                ..
-            } => n.get(),
-            other => panic!("not a sized array: {other:?}"),
-        };
-        let tstack = m.global_variables.iter().map(|(_, g)| g);
-        let tstack = tstack.filter(|g| g.name.as_deref() == Some("tstack"));
-        let tstack: Vec<u32> = tstack.map(|g| len(g.ty)).collect();
-        assert_eq!(tstack, [depth], "the ancestor stack");
-        let main = m.entry_points.iter().find(|e| e.name == "main").unwrap();
-        let locals = main.function.local_variables.iter().map(|(_, l)| l);
-        let rstack: Vec<u32> = locals
-            .filter(|l| l.name.as_deref() == Some("stack"))
-            .map(|l| len(l.ty))
-            .collect();
-        assert_eq!(rstack, [rays], "the ray stack");
-        Validator::new(ValidationFlags::all(), Capabilities::empty())
-            .validate(&m)
-            .unwrap_or_else(|e| panic!("sized {rays}, {depth}: {}", e.emit_to_string(&src)));
+    // The link sizes the two private stacks for the scene (function arrays cannot be sized
+    // by pipeline constants): each size must land, and the result must still validate.
+    for (rays, depth) in [(1, 1), (4, 8), (8, 10), (MAX_RAY_STACK, 30)] {
+        for wide_view in [false, true] {
+            let (_, m) = linked(&ShaderLink {
+                wide_view,
+                depth,
+                ray_stack: rays,
+            });
+            let len = |ty: naga::Handle<naga::Type>| match &m.types[ty].inner {
+                naga::TypeInner::Array {
+                    size: naga::ArraySize::Constant(n),
+                    ..
+                } => n.get(),
+                other => panic!("not a sized array: {other:?}"),
+            };
+            if !wide_view {
+                let tstack = m.global_variables.iter().map(|(_, g)| g);
+                let tstack = tstack.filter(|g| g.name.as_deref() == Some("tstack"));
+                let tstack: Vec<u32> = tstack.map(|g| len(g.ty)).collect();
+                assert_eq!(tstack, [depth], "the ancestor stack");
+            }
+            let main = m.entry_points.iter().find(|e| e.name == "main").unwrap();
+            let locals = main.function.local_variables.iter().map(|(_, l)| l);
+            let rstack: Vec<u32> = locals
+                .filter(|l| l.name.as_deref() == Some("stack"))
+                .map(|l| len(l.ty))
+                .collect();
+            assert_eq!(rstack, [rays], "the ray stack");
+        }
     }
 }

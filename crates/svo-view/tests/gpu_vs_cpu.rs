@@ -18,7 +18,7 @@ use svo::render::{
 };
 use svo::trace::{GridRay, HitMode, MAX_STEPS, cast};
 use svo_view::gpu_context::GpuContext;
-use svo_view::gpu_render::{GpuLayout, GpuRenderer, ShaderChecks, StackPlacement};
+use svo_view::gpu_render::{GpuLayout, GpuRenderer};
 use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
 use svo_view::headless::render_scene;
 
@@ -204,195 +204,6 @@ fn path_bounce_limit_of_one_renders_the_same() {
     assert!(all.secondary_rays > one.secondary_rays, "{all:?}");
 }
 
-/// The primary tiles pass (each 8x8 block's primary rays start past the empty space before
-/// the nearest leaf cell in the block's cone) changes nothing but the steps: with and without
-/// it, the GPU gives the same colours, depths, normals and leaves bit for bit, on views from
-/// outside, from inside the model's box, close up, looking away from everything, and with
-/// blocks wider than the walk takes (a 9x9 image at 170 degrees), at sizes that are not
-/// multiples of 8; and it saves primary steps.
-#[test]
-fn primary_tiles_change_nothing_but_the_steps() {
-    let Some(ctx) = gpu() else {
-        return;
-    };
-    let tree = torus(None, 6);
-    let (lo, hi) = tree.occupied_bounds();
-    let (mid, ext) = ((lo + hi) * 0.5, hi - lo);
-    // (eye, target, vertical field of view, image size)
-    type View = (Option<DVec3>, Option<DVec3>, f64, (u32, u32));
-    let views: [View; 6] = [
-        (None, None, 40.0, (97, 61)),
-        (Some(mid), Some(mid + DVec3::X), 90.0, (97, 61)),
-        (
-            Some(mid + DVec3::new(0.1, 0.2, -0.6) * ext),
-            Some(mid),
-            20.0,
-            (97, 61),
-        ),
-        // Inside the root cube above the torus, looking up and away from it.
-        (
-            Some(DVec3::new(0.0, 1.5, 0.0)),
-            Some(DVec3::new(1.0, 2.2, 0.3)),
-            60.0,
-            (97, 61),
-        ),
-        (
-            Some(mid + DVec3::new(0.0, 1.5, 0.2) * ext),
-            Some(mid),
-            120.0,
-            (97, 61),
-        ),
-        (Some(mid - 2.0 * ext), Some(mid), 170.0, (9, 9)),
-    ];
-    let (mut with_steps, mut without_steps) = (0u64, 0u64);
-    for (k, (eye, target, fov, (w, h))) in views.into_iter().enumerate() {
-        let frame = |tiles: bool| {
-            let trace = TraceOptions::default();
-            let j = RenderJob {
-                width: w,
-                height: h,
-                eye,
-                target,
-                fov_deg: fov,
-                trace,
-                ..RenderJob::default()
-            };
-            let s = scene(tree.clone(), &j).unwrap();
-            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-            assert!(!variant.primary_tiles, "the tiles are off unless set");
-            variant.primary_tiles = tiles;
-            let r = GpuRenderer::new(&ctx, &s.tree, variant, w, h).unwrap();
-            render_with(&ctx, &s, &trace, &r)
-        };
-        let (a, b) = (frame(true), frame(false));
-        assert_eq!(a.colour, b.colour, "view {k}");
-        assert_eq!(a.depth, b.depth, "view {k}");
-        assert_eq!(a.normal, b.normal, "view {k}");
-        assert_eq!(a.leaf, b.leaf, "view {k}");
-        assert_eq!(a.stats.primary_hits, b.stats.primary_hits, "view {k}");
-        assert!(a.stats.primary_steps <= b.stats.primary_steps, "view {k}");
-        eprintln!(
-            "view {k}: {} hits, primary steps {} with the tiles, {} without",
-            a.stats.primary_hits, a.stats.primary_steps, b.stats.primary_steps
-        );
-        if k == 3 {
-            // Nothing in view: every block's cone is empty, and its rays, which walk out of
-            // the root cube without the tiles, take no step.
-            assert_eq!(a.stats.primary_hits, 0);
-            assert_eq!(a.stats.primary_steps, 0);
-            assert!(b.stats.primary_steps > 0);
-        }
-        with_steps += a.stats.primary_steps;
-        without_steps += b.stats.primary_steps;
-    }
-    // About 27% fewer (the walk without the tiles already skips the children whose leaves'
-    // boxes the ray misses).
-    assert!(
-        with_steps * 10 < without_steps * 8,
-        "{with_steps} steps with the tiles, {without_steps} without"
-    );
-}
-
-/// The primary tiles on seeded random views (eyes outside, near and inside the model's box,
-/// fields of view from 3 to 150 degrees) of the torus and of a sparse random tree with
-/// single scattered cells and thin slabs: with and without the pass, the same colours,
-/// depths, normals and leaves bit for bit.
-#[test]
-fn primary_tiles_change_nothing_on_random_views() {
-    let Some(ctx) = gpu() else {
-        return;
-    };
-    let root = RootCube {
-        origin: DVec3::ZERO,
-        side: 1.0,
-    };
-    let sparse = Octree::from_fn(
-        root,
-        7,
-        |_, _| true,
-        |c| {
-            // About one cell in 400, plus two one-cell slabs.
-            let h = cell_hash(c) % 400;
-            (h == 0 || c.y == 40 && c.x < 90 || c.x == 100 && c.z > 30)
-                .then(|| Voxel::solid([0.6, 0.7, 0.8, 1.0]))
-        },
-    )
-    .unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20);
-    let (w, h) = (61, 47);
-    let (mut with_steps, mut without_steps, mut hits) = (0u64, 0u64, 0u64);
-    for tree in [torus(None, 6), sparse] {
-        let (lo, hi) = tree.occupied_bounds();
-        let ext = hi - lo;
-        let mut sides = Vec::new();
-        for tiles in [true, false] {
-            let trace = TraceOptions {
-                shadows: ShadowMode::None,
-                ..TraceOptions::default()
-            };
-            let j = RenderJob {
-                width: w,
-                height: h,
-                trace,
-                ..RenderJob::default()
-            };
-            let s = scene(tree.clone(), &j).unwrap();
-            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-            variant.primary_tiles = tiles;
-            let r = GpuRenderer::new(&ctx, &s.tree, variant, w, h).unwrap();
-            sides.push((s, trace, r));
-        }
-        for k in 0..16 {
-            let mut pick = |a: f64, b: f64| {
-                DVec3::new(
-                    rng.random_range(a..b),
-                    rng.random_range(a..b),
-                    rng.random_range(a..b),
-                )
-            };
-            // Eyes inside the box for a third of the views, around it for the rest.
-            let eye = if k % 3 == 0 {
-                lo + pick(0.0, 1.0) * ext
-            } else {
-                lo + pick(-1.5, 2.5) * ext
-            };
-            let target = lo + pick(0.0, 1.0) * ext;
-            let fov = 3.0 * 50f64.powf(rng.random_range(0.0..1.0));
-            let camera = svo::render::Camera {
-                eye,
-                target,
-                up: DVec3::Y,
-                fov_deg: fov,
-                width: w,
-                height: h,
-            };
-            if camera.rays().is_err() {
-                continue;
-            }
-            let frames: Vec<Frame> = sides
-                .iter_mut()
-                .map(|(s, trace, r)| {
-                    s.camera = camera;
-                    render_with(&ctx, s, trace, r)
-                })
-                .collect();
-            let (a, b) = (&frames[0], &frames[1]);
-            let what = format!("view {k}: eye {eye}, target {target}, fov {fov:.1}");
-            assert_eq!(a.colour, b.colour, "{what}");
-            assert_eq!(a.depth, b.depth, "{what}");
-            assert_eq!(a.normal, b.normal, "{what}");
-            assert_eq!(a.leaf, b.leaf, "{what}");
-            assert!(a.stats.primary_steps <= b.stats.primary_steps, "{what}");
-            with_steps += a.stats.primary_steps;
-            without_steps += b.stats.primary_steps;
-            hits += a.stats.primary_hits;
-        }
-    }
-    eprintln!("{hits} hits; primary steps: {with_steps} with the tiles, {without_steps} without");
-    assert!(hits > 0);
-    assert!(with_steps < without_steps);
-}
-
 /// Scenes that take every path of the shader: glass (contours and cubes, the glass tori at
 /// `glass_depth`; shadow rays traced between the hit and its rays), a mirror, a solid
 /// bake's interior leaves and a volumetric medium (depth 6 and 5).
@@ -423,54 +234,13 @@ fn scenes_of_every_path(glass_depth: u8) -> Vec<(&'static str, Octree, TraceOpti
     ]
 }
 
-/// Rays spawned at a primary hit descend the hit's path without reading its nodes: with and
-/// without that (`GpuLayout::hit_paths`), the same frames bit for bit and the same counters,
-/// steps included, on glass (contours and cubes, shadow rays traced between the hit and its
-/// rays), a mirror, a solid bake's interior leaves and a volumetric medium, with the stacks
-/// private and in workgroup memory.
-#[test]
-fn hit_paths_change_nothing() {
-    let Some(ctx) = gpu() else {
-        return;
-    };
-    for (name, tree, trace) in scenes_of_every_path(5) {
-        let s = scene(tree, &job(trace)).unwrap();
-        let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-        for stacks in [StackPlacement::Private, StackPlacement::Workgroup] {
-            let mut frames: Vec<Frame> = Vec::new();
-            for hit_paths in [true, false] {
-                let layout = GpuLayout {
-                    stacks,
-                    hit_paths,
-                    ..GpuLayout::default()
-                };
-                let Some(r) = renderer_or_skip(&ctx, &s, variant, &layout) else {
-                    break;
-                };
-                frames.push(render_with(&ctx, &s, &trace, &r));
-            }
-            if frames.len() < 2 {
-                continue;
-            }
-            let (a, b) = (&frames[0], &frames[1]);
-            let what = format!("{name}, {stacks:?}");
-            assert!(a.stats.secondary_rays > 0, "{what}: {:?}", a.stats);
-            assert_eq!(a.colour, b.colour, "{what}");
-            assert_eq!(a.depth, b.depth, "{what}");
-            assert_eq!(a.normal, b.normal, "{what}");
-            assert_eq!(a.leaf, b.leaf, "{what}");
-            assert_eq!(a.stats, b.stats, "{what}");
-        }
-    }
-}
-
 /// The traversal through the tree's 64-ary view (`GpuLayout::wide_view`) against the
 /// octree's walk: the same frames bit for bit (colour, depth, normal, leaf) and the same rays
 /// of each kind, on glass (contours and cubes, shadow rays traced between the hit and its
 /// rays), a mirror, a solid bake's interior leaves and a volumetric medium, at even depths and
-/// at odd ones (whose view has a root of 2x2x2 cells, down to depth 1), with the stacks
-/// private and in workgroup memory, primary tiles on and off, and every shader path compiled
-/// in. Its steps count cells, so they differ; at depth 6 and deeper they are fewer.
+/// at odd ones (whose view has a root of 2x2x2 cells, down to depth 1), with the scene's
+/// shader and with every shader path compiled in. Its steps count cells, so they differ; at
+/// depth 6 and deeper they are fewer.
 #[test]
 fn the_wide_view_renders_the_same() {
     let Some(ctx) = gpu() else {
@@ -497,31 +267,31 @@ fn the_wide_view_renders_the_same() {
     let mut walked = 0;
     for (name, tree, trace) in cases {
         let s = scene(tree, &job(trace)).unwrap();
-        for (tiles, full, stacks) in [
-            (false, false, StackPlacement::Private),
-            (true, false, StackPlacement::Workgroup),
-            (false, true, StackPlacement::Private),
-        ] {
+        for full in [false, true] {
             let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
             if full {
                 variant = variant.everything();
             }
-            variant.primary_tiles = tiles;
             let frame = |wide_view: bool| {
                 let layout = GpuLayout {
-                    stacks,
                     wide_view,
                     ..GpuLayout::default()
                 };
-                let r = renderer_or_skip(&ctx, &s, variant, &layout)?;
+                let r = GpuRenderer::with_options(
+                    &ctx,
+                    &s.tree,
+                    variant,
+                    s.camera.width,
+                    s.camera.height,
+                    &layout,
+                )
+                .unwrap();
                 assert_eq!(r.wide_view(), wide_view, "{name}");
-                Some(render_with(&ctx, &s, &trace, &r))
+                render_with(&ctx, &s, &trace, &r)
             };
-            let (Some(a), Some(b)) = (frame(false), frame(true)) else {
-                continue;
-            };
+            let (a, b) = (frame(false), frame(true));
             walked += 1;
-            let what = format!("{name}, tiles {tiles}, full shader {full}, {stacks:?}");
+            let what = format!("{name}, full shader {full}");
             assert!(a.stats.primary_hits > 0, "{what}");
             assert_eq!(a.colour, b.colour, "{what}");
             assert_eq!(a.depth, b.depth, "{what}");
@@ -556,8 +326,8 @@ fn the_wide_view_renders_the_same() {
 /// The 2015 thesis's own scene (`examples/scenes/pool.toml`: the Stanford bunny from
 /// `../shared/models` in a pool of water) at depth 7, its three views with its settings
 /// (contours, no shadow rays, one bounce a path): the GPU against the CPU (the same hit/miss
-/// mask, nearly the same leaves and colours), and the GPU without the primary tiles and
-/// with hit paths against its default, bit for bit.
+/// mask, nearly the same leaves and colours), and the GPU's two walks against each other,
+/// bit for bit.
 #[test]
 fn the_thesis_pool_views() {
     let root = svo_tests::repo_root();
@@ -602,17 +372,16 @@ fn the_thesis_pool_views() {
         };
         let s = svo::render::prepare(&j).unwrap();
         let c = cpu_frame(&s, &trace);
-        let gpu_frame = |tiles: bool, hit_paths: bool| {
-            let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-            variant.primary_tiles = tiles;
+        let gpu_frame = |wide_view: bool| {
+            let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
             let layout = GpuLayout {
-                hit_paths,
+                wide_view,
                 ..GpuLayout::default()
             };
             let r = GpuRenderer::with_options(&ctx, &s.tree, variant, 120, 75, &layout).unwrap();
             render_with(&ctx, &s, &trace, &r)
         };
-        let g = gpu_frame(true, false);
+        let g = gpu_frame(false);
         let diff = svo::render::compare(&g, &c).unwrap();
         let leaf_diff = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
         eprintln!(
@@ -627,19 +396,11 @@ fn the_thesis_pool_views() {
         assert!(diff.rmse <= 1.0, "{view}: RMSE {}", diff.rmse);
         assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{view}");
         assert!(g.stats.secondary_rays <= 2 * g.stats.primary_hits, "{view}");
-        let no_tiles = gpu_frame(false, false);
-        let paths = gpu_frame(true, true);
-        for (what, other) in [("without tiles", &no_tiles), ("with hit paths", &paths)] {
-            assert_eq!(g.colour, other.colour, "{view} {what}");
-            assert_eq!(g.depth, other.depth, "{view} {what}");
-            assert_eq!(g.normal, other.normal, "{view} {what}");
-            assert_eq!(g.leaf, other.leaf, "{view} {what}");
-        }
-        assert_eq!(g.stats, paths.stats, "{view}");
-        assert!(
-            g.stats.primary_steps < no_tiles.stats.primary_steps,
-            "{view}"
-        );
+        let wide = gpu_frame(true);
+        assert_eq!(g.colour, wide.colour, "{view} through the view");
+        assert_eq!(g.depth, wide.depth, "{view} through the view");
+        assert_eq!(g.normal, wide.normal, "{view} through the view");
+        assert_eq!(g.leaf, wide.leaf, "{view} through the view");
     }
 }
 
@@ -1083,93 +844,4 @@ fn render_with(ctx: &GpuContext, s: &JobScene, trace: &TraceOptions, r: &GpuRend
         .unwrap();
     r.render(ctx, &u).unwrap();
     r.read_frame(ctx, std::time::Duration::ZERO).unwrap()
-}
-
-/// The renderer of `s` with `layout`; `None`, after [`svo_tests::missing`] (a failure under
-/// CI), where the adapter has too little workgroup memory for stacks placed there, which
-/// `StackPlacement::Workgroup` refuses (GL's 32 KiB; Vulkan's lavapipe has enough).
-fn renderer_or_skip(
-    ctx: &GpuContext,
-    s: &JobScene,
-    variant: ShaderVariant,
-    layout: &GpuLayout,
-) -> Option<GpuRenderer> {
-    match GpuRenderer::with_options(
-        ctx,
-        &s.tree,
-        variant,
-        s.camera.width,
-        s.camera.height,
-        layout,
-    ) {
-        Ok(r) => Some(r),
-        Err(e) if e.to_string().contains("shared memory") => {
-            svo_tests::missing(&format!(
-                "an adapter with the workgroup memory for stacks {:?} in {:?} workgroups ({e})",
-                layout.stacks, layout.workgroup
-            ));
-            None
-        }
-        Err(e) => panic!("{e}"),
-    }
-}
-
-#[test]
-fn stacks_in_private_or_workgroup_memory_and_other_workgroups_render_the_same() {
-    let Some(ctx) = gpu() else {
-        return;
-    };
-    let glass = GLASS_MTL;
-    let trace = TraceOptions {
-        max_reflections: 1,
-        max_refractions: 2,
-        ..TraceOptions::default()
-    };
-    let s = scene(torus(Some(glass), 5), &job(trace)).unwrap();
-    let c = cpu_frame(&s, &trace);
-    let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
-    assert_eq!(variant.ray_stack, 5);
-    // Workgroups smaller and larger than the default 8x8 (the workgroup stacks are sized
-    // for the larger of the render's and the batch entry's 64 invocations), and ones that
-    // do not divide the image.
-    for (stacks, workgroup, checks) in [
-        (StackPlacement::Private, [8, 8], ShaderChecks::Full),
-        (StackPlacement::Workgroup, [8, 8], ShaderChecks::Full),
-        (StackPlacement::Workgroup, [4, 4], ShaderChecks::Full),
-        (
-            StackPlacement::Workgroup,
-            [16, 8],
-            ShaderChecks::NoLoopBounds,
-        ),
-        (StackPlacement::Private, [32, 2], ShaderChecks::NoLoopBounds),
-        (StackPlacement::Private, [5, 3], ShaderChecks::Full),
-    ] {
-        let layout = GpuLayout {
-            chunk_limit: Some(u64::MAX),
-            stacks,
-            workgroup: Some(workgroup),
-            checks,
-            hit_paths: true,
-            wide_view: false,
-        };
-        let Some(r) = renderer_or_skip(&ctx, &s, variant, &layout) else {
-            continue;
-        };
-        let expect = if stacks == StackPlacement::Private {
-            (false, false)
-        } else {
-            (true, true)
-        };
-        assert_eq!(r.workgroup_stacks(), expect);
-        let g = render_with(&ctx, &s, &trace, &r);
-        let diff = svo::render::compare(&g, &c).unwrap();
-        eprintln!(
-            "{stacks:?} {workgroup:?}: RMSE {:.3}, max {}",
-            diff.rmse, diff.max_abs
-        );
-        assert_eq!(diff.hit_mismatch, 0.0);
-        assert!(diff.rmse <= 2.0, "{stacks:?}: RMSE {}", diff.rmse);
-        assert!(g.stats.secondary_rays > 0);
-        assert_eq!(g.stats.secondary_rays, c.stats.secondary_rays, "{stacks:?}");
-    }
 }

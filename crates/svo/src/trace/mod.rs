@@ -47,7 +47,7 @@ pub(crate) mod traverse;
 
 pub use cast::{Hit, Ray};
 pub use dda::{DdaError, DenseGrid, MAX_DDA_DEPTH, traverse_dda};
-pub use grid_ray::GridRay;
+pub use grid_ray::{GridRay, TINY};
 pub use leaf_hit::{HitMode, LeafHit, cast, leaf_hit};
 pub use packet::{LANES, traverse_packet};
 pub use traverse::{LeafEntry, MAX_STEPS, Traversal, traverse};
