@@ -1209,7 +1209,7 @@ pub fn manifest(corpus: &[Entry]) -> String {
             Some(n) => (
                 "invalid",
                 n.to_string(),
-                svo::io::Check::from_number(n).map_or("?", |c| c.name()),
+                svo::octree::Check::from_number(n).map_or("?", |c| c.name()),
             ),
         };
         s.push_str(&format!(

@@ -22,7 +22,7 @@
 use glam::{DVec3, UVec3, Vec3};
 use svo::mesh::{Preset, SceneInfo, StoredCamera, StoredLight};
 use svo::render::{Camera, PointLight};
-use svo::{BuilderError, Octree, RootCube, Voxel};
+use svo::{Octree, OctreeError, RootCube, Voxel};
 
 /// The scene: the tree (root `[-1, 1]^3`), its lights and the camera of the report's
 /// renderings.
@@ -122,7 +122,7 @@ impl ReportScene {
 }
 
 /// Builds the scene with `2^depth` cells per side, for a `width` x `height` image.
-pub fn report_scene(depth: u8, width: u32, height: u32) -> Result<ReportScene, BuilderError> {
+pub fn report_scene(depth: u8, width: u32, height: u32) -> Result<ReportScene, OctreeError> {
     let root = RootCube {
         origin: DVec3::splat(-1.0),
         side: 2.0,

@@ -10,7 +10,8 @@
 mod spec_reader;
 
 use std::collections::BTreeMap;
-use svo::io::{Check, FormatError, from_bytes, to_bytes, write_chunked_to};
+use svo::io::{FormatError, from_bytes, to_bytes, write_chunked_to};
+use svo::octree::Check;
 use svo_examples::conformance::{corpus, manifest};
 
 fn corpus_dir() -> std::path::PathBuf {

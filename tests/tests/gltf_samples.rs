@@ -5,7 +5,9 @@
 //! below what depth 6 gives, see docs/scenes.md).
 
 use std::path::PathBuf;
-use svo::render::{MeshSurfaces, OctreeSurfaces, RenderJob, TraceOptions, Tracer, render, scene};
+use svo::render::{
+    MeshSurfaces, OctreeSurfaces, RenderScene, SceneSetup, TraceOptions, Tracer, render,
+};
 use svo::trace::HitMode;
 
 /// The glTF samples' folder, when they are there.
@@ -69,23 +71,23 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
                 );
             }
         }
-        let job = RenderJob {
+        let trace = TraceOptions {
+            mode: HitMode::Contour,
+            ..TraceOptions::default()
+        };
+        let setup = SceneSetup {
             width: 96,
             height: 72,
-            trace: TraceOptions {
-                mode: HitMode::Contour,
-                ..TraceOptions::default()
-            },
-            ..RenderJob::default()
+            ..SceneSetup::default()
         };
-        let s = scene(tree, &job).unwrap();
+        let s = RenderScene::new(tree, &Default::default(), &setup).unwrap();
         let ours = render(
             &Tracer::new(
                 OctreeSurfaces::new(&s.tree, HitMode::Contour),
                 &s.lights,
                 s.sky.clone(),
                 s.phong,
-                job.trace,
+                trace,
             ),
             &s.camera,
         )
@@ -96,7 +98,7 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
                 &s.lights,
                 s.sky.clone(),
                 s.phong,
-                job.trace,
+                trace,
             ),
             &s.camera,
         )

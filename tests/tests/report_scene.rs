@@ -132,13 +132,12 @@ fn committed_report_scene_file_is_current_and_renders_its_view() {
         "examples/scenes/report2019.svo is stale: rerun `cargo run --release -p svo-examples \
          --example report_scene -- examples/scenes/report2019.svo docs/images/report_scene.png`"
     );
-    let job = svo::render::RenderJob {
-        input: path,
+    let setup = svo::render::SceneSetup {
         width: 64,
         height: 64,
         ..Default::default()
     };
-    let s = svo::render::prepare(&job).unwrap();
+    let s = svo::render::RenderScene::open(&path, &setup).unwrap();
     assert_eq!(s.camera.eye, scene.camera.eye);
     assert_eq!(s.camera.fov_deg, scene.camera.fov_deg);
     assert_eq!(s.lights, scene.lights);

@@ -5,7 +5,7 @@
 //! only the bunny and costs more traversal steps per ray than the bunny view.
 
 use std::path::PathBuf;
-use svo::render::{NO_LEAF, OctreeSurfaces, RenderJob, Tracer, render, scene_with};
+use svo::render::{NO_LEAF, OctreeSurfaces, RenderScene, SceneSetup, TraceOptions, Tracer, render};
 
 /// The scene file, when the bunny it reads (from `../shared/models`) is there.
 fn pool_scene() -> Option<PathBuf> {
@@ -45,23 +45,24 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
     };
     let mut steps = Vec::new();
     for view in ["water", "bunny", "parallel"] {
-        let job = RenderJob {
+        let setup = SceneSetup {
             width: 64,
             height: 40,
             view: Some(view.into()),
-            ..RenderJob::default()
+            ..SceneSetup::default()
         };
-        let s = scene_with(tree.clone(), &build.scene, &job).unwrap();
+        let trace = TraceOptions::default();
+        let s = RenderScene::new(tree.clone(), &build.scene, &setup).unwrap();
         // Every stored view is offered (the window steps through them with V).
         let offered: Vec<&str> = s.views.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(offered, ["water", "bunny", "parallel"]);
         assert_eq!(s.views.iter().find(|(n, _)| n == view).unwrap().1, s.camera);
         let tracer = Tracer::new(
-            OctreeSurfaces::new(&s.tree, job.trace.mode),
+            OctreeSurfaces::new(&s.tree, trace.mode),
             &s.lights,
             s.sky.clone(),
             s.phong,
-            job.trace,
+            trace,
         );
         let f = render(&tracer, &s.camera).unwrap();
         let n = f.leaf.len();

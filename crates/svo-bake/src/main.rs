@@ -8,8 +8,9 @@
 //! svo-bake part job.svoplan 3
 //! svo-bake merge job.svoplan -o bunny.svo
 //! ```
-//! All the work is in the `svo` library ([`svo::bake::bake_file`]); this file parses arguments,
-//! draws the progress bar and prints the summary.
+//! The bake job is the `svo_bake` library's ([`svo_bake::job::bake_file`]) and the bake in
+//! parts `svo`'s ([`svo::bake::parts`]); this file parses arguments, draws the progress bar
+//! and prints the summaries.
 #![forbid(unsafe_code)]
 
 use anyhow::Context;
@@ -18,10 +19,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Mutex;
-use svo::bake::{
-    BakeJob, BakeOptions, ChannelSelection, GivenOptions, MergeFormat, Phase, SolidMode, Strategy,
-    available_memory, bake_file_with_progress, bake_part_file, merge_parts, part_path, plan_file,
-};
+use svo::bake::parts::{MergeFormat, bake_part_file, merge_parts, part_path, plan_file};
+use svo::bake::{BakeOptions, ChannelSelection, Phase, SolidMode, Strategy};
+use svo_bake::job::{BakeJob, GivenOptions, bake_file_with_progress, parts_hint};
+use svo_bake::memory::available_memory;
 
 /// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
 /// returns large ones to the kernel, and touching them again costs a page fault per page
@@ -230,115 +231,172 @@ fn real_main() -> anyhow::Result<()> {
             output,
             bins,
             settings,
-        }) => {
-            let (plan, binned) = plan_file(mesh, &settings.options()?, *parts, output, *bins)
-                .with_context(|| format!("planning the bake of {}", mesh.display()))?;
-            say!(
-                "{}: {} parts of the subtrees at level {} (depth {}; about {:.3e} leaves in all, \
-                 the largest part {:.3e})",
-                output.display(),
-                plan.part_count(),
-                plan.level,
-                plan.depth,
-                plan.estimated_leaves,
-                plan.parts
-                    .iter()
-                    .map(|p| p.estimated_leaves)
-                    .fold(0.0, f64::max)
-            );
-            if let Some(b) = binned {
-                say!(
-                    "{} bins of the parts' triangles ({} triangles in all, {} bytes), {} ...",
-                    b.files,
-                    b.triangles,
-                    b.bytes,
-                    svo::bake::bin_path(output, 0).display()
-                );
-            }
-            say!(
-                "next: svo-bake part {} I (for I in 0..{}: writes {} ...), then svo-bake merge {} -o OUT.svo",
-                output.display(),
-                plan.part_count(),
-                part_path(output, 0).display(),
-                output.display()
-            );
-            return Ok(());
-        }
+        }) => plan(mesh, *parts, output, *bins, settings),
         Some(Command::Part {
             plan,
             index,
             threads,
             json,
-        }) => {
-            let r = bake_part_file(plan, *index, *threads)
-                .with_context(|| format!("baking part {index} of {}", plan.display()))?;
-            if *json {
-                say!("{}", serde_json::to_string_pretty(&r)?);
-            } else {
-                say!(
-                    "part {} of {}: {} subtrees, {} leaves, {} bytes -> {} (load {:.2} s, bake {:.2} s, write {:.2} s)",
-                    r.index,
-                    r.count,
-                    r.subtrees,
-                    r.leaves,
-                    r.bytes,
-                    r.path,
-                    r.load_s,
-                    r.bake_s,
-                    r.write_s
-                );
-            }
-            return Ok(());
-        }
+        }) => part(plan, *index, *threads, *json),
         Some(Command::Merge {
             plan,
             output,
             chunked,
             json,
-        }) => {
-            let format = if *chunked {
-                MergeFormat::Chunked
-            } else {
-                MergeFormat::Auto
-            };
-            let r = merge_parts(plan, output, format)
-                .with_context(|| format!("merging the parts of {}", plan.display()))?;
-            if *json {
-                say!("{}", serde_json::to_string_pretty(&r)?);
-            } else {
-                say!(
-                    "{}: {} parts merged, {} nodes, {} leaves, {} bytes (format version {}{}) in {:.2} s",
-                    output.display(),
-                    r.parts,
-                    r.nodes,
-                    r.leaves,
-                    r.bytes,
-                    r.version,
-                    if r.chunks > 0 {
-                        format!(", {} chunks", r.chunks)
-                    } else {
-                        String::new()
-                    },
-                    r.seconds
-                );
-            }
-            return Ok(());
-        }
-        None => {}
+        }) => merge(plan, output, *chunked, *json),
+        None => bake(&args),
     }
+}
+
+/// A bake in parts' error with what the command's flags can do about it.
+fn with_hint(e: &svo::bake::parts::PartsError) -> anyhow::Error {
+    anyhow::anyhow!("{e}{}", parts_hint(e))
+}
+
+/// `svo-bake plan`.
+fn plan(
+    mesh: &std::path::Path,
+    parts: u32,
+    output: &std::path::Path,
+    bins: bool,
+    settings: &Settings,
+) -> anyhow::Result<()> {
+    let (plan, binned) = plan_file(mesh, &settings.options()?, parts, output, bins)
+        .map_err(|e| with_hint(&e))
+        .with_context(|| format!("planning the bake of {}", mesh.display()))?;
+    say!(
+        "{}: {} parts of the subtrees at level {} (depth {}; about {:.3e} leaves in all, \
+         the largest part {:.3e})",
+        output.display(),
+        plan.part_count(),
+        plan.level,
+        plan.depth,
+        plan.estimated_leaves,
+        plan.largest_part_leaves()
+    );
+    if let Some(b) = binned {
+        say!(
+            "{} bins of the parts' triangles ({} triangles in all, {} bytes), {} ...",
+            b.files,
+            b.triangles,
+            b.bytes,
+            b.first
+        );
+    }
+    say!(
+        "next: svo-bake part {} I (for I in 0..{}: writes {} ...), then svo-bake merge {} -o OUT.svo",
+        output.display(),
+        plan.part_count(),
+        part_path(output, 0).display(),
+        output.display()
+    );
+    Ok(())
+}
+
+/// `svo-bake part`.
+fn part(
+    plan: &std::path::Path,
+    index: u32,
+    threads: Option<usize>,
+    json: bool,
+) -> anyhow::Result<()> {
+    let r = bake_part_file(plan, index, threads)
+        .map_err(|e| with_hint(&e))
+        .with_context(|| format!("baking part {index} of {}", plan.display()))?;
+    if json {
+        say!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        say!(
+            "part {} of {}: {} subtrees, {} leaves, {} bytes -> {} (load {:.2} s, bake {:.2} s, write {:.2} s)",
+            r.index,
+            r.count,
+            r.subtrees,
+            r.leaves,
+            r.bytes,
+            r.path,
+            r.load_s,
+            r.bake_s,
+            r.write_s
+        );
+    }
+    Ok(())
+}
+
+/// `svo-bake merge`.
+fn merge(
+    plan: &std::path::Path,
+    output: &std::path::Path,
+    chunked: bool,
+    json: bool,
+) -> anyhow::Result<()> {
+    let format = if chunked {
+        MergeFormat::Chunked
+    } else {
+        MergeFormat::Auto
+    };
+    let r = merge_parts(plan, output, format)
+        .map_err(|e| with_hint(&e))
+        .with_context(|| format!("merging the parts of {}", plan.display()))?;
+    if json {
+        say!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        say!(
+            "{}: {} parts merged, {} nodes, {} leaves, {} bytes (format version {}{}) in {:.2} s",
+            output.display(),
+            r.parts,
+            r.nodes,
+            r.leaves,
+            r.bytes,
+            r.version,
+            if r.chunks > 0 {
+                format!(", {} chunks", r.chunks)
+            } else {
+                String::new()
+            },
+            r.seconds
+        );
+    }
+    Ok(())
+}
+
+/// The output a bake of `input` writes unless told: the input's name with `.svo`.
+fn default_output(input: &std::path::Path) -> PathBuf {
+    let name = input
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = name
+        .trim_end_matches(".gz")
+        .rsplit_once('.')
+        .map_or(name.as_str(), |(s, _)| s)
+        .to_string();
+    input.with_file_name(format!("{stem}.svo"))
+}
+
+/// The progress bar of a bake: drawn on a terminal unless quiet or printing JSON.
+fn progress_bar(args: &Args) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(
+        Some(1000),
+        if args.quiet || args.json || !std::io::stderr().is_terminal() {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>10} [{bar:40}] {percent:>3}% {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// A bake: input to output.
+fn bake(args: &Args) -> anyhow::Result<()> {
     let input = args.input.clone().context("no input file given")?;
-    let output = args.output.clone().unwrap_or_else(|| {
-        let name = input
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let stem = name
-            .trim_end_matches(".gz")
-            .rsplit_once('.')
-            .map_or(name.as_str(), |(s, _)| s)
-            .to_string();
-        input.with_file_name(format!("{stem}.svo"))
-    });
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&input));
     let job = BakeJob {
         input: input.clone(),
         output,
@@ -354,18 +412,7 @@ fn real_main() -> anyhow::Result<()> {
         },
         memory: args.memory,
     };
-    let bar = ProgressBar::with_draw_target(
-        Some(1000),
-        if args.quiet || args.json || !std::io::stderr().is_terminal() {
-            ProgressDrawTarget::hidden()
-        } else {
-            ProgressDrawTarget::stderr()
-        },
-    );
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>10} [{bar:40}] {percent:>3}% {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = progress_bar(args);
     let last = Mutex::new(None);
     let talk = !(args.quiet || args.json);
     let progress = |phase: Phase, f: f64| {

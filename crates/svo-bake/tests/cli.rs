@@ -507,7 +507,7 @@ fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
             "-o",
             s(&out_path),
         ],
-        "open edges",
+        "open edges (edges used by an odd number of triangles), so its inside is not defined: the closed fill needs a closed mesh, the vote fills meshes with holes; --solid needs a closed mesh (use --solid vote for meshes with holes)",
     );
     assert!(!out_path.exists());
     let out = ok(&[

@@ -6,10 +6,11 @@ use crate::peak_memory;
 use crate::report::{Report, f, median, ms};
 use std::path::Path;
 use std::time::Instant;
-use svo::bake::{BakeJob, BakeReport};
 use svo::io::BuildInfo;
 use svo::mesh::Mesh;
 use svo::{BakeOptions, Strategy, bake_mesh};
+use svo_bake::job::BakeJob;
+use svo_bake::report::BakeReport;
 
 /// The thesis's build times (seconds, depths 1-8), rows in [`Strategy::ALL`] order; the
 /// last is its second table (SAT at the leaves plus the vertex-inside shortcut), beside our
@@ -264,7 +265,7 @@ pub fn pipeline(
     let mut reports = Vec::new();
     let mut peak = None;
     for i in 0..runs.max(1) {
-        let (rep, grew) = peak_memory::measure(|| svo::bake::bake_file(&job));
+        let (rep, grew) = peak_memory::measure(|| svo_bake::job::bake_file(&job));
         if i == 0 {
             peak = grew;
         }

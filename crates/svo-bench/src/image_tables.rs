@@ -11,12 +11,13 @@ use std::time::Instant;
 use svo::Octree;
 use svo::mesh::Mesh;
 use svo::render::{
-    Camera, CameraRays, Frame, JobScene, MeshSurfaces, OctreeSurfaces, Phong, PointLight,
-    ShadowMode, Sky, Surfaces, TraceOptions, Tracer, cast_timed, exact_surfaces, render_timed,
+    Camera, CameraRays, Frame, MeshSurfaces, OctreeSurfaces, Phong, PointLight, RenderScene,
+    ShadowMode, Sky, Surfaces, TraceOptions, Tracer, exact_surfaces,
 };
 use svo::trace::{DenseGrid, GridRay, HitMode, MAX_STEPS, cast, leaf_hit, traverse_dda};
 use svo_view::gpu_context::GpuContext;
 use svo_view::headless::render_scene;
+use svo_view::timing::{cast_timed, render_timed};
 
 /// One render measured against the reference.
 #[derive(Clone, Debug)]
@@ -119,7 +120,7 @@ fn gpu_frame(
     runs: u32,
     cpu: &Frame,
 ) -> anyhow::Result<(f64, f64)> {
-    let scene = JobScene {
+    let scene = RenderScene {
         tree: tree.clone(),
         camera: *cam,
         lights: vec![light],

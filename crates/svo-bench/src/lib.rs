@@ -578,7 +578,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     // 2. Pipeline.
     r.heading(2, "2. The whole `svo-bake` pipeline, per phase");
     r.para(
-        "`svo::bake::bake_file`, what `svo-bake MESH --depth D -o out.svo` runs: load, voxelize, \
+        "`svo_bake::job::bake_file`, what `svo-bake MESH --depth D -o out.svo` runs: load, voxelize, \
          attributes, contours, and the atomic write with `fsync`. \"bake\" is voxelize + \
          attributes + contours; the row is the run with the median total; peak memory is the \
          most heap bytes live at once during the first run (loading included), counted by the \

@@ -10,7 +10,7 @@ use crate::report::{Report, f, ms};
 use std::path::Path;
 use std::time::Instant;
 use svo::BakeOptions;
-use svo::bake::{BakeJob, GivenOptions, bake_file};
+use svo_bake::job::{BakeJob, GivenOptions, bake_file};
 
 /// One bake.
 pub struct PartsRow {
@@ -40,9 +40,18 @@ pub struct PartsRow {
     pub error: Option<String>,
 }
 
-/// XXH3-64 of a file's bytes.
+/// XXH3-64 of a file's bytes, read a buffer at a time (the files run to gigabytes).
 fn hash(path: &Path) -> Option<u64> {
-    svo::bake::hash_file(path).ok()
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        match file.read(&mut buf).ok()? {
+            0 => return Some(h.digest()),
+            n => h.update(&buf[..n]),
+        }
+    }
 }
 
 /// Bakes `mesh` at each `(depth, in memory too, budget)` into files in `dir` (each removed
@@ -212,7 +221,7 @@ pub fn child_main(args: &[String]) -> i32 {
             if let Some(p) = peak {
                 line += &format!(" peak_heap={p}");
             }
-            if let Some(r) = svo::bake::peak_resident() {
+            if let Some(r) = svo_bake::memory::peak_resident() {
                 line += &format!(" peak_resident={r}");
             }
             println!("{line}");

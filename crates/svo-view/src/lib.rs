@@ -1,6 +1,12 @@
-//! The `svo-view` library: the GPU side of the viewer. The CPU reference tracer, the file
-//! format and the scene setup live in `svo`; this crate adds what needs wgpu.
+//! The `svo-view` library: the viewer's jobs and its GPU side. The CPU reference tracer, the
+//! file format and the scene setup live in `svo`; this crate adds the render jobs as the
+//! command takes them and what needs wgpu.
 //!
+//! - [`job`]: a render job (the file, the flags' settings, what to write), its checks, and
+//!   the output and cube-map files;
+//! - [`cpu_render`]: `svo-view --cpu`, the job on the CPU reference tracer;
+//! - [`report`]: what a render did ([`report::FrameReport`]), on the CPU or the GPU;
+//! - [`timing`]: the benchmark loops;
 //! - [`gpu_types`]: the structs shared with the WGSL shader and the shader variant
 //!   (pipeline-overridable constants that leave out what a scene does not need);
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
@@ -20,11 +26,15 @@
 //! loop; the golden tests (`tests/gpu_vs_cpu.rs`) hold the two to the same images.
 
 pub mod camera_control;
+pub mod cpu_render;
 pub mod gpu_context;
 pub mod gpu_render;
 pub mod gpu_types;
 pub mod headless;
+pub mod job;
+pub mod report;
 pub mod shader;
+pub mod timing;
 pub mod wide_view;
 #[cfg(feature = "window")]
 pub mod window;

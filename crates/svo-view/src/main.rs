@@ -8,8 +8,8 @@
 //! svo-view bunny.svo --cpu --aov cost -o cost.png
 //! svo-view bunny.svo --info
 //! ```
-//! The work is in the libraries: the CPU path is [`svo::render::render_file`], the GPU path
-//! [`svo_view::headless::run`], the window `svo_view::window::run`; this file parses
+//! The work is in the library: the CPU path is [`svo_view::cpu_render::render_file`], the
+//! GPU path [`svo_view::headless::run`], the window `svo_view::window::run`; this file parses
 //! arguments and prints the report.
 #![forbid(unsafe_code)]
 
@@ -17,7 +17,9 @@ use anyhow::Context;
 use clap::Parser;
 use glam::DVec3;
 use std::path::PathBuf;
-use svo::render::{Aov, LightSpec, RenderJob, TraceOptions, render_file};
+use svo::render::{Aov, LightSpec, TraceOptions};
+use svo_view::cpu_render::render_file;
+use svo_view::job::RenderJob;
 
 /// Render a sparse voxel octree (.svo) file on the GPU or with the CPU ray tracer, or inspect it.
 #[derive(Parser, Debug)]

@@ -15,14 +15,12 @@ use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::{GpuRenderer, read_buffer};
 use crate::gpu_types::{ShaderVariant, uniforms};
 use crate::headless::check_gpu_support;
+use crate::job::{JobError, RenderJob, prepare, write_output};
 use crate::window_blit::{Blit, BlitParams};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
-use svo::render::{
-    Aov, JobScene, MAX_BOUNCES, RenderJob, RenderJobError, ShadowMode, TraceOptions, prepare,
-    write_output,
-};
+use svo::render::{Aov, MAX_BOUNCES, RenderScene, ShadowMode, TraceOptions};
 use svo::trace::HitMode;
 use thiserror::Error;
 use winit::application::ApplicationHandler;
@@ -37,7 +35,7 @@ use winit::window::{Window, WindowId};
 pub enum WindowError {
     /// Loading the scene or writing a screenshot failed.
     #[error(transparent)]
-    Job(#[from] RenderJobError),
+    Job(#[from] JobError),
     /// The GPU failed or refused.
     #[error(transparent)]
     Gpu(#[from] GpuError),
@@ -161,7 +159,7 @@ struct App {
     size: (u32, u32),
     settings: Settings,
     control: CameraControl,
-    scene: JobScene,
+    scene: RenderScene,
     /// Which stored view `V` showed last.
     view: usize,
     opts: WindowOptions,
@@ -351,7 +349,7 @@ impl App {
                 .unwrap_or_else(|| PathBuf::from("svo-view.png")),
         };
         let frame = r.renderer.read_frame(&r.ctx, std::time::Duration::ZERO)?;
-        write_output(&frame, Aov::Colour, &path, 1).map_err(RenderJobError::from)?;
+        write_output(&frame, Aov::Colour, &path, 1).map_err(JobError::from)?;
         eprintln!("svo-view: wrote {}", path.display());
         self.screenshots.push(path);
         Ok(())
@@ -389,7 +387,7 @@ impl App {
             &self.scene.phong,
             &trace,
         )
-        .map_err(RenderJobError::from)?;
+        .map_err(JobError::from)?;
         r.renderer.write_uniforms(&r.ctx, &u);
         let variant_text = r.renderer.variant().describe();
         let texture = match r.surface.get_current_texture() {
@@ -541,7 +539,7 @@ impl App {
                 (Some(c), Some(path)) => {
                     let rgb = read_capture(&r.ctx, &c)?;
                     svo::render::write_png(path, c.width, c.height, &rgb)
-                        .map_err(RenderJobError::from)?;
+                        .map_err(JobError::from)?;
                     self.screenshots.push(path.clone());
                 }
                 (None, Some(_)) => self.screenshot()?,

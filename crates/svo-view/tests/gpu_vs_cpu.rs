@@ -13,8 +13,8 @@ use std::path::Path;
 use std::sync::{Mutex, OnceLock};
 use svo::octree::{Octree, RootCube, Voxel};
 use svo::render::{
-    Frame, JobScene, NO_LEAF, OctreeSurfaces, RenderJob, ShadowMode, TraceOptions, Tracer, render,
-    scene,
+    Frame, NO_LEAF, OctreeSurfaces, RenderScene, SceneSetup, ShadowMode, TraceOptions, Tracer,
+    render,
 };
 use svo::trace::{GridRay, HitMode, MAX_STEPS, cast};
 use svo_view::gpu_context::GpuContext;
@@ -84,16 +84,17 @@ fn torus_with(mtl: Option<&str>, depth: u8, solid: Option<svo::bake::SolidMode>)
     svo::bake_mesh(&mesh, &opts).unwrap().0
 }
 
-fn job(trace: TraceOptions) -> RenderJob {
-    RenderJob {
+/// The scene of `tree` at 96x72 with the default camera and light.
+fn scene(tree: Octree) -> RenderScene {
+    let setup = SceneSetup {
         width: 96,
         height: 72,
-        trace,
-        ..RenderJob::default()
-    }
+        ..SceneSetup::default()
+    };
+    RenderScene::new(tree, &Default::default(), &setup).unwrap()
 }
 
-fn cpu_frame(s: &JobScene, trace: &TraceOptions) -> Frame {
+fn cpu_frame(s: &RenderScene, trace: &TraceOptions) -> Frame {
     let t = Tracer::new(
         OctreeSurfaces::new(&s.tree, trace.mode),
         &s.lights,
@@ -118,8 +119,7 @@ fn same_image(
     max_rmse: f64,
 ) -> Option<svo::render::RenderStats> {
     let ctx = gpu()?;
-    let j = job(trace);
-    let s = scene(tree, &j).unwrap();
+    let s = scene(tree);
     let g = render_scene(&ctx, &s, &trace, &Default::default(), None).unwrap();
     let c = cpu_frame(&s, &trace);
     let diff = svo::render::compare(&g.frame, &c).unwrap();
@@ -266,7 +266,7 @@ fn the_wide_view_renders_the_same() {
     cases.push(("copper torus, depth 1", torus(None, 1), opaque_shadows));
     let mut walked = 0;
     for (name, tree, trace) in cases {
-        let s = scene(tree, &job(trace)).unwrap();
+        let s = scene(tree);
         for full in [false, true] {
             let mut variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
             if full {
@@ -337,23 +337,12 @@ fn the_thesis_pool_views() {
     let Some(ctx) = gpu() else {
         return;
     };
-    let d = tempfile::tempdir().unwrap();
-    let svo_path = d.path().join("pool.svo");
-    let bake = svo::bake::BakeJob {
-        input: root.join("examples/scenes/pool.toml"),
-        output: svo_path.clone(),
-        options: svo::BakeOptions {
-            depth: 7,
-            ..svo::BakeOptions::default()
-        },
-        threads: None,
-        given: svo::bake::GivenOptions {
-            depth: true,
-            solid: false,
-        },
-        memory: None,
+    let pool = svo::scene::load_scene(&root.join("examples/scenes/pool.toml")).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 7,
+        ..svo::BakeOptions::default()
     };
-    svo::bake::bake_file(&bake).unwrap();
+    let (tree, _) = svo::bake_mesh(&pool.mesh, &opts).unwrap();
     let trace = TraceOptions {
         max_reflections: 1,
         max_refractions: 1,
@@ -362,15 +351,13 @@ fn the_thesis_pool_views() {
         ..TraceOptions::default()
     };
     for view in ["water", "bunny", "parallel"] {
-        let j = RenderJob {
-            input: svo_path.clone(),
+        let setup = SceneSetup {
             width: 120,
             height: 75,
             view: Some(view.into()),
-            trace,
-            ..RenderJob::default()
+            ..SceneSetup::default()
         };
-        let s = svo::render::prepare(&j).unwrap();
+        let s = RenderScene::new(tree.clone(), &pool.info, &setup).unwrap();
         let c = cpu_frame(&s, &trace);
         let gpu_frame = |wide_view: bool| {
             let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
@@ -793,7 +780,7 @@ fn a_tree_split_over_bindings_renders_the_same() {
         return;
     };
     let trace = TraceOptions::default();
-    let s = scene(torus(None, 6), &job(trace)).unwrap();
+    let s = scene(torus(None, 6));
     let variant = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
     let whole = GpuRenderer::new(&ctx, &s.tree, variant, s.camera.width, s.camera.height).unwrap();
     assert_eq!(whole.arena_chunks(), 1);
@@ -839,7 +826,7 @@ fn a_tree_split_over_bindings_renders_the_same() {
 }
 
 /// Renders `s` with `r` (built for `s` and `trace`).
-fn render_with(ctx: &GpuContext, s: &JobScene, trace: &TraceOptions, r: &GpuRenderer) -> Frame {
+fn render_with(ctx: &GpuContext, s: &RenderScene, trace: &TraceOptions, r: &GpuRenderer) -> Frame {
     let u = svo_view::gpu_types::uniforms(&s.tree, &s.camera, &s.lights, &s.sky, &s.phong, trace)
         .unwrap();
     r.render(ctx, &u).unwrap();

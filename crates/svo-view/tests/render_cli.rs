@@ -418,7 +418,7 @@ fn a_scene_file_is_a_triangle_reference() {
     )
     .unwrap();
     let svo_path = d.path().join("s.svo");
-    let job = svo::bake::BakeJob {
+    let job = svo_bake::job::BakeJob {
         input: scene.clone(),
         output: svo_path.clone(),
         options: Default::default(),
@@ -426,7 +426,7 @@ fn a_scene_file_is_a_triangle_reference() {
         given: Default::default(),
         memory: None,
     };
-    svo::bake::bake_file(&job).unwrap();
+    svo_bake::job::bake_file(&job).unwrap();
     let png = d.path().join("s.png");
     let out = ok(&view(&[
         svo_path.to_str().unwrap(),

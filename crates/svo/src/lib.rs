@@ -25,8 +25,9 @@
 //! - [`Mesh`] ([`mesh`]): the triangles with their materials, loaded from a path, bytes or
 //!   a reader; [`scene`]: TOML scene files (meshes, primitives, lights, views, CSG).
 //! - [`bake_mesh`] ([`bake`]): mesh to [`Octree`], with [`BakeOptions`] (depth, [`Strategy`],
-//!   channels, padding, solid fill) and [`BakeStats`]; [`bake::bake_file`] is the whole
-//!   `svo-bake` job. [`voxelize`] has the exact triangle/cell tests the voxelizer is made of.
+//!   channels, padding, solid fill) and [`BakeStats`]; [`bake::parts`] bakes in parts, on
+//!   many machines or within a memory budget. [`voxelize`] has the exact triangle/cell tests
+//!   the voxelizer is made of.
 //! - [`Octree`] ([`octree`]): the packed nodes and leaf channels, queries in scene units
 //!   ([`Octree::leaf_at_point`], [`Octree::leaves`]), and trees built from cells or a
 //!   function ([`Octree::from_cells`], [`Octree::from_fn`]).
@@ -34,7 +35,8 @@
 //!   writers), `.binvox` and MagicaVoxel `.vox` exports.
 //! - [`trace`]: rays in scene units ([`Octree::cast`], [`Octree::cast_many`]) and the
 //!   traversal beneath them, with a callback per leaf.
-//! - [`render`]: cameras, lights, the Whitted tracer, images and their comparison.
+//! - [`render`]: cameras, lights, the Whitted tracer, images and their comparison, and the
+//!   scene setup every renderer of a tree starts from ([`render::RenderScene`]).
 //!
 //! ## Cargo features
 //!
@@ -46,6 +48,7 @@
 //! `default-features = false` the crate builds octrees in memory and nothing else.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+#![warn(unreachable_pub)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod attributes;
@@ -82,11 +85,11 @@ pub use bake::{BakeError, BakeOptions, BakeStats, ChannelSelection, SolidMode, b
 pub use io::{BuildInfo, FormatError};
 pub use mesh::{Material, Mesh, MeshError, MeshFormat};
 pub use octree::{
-    BuilderError, Channel, ChannelKind, Leaf, LeafAttributes, LeafValue, Node, Octree, RootCube,
+    Channel, ChannelKind, Leaf, LeafAttributes, LeafValue, Node, Octree, OctreeError, RootCube,
     Voxel,
 };
 #[cfg(feature = "io")]
-pub use thread_pool::ThreadsError;
+pub use thread_pool::{ThreadsError, with_threads};
 #[cfg(feature = "trace")]
 pub use trace::{Hit, HitMode, Ray};
 pub use voxelize::Strategy;

@@ -5,7 +5,7 @@
 use thiserror::Error;
 
 /// The most worker threads a job starts.
-pub const MAX_THREADS: usize = 1024;
+pub(crate) const MAX_THREADS: usize = 1024;
 
 /// The requested pool could not be made.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -21,7 +21,7 @@ pub struct ThreadsError {
 /// `None` on the pool the caller runs in (rayon's global pool: all cores unless
 /// `RAYON_NUM_THREADS` says otherwise), whose threads, started once, a program that runs
 /// job after job keeps warm; without the `parallel` feature, on the calling thread with 1.
-/// A count of 0 or above [`MAX_THREADS`] is refused.
+/// A count of 0 or above 1024 is refused.
 pub fn with_threads<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce(usize) -> R + Send,

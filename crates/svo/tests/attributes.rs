@@ -205,7 +205,7 @@ fn builder_from_fn_equals_from_cells() {
     }
     assert!(matches!(
         svo::Octree::from_cells(root, 4, [(UVec3::new(16, 0, 0), voxel(UVec3::ZERO))]),
-        Err(svo::octree::BuilderError::CellOutOfRange { .. })
+        Err(svo::octree::OctreeError::CellOutOfRange { .. })
     ));
     assert!(svo::Octree::from_cells(root, 0, []).is_err());
 }

@@ -553,7 +553,7 @@ fn chunked_files_read_chunk_by_chunk() {
     rechecksum(&mut b);
     std::fs::write(&path, &b).unwrap();
     let e = ChunkedFile::open(&path).unwrap_err();
-    assert_eq!(e.check(), Some(svo::io::Check::Depth), "{e}");
+    assert_eq!(e.check(), Some(svo::octree::Check::Depth), "{e}");
 }
 
 /// A version-3 file of hundreds of chunks with one or more damaged chunks anywhere: opening

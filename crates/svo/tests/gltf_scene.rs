@@ -82,22 +82,14 @@ fn lights_and_cameras_are_placed_by_their_nodes() {
         },
     )
     .unwrap();
+    // A file keeps them (what `svo-bake` records of a mesh file's bake).
     let d = tempfile::tempdir().unwrap();
-    let gltf = d.path().join("box.gltf");
-    std::fs::write(&gltf, &bytes).unwrap();
     let out = d.path().join("box.svo");
-    let job = svo::bake::BakeJob {
-        input: gltf,
-        output: out.clone(),
-        options: svo::BakeOptions {
-            depth: 3,
-            ..Default::default()
-        },
-        threads: Some(1),
-        given: Default::default(),
-        memory: None,
+    let info = svo::io::BuildInfo {
+        scene: mesh.scene.clone(),
+        ..svo::io::BuildInfo::new()
     };
-    svo::bake::bake_file(&job).unwrap();
+    svo::io::write_file(&tree, &info, &out).unwrap();
     let (back, build) = svo::io::read_file(&out).unwrap();
     assert_eq!(back, tree);
     assert_eq!(&build.scene, s);

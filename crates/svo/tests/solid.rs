@@ -237,7 +237,7 @@ fn open_meshes_are_refused_unless_voted() {
         Err(e @ BakeError::OpenMesh { open_edges: 3 }) => {
             let msg = e.to_string();
             assert!(
-                msg.contains("3 open edges") && msg.contains("--solid vote"),
+                msg.contains("3 open edges") && msg.contains("the vote fills meshes with holes"),
                 "{msg}"
             );
         }

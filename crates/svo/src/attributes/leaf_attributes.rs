@@ -40,7 +40,7 @@ pub struct ContourStats {
 
 /// Timings and contour statistics of the attribute work done while voxelizing.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct AttributeReport {
+pub(crate) struct AttributeReport {
     /// Time spent on per-leaf attributes, apportioned to wall time.
     pub attributes: Duration,
     /// Time spent fitting contours, apportioned to wall time.
@@ -54,7 +54,7 @@ pub struct AttributeReport {
 /// relative to the cell's minimum corner (so `[0, 1]^3`) in `f32`: their rounding (under
 /// `1e-7` cells) is far inside the contour's one-quantum margin.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Contact {
+pub(crate) struct Contact {
     /// The leaf's cell within its block (a local Morton index), for sorting.
     pub key: u16,
     /// Grid-space triangle index.
@@ -69,7 +69,7 @@ pub struct Contact {
 
 /// What the per-leaf computation reads: materials, the triangles' unit normals and which
 /// channels are wanted and vary (the others are stored as constants or left out).
-pub struct AttributeInputs<'a> {
+pub(crate) struct AttributeInputs<'a> {
     mesh: &'a Mesh,
     tris: &'a [GridTriangle],
     order: &'a [u32],
@@ -86,7 +86,7 @@ pub struct AttributeInputs<'a> {
 impl<'a> AttributeInputs<'a> {
     /// Inputs for the grid-space triangles `tris`, where `order[k]` is the mesh triangle of
     /// `tris[k]`, computing the channels in `select`.
-    pub fn new(
+    pub(crate) fn new(
         mesh: &'a Mesh,
         tris: &'a [GridTriangle],
         order: &'a [u32],
@@ -143,7 +143,7 @@ impl<'a> AttributeInputs<'a> {
 
     /// Whether any per-leaf value needs the triangles' parts in the cells (areas, points);
     /// without it the voxelizer need not clip.
-    pub fn needs_geometry(&self) -> bool {
+    pub(crate) fn needs_geometry(&self) -> bool {
         self.want_normal
             || self.per_leaf_colour
             || self.per_leaf_refl
@@ -154,24 +154,24 @@ impl<'a> AttributeInputs<'a> {
     /// The unit normal of grid-space triangle `ti` (zero for a degenerate one, or where
     /// its length is not finite), computed once per bake when geometry is needed.
     #[inline]
-    pub fn unit_normal(&self, ti: u32) -> DVec3 {
+    pub(crate) fn unit_normal(&self, ti: u32) -> DVec3 {
         self.normals[ti as usize]
     }
 
     /// Whether contours are made.
-    pub fn wants_contour(&self) -> bool {
+    pub(crate) fn wants_contour(&self) -> bool {
         self.want_contour
     }
 
     /// The grid-space triangles.
-    pub fn triangles(&self) -> &'a [GridTriangle] {
+    pub(crate) fn triangles(&self) -> &'a [GridTriangle] {
         self.tris
     }
 
     /// Computes the attributes of the leaf at grid cell `cell` (its minimum corner) from its
     /// `contacts` (points in `pts`, cell-local) and appends them to `out`. The contour is
     /// left pending ([`LeafValues::fit_contours`]).
-    pub fn push_leaf(
+    pub(crate) fn push_leaf(
         &self,
         out: &mut LeafValues,
         cell: DVec3,
@@ -276,14 +276,18 @@ impl<'a> AttributeInputs<'a> {
 
     /// The leaf attributes from the voxelizer's values, with constants for the channels that
     /// do not vary, and the report.
-    pub fn finish(&self, v: LeafValues, wall: Duration) -> (LeafAttributes, AttributeReport) {
+    pub(crate) fn finish(
+        &self,
+        v: LeafValues,
+        wall: Duration,
+    ) -> (LeafAttributes, AttributeReport) {
         self.finish_with(v, wall, true)
     }
 
     #[cfg(feature = "io")]
     /// [`Self::finish`] without turning per-leaf channels whose values are all equal into
     /// constants: a part of a tree keeps its arrays, and the merge decides over all parts.
-    pub fn finish_uncompacted(
+    pub(crate) fn finish_uncompacted(
         &self,
         v: LeafValues,
         wall: Duration,
@@ -374,7 +378,7 @@ fn out_points<'p>(pts: &'p [Vec3], c: &Contact) -> &'p [Vec3] {
 
 /// A leaf whose contour waits for its block's points.
 #[derive(Clone, Debug)]
-pub struct PendingContour {
+pub(crate) struct PendingContour {
     contacts: std::ops::Range<u32>,
     normal: Vec3,
 }
@@ -382,7 +386,7 @@ pub struct PendingContour {
 /// Per-leaf values as the voxelizer emits them, leaf after leaf, for the selected channels
 /// that vary; with counts and the thread time of each step.
 #[derive(Debug, Default)]
-pub struct LeafValues {
+pub(crate) struct LeafValues {
     count: usize,
     /// Encoded normals.
     pub normal: Vec<u32>,
@@ -413,13 +417,13 @@ pub struct LeafValues {
 
 impl LeafValues {
     /// Number of leaves.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.count
     }
 
     /// Fits the pending contours from the contacts and their points, given in the same
     /// calls to [`AttributeInputs::push_leaf`].
-    pub fn fit_contours(&mut self, contacts: &[Contact], pts: &[Vec3]) {
+    pub(crate) fn fit_contours(&mut self, contacts: &[Contact], pts: &[Vec3]) {
         for p in self.pending.drain(..) {
             // The minimum of the offsets and of their negations (the maximum, negated): two
             // minima, which the compiler keeps as one packed minimum per point.
@@ -449,7 +453,7 @@ impl LeafValues {
     /// The leaves of `parts`, one after the other. Each channel is reserved once at its full
     /// length and the parts' arrays of that channel are freed as they are copied, so that at
     /// most one channel is held twice.
-    pub fn concat(mut parts: Vec<Self>) -> Self {
+    pub(crate) fn concat(mut parts: Vec<Self>) -> Self {
         fn join<T: Copy>(
             parts: &mut [LeafValues],
             f: fn(&mut LeafValues) -> &mut Vec<T>,

@@ -29,8 +29,7 @@ pub enum BakeError {
     },
     /// The estimated memory exceeds the limit.
     #[error(
-        "depth {depth} would make about {leaves:.3e} leaves and need about {gib:.1} GiB, more than the {limit_gib:.1} GiB allowed; \
-         lower --depth, or pass --force to try anyway"
+        "depth {depth} would make about {leaves:.3e} leaves and need about {gib:.1} GiB, more than the {limit_gib:.1} GiB allowed"
     )]
     TooLarge {
         /// The requested depth.
@@ -45,7 +44,7 @@ pub enum BakeError {
     /// The estimated leaves exceed what one tree in memory holds (2^31).
     #[error(
         "depth {depth} would make about {leaves:.3e} leaves, more than one tree in memory holds \
-         (2^31): bake to .svo (in parts; past 2^31 leaves the file is format version 3), or lower --depth"
+         (2^31): bake to .svo in parts (past 2^31 leaves the file is format version 3), or at a lower depth"
     )]
     TooManyLeaves {
         /// The requested depth.
@@ -56,7 +55,7 @@ pub enum BakeError {
     /// A closed-mesh solid bake of a mesh with open edges.
     #[error(
         "the mesh is not closed: {open_edges} open edges (edges used by an odd number of triangles), \
-         so its inside is not defined; --solid needs a closed mesh (use --solid vote for meshes with holes)"
+         so its inside is not defined: the closed fill needs a closed mesh, the vote fills meshes with holes"
     )]
     OpenMesh {
         /// Edges used by an odd number of triangles.
@@ -66,9 +65,7 @@ pub enum BakeError {
     #[error("solid voxelization needs svo's `solid` cargo feature")]
     SolidUnavailable,
     /// Contours need the normal channel.
-    #[error(
-        "the contour channel needs the normal channel (add `normal` to --channels, or drop `contour`)"
-    )]
+    #[error("the contour channel needs the normal channel")]
     ContourWithoutNormal,
 }
 
@@ -440,19 +437,6 @@ fn fill_solid(
     _: &BakeOptions,
 ) -> Result<(Octree, usize), BakeError> {
     Err(BakeError::SolidUnavailable)
-}
-
-/// Bytes of memory available to a new process (Linux `MemAvailable`), if known.
-pub fn available_memory() -> Option<u64> {
-    proc_bytes("/proc/meminfo", "MemAvailable:")
-}
-
-/// The value of the `key` line (`KEY: N kB`) of a Linux `/proc` file, in bytes.
-pub(crate) fn proc_bytes(file: &str, key: &str) -> Option<u64> {
-    let s = std::fs::read_to_string(file).ok()?;
-    let line = s.lines().find(|l| l.starts_with(key))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
 }
 
 /// Drops `value` on a short-lived thread: freeing hundreds of MB of pages costs tens of

@@ -14,7 +14,7 @@ use glam::DVec3;
 /// The children (bit `i` = child `i`) whose closed cells the box `[lo, hi]` overlaps,
 /// given that it overlaps the parent cell whose centre is `c`.
 #[inline]
-pub fn classify_children(lo: DVec3, hi: DVec3, c: DVec3) -> u8 {
+pub(crate) fn classify_children(lo: DVec3, hi: DVec3, c: DVec3) -> u8 {
     // Per axis: which halves (bit 0 = lower, bit 1 = upper) the box reaches.
     let halves = |lo: f64, hi: f64, c: f64| -> u8 { u8::from(lo <= c) | (u8::from(hi >= c) << 1) };
     let hx = halves(lo.x, hi.x, c.x);
@@ -31,7 +31,7 @@ pub fn classify_children(lo: DVec3, hi: DVec3, c: DVec3) -> u8 {
 /// The offset (0 or 1 per axis) of child `i` inside its parent, following the convention
 /// above.
 #[inline]
-pub fn child_offset(i: u8) -> [u32; 3] {
+pub(crate) fn child_offset(i: u8) -> [u32; 3] {
     [
         u32::from((i >> 2) & 1),
         u32::from((i >> 1) & 1),
@@ -41,7 +41,7 @@ pub fn child_offset(i: u8) -> [u32; 3] {
 
 /// The min corner of child `i` of the node at `cell` whose children are `size` cells wide.
 #[inline]
-pub fn child_cell(cell: [u32; 3], i: u8, size: u32) -> [u32; 3] {
+pub(crate) fn child_cell(cell: [u32; 3], i: u8, size: u32) -> [u32; 3] {
     let o = child_offset(i);
     [
         cell[0] + o[0] * size,

@@ -5,7 +5,7 @@ use glam::DVec3;
 
 /// A convex polygon with at most 9 vertices (a triangle clipped by 6 planes).
 #[derive(Clone, Copy, Debug)]
-pub struct Polygon {
+pub(crate) struct Polygon {
     /// Vertices; only the first `len` are valid.
     pub v: [DVec3; 9],
     /// Number of vertices.
@@ -14,12 +14,12 @@ pub struct Polygon {
 
 impl Polygon {
     /// The valid vertices.
-    pub fn points(&self) -> &[DVec3] {
+    pub(crate) fn points(&self) -> &[DVec3] {
         &self.v[..self.len]
     }
 
     /// The polygon's area.
-    pub fn area(&self) -> f64 {
+    pub(crate) fn area(&self) -> f64 {
         if self.len < 3 {
             return 0.0;
         }
@@ -66,7 +66,7 @@ fn clip_plane(src: &[DVec3], dst: &mut [DVec3; 9], axis: usize, upper: bool) -> 
 /// An empty result (`len == 0`) means the triangle misses the cube, or touches it only in a
 /// way that rounding lost. Only the faces that the triangle's bounds cross are clipped
 /// against, so a triangle inside the cell costs six comparisons.
-pub fn clip_to_unit_cube(v: [DVec3; 3]) -> Polygon {
+pub(crate) fn clip_to_unit_cube(v: [DVec3; 3]) -> Polygon {
     let lo = v[0].min(v[1]).min(v[2]);
     let hi = v[0].max(v[1]).max(v[2]);
     let mut out = Polygon {

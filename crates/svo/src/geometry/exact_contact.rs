@@ -92,17 +92,17 @@ impl Exact for BigInt {
 
 /// Every axis: [`touches_exactly`]'s `axes` for the complete test.
 #[cfg(test)]
-pub const ALL_AXES: u16 = (1 << 13) - 1;
+pub(crate) const ALL_AXES: u16 = (1 << 13) - 1;
 
 /// Bit of `axes` for the triangle's normal; the edge axis `edge j x unit k` (edge `j` from
 /// vertex `j` to the next) is bit `1 + 3 j + k`, the box normals bits 10 to 12.
-pub const PLANE_AXIS: u16 = 1;
+pub(crate) const PLANE_AXIS: u16 = 1;
 
 /// Whether no axis in `axes` separates the triangle `v` from the closed box `[m, m + s]`,
 /// decided exactly (all values finite, `s >= 0`). With every axis this is whether they touch;
 /// callers that know some axes do not separate (their `f64` test was beyond its rounding
 /// bound) leave those out.
-pub fn touches_exactly(v: &[DVec3; 3], m: DVec3, s: f64, axes: u16) -> bool {
+pub(crate) fn touches_exactly(v: &[DVec3; 3], m: DVec3, s: f64, axes: u16) -> bool {
     let values: [f64; 13] = [
         v[0].x, v[0].y, v[0].z, v[1].x, v[1].y, v[1].z, v[2].x, v[2].y, v[2].z, m.x, m.y, m.z, s,
     ];

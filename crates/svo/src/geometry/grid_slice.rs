@@ -26,7 +26,7 @@ const CAP: usize = 12;
 
 /// A convex polygon of at most 12 vertices.
 #[derive(Clone, Copy, Debug)]
-pub struct Poly {
+pub(crate) struct Poly {
     v: [DVec3; 2 * CAP],
     n: usize,
     overflow: bool,
@@ -44,7 +44,7 @@ impl Default for Poly {
 
 impl Poly {
     /// The vertices.
-    pub fn points(&self) -> &[DVec3] {
+    pub(crate) fn points(&self) -> &[DVec3] {
         &self.v[..self.n]
     }
 
@@ -59,7 +59,7 @@ impl Poly {
     }
 
     /// The polygon's area (zero below three vertices).
-    pub fn area(&self) -> f64 {
+    pub(crate) fn area(&self) -> f64 {
         polygon_area(self.points())
     }
 }
@@ -72,7 +72,11 @@ impl Poly {
 /// normal's dominant axis, [`dominant_axis`]): two products per point instead of a cross
 /// product's six.
 #[inline]
-pub fn digest_part<const W: usize>(part: &Poly, m: DVec3, out: &mut Vec<Vec3>) -> (DVec3, f64) {
+pub(crate) fn digest_part<const W: usize>(
+    part: &Poly,
+    m: DVec3,
+    out: &mut Vec<Vec3>,
+) -> (DVec3, f64) {
     let (u, v) = ((W + 1) % 3, (W + 2) % 3);
     let p = part.points();
     out.reserve(p.len());
@@ -94,7 +98,7 @@ pub fn digest_part<const W: usize>(part: &Poly, m: DVec3, out: &mut Vec<Vec3>) -
 
 /// The axis of `n`'s largest component (by magnitude; the first of equals).
 #[inline]
-pub fn dominant_axis(n: DVec3) -> usize {
+pub(crate) fn dominant_axis(n: DVec3) -> usize {
     let a = n.abs();
     if a.x >= a.y && a.x >= a.z {
         0
@@ -117,7 +121,7 @@ fn fan_vector(p: &[DVec3]) -> DVec3 {
 }
 
 /// The area of a planar convex polygon.
-pub fn polygon_area(p: &[DVec3]) -> f64 {
+pub(crate) fn polygon_area(p: &[DVec3]) -> f64 {
     0.5 * fan_vector(p).length()
 }
 
@@ -242,7 +246,7 @@ fn floor_small(x: f64) -> f64 {
 
 /// Reusable polygon buffers for [`Slicer::slice`]: three per axis.
 #[derive(Default)]
-pub struct Slicer {
+pub(crate) struct Slicer {
     clip: [Poly; 3],
     bufs: [[Poly; 3]; 3],
 }
@@ -255,7 +259,7 @@ impl Slicer {
     /// misses the block, or touches it only where rounding lost the contact) or has an area
     /// of at most `eps` (it only grazes the block), or a polygon overflowed; the caller then
     /// falls back to testing cells one by one.
-    pub fn slice(
+    pub(crate) fn slice(
         &mut self,
         v: [DVec3; 3],
         n: u32,
@@ -332,14 +336,14 @@ fn clip_axis<const AXIS: usize>(
 
 /// [`Slicer::slice`] with buffers of its own.
 #[cfg(test)]
-pub fn slice_triangle(v: [DVec3; 3], n: u32, f: &mut impl FnMut([u32; 3], &Poly)) -> bool {
+pub(crate) fn slice_triangle(v: [DVec3; 3], n: u32, f: &mut impl FnMut([u32; 3], &Poly)) -> bool {
     Slicer::default().slice(v, n, 0.0, f)
 }
 
 /// Whether a point (cell-local coordinates `f`) is more than `eps` inside the cell on every
 /// axis.
 #[inline]
-pub fn well_inside(f: DVec3, eps: f64) -> bool {
+pub(crate) fn well_inside(f: DVec3, eps: f64) -> bool {
     f.cmpgt(DVec3::splat(eps)).all() && f.cmplt(DVec3::splat(1.0 - eps)).all()
 }
 

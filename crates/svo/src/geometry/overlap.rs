@@ -27,7 +27,7 @@ use glam::DVec3;
 
 /// Relative tolerance on the plane and edge-axis separations: 256 machine epsilons, well
 /// above the few roundings each dot product makes.
-pub const TOLERANCE: f64 = 256.0 * f64::EPSILON;
+pub(crate) const TOLERANCE: f64 = 256.0 * f64::EPSILON;
 
 #[inline]
 fn l1(d: DVec3) -> f64 {
@@ -55,7 +55,7 @@ pub fn vertex_inside(t: &GridTriangle, m: DVec3, s: f64) -> bool {
 /// batched plane tests (all children of a node, all cells of a scatter node) pass a
 /// `reach` that covers every cell they test.
 #[inline]
-pub fn plane_tolerance(t: &GridTriangle, reach: f64) -> f64 {
+pub(crate) fn plane_tolerance(t: &GridTriangle, reach: f64) -> f64 {
     TOLERANCE * 3.0 * t.n_scale * reach
 }
 
@@ -107,7 +107,7 @@ pub fn plane_overlaps(t: &GridTriangle, m: DVec3, s: f64) -> bool {
 /// axis's L1 norm `a1.abs() + a2.abs()`. The edge's two vertices project alike, so the
 /// interval comes from its first vertex and the vertex opposite the edge.
 #[inline]
-pub fn edge_interval(
+pub(crate) fn edge_interval(
     t: &GridTriangle,
     j: usize,
     k: usize,

@@ -25,7 +25,7 @@ pub struct GridTriangle {
 /// The 2D components of the axis `e x unit_k` (the component along `k` is zero) and the
 /// indices of the coordinates they multiply.
 #[inline]
-pub fn edge_axis(e: DVec3, k: usize) -> (f64, f64, usize, usize) {
+pub(crate) fn edge_axis(e: DVec3, k: usize) -> (f64, f64, usize, usize) {
     match k {
         0 => (e.z, -e.y, 1, 2),
         1 => (-e.z, e.x, 0, 2),
@@ -68,7 +68,7 @@ impl GridTriangle {
 
 /// Grid-space triangles for the mesh triangles `order[0], order[1], ...`, built in parallel
 /// (feature `parallel`).
-pub fn setup_triangles_in_order(
+pub(crate) fn setup_triangles_in_order(
     mesh: &Mesh,
     root: &RootCube,
     depth: u8,
@@ -109,7 +109,7 @@ pub(crate) const fn spread3(v: u64) -> u64 {
 /// of a million, whose records fit in the cache together, and the build's own splits order
 /// the lists within it (a full comparison sort by a 30-bit code took 2.5 ms of a 69 ms
 /// depth-8 bunny bake on two threads).
-pub fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
+pub(crate) fn spatial_order(mesh: &Mesh, root: &RootCube) -> Vec<u32> {
     const BITS: u32 = 5;
     let scale = f64::from(1u32 << BITS) / root.side;
     let top = f64::from((1u32 << BITS) - 1);

@@ -173,7 +173,7 @@ impl Loader<'_> {
 }
 
 /// Loads a `.gltf` or `.glb` file with its buffers and images (resolved beside it).
-pub fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
     let bytes = std::fs::read(path).map_err(|e| super::io_error(path, e))?;
     let base = path.parent().unwrap_or(Path::new("."));
     read_gltf(&bytes, path, Some(base))
@@ -181,7 +181,7 @@ pub fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
 
 /// Reads a glTF (JSON with embedded `data:` buffers and images) or GLB from memory; files
 /// it refers to cannot be resolved and are an error. `name` appears in error messages.
-pub fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_gltf(bytes, name, None)
 }
 

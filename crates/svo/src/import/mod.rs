@@ -7,7 +7,9 @@
 //!
 //! Depends on [`crate::mesh`] only.
 
+// Public for the fuzz targets' re-export (`svo::fuzz_import`, under `cfg(fuzzing)` only).
 #[cfg(all(any(test, fuzzing), any(feature = "obj", feature = "ply")))]
+#[cfg_attr(not(fuzzing), allow(unreachable_pub))]
 pub mod differential;
 #[cfg(feature = "gltf")]
 pub(crate) mod gltf;

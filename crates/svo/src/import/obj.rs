@@ -16,7 +16,7 @@ use std::path::Path;
 
 /// Loads an OBJ file (gzip-compressed when `gz`); MTL files and textures are looked up
 /// beside it.
-pub fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
+pub(crate) fn load_obj(path: &Path, gz: bool) -> Result<Mesh, MeshError> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let mut file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
     // Room for the whole file at once (for a gzipped one, the size its trailer states,
@@ -63,7 +63,7 @@ fn gz_size_hint(file: &mut std::fs::File, len: u64) -> u64 {
 /// Reads an OBJ from memory (uncompressed). Material libraries and textures cannot be
 /// resolved without a folder, so every triangle gets the default material; `name` appears
 /// in error messages.
-pub fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     if let Some(mesh) = super::obj_geometry::parse(bytes) {
         return Ok(mesh);
     }
@@ -73,7 +73,7 @@ pub fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
 /// Reads an OBJ from memory through tobj alone (what [`obj_from_bytes`] does for a file its
 /// own geometry reader declines): the reference that reader is tested against.
 #[cfg(any(test, fuzzing))]
-pub fn obj_from_bytes_tobj(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn obj_from_bytes_tobj(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_obj(bytes, name, None)
 }
 

@@ -289,7 +289,7 @@ fn parse_piece(piece: &str, mut counts: Counts) -> Option<Piece> {
 /// (see the module docs). The file is parsed in pieces in parallel (a first pass counts
 /// each piece's vertices, so that the second knows where its relative indices point); the
 /// positions are then renumbered per model in the order of first use, as tobj numbers them.
-pub fn parse(bytes: &[u8]) -> Option<Mesh> {
+pub(crate) fn parse(bytes: &[u8]) -> Option<Mesh> {
     if !bytes.is_ascii() {
         return None;
     }

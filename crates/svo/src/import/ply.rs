@@ -111,20 +111,20 @@ fn payload<T: PropertyAccess>(
 }
 
 /// Loads a PLY file.
-pub fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
     let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
     ply_from_bytes(&bytes, path)
 }
 
 /// Reads a PLY (ASCII or binary) from memory; `name` appears in error messages.
-pub fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_bytes(bytes, name, true)
 }
 
 /// Reads a PLY from memory through the crate alone (what [`ply_from_bytes`] does for a file
 /// the ASCII fast path declines): the reference that fast path is tested against.
 #[cfg(any(test, fuzzing))]
-pub fn ply_from_bytes_crate(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
+pub(crate) fn ply_from_bytes_crate(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_bytes(bytes, name, false)
 }
 

@@ -19,7 +19,7 @@ use ply_rs_bw::ply::{ElementDef, Encoding, Header, PropertyType, ScalarType};
 
 /// The mesh of an ASCII PLY whose header is `header` and whose payload starts at `data`,
 /// or `None` where this reader declines (see the module docs).
-pub fn read_ascii_mesh(header: &Header, data: &[u8]) -> Option<Mesh> {
+pub(crate) fn read_ascii_mesh(header: &Header, data: &[u8]) -> Option<Mesh> {
     if header.encoding != Encoding::Ascii {
         return None;
     }

@@ -9,7 +9,7 @@ use std::path::Path;
 use thiserror::Error;
 
 /// The deepest tree exported as binvox (a 1024^3 grid).
-pub const MAX_BINVOX_DEPTH: u8 = 10;
+pub(crate) const MAX_BINVOX_DEPTH: u8 = 10;
 
 /// Errors of the dense exports.
 #[derive(Debug, Error)]
@@ -17,7 +17,7 @@ pub const MAX_BINVOX_DEPTH: u8 = 10;
 pub enum ExportError {
     /// The grid is too large for the format.
     #[error(
-        "{format} holds grids up to {max}^3; depth {depth} needs {need}^3 (use a smaller --depth or .svo)"
+        "{format} holds grids up to {max}^3; depth {depth} needs {need}^3 (bake at a smaller depth, or write .svo)"
     )]
     TooLarge {
         /// The format.
@@ -40,7 +40,7 @@ pub enum ExportError {
 }
 
 /// The binvox linear index of a cell.
-pub fn binvox_index(x: u32, y: u32, z: u32, dim: u64) -> u64 {
+pub(crate) fn binvox_index(x: u32, y: u32, z: u32, dim: u64) -> u64 {
     u64::from(x) * dim * dim + u64::from(z) * dim + u64::from(y)
 }
 

@@ -3,9 +3,7 @@
 //! level and its channels.
 
 use crate::io::header::{PREAMBLE_LEN, Storage};
-use crate::io::read::{
-    ChunksRead, Preamble, check_chunks_file, read_file_with_header, read_with_header,
-};
+use crate::io::read::{ChunksRead, Preamble, check_chunks_file, read_file_with_header};
 use crate::io::write::FormatError;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
 use std::fmt::Write;
@@ -19,18 +17,11 @@ fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out:
     };
 }
 
-/// Reads and validates the bytes of a `.svo` file and describes it: the header's every field
+/// Reads and validates the `.svo` file at `path` and describes it: the header's every field
 /// (format version, header length, the arrays' offsets and lengths, the checksum, the build
-/// information, lights and views), the counts per level and the channels. An invalid file
-/// gives the reader's error, which names the check it failed.
-pub fn describe(bytes: &[u8]) -> Result<String, FormatError> {
-    let (tree, p) = read_with_header(bytes)?;
-    let sum = u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]));
-    Ok(describe_read(&tree, &p, sum, bytes.len() as u64))
-}
-
-/// [`describe`] for a file on disk, read in one pass ([`crate::io::read_file`]): no copy of
-/// the file is held beside the tree. A version-3 file whose tree is larger than one tree in
+/// information, lights and views), the counts per level and the channels. The file is read
+/// in one pass ([`crate::io::read_file`]): no copy of it is held beside the tree. An invalid
+/// file gives the reader's error, which names the check it failed. A version-3 file whose tree is larger than one tree in
 /// memory holds ([`FormatError::TooLarge`]) is checked one chunk at a time instead (every
 /// check but the values') and described from its header and chunk table.
 pub fn describe_file(path: impl AsRef<Path>) -> Result<String, FormatError> {

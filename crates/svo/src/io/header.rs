@@ -16,19 +16,19 @@ use crate::mesh::scene_info::SceneInfo;
 use serde::{Deserialize, Serialize};
 
 /// The file's first 8 bytes.
-pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
+pub(crate) const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
 /// The newest format version this library reads and writes. It also reads versions 1 and 2,
 /// and writes version 2 for a tree that one node array holds and version 3 (chunks) past that
 /// or when asked.
 pub const VERSION: u32 = crate::octree::format_check::CURRENT_VERSION;
 /// The largest header accepted.
-pub const MAX_HEADER_LEN: usize = 1 << 16;
+pub(crate) const MAX_HEADER_LEN: usize = 1 << 16;
 /// Bytes before the header: magic, version, header length.
-pub const PREAMBLE_LEN: usize = 16;
+pub(crate) const PREAMBLE_LEN: usize = 16;
 
 /// Where an array sits in the file.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ArrayRef {
+pub(crate) struct ArrayRef {
     /// Byte offset from the start of the file (a multiple of 8).
     pub offset: u64,
     /// Length in bytes (elements times element size, without padding).
@@ -37,7 +37,7 @@ pub struct ArrayRef {
 
 /// How a channel is stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Storage {
+pub(crate) enum Storage {
     /// One value for all leaves, stored here (the value's bits, zero-extended to `u32`).
     Constant(u32),
     /// One value per leaf, in an array.
@@ -46,7 +46,7 @@ pub enum Storage {
 
 /// One stored channel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ChannelEntry {
+pub(crate) struct ChannelEntry {
     /// Channel code: 0 normal, 1 contour, 2 colour, 3 reflectivity, 4 refractivity, 5 IOR.
     pub kind: u8,
     /// Constant or per-leaf array.
@@ -79,7 +79,7 @@ impl BuildInfo {
 
 /// [`BuildInfo`] as version 1 stored it.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct BuildInfoV1 {
+pub(crate) struct BuildInfoV1 {
     /// See [`BuildInfo::generator`].
     pub generator: String,
     /// See [`BuildInfo::strategy`].
@@ -90,7 +90,7 @@ pub struct BuildInfoV1 {
 
 /// [`Header`] as version 1 stored it: the same fields, without the scene.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct HeaderV1 {
+pub(crate) struct HeaderV1 {
     /// See [`Header::root_origin`].
     pub root_origin: [f64; 3],
     /// See [`Header::root_side`].
@@ -132,7 +132,7 @@ impl From<HeaderV1> for Header {
 
 /// What a version-3 header adds: the level of the chunks' roots and the chunk table.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Chunking {
+pub(crate) struct Chunking {
     /// The level of the chunks' roots (0 to `depth - 1`).
     pub level: u8,
     /// Chunks.
@@ -145,7 +145,7 @@ pub struct Chunking {
 /// under one node at the chunk level, stored as a tree of its own.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ChunkRecord {
+pub(crate) struct ChunkRecord {
     /// The Morton code of the chunk's root at the chunk level.
     pub code: u64,
     /// The chunk's nodes, its root included.
@@ -156,7 +156,7 @@ pub struct ChunkRecord {
 
 /// The header, version 2 (version 3 adds [`Chunking`], encoded as [`HeaderV3`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Header {
+pub(crate) struct Header {
     /// Root cube minimum corner, scene units.
     pub root_origin: [f64; 3],
     /// Root cube side, scene units.
@@ -180,7 +180,7 @@ pub struct Header {
 
 /// [`Header`] as version 3 stores it: the chunk level, count and table after the depth.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct HeaderV3 {
+pub(crate) struct HeaderV3 {
     /// See [`Header::root_origin`].
     pub root_origin: [f64; 3],
     /// See [`Header::root_side`].
@@ -227,7 +227,7 @@ impl From<HeaderV3> for Header {
 
 impl HeaderV3 {
     /// The version-3 form of a header with chunks (`c`).
-    pub fn of(h: &Header, c: Chunking) -> Self {
+    pub(crate) fn of(h: &Header, c: Chunking) -> Self {
         Self {
             root_origin: h.root_origin,
             root_side: h.root_side,
@@ -245,7 +245,7 @@ impl HeaderV3 {
 }
 
 /// The bincode configuration of the header.
-pub fn bincode_config() -> impl bincode::config::Config {
+pub(crate) fn bincode_config() -> impl bincode::config::Config {
     bincode::config::standard()
         .with_fixed_int_encoding()
         .with_little_endian()

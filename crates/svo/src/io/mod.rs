@@ -3,7 +3,7 @@
 //! larger than the file; written atomically, so a failed write leaves the previous file or
 //! none; version 3 stores a tree past 2^31 leaves or nodes as chunks, which [`ChunkedFile`]
 //! reads one at a time), the `.binvox` export and reader, the MagicaVoxel `.vox` export
-//! (feature `vox`), and [`describe`], the summary `svo-view --info` prints. `docs/format.md` gives every byte.
+//! (feature `vox`), and [`describe_file`], the summary `svo-view --info` prints. `docs/format.md` gives every byte.
 //!
 //! ```
 //! use glam::{DVec3, UVec3};
@@ -32,11 +32,10 @@ pub(crate) mod read;
 pub(crate) mod vox;
 pub(crate) mod write;
 
-pub use crate::octree::format_check::Check;
 pub use crate::octree::format_check::MAX_CHUNK_LEVEL;
 pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
 pub use chunked::ChunkedFile;
-pub use describe::{describe, describe_file};
+pub use describe::describe_file;
 pub use header::{BuildInfo, VERSION};
 pub use read::{from_bytes, read_file, read_from};
 #[cfg(feature = "vox")]

@@ -9,7 +9,7 @@ use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, MAGIC,
     MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
-pub use crate::io::write::FormatError;
+pub(crate) use crate::io::write::FormatError;
 use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};

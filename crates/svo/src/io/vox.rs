@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The deepest tree exported as `.vox`.
-pub const MAX_VOX_DEPTH: u8 = 8;
+pub(crate) const MAX_VOX_DEPTH: u8 = 8;
 
 fn cube_index(c: [u8; 4]) -> u8 {
     let q = |v: u8, n: u32| ((u32::from(v) * (n - 1) + 127) / 255) as u8;
@@ -21,7 +21,7 @@ fn cube_index(c: [u8; 4]) -> u8 {
 }
 
 /// Converts the tree to MagicaVoxel data.
-pub fn to_vox(tree: &Octree) -> Result<DotVoxData, ExportError> {
+pub(crate) fn to_vox(tree: &Octree) -> Result<DotVoxData, ExportError> {
     if tree.depth > MAX_VOX_DEPTH {
         return Err(ExportError::TooLarge {
             format: "vox",

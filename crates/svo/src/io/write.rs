@@ -70,7 +70,7 @@ pub enum FormatError {
     /// A version-3 file whose tree is larger than one tree in memory holds (2^31 leaves and
     /// 2^31 nodes); refused before its node array is read.
     #[error(
-        "the file's tree has {leaves} leaves and up to {nodes} nodes in {chunks} chunks: more than one tree in memory holds (2^31 leaves, 2^31 nodes); `svo-view --info` describes the file and `svo-view --cpu` renders it (svo::io::ChunkedFile reads it a chunk at a time)"
+        "the file's tree has {leaves} leaves and up to {nodes} nodes in {chunks} chunks: more than one tree in memory holds (2^31 leaves, 2^31 nodes); svo::io::ChunkedFile reads it a chunk at a time, and svo::render::ChunkedSurfaces traces its chunks as one tree"
     )]
     TooLarge {
         /// The tree's leaves.

@@ -10,7 +10,7 @@ use std::collections::HashMap;
 /// The mesh with vertices at equal positions merged (`-0.0` equals `0.0`): the distinct
 /// positions, and the triangles over them (an index out of range becomes `u32::MAX`).
 #[cfg_attr(not(feature = "csg"), allow(dead_code))]
-pub fn welded(mesh: &Mesh) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+pub(crate) fn welded(mesh: &Mesh) -> (Vec<DVec3>, Vec<[u32; 3]>) {
     let mut ids: HashMap<[u64; 3], u32> = HashMap::with_capacity(mesh.positions.len());
     let mut positions = Vec::new();
     let mut map = Vec::with_capacity(mesh.positions.len());
@@ -40,7 +40,7 @@ pub fn welded(mesh: &Mesh) -> (Vec<DVec3>, Vec<[u32; 3]>) {
 /// vertices along UV or normal seams, as glTF and OBJ files do, count as closed when their
 /// surface is. Degenerate triangles count with their edges: one with two equal vertices adds
 /// the same edge twice, which changes nothing.
-pub fn open_edges(mesh: &Mesh) -> usize {
+pub(crate) fn open_edges(mesh: &Mesh) -> usize {
     let (_, triangles) = welded(mesh);
     let mut edges: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 3);
     for w in &triangles {

@@ -2,6 +2,8 @@
 //! the tree in the `.svo` file (format version 2, only when present) and renderers use them
 //! unless told otherwise.
 
+use crate::mesh::triangle_mesh::MeshError;
+
 /// A point light as stored.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "io", derive(serde::Serialize, serde::Deserialize))]
@@ -50,7 +52,12 @@ impl SceneInfo {
     /// Checks every value a renderer relies on: finite positions, non-negative colours and
     /// intensities, views with distinct eye and target, an up direction not along the view,
     /// a field of view in `(0, 180)` degrees, names of at most 256 bytes.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), MeshError> {
+        self.check().map_err(MeshError::Scene)
+    }
+
+    /// [`Self::validate`]'s checks, the failure as its message.
+    fn check(&self) -> Result<(), String> {
         let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
         for (i, l) in self.lights.iter().enumerate() {
             if !finite(&l.position) {

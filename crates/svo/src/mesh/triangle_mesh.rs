@@ -79,6 +79,10 @@ pub enum MeshError {
         /// The largest extent.
         extent: f64,
     },
+    /// A light or camera view stored with the mesh is unusable (not finite, a view without
+    /// a direction, a name too long).
+    #[error("{0}")]
+    Scene(String),
 }
 
 /// An RGBA8 texture in sRGB, sampled with nearest filtering and repeat wrapping.
@@ -126,7 +130,7 @@ pub fn srgb_to_linear(c: u8) -> f32 {
 }
 
 /// Linear `[0, 1]` to an sRGB-encoded byte.
-pub fn linear_to_srgb(c: f32) -> u8 {
+pub(crate) fn linear_to_srgb(c: f32) -> u8 {
     let c = if c.is_finite() {
         c.clamp(0.0, 1.0)
     } else {

@@ -12,10 +12,11 @@ use crate::octree::tree::{Channel, LeafAttributes, Octree};
 use glam::{UVec3, Vec3};
 use thiserror::Error;
 
-/// Errors of the programmatic builder.
+/// Errors of the octree: its programmatic builder, and a tree that fails the checks every
+/// file passes ([`Octree::validate`](crate::Octree::validate)).
 #[derive(Debug, Error)]
 #[non_exhaustive]
-pub enum BuilderError {
+pub enum OctreeError {
     /// The depth is 0 or too large.
     #[error("depth {0} is outside 1..={max}", max = crate::MAX_DEPTH)]
     Depth(u8),
@@ -30,6 +31,14 @@ pub enum BuilderError {
     /// The root cube is not finite and positive.
     #[error("root cube is not finite and positive")]
     BadRoot,
+    /// The tree fails one of the format's numbered checks (`docs/format.md`).
+    #[error("{check}: {detail}")]
+    Invalid {
+        /// The check it fails.
+        check: crate::octree::format_check::Check,
+        /// What is wrong, and where.
+        detail: String,
+    },
 }
 
 /// The attributes of one cell given to the builder.
@@ -122,12 +131,12 @@ pub(crate) fn morton(c: UVec3, depth: u8) -> u128 {
     k
 }
 
-fn check(root: &RootCube, depth: u8) -> Result<(), BuilderError> {
+fn check(root: &RootCube, depth: u8) -> Result<(), OctreeError> {
     if !(1..=crate::MAX_DEPTH).contains(&depth) {
-        return Err(BuilderError::Depth(depth));
+        return Err(OctreeError::Depth(depth));
     }
     if !(root.side.is_finite() && root.side > 0.0 && root.origin.is_finite()) {
-        return Err(BuilderError::BadRoot);
+        return Err(OctreeError::BadRoot);
     }
     Ok(())
 }
@@ -137,13 +146,13 @@ pub(crate) fn from_cells(
     root: RootCube,
     depth: u8,
     cells: impl IntoIterator<Item = (UVec3, Voxel)>,
-) -> Result<Octree, BuilderError> {
+) -> Result<Octree, OctreeError> {
     check(&root, depth)?;
     let side = 1u64 << depth;
     let mut v: Vec<(u128, usize, Voxel)> = Vec::new();
     for (n, (c, vox)) in cells.into_iter().enumerate() {
         if u64::from(c.max_element()) >= side {
-            return Err(BuilderError::CellOutOfRange { cell: c, side });
+            return Err(OctreeError::CellOutOfRange { cell: c, side });
         }
         v.push((morton(c, depth), n, vox));
     }
@@ -214,7 +223,7 @@ pub(crate) fn from_fn(
     depth: u8,
     may_contain: impl Fn(UVec3, u32) -> bool,
     f: impl Fn(UVec3) -> Option<Voxel>,
-) -> Result<Octree, BuilderError> {
+) -> Result<Octree, OctreeError> {
     check(&root, depth)?;
     let mut chunk = Chunk::<Voxels>::new();
     let rec = build_fn(&may_contain, &f, depth, 0, UVec3::ZERO, &mut chunk);
@@ -304,13 +313,13 @@ impl Octree {
     /// let tree = Octree::from_cells(root, 2, cells)?;
     /// assert_eq!(tree.leaf_count, 2);
     /// assert!(tree.contains(DVec3::splat(0.9)));
-    /// # Ok::<(), svo::BuilderError>(())
+    /// # Ok::<(), svo::OctreeError>(())
     /// ```
     pub fn from_cells(
         root: RootCube,
         depth: u8,
         cells: impl IntoIterator<Item = (UVec3, Voxel)>,
-    ) -> Result<Octree, BuilderError> {
+    ) -> Result<Octree, OctreeError> {
         from_cells(root, depth, cells)
     }
 
@@ -332,14 +341,14 @@ impl Octree {
     ///     (dist(cell, 1) <= 6.0).then(Voxel::default)
     /// })?;
     /// assert!(tree.contains(DVec3::splat(0.5)));
-    /// # Ok::<(), svo::BuilderError>(())
+    /// # Ok::<(), svo::OctreeError>(())
     /// ```
     pub fn from_fn(
         root: RootCube,
         depth: u8,
         may_contain: impl Fn(UVec3, u32) -> bool,
         f: impl Fn(UVec3) -> Option<Voxel>,
-    ) -> Result<Octree, BuilderError> {
+    ) -> Result<Octree, OctreeError> {
         from_fn(root, depth, may_contain, f)
     }
 }

@@ -13,16 +13,16 @@ use glam::{DVec3, Vec3};
 
 /// The contour of the whole cell (near plane at 0, far at 1): what interior leaves of a solid
 /// bake store.
-pub const FULL: u32 = 0xFFFF_0000;
+pub(crate) const FULL: u32 = 0xFFFF_0000;
 
 /// Packs the offsets `[dmin, dmax]` (along unit normal `n`, from the cell centre, in cells).
-pub fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
+pub(crate) fn pack(dmin: f64, dmax: f64, n: Vec3) -> u32 {
     pack_with_thickness(dmin, dmax, n).0
 }
 
 /// [`pack`], with the packed contour's [`thickness`] (computed from the quantized offsets
 /// without unpacking).
-pub fn pack_with_thickness(dmin: f64, dmax: f64, n: Vec3) -> (u32, f32) {
+pub(crate) fn pack_with_thickness(dmin: f64, dmax: f64, n: Vec3) -> (u32, f32) {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     let e = 0.5 * f64::from(l1);
     if !(e > 0.0) || !(dmin <= dmax) {
@@ -42,7 +42,7 @@ pub fn pack_with_thickness(dmin: f64, dmax: f64, n: Vec3) -> (u32, f32) {
 }
 
 /// Unpacks to the fractions `(near, far)` of the cell's extent along the normal.
-pub fn unpack(c: u32) -> (f32, f32) {
+pub(crate) fn unpack(c: u32) -> (f32, f32) {
     (
         f32::from((c & 0xFFFF) as u16) / 65535.0,
         f32::from((c >> 16) as u16) / 65535.0,
@@ -50,21 +50,21 @@ pub fn unpack(c: u32) -> (f32, f32) {
 }
 
 /// The contour's plane offsets from the cell centre along `n`, in cells.
-pub fn offsets(c: u32, n: Vec3) -> (f32, f32) {
+pub(crate) fn offsets(c: u32, n: Vec3) -> (f32, f32) {
     let e = 0.5 * (n.x.abs() + n.y.abs() + n.z.abs());
     let (a, b) = unpack(c);
     ((2.0 * a - 1.0) * e, (2.0 * b - 1.0) * e)
 }
 
 /// The thickness between the planes, in cells.
-pub fn thickness(c: u32, n: Vec3) -> f32 {
+pub(crate) fn thickness(c: u32, n: Vec3) -> f32 {
     let (a, b) = offsets(c, n);
     b - a
 }
 
 /// Fits a contour: the extreme offsets of `points` (cell-local, the cell is `[0, 1]^3`)
 /// along the decoded normal `n`. With no points the contour is the whole cell.
-pub fn fit(points: &[DVec3], n: Vec3) -> u32 {
+pub(crate) fn fit(points: &[DVec3], n: Vec3) -> u32 {
     if points.is_empty() {
         return 0xFFFF_0000;
     }

@@ -8,15 +8,15 @@ use std::fmt;
 
 /// The newest format version this library reads and writes: version 3 (a tree stored in
 /// chunks) is written when a tree needs it or when asked, version 2 otherwise.
-pub const CURRENT_VERSION: u32 = 3;
+pub(crate) const CURRENT_VERSION: u32 = 3;
 
 /// The version of a file that holds one tree in one node array: what the writer makes of a
 /// tree unless chunks are asked for.
 #[cfg_attr(not(feature = "io"), allow(dead_code))]
-pub const PLAIN_VERSION: u32 = 2;
+pub(crate) const PLAIN_VERSION: u32 = 2;
 
 /// The deepest chunk level of a version-3 file: the chunks' Morton codes are 64-bit.
-#[cfg_attr(not(feature = "io"), allow(dead_code))]
+#[cfg_attr(not(feature = "io"), allow(dead_code, unreachable_pub))]
 pub const MAX_CHUNK_LEVEL: u8 = 21;
 
 /// One of the reader's checks of a `.svo` file, numbered as in `docs/format.md`.

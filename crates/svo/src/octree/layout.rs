@@ -16,14 +16,14 @@
 use crate::octree::tree::Node;
 
 /// Leaf data that travels with a chunk of nodes.
-pub trait LeafStore: Default + Send {
+pub(crate) trait LeafStore: Default + Send {
     /// How many leaves.
     fn len(&self) -> usize;
 }
 
 /// A part of an octree under construction: nodes in post-order and their leaves.
 #[derive(Debug, Default)]
-pub struct Chunk<L> {
+pub(crate) struct Chunk<L> {
     /// Nodes, in post-order until [`Chunk::finish`].
     pub nodes: Vec<Node>,
     /// The leaves that the chunk's nodes refer to.
@@ -32,7 +32,7 @@ pub struct Chunk<L> {
 
 impl<L: LeafStore> Chunk<L> {
     /// An empty chunk.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             nodes: Vec::new(),
             leaves: L::default(),
@@ -40,7 +40,7 @@ impl<L: LeafStore> Chunk<L> {
     }
 
     /// The record of a node whose children are the leaves `base..base + popcount(mask)`.
-    pub fn leaf_parent(mask: u8, base: usize) -> Node {
+    pub(crate) fn leaf_parent(mask: u8, base: usize) -> Node {
         Node {
             info: u32::from(mask),
             first: (-(base as i64) - 1) as i32 as u32,
@@ -49,7 +49,7 @@ impl<L: LeafStore> Chunk<L> {
 
     /// Appends a children block holding `records` (the existing children's records, in
     /// child-index order) and returns the parent's record.
-    pub fn push_children(&mut self, mask: u8, records: &[Node]) -> Node {
+    pub(crate) fn push_children(&mut self, mask: u8, records: &[Node]) -> Node {
         debug_assert_eq!(mask.count_ones() as usize, records.len());
         let start = self.nodes.len();
         self.nodes.extend(records.iter().rev());
@@ -60,7 +60,7 @@ impl<L: LeafStore> Chunk<L> {
     }
 
     /// Relocates a record of a chunk whose nodes move by `node_off` and leaves by `leaf_off`.
-    pub fn relocate(n: Node, node_off: u32, leaf_off: usize) -> Node {
+    pub(crate) fn relocate(n: Node, node_off: u32, leaf_off: usize) -> Node {
         if n.is_leaf_parent() {
             let base = n.leaf_base().unwrap_or(0) as usize + leaf_off;
             Self::leaf_parent(n.child_mask(), base)
@@ -77,7 +77,7 @@ impl<L: LeafStore> Chunk<L> {
     /// Appends the root record, reverses the post-order into the final layout and returns
     /// the nodes (root at index 0) and the leaves. `root = None` gives the empty tree: one
     /// root node with no children.
-    pub fn finish(mut self, root: Option<Node>) -> (Vec<Node>, L) {
+    pub(crate) fn finish(mut self, root: Option<Node>) -> (Vec<Node>, L) {
         self.nodes.push(root.unwrap_or_default());
         let n = self.nodes.len() as u32;
         self.nodes.reverse();

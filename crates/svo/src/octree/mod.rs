@@ -22,7 +22,8 @@ pub(crate) mod tree;
 pub(crate) mod validate;
 
 pub use crate::geometry::RootCube;
-pub use builder::{BuilderError, Voxel};
+pub use builder::{OctreeError, Voxel};
+pub use format_check::Check;
 pub use query::Leaf;
 pub use tree::{
     Channel, ChannelKind, ChannelStorage, LeafAttributes, LeafValue, NO_NORMAL, Node, Octree,

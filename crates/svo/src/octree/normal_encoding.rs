@@ -9,7 +9,7 @@ fn sign_not_zero(v: f32) -> f32 {
 }
 
 /// Encodes a direction (normalized internally; zero or non-finite input encodes +Z).
-pub fn encode(n: Vec3) -> u32 {
+pub(crate) fn encode(n: Vec3) -> u32 {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     if !(l1 > 0.0) || !l1.is_finite() {
         return encode(Vec3::Z);
@@ -32,7 +32,7 @@ pub fn encode(n: Vec3) -> u32 {
 }
 
 /// Decodes to a unit vector.
-pub fn decode(e: u32) -> Vec3 {
+pub(crate) fn decode(e: u32) -> Vec3 {
     let x = f32::from((e & 0xFFFF) as u16 as i16).max(-32767.0) / 32767.0;
     let y = f32::from((e >> 16) as u16 as i16).max(-32767.0) / 32767.0;
     let z = 1.0 - x.abs() - y.abs();

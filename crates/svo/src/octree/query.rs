@@ -1,6 +1,7 @@
 //! Queries in scene units: the leaf at a point, whether a point lies in a leaf, and the
 //! leaves with their cell bounds and decoded attributes.
 
+use crate::octree::builder::OctreeError;
 use crate::octree::tree::{LeafValue, Octree};
 use glam::{DVec3, UVec3};
 
@@ -48,7 +49,7 @@ impl Octree {
     /// let tree = Octree::from_cells(root, 1, [(UVec3::new(1, 0, 0), Voxel::default())])?;
     /// let leaf = tree.leaves().next().unwrap();
     /// assert_eq!((leaf.min.x, leaf.max.x), (1.0, 2.0));
-    /// # Ok::<(), svo::BuilderError>(())
+    /// # Ok::<(), svo::OctreeError>(())
     /// ```
     pub fn leaves(&self) -> impl Iterator<Item = Leaf> + '_ {
         self.leaf_cells().map(|l| self.leaf(l.index, l.cell))
@@ -91,11 +92,12 @@ impl Octree {
     /// 10 and 14 to 18): depth, root cube, counts, channels, the tree's shape, the canonical
     /// node order, leaves numbered depth-first, and the stored values; and bits 8-31 of the
     /// nodes' `info` words, which must be zero (as in a file) or the nodes' bounds
-    /// ([`Octree::refresh_bounds`]). The error names the check (`check 16 (node order): ...`).
+    /// ([`Octree::refresh_bounds`]). The error ([`OctreeError::Invalid`]) names the check
+    /// (`check 16 (node order): ...`).
     /// Trees that `svo` builds pass; a tree assembled by hand from its public fields should be
     /// checked before it is traced, and the writer refuses one that fails the file's checks
     /// (it writes bits 8-31 as zeros).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), OctreeError> {
         crate::octree::validate::validate(self)
     }
 }

@@ -58,7 +58,7 @@ pub(crate) struct Cut {
 impl Cut {
     /// Node `i` of the subtree numbered on its own (the root 0, the nodes below it from 1),
     /// its leaves from 0: `None` past its last node.
-    pub fn local(&self, tree: &Octree, i: usize) -> Option<Node> {
+    pub(crate) fn local(&self, tree: &Octree, i: usize) -> Option<Node> {
         let n = if i == 0 {
             tree.nodes[self.root]
         } else {

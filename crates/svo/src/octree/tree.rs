@@ -362,7 +362,7 @@ pub struct LeafValue {
 
 /// A leaf as the iterator yields it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct LeafRef {
+pub(crate) struct LeafRef {
     /// Index into the leaf arrays.
     pub index: u32,
     /// Integer cell coordinates at the tree's depth.
@@ -544,7 +544,7 @@ impl Octree {
 }
 
 /// Iterator over leaves; see [`Octree::leaves`].
-pub struct LeafIter<'a> {
+pub(crate) struct LeafIter<'a> {
     tree: &'a Octree,
     stack: Vec<(u32, u8, UVec3)>,
     pending: Vec<LeafRef>,

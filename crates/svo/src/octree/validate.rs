@@ -16,20 +16,21 @@ use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Node, Octree};
 use glam::DVec3;
 
 /// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
-pub const MAX_LEAVES: u64 = 1 << 31;
+pub(crate) const MAX_LEAVES: u64 = 1 << 31;
 
 /// A failed check and what failed.
-pub type Failure = (Check, String);
+pub(crate) type Failure = (Check, String);
 
 /// Validates a tree in memory (as a version-2 file would hold it); the error names the check
 /// and says what is wrong and where.
-pub fn validate(t: &Octree) -> Result<(), String> {
-    check_tree(t, CURRENT_VERSION, InfoBits::Bounds).map_err(|(c, m)| format!("{c}: {m}"))
+pub(crate) fn validate(t: &Octree) -> Result<(), crate::octree::builder::OctreeError> {
+    check_tree(t, CURRENT_VERSION, InfoBits::Bounds)
+        .map_err(|(check, detail)| crate::octree::builder::OctreeError::Invalid { check, detail })
 }
 
 /// What bits 8-31 of the nodes' `info` words may hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum InfoBits {
+pub(crate) enum InfoBits {
     /// Zeros, as in a file.
     #[cfg_attr(not(feature = "io"), allow(dead_code))]
     Zero,
@@ -42,7 +43,7 @@ pub enum InfoBits {
 
 /// Checks 7 to 9 on the values a file's header and a tree in memory both have: the depth,
 /// the root cube, and the node and leaf counts.
-pub fn check_root_and_counts(
+pub(crate) fn check_root_and_counts(
     depth: u8,
     origin: DVec3,
     side: f64,
@@ -77,7 +78,7 @@ pub fn check_root_and_counts(
 }
 
 /// The checks of a tree read from a file of format `version`, in the document's order.
-pub fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failure> {
+pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(), Failure> {
     let fail = |c: Check, m: String| Err((c, m));
     let (n, leaves) = (t.nodes.len(), u64::from(t.leaf_count));
     check_root_and_counts(t.depth, t.root.origin, t.root.side, n as u64, leaves)?;

@@ -43,6 +43,21 @@ impl std::str::FromStr for Aov {
     }
 }
 
+impl Aov {
+    /// The AOV of `f` as 8-bit RGB, three bytes a pixel in row order (`cost_scale`: the
+    /// steps at the hottest colour of the cost heat map); `None` for depth, which stays
+    /// `f32` ([`crate::render::write_float`]).
+    pub fn rgb8(self, f: &Frame, cost_scale: u32) -> Option<Vec<u8>> {
+        match self {
+            Self::Colour => Some(colour_rgb8(f)),
+            Self::Normal => Some(normal_rgb8(f)),
+            Self::Leaf => Some(leaf_rgb8(f)),
+            Self::Cost => Some(cost_rgb8(f, cost_scale)),
+            Self::Depth => None,
+        }
+    }
+}
+
 /// The colour image as sRGB bytes (clamped).
 pub fn colour_rgb8(f: &Frame) -> Vec<u8> {
     f.colour
@@ -62,7 +77,7 @@ pub fn colour_rgb8(f: &Frame) -> Vec<u8> {
     not(all(feature = "image-io", feature = "reference")),
     allow(dead_code)
 )]
-pub fn normal_rgb8(f: &Frame) -> Vec<u8> {
+pub(crate) fn normal_rgb8(f: &Frame) -> Vec<u8> {
     f.normal
         .iter()
         .flat_map(|n| {
@@ -81,7 +96,7 @@ pub fn normal_rgb8(f: &Frame) -> Vec<u8> {
     not(all(feature = "image-io", feature = "reference")),
     allow(dead_code)
 )]
-pub fn leaf_rgb8(f: &Frame) -> Vec<u8> {
+pub(crate) fn leaf_rgb8(f: &Frame) -> Vec<u8> {
     f.leaf
         .iter()
         .flat_map(|&l| {
@@ -107,7 +122,7 @@ pub fn cost_rgb8(f: &Frame, max_steps: u32) -> Vec<u8> {
 }
 
 /// The heat colour of `v` in `[0, 1]`.
-pub fn heat(v: f32) -> [u8; 3] {
+pub(crate) fn heat(v: f32) -> [u8; 3] {
     const STOPS: [[f32; 3]; 6] = [
         [0.0, 0.0, 0.0],
         [0.0, 0.0, 1.0],

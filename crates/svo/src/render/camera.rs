@@ -5,10 +5,10 @@ use glam::DVec3;
 use thiserror::Error;
 
 /// The largest image side the renderers accept.
-pub const MAX_IMAGE_SIDE: u32 = 16384;
+pub(crate) const MAX_IMAGE_SIDE: u32 = 16384;
 
 /// The most pixels an image may have (a frame keeps 36 bytes a pixel: 2.4 GB here).
-pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+pub(crate) const MAX_IMAGE_PIXELS: u64 = 1 << 26;
 
 /// Errors of camera settings.
 #[derive(Debug, Error, PartialEq)]

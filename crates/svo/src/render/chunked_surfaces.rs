@@ -8,6 +8,7 @@ use crate::geometry::grid::RootCube;
 use crate::octree::builder::Voxel;
 use crate::octree::tree::Octree;
 use crate::render::surfaces::{OctreeSurfaces, Query, SurfaceHit, Surfaces, Traced, Walked};
+use crate::render::surfaces_error::SurfacesError;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
 use crate::trace::traverse::traverse;
@@ -56,15 +57,13 @@ impl<'a> ChunkedSurfaces<'a> {
         level: u8,
         chunks: &'a [ChunkTree],
         mode: HitMode,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, SurfacesError> {
         let leaves: u64 = chunks.iter().map(|c| u64::from(c.tree.leaf_count)).sum();
         if leaves > u64::from(u32::MAX) {
-            return Err(format!(
-                "{leaves} leaves: rendering numbers hits by 32-bit leaf indices"
-            ));
+            return Err(SurfacesError::TooManyLeaves(leaves));
         }
         if level >= depth || (level == 0 && chunks.len() > 1) {
-            return Err(format!("chunk level {level} at depth {depth}"));
+            return Err(SurfacesError::Level { level, depth });
         }
         let below = u32::from(depth - level);
         let side = f64::from(1u32 << below);
@@ -76,10 +75,11 @@ impl<'a> ChunkedSurfaces<'a> {
                 || c.first_leaf != next
                 || c.cell.max_element() >= 1 << level
             {
-                return Err(format!(
-                    "chunk at cell {} does not fit depth {depth} and level {level}",
-                    c.cell
-                ));
+                return Err(SurfacesError::Misfit {
+                    cell: c.cell,
+                    depth,
+                    level,
+                });
             }
             next += u64::from(c.tree.leaf_count);
             out.push(Chunk {
@@ -97,13 +97,12 @@ impl<'a> ChunkedSurfaces<'a> {
                     chunks.iter().map(|c| (c.cell, Voxel::default())),
                 )
             })
-            .transpose()
-            .map_err(|e| e.to_string())?;
+            .transpose()?;
         if top
             .as_ref()
             .is_some_and(|t| t.leaf_count as usize != chunks.len())
         {
-            return Err("two chunks at one cell".into());
+            return Err(SurfacesError::SharedCell);
         }
         Ok(Self {
             root,

@@ -13,6 +13,7 @@ use crate::geometry::grid::RootCube;
 use crate::mesh::triangle_mesh::Mesh;
 use crate::octree::tree::Octree;
 use crate::render::surfaces::{LeafShape, OctreeSurfaces};
+use crate::render::surfaces_error::SurfacesError;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::traverse::LeafEntry;
 use crate::voxelize::build::LeafTriangles;
@@ -33,14 +34,11 @@ pub struct ExactLeaves {
     tris: Vec<[Vec3; 3]>,
 }
 
-/// An octree whose leaves are hit on their triangles.
-pub type ExactSurfaces<'a> = OctreeSurfaces<'a, ExactLeaves>;
-
 impl ExactLeaves {
-    /// The triangles of `mesh` (the mesh `tree` was baked from) per leaf of `tree`. Errors
-    /// with a message when the mesh is invalid or its leaves differ from the tree's.
-    pub fn new(tree: &Octree, mesh: &Mesh) -> Result<Self, String> {
-        mesh.validate().map_err(|e| e.to_string())?;
+    /// The triangles of `mesh` (the mesh `tree` was baked from) per leaf of `tree`; an error
+    /// when the mesh is invalid or its leaves differ from the tree's.
+    pub fn new(tree: &Octree, mesh: &Mesh) -> Result<Self, SurfacesError> {
+        mesh.validate()?;
         let lists = voxelize_mesh_in(mesh, &tree.root, tree.depth, Strategy::Exact);
         // A solid tree's surface leaves are the mesh's, in the same (Morton) order, with
         // interior leaves between them.
@@ -60,11 +58,10 @@ impl ExactLeaves {
                 .zip(&lists.cells)
                 .all(|(l, c)| l.cell == UVec3::from_array(*c));
         if !same {
-            return Err(format!(
-                "the mesh gives {} leaves in the tree's grid, the tree has {} surface leaves: it is not the mesh the tree was baked from",
-                lists.cells.len(),
-                surface_count
-            ));
+            return Err(SurfacesError::NotTheSource {
+                mesh_leaves: lists.cells.len(),
+                tree_leaves: surface_count,
+            });
         }
         let mut list_of = Vec::new();
         if solid {
@@ -100,7 +97,10 @@ impl ExactLeaves {
 }
 
 /// The exact-mode surfaces of `tree` with the triangles of `mesh`, its source.
-pub fn exact_surfaces<'a>(tree: &'a Octree, mesh: &Mesh) -> Result<ExactSurfaces<'a>, String> {
+pub fn exact_surfaces<'a>(
+    tree: &'a Octree,
+    mesh: &Mesh,
+) -> Result<OctreeSurfaces<'a, ExactLeaves>, SurfacesError> {
     Ok(OctreeSurfaces::with_shape(
         tree,
         ExactLeaves::new(tree, mesh)?,

@@ -121,27 +121,6 @@ pub fn render<S: Surfaces>(tracer: &Tracer<S>, camera: &Camera) -> Result<Frame,
     Ok(f)
 }
 
-/// Renders once, or, with `frames`, once untimed and then that many timed frames into the
-/// same buffers (at least one): the last frame and the time of each counted frame, seconds.
-pub fn render_timed<S: Surfaces>(
-    tracer: &Tracer<S>,
-    camera: &Camera,
-    frames: Option<u32>,
-) -> Result<(Frame, Vec<f64>), CameraError> {
-    let mut frame = render(tracer, camera)?;
-    let mut times = Vec::new();
-    match frames {
-        Some(n) => {
-            for _ in 0..n.max(1) {
-                render_into(tracer, camera, &mut frame)?;
-                times.push(frame.elapsed.as_secs_f64());
-            }
-        }
-        None => times.push(frame.elapsed.as_secs_f64()),
-    }
-    Ok((frame, times))
-}
-
 /// A band of rows' slices of a frame's buffers, and its counters.
 struct BandOut<'a> {
     colour: &'a mut [Vec3],

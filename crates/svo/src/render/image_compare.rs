@@ -50,16 +50,3 @@ pub fn compare(a: &Frame, b: &Frame) -> Option<ImageDiff> {
         max_abs,
     })
 }
-
-/// A diff image: the absolute difference per channel, scaled by `gain` (sRGB bytes).
-#[cfg_attr(
-    not(all(feature = "image-io", feature = "reference")),
-    allow(dead_code)
-)]
-pub fn diff_rgb8(a: &Frame, b: &Frame, gain: f32) -> Vec<u8> {
-    colour_rgb8(a)
-        .iter()
-        .zip(colour_rgb8(b))
-        .map(|(x, y)| (f32::from(x.abs_diff(y)) * gain).min(255.0) as u8)
-        .collect()
-}

@@ -2,7 +2,8 @@
 //! glass), with a camera, point lights, Phong shading, Fresnel, a sky, and per-pixel outputs
 //! (depth, normal, leaf, traversal cost); the triangle reference it is measured against
 //! ([`MeshSurfaces`]); image comparison (RMSE, PSNR) and image files (PNG, PFM, OpenEXR);
-//! and [`render_file`], an `.svo` file to an image, which is `svo-view --cpu`.
+//! and the scene setup every renderer of a tree starts from ([`RenderScene`]: camera, lights
+//! and sky with a viewer's defaults).
 //!
 //! ```
 //! use glam::{DVec3, UVec3};
@@ -26,8 +27,8 @@
 //! image as tracing each ray from the eye.
 //!
 //! Depends on [`crate::trace`] (the traversal), [`crate::octree`], [`crate::mesh`], and for
-//! files and jobs [`crate::io`], the importers and [`crate::scene`]. Built with the `trace`
-//! feature; image files need `image-io`, the triangle reference `reference`.
+//! files [`crate::io`]. Built with the `trace` feature; image files need `image-io`, the
+//! triangle reference `reference`.
 
 pub(crate) mod aov;
 pub(crate) mod camera;
@@ -37,38 +38,35 @@ pub(crate) mod frame;
 pub(crate) mod image_compare;
 #[cfg(feature = "image-io")]
 pub(crate) mod image_write;
-#[cfg(all(feature = "image-io", feature = "reference"))]
-pub(crate) mod job;
 #[cfg(feature = "reference")]
 pub(crate) mod mesh_reference;
 pub(crate) mod primary_cast;
 pub(crate) mod primary_prepass;
+pub(crate) mod setup;
 pub(crate) mod shading;
 pub(crate) mod sky;
 pub(crate) mod surfaces;
+pub(crate) mod surfaces_error;
 pub(crate) mod whitted;
 
 pub use aov::{Aov, colour_rgb8, cost_rgb8};
 pub use camera::{Camera, CameraError, CameraRays};
 pub use chunked_surfaces::{ChunkTree, ChunkedSurfaces};
-pub use exact_surfaces::{ExactLeaves, ExactSurfaces, exact_surfaces};
-pub use frame::{Frame, NO_LEAF, RenderStats, render, render_timed};
+pub use exact_surfaces::{ExactLeaves, exact_surfaces};
+pub use frame::{Frame, NO_LEAF, RenderStats, render, render_into};
 pub use image_compare::{ImageDiff, compare};
 #[cfg(feature = "image-io")]
 pub use image_write::{ImageWriteError, read_pfm, write_float, write_png};
-#[cfg(all(feature = "image-io", feature = "reference"))]
-pub use job::{
-    CameraReport, CompareReport, FrameTiming, JobScene, LightSpec, MAX_TRACE_DEPTH, RenderJob,
-    RenderJobError, RenderReport, prepare, render_file, scene, scene_with, write_output,
-};
 #[cfg(feature = "reference")]
 pub use mesh_reference::MeshSurfaces;
-pub use primary_cast::{Hits, cast_primary, cast_timed};
+pub use primary_cast::{Hits, cast_primary};
+pub use setup::{LightSpec, MAX_TRACE_DEPTH, RenderScene, SceneSetup, SetupError, Stage};
 pub use shading::{Phong, PointLight};
 pub use sky::{CubeMap, Sky};
 pub use surfaces::{
     LeafShape, Medium, OctreeSurfaces, Query, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked,
 };
+pub use surfaces_error::SurfacesError;
 pub use whitted::{
     FresnelMode, MAX_BOUNCES, Sample, SampleStats, ShadowMode, TraceOptions, Tracer,
 };

@@ -8,7 +8,7 @@
 //! AOVs.
 
 use crate::render::camera::{Camera, CameraError};
-use crate::render::frame::{NO_LEAF, RenderStats};
+use crate::render::frame::NO_LEAF;
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::{FirstHit, Query, Surfaces};
 use crate::render::whitted::{PrimaryStart, Tracer};
@@ -144,36 +144,4 @@ pub fn cast_primary<S: Surfaces>(
     out.max_steps = counts[3] as u32;
     out.elapsed = start.elapsed();
     Ok(())
-}
-
-/// Casts once, or, with `frames`, once untimed and then that many timed casts into the same
-/// buffers: the counters of a cast as [`RenderStats`] (primary rays only) and the seconds
-/// of each counted cast.
-pub fn cast_timed<S: Surfaces>(
-    tracer: &Tracer<S>,
-    camera: &Camera,
-    frames: Option<u32>,
-) -> Result<(RenderStats, Vec<f64>), CameraError> {
-    let mut hits = Hits::default();
-    cast_primary(tracer, camera, &mut hits)?;
-    let mut times = Vec::new();
-    match frames {
-        Some(n) => {
-            for _ in 0..n.max(1) {
-                cast_primary(tracer, camera, &mut hits)?;
-                times.push(hits.elapsed.as_secs_f64());
-            }
-        }
-        None => times.push(hits.elapsed.as_secs_f64()),
-    }
-    let stats = RenderStats {
-        primary_rays: u64::from(hits.width) * u64::from(hits.height),
-        primary_hits: hits.hits,
-        steps: hits.steps,
-        primary_steps: hits.steps,
-        capped: hits.capped,
-        max_primary_steps: hits.max_steps,
-        ..RenderStats::default()
-    };
-    Ok((stats, times))
 }

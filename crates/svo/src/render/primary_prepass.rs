@@ -39,7 +39,7 @@ use crate::trace::traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
 use glam::{DVec3, UVec3, Vec3, Vec3A};
 
 /// Rows per band: the unit of parallel work, and of the per-pixel state kept at once.
-pub const BAND: u32 = 32;
+pub(crate) const BAND: u32 = 32;
 
 /// How far outside its exact bounds a projected corner may land, in pixels (the rounding of
 /// the `f64` projection; the `f32` rounding of the rays is covered by the cube's margin).
@@ -48,7 +48,7 @@ const PIXEL_SLACK: f64 = 1e-3;
 /// What the prepass of one view needs for every band: the camera, the eye in grid space and
 /// the projection. Made once per frame by the renderers.
 #[derive(Clone, Debug)]
-pub struct PrimaryView {
+pub(crate) struct PrimaryView {
     rays: CameraRays,
     /// The rays' origin in grid units, as the traversal has it.
     eye: Vec3,
@@ -271,7 +271,7 @@ const WALK_PIXELS: u32 = 8;
 
 /// Per-band buffers, reused from band to band by one worker.
 #[derive(Debug, Default)]
-pub struct PrimaryScratch {
+pub(crate) struct PrimaryScratch {
     /// Per pixel, its grid ray's direction and `1 / d` as the traversal makes them.
     rays: Vec<PixelRay>,
     /// Per pixel, one bit: the direction and inverse above are made.

@@ -5,14 +5,14 @@ use glam::Vec3;
 
 /// Mirror reflection of direction `d` about unit normal `n`.
 #[inline]
-pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+pub(crate) fn reflect(d: Vec3, n: Vec3) -> Vec3 {
     d - 2.0 * d.dot(n) * n
 }
 
 /// Refraction of unit direction `d` through a surface with unit normal `n` facing against
 /// `d`, from index `n1` into `n2` (Snell's law). `None` on total internal reflection.
 #[inline]
-pub fn refract(d: Vec3, n: Vec3, n1: f32, n2: f32) -> Option<Vec3> {
+pub(crate) fn refract(d: Vec3, n: Vec3, n1: f32, n2: f32) -> Option<Vec3> {
     let eta = n1 / n2;
     let cos_i = -d.dot(n);
     let k = cos2_transmitted(cos_i, eta);
@@ -24,7 +24,7 @@ pub fn refract(d: Vec3, n: Vec3, n1: f32, n2: f32) -> Option<Vec3> {
 /// equal media it is `cos_i^2` to the last bit (the direct form lost 3% of `cos_t` at
 /// `cos_i = 1e-3` in `f32`). Negative on total internal reflection.
 #[inline]
-pub fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
+pub(crate) fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
     let e2 = eta * eta;
     (1.0 - e2) + e2 * (cos_i * cos_i)
 }
@@ -32,7 +32,7 @@ pub fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
 /// The exact Fresnel reflectance of unpolarized light at a dielectric boundary, for the
 /// cosine `cos_i` of the incidence angle, from index `n1` into `n2`; 1 on total internal
 /// reflection.
-pub fn fresnel_exact(cos_i: f32, n1: f32, n2: f32) -> f32 {
+pub(crate) fn fresnel_exact(cos_i: f32, n1: f32, n2: f32) -> f32 {
     let cos_i = cos_i.clamp(0.0, 1.0);
     let cos2_t = cos2_transmitted(cos_i, n1 / n2);
     if cos2_t <= 0.0 {
@@ -46,7 +46,7 @@ pub fn fresnel_exact(cos_i: f32, n1: f32, n2: f32) -> f32 {
 
 /// Schlick's approximation of [`fresnel_exact`] (with the transmitted angle's cosine when
 /// leaving the denser medium, and 1 on total internal reflection).
-pub fn fresnel_schlick(cos_i: f32, n1: f32, n2: f32) -> f32 {
+pub(crate) fn fresnel_schlick(cos_i: f32, n1: f32, n2: f32) -> f32 {
     let cos_i = cos_i.clamp(0.0, 1.0);
     let r0 = ((n1 - n2) / (n1 + n2)).powi(2);
     let c = if n1 > n2 {
@@ -64,7 +64,7 @@ pub fn fresnel_schlick(cos_i: f32, n1: f32, n2: f32) -> f32 {
 /// The critical angle (radians) for total internal reflection going from `n1` into a less
 /// dense `n2`; `None` when `n1 <= n2`.
 #[cfg(test)]
-pub fn critical_angle(n1: f32, n2: f32) -> Option<f32> {
+pub(crate) fn critical_angle(n1: f32, n2: f32) -> Option<f32> {
     (n1 > n2).then(|| (n2 / n1).asin())
 }
 

@@ -30,7 +30,7 @@ fn to_manifold(m: &Mesh) -> manifold_rs::Manifold {
 }
 
 /// `a op b`, as a plain mesh without materials.
-pub fn boolean(a: &Mesh, b: &Mesh, op: CsgOp) -> Result<Mesh, String> {
+pub(crate) fn boolean(a: &Mesh, b: &Mesh, op: CsgOp) -> Result<Mesh, String> {
     let (ma, mb) = (to_manifold(a), to_manifold(b));
     for (m, mesh, which) in [(&ma, a, "a"), (&mb, b, "b")] {
         if m.is_empty() && !mesh.triangles.is_empty() {

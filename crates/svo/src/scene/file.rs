@@ -441,7 +441,7 @@ fn csg(
 
 /// A boolean operation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CsgOp {
+pub(crate) enum CsgOp {
     /// Both.
     Union,
     /// What both hold.
@@ -469,7 +469,7 @@ fn boolean(a: &Mesh, b: &Mesh, op: CsgOp) -> Result<Mesh, String> {
 #[cfg(not(feature = "csg"))]
 fn boolean(_: &Mesh, _: &Mesh, _: CsgOp) -> Result<Mesh, String> {
     Err(
-        "CSG needs svo's `csg` cargo feature (the Manifold kernel, C++; svo-bake: --features csg)"
+        "CSG needs svo's `csg` cargo feature (the Manifold kernel, C++, built with cmake and ninja)"
             .into(),
     )
 }
@@ -485,7 +485,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 }
 
 /// Parses a scene from its text; mesh paths are relative to `dir`; `name` is used in errors.
-pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneError> {
+pub(crate) fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneError> {
     let invalid = |what: String| SceneError::Invalid {
         path: name.to_string(),
         what,
@@ -654,7 +654,7 @@ pub fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneErr
             })
             .collect(),
     };
-    info.validate().map_err(invalid)?;
+    info.validate().map_err(|e| invalid(e.to_string()))?;
     if let Some(n) = repeated(info.cameras.iter().map(|c| c.name.as_str())) {
         return Err(invalid(format!("two cameras are named {n:?}")));
     }

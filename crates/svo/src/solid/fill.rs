@@ -36,7 +36,7 @@ use robust::{Coord, orient2d};
 
 /// Estimated bytes of memory per interior cell while it is merged into the tree (key and
 /// source, then the node share and the per-leaf channels).
-pub const BYTES_PER_CELL: f64 = 48.0;
+pub(crate) const BYTES_PER_CELL: f64 = 48.0;
 
 /// One crossing of a column with a triangle.
 #[derive(Clone, Copy, Debug)]
@@ -322,7 +322,7 @@ impl AxisRuns {
 
 /// Why a fill stopped.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FillLimit {
+pub(crate) enum FillLimit {
     /// The candidate cells (surface cells included) would take more memory than allowed.
     TooMany {
         /// Candidate cells.
@@ -334,7 +334,7 @@ pub enum FillLimit {
 
 /// What a fill added.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FillStats {
+pub(crate) struct FillStats {
     /// Interior leaves added.
     pub interior_leaves: u64,
     /// Columns with an odd number of crossings (each abstained).
@@ -343,7 +343,7 @@ pub struct FillStats {
 
 /// The interior cells of `mesh` in `root` at `depth` (cells no surface leaf of `surface`
 /// holds), each with the index of its material, in no particular order.
-pub fn interior_cells(
+pub(crate) fn interior_cells(
     mesh: &Mesh,
     root: &RootCube,
     depth: u8,
@@ -427,7 +427,7 @@ enum Source {
 
 /// The surface tree with `interior` cells (and their material indices) added as interior
 /// leaves. Channels the surface tree leaves out stay out.
-pub fn merge_interior(surface: &Octree, mesh: &Mesh, interior: &[(UVec3, u32)]) -> Octree {
+pub(crate) fn merge_interior(surface: &Octree, mesh: &Mesh, interior: &[(UVec3, u32)]) -> Octree {
     let depth = surface.depth;
     let mut cells: Vec<(u128, Source)> =
         Vec::with_capacity(surface.leaf_count as usize + interior.len());

@@ -58,7 +58,7 @@ impl Octree {
     /// assert_eq!(hit.t, 2.0);
     /// assert_eq!(hit.point, DVec3::new(1.0, 1.5, 1.5));
     /// assert_eq!(hit.normal, -DVec3::X);
-    /// # Ok::<(), svo::BuilderError>(())
+    /// # Ok::<(), svo::OctreeError>(())
     /// ```
     pub fn cast(&self, ray: Ray) -> Option<Hit> {
         self.cast_with(ray, HitMode::Contour)

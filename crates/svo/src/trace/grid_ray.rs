@@ -103,7 +103,7 @@ pub(crate) struct MirroredRay {
 impl MirroredRay {
     /// Mirrors `ray` for a root of `n` cells per axis; `None` for an invalid ray.
     #[inline]
-    pub fn new(ray: &GridRay, n: u32) -> Option<Self> {
+    pub(crate) fn new(ray: &GridRay, n: u32) -> Option<Self> {
         if !ray.is_valid() {
             return None;
         }
@@ -128,13 +128,13 @@ impl MirroredRay {
     /// `z = p.z` (integer grid coordinates). The same plane always gives the same value,
     /// which is what keeps neighbouring cells gap-free.
     #[inline]
-    pub fn t_planes(&self, p: UVec3) -> Vec3A {
+    pub(crate) fn t_planes(&self, p: UVec3) -> Vec3A {
         (self.real_planes(p) - self.o) * self.inv
     }
 
     /// The real coordinates of mirrored planes `p`, as `f32`.
     #[inline]
-    pub fn real_planes(&self, p: UVec3) -> Vec3A {
+    pub(crate) fn real_planes(&self, p: UVec3) -> Vec3A {
         // At most n <= 2^30: the signed conversion is exact below 2^24 and rounds above.
         (p ^ self.flip).wrapping_add(self.add).as_ivec3().as_vec3a()
     }
@@ -143,14 +143,14 @@ impl MirroredRay {
     /// and high planes and the entry parameter, or `None` when it misses (or the range is
     /// empty or NaN).
     #[inline]
-    pub fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
+    pub(crate) fn root_entry(&self, tmin: f32, tmax: f32) -> Option<(Vec3A, Vec3A, f32)> {
         self.node_entry(UVec3::ZERO, self.n, tmin, tmax)
     }
 
     /// [`Self::root_entry`] for the node whose mirrored minimum cell is `origin` and whose
     /// side is `side` cells.
     #[inline]
-    pub fn node_entry(
+    pub(crate) fn node_entry(
         &self,
         origin: UVec3,
         side: u32,
@@ -168,14 +168,14 @@ impl MirroredRay {
 
     /// Maps a mirrored leaf cell back to the real cell.
     #[inline]
-    pub fn unmirror_cell(&self, m: UVec3) -> UVec3 {
+    pub(crate) fn unmirror_cell(&self, m: UVec3) -> UVec3 {
         self.flip(m, 1)
     }
 
     /// The minimum corner, on the other side of the mirror, of the cube of `side` cells
     /// whose minimum corner is `c` (real to mirrored or back: the map is its own inverse).
     #[inline]
-    pub fn flip(&self, c: UVec3, side: u32) -> UVec3 {
+    pub(crate) fn flip(&self, c: UVec3, side: u32) -> UVec3 {
         let f = |axis: usize, v: u32| {
             if self.mask & (4 >> axis) != 0 {
                 self.n - side - v
@@ -190,7 +190,7 @@ impl MirroredRay {
     /// entry-plane parameters are `c0` (the latest of the three; ties prefer x, then y),
     /// facing the ray; zero when the ray starts inside (`max(c0) < tmin`).
     #[inline]
-    pub fn entry_normal_of(&self, c0: Vec3A, tmin: f32) -> Vec3 {
+    pub(crate) fn entry_normal_of(&self, c0: Vec3A, tmin: f32) -> Vec3 {
         entry_normal_of(self.mask, c0, tmin)
     }
 
@@ -198,7 +198,7 @@ impl MirroredRay {
     /// whose exit-plane parameters are `c1` (the earliest of the three; ties prefer x, then
     /// y): it points along the ray.
     #[inline]
-    pub fn exit_normal_of(&self, c1: Vec3A) -> Vec3 {
+    pub(crate) fn exit_normal_of(&self, c1: Vec3A) -> Vec3 {
         exit_normal_of(self.mask, c1)
     }
 }

@@ -26,7 +26,7 @@
 //! });
 //! assert_eq!(seen, [(0, 1.0), (1, 2.0), (2, 3.0), (3, 4.0)]);
 //! assert!(walk.hit.is_none() && !walk.capped);
-//! # Ok::<(), svo::BuilderError>(())
+//! # Ok::<(), svo::OctreeError>(())
 //! ```
 //!
 //! The traversal never misses a leaf the ray enters (the brute-force tests check it for

@@ -149,7 +149,7 @@ pub fn traverse<T>(
 /// An inner node to start a traversal at: its index in the node array, its minimum cell
 /// and its side in cells (a power of two, at least 2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct StartNode {
+pub(crate) struct StartNode {
     /// Index into the node array.
     pub index: u32,
     /// Minimum cell (real, not mirrored).
@@ -165,7 +165,7 @@ pub struct StartNode {
 /// at a point (an edge or a corner): a walk from the root crosses such points into the
 /// diagonal neighbour without handing over the cells it touches, except where it starts
 /// (at `tmin`, or where it only touches the root), so only that walk knows.
-pub fn traverse_node<T>(
+pub(crate) fn traverse_node<T>(
     tree: &Octree,
     ray: &GridRay,
     start: StartNode,

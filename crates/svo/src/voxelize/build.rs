@@ -232,7 +232,7 @@ impl Home {
 }
 
 /// What every step of one voxelization reads.
-pub struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     /// Grid-space triangles.
     pub tris: &'a [GridTriangle],
     /// Per triangle, where its bounds sit (for [`split`]).
@@ -253,7 +253,7 @@ pub struct Ctx<'a> {
 
 impl Ctx<'_> {
     /// Counts the progress of a whole node at `level` built in one go.
-    pub fn node_done(&self, level: u8) {
+    pub(crate) fn node_done(&self, level: u8) {
         if level <= self.progress_level {
             self.advance(self.units(level));
         }
@@ -706,7 +706,7 @@ fn build<L: LeafSink>(
 #[cfg(feature = "io")]
 /// The subtree of one node at the parts' level, as [`voxelize_subtrees`] makes it.
 #[derive(Debug)]
-pub struct Subtree {
+pub(crate) struct Subtree {
     /// The node's Morton code among the nodes of its level: its child index at each level
     /// from the root, three bits a level, the root's first (the order of the leaves).
     pub code: u64,
@@ -721,7 +721,7 @@ pub struct Subtree {
 /// The lowest level whose subtrees [`voxelize_subtrees`] builds exactly as the whole tree's
 /// bake does: above it, no node builds its bottom levels in one go
 /// ([`crate::voxelize::scatter`]), so every node down to it is split as in the whole bake.
-pub fn deepest_part_level(depth: u8) -> u8 {
+pub(crate) fn deepest_part_level(depth: u8) -> u8 {
     depth.saturating_sub(SCATTER_LEVELS)
 }
 
@@ -732,7 +732,7 @@ pub fn deepest_part_level(depth: u8) -> u8 {
 /// whole bake splits it, and it is built by the same code), for `level` at most
 /// [`deepest_part_level`]. Empty subtrees are left out; the others come in code order. Also
 /// returns the number of overlap tests run below `level`.
-pub fn voxelize_subtrees(
+pub(crate) fn voxelize_subtrees(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,
@@ -833,7 +833,7 @@ fn lists_at(
 /// Voxelizes grid-space triangles into an octree of `depth` levels (`1..=`[`crate::MAX_DEPTH`])
 /// whose root is `[0, 2^depth]^3`, keeping each leaf's list of triangles (in leaf order).
 /// `progress` receives the fraction of the root's volume done.
-pub fn voxelize(
+pub(crate) fn voxelize(
     tris: &[GridTriangle],
     depth: u8,
     strategy: Strategy,
@@ -845,7 +845,7 @@ pub fn voxelize(
 /// Voxelizes like [`voxelize`] and computes each leaf's attributes as it is made (the
 /// bake's path): no list of triangles per leaf is kept. The triangles are `inputs`'s.
 /// Returns the nodes, the leaves' values and the number of overlap tests run.
-pub fn voxelize_with_attributes(
+pub(crate) fn voxelize_with_attributes(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,

@@ -36,7 +36,7 @@ use std::time::Instant;
 
 /// Levels above the leaves below which the default strategy scatters triangles into cells
 /// instead of recursing.
-pub const SCATTER_LEVELS: u8 = 5;
+pub(crate) const SCATTER_LEVELS: u8 = 5;
 
 /// How far inside its cell (relative to the coordinates' magnitude) a part's vertex must be
 /// to prove the contact without the exact test: far above the rounding of the slicing (a
@@ -57,7 +57,7 @@ const RECIP: [f64; 32] = {
 
 /// Per-task buffers of the scatter, reused from node to node.
 #[derive(Default)]
-pub struct ScatterScratch {
+pub(crate) struct ScatterScratch {
     pairs: Vec<(u16, u32)>,
     contacts: Vec<Contact>,
     pts: Vec<Vec3>,
@@ -70,7 +70,7 @@ pub struct ScatterScratch {
 impl ScatterScratch {
     /// The contact and point buffers, for a leaf made outside the scatter (the recursion's
     /// last level in the inexact strategies, [`clip_contacts`]).
-    pub fn contact_buffers(&mut self) -> (&mut Vec<Contact>, &mut Vec<Vec3>) {
+    pub(crate) fn contact_buffers(&mut self) -> (&mut Vec<Contact>, &mut Vec<Vec3>) {
         (&mut self.contacts, &mut self.pts)
     }
 }
@@ -79,7 +79,7 @@ impl ScatterScratch {
 /// box axes (the triangle's closed cell range), the plane distance and the edge intervals
 /// prepared once (the same bounds as [`crate::geometry::overlap::triangle_box_overlap`], with one plane
 /// tolerance for the whole block).
-pub struct CellTest<'a> {
+pub(crate) struct CellTest<'a> {
     t: &'a GridTriangle,
     node_min: DVec3,
     /// Per axis, the local cells that the triangle's closed bounds reach (cell `i` meets
@@ -94,7 +94,7 @@ pub struct CellTest<'a> {
 
 impl<'a> CellTest<'a> {
     /// Prepares the test of `t` against the cells of the block of side `n` at `node_min`.
-    pub fn new(t: &'a GridTriangle, node_min: DVec3, n: f64) -> Self {
+    pub(crate) fn new(t: &'a GridTriangle, node_min: DVec3, n: f64) -> Self {
         let nn = t.n;
         let d0 = node_min - t.v[0];
         let mut axes = [(0.0, 0.0, 0usize, 0usize, 0.0, 0.0, 0.0); 9];
@@ -127,7 +127,7 @@ impl<'a> CellTest<'a> {
     /// bounds: the slicing's tolerance can give a cell across a face a part when a vertex
     /// lies a hair beyond that face, and neither the plane nor the edge axes reject it.)
     #[inline]
-    pub fn touches(&self, x: i64, y: i64, z: i64) -> bool {
+    pub(crate) fn touches(&self, x: i64, y: i64, z: i64) -> bool {
         let inside = |a: usize, c: i64| self.bounds[a].0 <= c && c <= self.bounds[a].1;
         if !(inside(0, x) && inside(1, y) && inside(2, z)) {
             return false;
@@ -233,7 +233,7 @@ fn block(ctx: &Ctx<'_>, level: u8, cell: [u32; 3]) -> (i64, u8, [i64; 3]) {
 }
 
 /// The voxelizer's bottom levels with triangle lists as leaves (see the module docs).
-pub fn scatter_pairs(
+pub(crate) fn scatter_pairs(
     ctx: &Ctx<'_>,
     level: u8,
     cell: [u32; 3],
@@ -270,7 +270,7 @@ pub fn scatter_pairs(
 
 /// The bake's bottom levels: the same cells as [`scatter_pairs`], each leaf emitted with its
 /// attributes computed from the triangles' parts in it (see the module docs).
-pub fn scatter_sliced(
+pub(crate) fn scatter_sliced(
     ctx: &Ctx<'_>,
     level: u8,
     cell: [u32; 3],
@@ -503,7 +503,7 @@ fn push_touch(
 
 /// The contacts of a leaf made by the recursion (the inexact strategies' last level): each
 /// triangle clipped to the cell, in cell-local coordinates.
-pub fn clip_contacts(
+pub(crate) fn clip_contacts(
     tris: &[GridTriangle],
     cell: [u32; 3],
     list: &[u32],

@@ -1,4 +1,4 @@
-//! One part of a planned bake ([`crate::bake::plan`]): its subtrees baked exactly as the
+//! One part of a planned bake ([`crate::bake::parts::plan`]): its subtrees baked exactly as the
 //! whole bake bakes them, and the part file that carries them to the merge.
 //!
 //! A part file (`.svopart`) is, in order: the magic `\x89SVOPRT\n`, a `u32` version, the
@@ -12,8 +12,8 @@
 
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
 use crate::bake::bake_mesh::{BakeError, prepare};
-use crate::bake::bins::{bin_path, read_bin};
-use crate::bake::plan::{BakePlan, PartsError, config, hash_file, part_path, read_plan};
+use crate::bake::parts::bins::{bin_path, read_bin};
+use crate::bake::parts::plan::{BakePlan, PartsError, config, hash_file, part_path, read_plan};
 use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::io::atomic_write::write_atomic;
 use crate::mesh::triangle_mesh::Mesh;
@@ -32,7 +32,7 @@ pub(crate) const PART_PREAMBLE: u64 = 24;
 
 /// One subtree of a part, as its header lists it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PartSubtree {
+pub(crate) struct PartSubtree {
     /// Morton code of its node at the plan's level.
     pub code: u64,
     /// Which children the node has.
@@ -45,7 +45,7 @@ pub struct PartSubtree {
 
 /// How a part stores a channel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum PartStorage {
+pub(crate) enum PartStorage {
     /// One value for every leaf of the tree.
     Constant(u32),
     /// One value per leaf, in an array; `uniform` when the part has leaves and they all
@@ -60,7 +60,7 @@ pub enum PartStorage {
 
 /// Where an array lies in a part file, and its hash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct PartArray {
+pub(crate) struct PartArray {
     /// Byte offset in the file (a multiple of 8).
     pub offset: u64,
     /// Length in bytes.
@@ -71,7 +71,7 @@ pub struct PartArray {
 
 /// What a part measured.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct PartStats {
+pub(crate) struct PartStats {
     /// Seconds baking (from the mesh in memory to the values, before writing); not stored,
     /// so that a part baked twice is the same file.
     #[serde(skip)]
@@ -86,7 +86,7 @@ pub struct PartStats {
 
 /// A part file's header.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PartHeader {
+pub(crate) struct PartHeader {
     /// The hash of the plan file it belongs to.
     pub plan_hash: u64,
     /// Its index in the plan.
@@ -103,23 +103,16 @@ pub struct PartHeader {
 
 impl PartHeader {
     /// Leaves in the part.
-    pub fn leaves(&self) -> u64 {
+    pub(crate) fn leaves(&self) -> u64 {
         self.subtrees.iter().map(|s| s.leaves).sum()
     }
 }
 
 /// A part baked in memory, ready to be written.
-pub struct PartData {
+pub(crate) struct PartData {
     header: PartHeader,
     nodes: Vec<Node>,
     attributes: LeafAttributes,
-}
-
-impl PartData {
-    /// Its header (array offsets and hashes are filled in when written).
-    pub fn header(&self) -> &PartHeader {
-        &self.header
-    }
 }
 
 /// Bakes the parts `indices` of `plan` from its mesh, one after another, handing each to
@@ -128,7 +121,7 @@ impl PartData {
 /// are binned to the parts in one pass, and each part sets up only its own, freed before
 /// the next part. Returns the number of degenerate triangles of the mesh (kept, as the bake
 /// keeps them).
-pub fn bake_parts(
+pub(crate) fn bake_parts(
     mesh: &Mesh,
     plan: &BakePlan,
     plan_hash: u64,
@@ -139,7 +132,7 @@ pub fn bake_parts(
 }
 
 /// [`bake_parts`] from the whole mesh, or (`binned`) from the parts' own triangles
-/// ([`crate::bake::bins`]), whose bounds are not the mesh's: the plan's root cube is taken.
+/// ([`crate::bake::parts::bins`]), whose bounds are not the mesh's: the plan's root cube is taken.
 fn bake_parts_from(
     mesh: &Mesh,
     binned: bool,
@@ -264,7 +257,7 @@ fn for_each_touch(
         for i in x.0..=x.1 {
             for j in y.0..=y.1 {
                 for k in z.0..=z.1 {
-                    let p = part_of(crate::bake::plan::morton([i, j, k], plan.level));
+                    let p = part_of(crate::bake::parts::plan::morton([i, j, k], plan.level));
                     if p < count {
                         seen.push(p);
                     }
@@ -520,7 +513,7 @@ fn arrays(part: &PartData) -> Vec<&[u8]> {
 }
 
 /// Writes a part file atomically; returns its size in bytes.
-pub fn write_part(part: &PartData, path: &Path) -> Result<u64, PartsError> {
+pub(crate) fn write_part(part: &PartData, path: &Path) -> Result<u64, PartsError> {
     let arrays = arrays(part);
     let mut header = part.header.clone();
     header.arrays = arrays
@@ -571,7 +564,7 @@ pub fn write_part(part: &PartData, path: &Path) -> Result<u64, PartsError> {
 /// Reads and checks a part file's header: its magic, version and header hash, and that the
 /// file is as long as its arrays say (a truncated part is refused here). The arrays' hashes
 /// are checked as the merge copies them.
-pub fn read_part_header(path: &Path) -> Result<PartHeader, PartsError> {
+pub(crate) fn read_part_header(path: &Path) -> Result<PartHeader, PartsError> {
     let corrupt = |detail: String| PartsError::Corrupt {
         path: path.display().to_string(),
         detail,

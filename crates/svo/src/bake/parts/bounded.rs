@@ -1,50 +1,73 @@
-//! A bake in bounded memory on one machine: the plan's parts ([`crate::bake::plan`]) baked one
-//! after another into part files beside the output, then merged ([`crate::bake::merge`]).
+//! A bake in bounded memory on one machine: the plan's parts baked one after another into
+//! part files beside the output, then merged.
 //! Only the mesh, the lists that bin its triangles to the parts (one pass) and one part with
 //! the setup of its own triangles are in memory at a time; the number of parts comes from
 //! the memory budget, the bake's estimate and the parts' triangle counts.
 
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
-use crate::bake::merge::{MergeFormat, MergeReport, merge_with};
-use crate::bake::part::{bake_parts, touched_counts, write_part};
-use crate::bake::plan::{BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes};
+use crate::bake::parts::merge::{MergeFormat, MergeReport, merge_with};
+use crate::bake::parts::part::{bake_parts, touched_counts, write_part};
+use crate::bake::parts::plan::{
+    BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes,
+};
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
 use std::path::Path;
 
-/// What a bake in parts did, for the summary.
+/// What a bake within a memory budget did.
 #[derive(Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "io", derive(serde::Serialize))]
 pub struct PartsReport {
-    /// The memory budget, bytes.
-    pub budget: u64,
-    /// Whether the bake chose parts itself because the whole bake would not fit.
-    pub automatic: bool,
-    /// Parts.
-    pub parts: u32,
-    /// The level of the octree the parts split at.
-    pub level: u8,
+    /// The plan its parts were baked from.
+    pub plan: BakePlan,
     /// Seconds each part took to bake (writing its file included), in part order.
     pub part_seconds: Vec<f64>,
     /// Bytes of all part files together.
     pub part_bytes: u64,
     /// The merge.
     pub merge: MergeReport,
-    /// The process's peak resident set at the end (Linux `VmHWM`), bytes, if known.
-    pub peak_resident: Option<u64>,
+    /// Degenerate triangles of the mesh (kept, as the bake in memory keeps them).
+    pub degenerate_triangles: usize,
 }
 
-/// The process's peak resident set (Linux `VmHWM`), in bytes, if known.
-pub fn peak_resident() -> Option<u64> {
-    crate::bake::bake_mesh::proc_bytes("/proc/self/status", "VmHWM:")
+/// Bakes `mesh` (read from `mesh_path`, which the plan names) into `output` within `budget`
+/// bytes of memory: enough parts that each one's estimated peak fits in the budget beside the
+/// mesh and the lists that bin its triangles to the parts, each baked in this
+/// process into a file in a temporary folder beside `output` and removed at the end, then
+/// merged. The same bytes as the bake in memory; `build` is what the file records of the
+/// bake (`opts.max_memory` is not used). `progress` receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around
+/// the merge.
+pub fn bake_within(
+    mesh: &Mesh,
+    mesh_path: &Path,
+    opts: &BakeOptions,
+    budget: u64,
+    build: &BuildInfo,
+    output: &Path,
+    progress: &(dyn Fn(Phase, f64) + Sync),
+) -> Result<PartsReport, PartsError> {
+    // The budget is the limit now: the whole bake's estimate is not held against it.
+    let opts = BakeOptions {
+        max_memory: None,
+        ..opts.clone()
+    };
+    let plan = plan_for_budget(mesh, mesh_path, &opts, budget, build)?;
+    let (merge, part_seconds, part_bytes, degenerate_triangles) =
+        bake_planned(mesh, &plan, output, progress)?;
+    Ok(PartsReport {
+        plan,
+        part_seconds,
+        part_bytes,
+        merge,
+        degenerate_triangles,
+    })
 }
 
 /// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated
 /// peak (its leaves and the setup of its own triangles) fits in `budget` bytes beside the
 /// mesh and the lists that bin its triangles to the parts, and that each holds about 2^30
 /// leaves at most.
-pub fn plan_for_budget(
+pub(crate) fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
     opts: &BakeOptions,
@@ -58,20 +81,18 @@ pub fn plan_for_budget(
     let room = budget as f64 - fixed;
     const GIB: f64 = (1u64 << 30) as f64;
     if room < budget as f64 / 4.0 {
-        return Err(PartsError::Unsupported(format!(
-            "the mesh alone needs about {:.2} GiB, too much of the {:.2} GiB budget; raise --memory",
-            fixed / GIB,
-            budget as f64 / GIB
-        )));
+        return Err(PartsError::BudgetTooSmall {
+            mesh_gib: fixed / GIB,
+            budget_gib: budget as f64 / GIB,
+        });
     }
     // Enough parts for the budget, and at least what a plan needs.
     let least = least_parts(est.leaves);
     if least > f64::from(MAX_PARTS) {
-        return Err(PartsError::Unsupported(format!(
-            "depth {} would make about {:.3e} leaves, more than {MAX_PARTS} parts of 2^30 \
-             leaves: lower --depth",
-            opts.depth, est.leaves
-        )));
+        return Err(PartsError::TooManyParts {
+            depth: opts.depth,
+            leaves: est.leaves,
+        });
     }
     let mut parts = (est.leaves * BYTES_PER_LEAF / room)
         .max(least)
@@ -131,14 +152,13 @@ fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError
     match free {
         Some(free) if need > free => {
             const GB: f64 = 1e9;
-            Err(PartsError::Unsupported(format!(
-                "depth {} would make about {:.3e} leaves: its part files and the file need about {:.1} GB on disk, more than the {:.1} GB free in {}; lower --depth",
-                plan.depth,
-                plan.estimated_leaves,
-                need / GB,
-                free / GB,
-                dir.display()
-            )))
+            Err(PartsError::NoDiskSpace {
+                depth: plan.depth,
+                leaves: plan.estimated_leaves,
+                need_gb: need / GB,
+                free_gb: free / GB,
+                dir: dir.display().to_string(),
+            })
         }
         _ => Ok(()),
     }
@@ -149,7 +169,7 @@ fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError
 /// receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around the merge.
 /// Returns the merge's report, each part's seconds, the part files' bytes and the number of
 /// degenerate triangles.
-pub fn bake_planned(
+pub(crate) fn bake_planned(
     mesh: &Mesh,
     plan: &BakePlan,
     output: &Path,

@@ -1,51 +1,50 @@
 //! A bake in parts (plan, parts, merge) writes the same bytes as the bake in memory, whatever
 //! the number of parts; a part baked twice is the same file; the merge refuses a missing
 //! part, a part of another plan, a part given the wrong index, a truncated part and a
-//! damaged one, and leaves no output when it does.
-#![cfg(feature = "io")]
+//! damaged one, and leaves no output when it does; a bake within a memory budget writes the
+//! bake in memory's bytes.
 
-mod common;
-use rand::Rng;
+use super::bins::{bin_path, read_bin};
+use super::merge::{MergeFormat, merge_parts};
+use super::part::{PartData, bake_parts, write_part};
+use super::plan::{PartsError, hash_file, part_path, plan_bake, plan_file, read_plan, write_plan};
+use super::{bake_part_file, bake_within};
+use crate::bake::{BakeOptions, bake_mesh};
+use crate::io::BuildInfo;
+use rand::{Rng, SeedableRng};
 use std::path::{Path, PathBuf};
-use svo::bake::{
-    BakeJob, BakeOptions, GivenOptions, MergeFormat, PartsError, bake_file, bake_parts, hash_file,
-    merge_parts, part_path, plan_bake, read_plan, write_part, write_plan,
-};
-use svo::io::BuildInfo;
 
-/// The in-memory bake's file bytes.
-fn in_memory(mesh: &Path, opts: &BakeOptions, dir: &Path) -> Vec<u8> {
-    let out = dir.join("whole.svo");
-    bake_file(&BakeJob {
-        input: mesh.to_path_buf(),
-        output: out.clone(),
-        options: opts.clone(),
-        threads: None,
-        given: GivenOptions::default(),
-        memory: None,
-    })
-    .unwrap();
-    std::fs::read(out).unwrap()
-}
-
-/// Plans `parts` parts, bakes each into its file and returns the plan's path.
-fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -> PathBuf {
-    let mesh = svo::Mesh::load(mesh_path).unwrap();
-    let build = BuildInfo {
+/// What `svo-bake` records of a mesh file's bake.
+fn build_of(mesh: &crate::Mesh, opts: &BakeOptions) -> BuildInfo {
+    BuildInfo {
         strategy: opts.strategy.name().to_string(),
         source_triangles: mesh.triangles.len() as u64,
         scene: mesh.scene.clone(),
         ..BuildInfo::new()
-    };
+    }
+}
+
+/// The in-memory bake's file bytes.
+fn in_memory(mesh: &Path, opts: &BakeOptions, _dir: &Path) -> Vec<u8> {
+    let mesh = crate::Mesh::load(mesh).unwrap();
+    let (tree, _) = bake_mesh(&mesh, opts).unwrap();
+    let mut bytes = Vec::new();
+    crate::io::write_to(&tree, &build_of(&mesh, opts), &mut bytes).unwrap();
+    bytes
+}
+
+/// Plans `parts` parts, bakes each into its file and returns the plan's path.
+fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -> PathBuf {
+    let mesh = crate::Mesh::load(mesh_path).unwrap();
+    let build = build_of(&mesh, opts);
     let hash = hash_file(mesh_path).unwrap();
     let plan = plan_bake(&mesh, mesh_path, hash, opts, parts, build).unwrap();
     let plan_path = dir.join(format!("job{parts}.svoplan"));
     let plan_hash = write_plan(&plan, &plan_path).unwrap();
     // Each part alone, as `svo-bake part` bakes it (setting up only the triangles that may
     // reach its subtrees), except the first plan's, baked in one call as `--memory` does.
-    let mut write = |i: u32, part: svo::bake::PartData| {
-        write_part(&part, &part_path(&plan_path, i)).map(|_| ())
-    };
+    let mut write =
+        |i: u32, part: PartData| write_part(&part, &part_path(&plan_path, i)).map(|_| ());
     if parts == 1 {
         bake_parts(&mesh, &plan, plan_hash, 0..parts, &mut write).unwrap();
     } else {
@@ -71,13 +70,13 @@ fn merged_as(plan: &Path, dir: &Path, format: MergeFormat) -> Result<Vec<u8>, Pa
 /// makes of the in-memory bake's tree, and reads back as that tree.
 fn check_chunked(plan: &Path, whole: &[u8], dir: &Path) {
     let got = merged_as(plan, dir, MergeFormat::Chunked).unwrap();
-    let (tree, build) = svo::io::from_bytes(whole).unwrap();
+    let (tree, build) = crate::io::from_bytes(whole).unwrap();
     let level = read_plan(plan).unwrap().0.level;
     let mut want = Vec::new();
-    svo::io::write_chunked_to(&tree, &build, level, &mut want).unwrap();
+    crate::io::write_chunked_to(&tree, &build, level, &mut want).unwrap();
     assert_eq!(u32::from_le_bytes(got[8..12].try_into().unwrap()), 3);
     assert!(got == want, "{} bytes against {}", got.len(), want.len());
-    assert_eq!(svo::io::from_bytes(&got).unwrap().0, tree);
+    assert_eq!(crate::io::from_bytes(&got).unwrap().0, tree);
 }
 
 fn meshes() -> Vec<PathBuf> {
@@ -199,7 +198,7 @@ fn lattice_soup(rng: &mut impl Rng, scale: f64, path: &Path) {
 #[test]
 fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = common::rng(0x9A27_5EED);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::test_rng::seed(0x9A27_5EED));
     let mut empty_parts = 0;
     for round in 0..30 {
         let scale = [1.0, 1.0, 1.0, 2f64.powi(-70), 2f64.powi(70)][round % 5];
@@ -215,12 +214,12 @@ fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
         let parts = [2, 3, 5, 8, 16][rng.random_range(0..5)];
         let whole = in_memory(&mesh_path, &opts, dir.path());
         let plan = dir.path().join("soup.svoplan");
-        let (p, _) = svo::bake::plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let (p, _) = plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
         let plan_hash = read_plan(&plan).unwrap().1;
         for i in 0..parts {
-            let bin = svo::bake::read_bin(&svo::bake::bin_path(&plan, i), plan_hash, i).unwrap();
+            let bin = read_bin(&bin_path(&plan, i), plan_hash, i).unwrap();
             empty_parts += usize::from(bin.triangles.is_empty());
-            svo::bake::bake_part_file(&plan, i, None).unwrap();
+            bake_part_file(&plan, i, None).unwrap();
         }
         let got = merged(&plan, dir.path()).unwrap();
         assert!(
@@ -260,7 +259,7 @@ fn a_part_baked_twice_is_the_same_file() {
     }
     // Baked all in one call (as `--memory` does, every triangle set up), the same files.
     let (p, plan_hash) = read_plan(&plan).unwrap();
-    let loaded = svo::Mesh::load(&mesh).unwrap();
+    let loaded = crate::Mesh::load(&mesh).unwrap();
     bake_parts(&loaded, &p, plan_hash, 0..4, &mut |i, part| {
         write_part(&part, &part_path(&plan, i)).map(|_| ())
     })
@@ -341,32 +340,31 @@ fn the_merge_refuses_bad_parts_and_writes_nothing() {
     assert_eq!(p.parts.len(), 4);
 }
 
-/// A bake that the memory limit refuses goes into parts within the limit by itself, and
-/// writes the in-memory bake's bytes.
+/// A bake within a memory budget far below the bake in memory's needs goes into several
+/// parts and writes the in-memory bake's bytes.
 #[test]
-fn a_bake_over_the_memory_limit_goes_into_parts() {
+fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
     let dir = tempfile::tempdir().unwrap();
-    let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
+    let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
     let opts = BakeOptions {
         depth: 9,
         ..BakeOptions::default()
     };
-    let whole = in_memory(&mesh, &opts, dir.path());
+    let whole = in_memory(&mesh_path, &opts, dir.path());
     let out = dir.path().join("limited.svo");
-    let report = bake_file(&BakeJob {
-        input: mesh.clone(),
-        output: out.clone(),
-        options: BakeOptions {
-            max_memory: Some(16 << 20),
-            ..opts
-        },
-        threads: None,
-        given: GivenOptions::default(),
-        memory: None,
-    })
+    let mesh = crate::Mesh::load(&mesh_path).unwrap();
+    let report = bake_within(
+        &mesh,
+        &mesh_path,
+        &opts,
+        16 << 20,
+        &build_of(&mesh, &opts),
+        &out,
+        &|_, _| {},
+    )
     .unwrap();
-    let parts = report.parts.expect("baked in parts");
-    assert!(parts.automatic && parts.parts > 1, "{parts:?}");
+    assert!(report.plan.part_count() > 1, "{report:?}");
+    assert_eq!(report.part_seconds.len() as u32, report.plan.part_count());
     assert!(std::fs::read(out).unwrap() == whole);
 }
 
@@ -466,15 +464,15 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
         };
         let whole = in_memory(&mesh_path, &opts, d.path());
         let plan = d.path().join("binned.svoplan");
-        let (p, bins) = svo::bake::plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let (p, bins) = plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
         let bins = bins.unwrap();
         assert_eq!((bins.files, p.part_count()), (parts, parts));
-        let triangles = svo::Mesh::load(&mesh_path).unwrap().triangles.len();
+        let triangles = crate::Mesh::load(&mesh_path).unwrap().triangles.len();
         let mut from_bins = Vec::new();
         let mut empty = 0;
         for i in 0..parts {
             let plan_hash = read_plan(&plan).unwrap().1;
-            let bin = svo::bake::read_bin(&svo::bake::bin_path(&plan, i), plan_hash, i).unwrap();
+            let bin = read_bin(&bin_path(&plan, i), plan_hash, i).unwrap();
             empty += usize::from(bin.triangles.is_empty());
             // A part holds fewer triangles than the mesh (the corners' mesh: all of them in
             // the part around the first corner, whose neighbour reaches the second).
@@ -483,7 +481,7 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
                 "part {i}: {} triangles",
                 bin.triangles.len()
             );
-            svo::bake::bake_part_file(&plan, i, None).unwrap();
+            bake_part_file(&plan, i, None).unwrap();
             from_bins.push(std::fs::read(part_path(&plan, i)).unwrap());
         }
         if mesh_path.ends_with("corners.obj") {
@@ -495,10 +493,10 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
             mesh_path.display()
         );
         // The same parts from the whole mesh (the plan again without bins removes them).
-        svo::bake::plan_file(&mesh_path, &opts, parts, &plan, false).unwrap();
-        assert!(!svo::bake::bin_path(&plan, 0).exists());
+        plan_file(&mesh_path, &opts, parts, &plan, false).unwrap();
+        assert!(!bin_path(&plan, 0).exists());
         for (i, bytes) in from_bins.iter().enumerate() {
-            svo::bake::bake_part_file(&plan, i as u32, None).unwrap();
+            bake_part_file(&plan, i as u32, None).unwrap();
             assert!(
                 &std::fs::read(part_path(&plan, i as u32)).unwrap() == bytes,
                 "part {i}"
@@ -520,16 +518,14 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
         ..BakeOptions::default()
     };
     let plan = d.path().join("bad.svoplan");
-    svo::bake::plan_file(&mesh_path, &opts, 3, &plan, true).unwrap();
+    plan_file(&mesh_path, &opts, 3, &plan, true).unwrap();
     let other = d.path().join("other.svoplan");
-    svo::bake::plan_file(&mesh_path, &opts, 4, &other, true).unwrap();
-    let bin = |p: &Path, i: u32| svo::bake::bin_path(p, i);
+    plan_file(&mesh_path, &opts, 4, &other, true).unwrap();
+    let bin = |p: &Path, i: u32| bin_path(p, i);
     let good = std::fs::read(bin(&plan, 2)).unwrap();
     let refused = |bytes: &[u8], what: &str| {
         std::fs::write(bin(&plan, 2), bytes).unwrap();
-        let e = svo::bake::bake_part_file(&plan, 2, None)
-            .unwrap_err()
-            .to_string();
+        let e = bake_part_file(&plan, 2, None).unwrap_err().to_string();
         assert!(e.contains(what), "{what}: {e}");
         assert!(e.contains("bad.00002.svobin"), "{e}");
     };
@@ -545,5 +541,5 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
     refused(&std::fs::read(bin(&other, 2)).unwrap(), "another plan");
     refused(&std::fs::read(bin(&plan, 1)).unwrap(), "holds part 1");
     std::fs::write(bin(&plan, 2), &good).unwrap();
-    svo::bake::bake_part_file(&plan, 2, None).unwrap();
+    bake_part_file(&plan, 2, None).unwrap();
 }

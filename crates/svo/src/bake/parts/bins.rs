@@ -13,8 +13,8 @@
 //! range), in the same relative order, and every value the bake derives from a triangle comes
 //! from its own vertices, coordinates and material.
 
-use crate::bake::part::touched_lists;
-use crate::bake::plan::{BakePlan, PartsError, indexed_sibling};
+use crate::bake::parts::part::touched_lists;
+use crate::bake::parts::plan::{BakePlan, PartsError, indexed_sibling};
 use crate::io::atomic_write::write_atomic;
 use crate::mesh::SceneInfo;
 use crate::mesh::triangle_mesh::{Material, Mesh, Texture};
@@ -28,7 +28,7 @@ const BIN_VERSION: u32 = 1;
 const BIN_PREAMBLE: usize = 32;
 
 /// The file holding part `index`'s triangles of the plan at `plan_path`.
-pub fn bin_path(plan_path: &Path, index: u32) -> PathBuf {
+pub(crate) fn bin_path(plan_path: &Path, index: u32) -> PathBuf {
     indexed_sibling(plan_path, index, "svobin")
 }
 
@@ -76,6 +76,8 @@ pub struct BinsReport {
     pub bytes: u64,
     /// Triangles in all the bins together (a triangle near a boundary is in several).
     pub triangles: u64,
+    /// The first bin's path (part I's is `NAME.IIIII.svobin` beside the plan `NAME.svoplan`).
+    pub first: String,
 }
 
 /// The part of `mesh` made of triangles `tris` (indices into `mesh.triangles`, in order):
@@ -211,7 +213,7 @@ fn to_mesh(b: BinMesh) -> Mesh {
 
 /// Writes each part's triangles of `plan` (made from `mesh`, whose file's hash is
 /// `plan_hash`'s plan's) to its bin file beside `plan_path`, atomically, one part at a time.
-pub fn write_bins(
+pub(crate) fn write_bins(
     mesh: &Mesh,
     plan: &BakePlan,
     plan_path: &Path,
@@ -223,6 +225,7 @@ pub fn write_bins(
         files: 0,
         bytes: 0,
         triangles: 0,
+        first: bin_path(plan_path, 0).display().to_string(),
     };
     for (index, tris) in lists.iter().enumerate() {
         let body = bincode::serde::encode_to_vec(subset(mesh, tris), config()).map_err(|e| {
@@ -252,7 +255,7 @@ pub fn write_bins(
 }
 
 /// Reads and checks part `index`'s bin file of the plan whose hash is `plan_hash`.
-pub fn read_bin(path: &Path, plan_hash: u64, index: u32) -> Result<Mesh, PartsError> {
+pub(crate) fn read_bin(path: &Path, plan_hash: u64, index: u32) -> Result<Mesh, PartsError> {
     let bytes = std::fs::read(path).map_err(|e| PartsError::io(path, e))?;
     let corrupt = |detail: String| PartsError::Corrupt {
         path: path.display().to_string(),

@@ -5,7 +5,7 @@
 //! order (the order of their leaves in the file), are dealt into contiguous ranges, one a part,
 //! of about equal estimated leaves. A part bakes the subtrees of its range exactly as the whole
 //! bake would ([`crate::voxelize::build::voxelize_subtrees`]); the merge
-//! ([`crate::bake::merge`]) joins them under the top levels. `T` is at most `depth - 5`: above
+//! ([`crate::bake::parts::merge`]) joins them under the top levels. `T` is at most `depth - 5`: above
 //! it every node of the whole bake is split the same way whatever part it falls in, which is
 //! what makes the merged file byte for byte the whole bake's.
 //!
@@ -38,7 +38,7 @@ pub(crate) fn least_parts(leaves: f64) -> f64 {
 }
 
 /// The most parts a plan may have.
-pub const MAX_PARTS: u32 = 1 << 16;
+pub(crate) const MAX_PARTS: u32 = 1 << 16;
 
 /// Errors of plans, parts and their merge.
 #[derive(Debug, Error)]
@@ -75,9 +75,7 @@ pub enum PartsError {
         detail: String,
     },
     /// A part file is missing.
-    #[error(
-        "part {index} of {count} is missing: {path} does not exist (run `svo-bake part PLAN {index}`)"
-    )]
+    #[error("part {index} of {count} is missing: {path} does not exist")]
     MissingPart {
         /// The part's index.
         index: u32,
@@ -101,6 +99,42 @@ pub enum PartsError {
     /// The thread pool could not be made.
     #[error(transparent)]
     Threads(#[from] crate::thread_pool::ThreadsError),
+    /// The memory budget leaves too little beside the mesh.
+    #[error(
+        "the mesh alone needs about {mesh_gib:.2} GiB, too much of the {budget_gib:.2} GiB budget"
+    )]
+    BudgetTooSmall {
+        /// The mesh and its lists, GiB.
+        mesh_gib: f64,
+        /// The budget, GiB.
+        budget_gib: f64,
+    },
+    /// The tree needs more parts than a plan may have.
+    #[error(
+        "depth {depth} would make about {leaves:.3e} leaves, more than 65536 parts of 2^30 leaves"
+    )]
+    TooManyParts {
+        /// The depth.
+        depth: u8,
+        /// Estimated leaves.
+        leaves: f64,
+    },
+    /// The part files and the output would not fit on the disk.
+    #[error(
+        "depth {depth} would make about {leaves:.3e} leaves: its part files and the file need about {need_gb:.1} GB on disk, more than the {free_gb:.1} GB free in {dir}"
+    )]
+    NoDiskSpace {
+        /// The depth.
+        depth: u8,
+        /// Estimated leaves.
+        leaves: f64,
+        /// Bytes needed, GB.
+        need_gb: f64,
+        /// Bytes free, GB.
+        free_gb: f64,
+        /// The folder.
+        dir: String,
+    },
     /// A request the parts cannot serve.
     #[error("{0}")]
     Unsupported(String),
@@ -117,16 +151,16 @@ impl PartsError {
 
 /// One part of a plan: the Morton codes of the nodes at the parts' level that it bakes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PlanPart {
+pub(crate) struct PlanPart {
     /// First code.
-    pub start: u64,
+    pub(crate) start: u64,
     /// One past the last code.
-    pub end: u64,
+    pub(crate) end: u64,
     /// Estimated leaves (an over-estimate, as [`crate::bake::Estimate`]).
-    pub estimated_leaves: f64,
+    pub(crate) estimated_leaves: f64,
 }
 
-/// A bake split into parts ([`plan_bake`]), as the plan file stores it.
+/// A bake split into parts, as the plan file stores it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BakePlan {
     /// The mesh, as given (a relative path is relative to where the commands run).
@@ -148,7 +182,7 @@ pub struct BakePlan {
     /// The parts' level: each part bakes subtrees of nodes at this level.
     pub level: u8,
     /// The parts, in Morton order; their ranges cover `0..8^level` in order.
-    pub parts: Vec<PlanPart>,
+    pub(crate) parts: Vec<PlanPart>,
     /// What the merged file's header says of its source.
     pub build: BuildInfo,
     /// Estimated leaves of the whole tree.
@@ -181,10 +215,18 @@ impl BakePlan {
     pub fn part_count(&self) -> u32 {
         self.parts.len() as u32
     }
+
+    /// The largest part's estimated leaves (an over-estimate, as [`crate::bake::Estimate`]).
+    pub fn largest_part_leaves(&self) -> f64 {
+        self.parts
+            .iter()
+            .map(|p| p.estimated_leaves)
+            .fold(0.0, f64::max)
+    }
 }
 
 /// XXH3-64 of a file's bytes, read in 1 MiB pieces.
-pub fn hash_file(path: &Path) -> Result<u64, PartsError> {
+pub(crate) fn hash_file(path: &Path) -> Result<u64, PartsError> {
     let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     let mut buf = vec![0u8; 1 << 20];
@@ -225,7 +267,7 @@ fn parts_level(depth: u8, parts: u32) -> u8 {
 /// `parts` parts: checks the options as the bake does, estimates each subtree's leaves, and
 /// deals the subtrees into ranges of about equal estimates. Solid fills are refused: a
 /// part cannot tell inside from outside alone.
-pub fn plan_bake(
+pub(crate) fn plan_bake(
     mesh: &Mesh,
     mesh_path: &Path,
     mesh_hash: u64,
@@ -348,7 +390,7 @@ fn deal(weights: &[(u64, f64)], level: u8, parts: u32) -> Vec<PlanPart> {
 /// Plans the bake of the mesh file `mesh_path` in `parts` parts and writes the plan to
 /// `output` (what `svo-bake plan` does). The plan names the mesh by its absolute path and
 /// the hash of its bytes. With `bins`, each part's triangles are also written to a file of
-/// their own beside the plan ([`crate::bake::write_bins`]), which the part then loads instead
+/// their own beside the plan (`NAME.IIIII.svobin`), which the part then loads instead
 /// of the mesh. Returns the plan, and what writing the bins did.
 pub fn plan_file(
     mesh_path: &Path,
@@ -356,7 +398,7 @@ pub fn plan_file(
     parts: u32,
     output: &Path,
     bins: bool,
-) -> Result<(BakePlan, Option<crate::bake::BinsReport>), PartsError> {
+) -> Result<(BakePlan, Option<crate::bake::parts::bins::BinsReport>), PartsError> {
     if crate::mesh::format::is_scene_file(mesh_path) {
         return Err(PartsError::Unsupported(format!(
             "{}: a plan takes a mesh file (a scene's meshes are not hashed); bake scenes in one process",
@@ -375,11 +417,13 @@ pub fn plan_file(
     let plan = plan_bake(&mesh, &abs, hash, opts, parts, build)?;
     let plan_hash = write_plan(&plan, output)?;
     let bins = if bins {
-        Some(crate::bake::write_bins(&mesh, &plan, output, plan_hash)?)
+        Some(crate::bake::parts::bins::write_bins(
+            &mesh, &plan, output, plan_hash,
+        )?)
     } else {
         // Bins of an earlier plan of the same name would be refused; none is left behind.
         for i in 0..plan.part_count() {
-            let old = crate::bake::bin_path(output, i);
+            let old = crate::bake::parts::bins::bin_path(output, i);
             if old.exists() {
                 std::fs::remove_file(&old).map_err(|e| PartsError::io(&old, e))?;
             }
@@ -390,7 +434,7 @@ pub fn plan_file(
 }
 
 /// Encodes a plan as its file's bytes.
-pub fn plan_to_bytes(plan: &BakePlan) -> Vec<u8> {
+pub(crate) fn plan_to_bytes(plan: &BakePlan) -> Vec<u8> {
     let body = bincode::serde::encode_to_vec(plan, config()).unwrap_or_default();
     let mut out = Vec::with_capacity(body.len() + 24);
     out.extend_from_slice(&PLAN_MAGIC);
@@ -403,14 +447,14 @@ pub fn plan_to_bytes(plan: &BakePlan) -> Vec<u8> {
 }
 
 /// Writes a plan file atomically; returns its hash (what its parts record).
-pub fn write_plan(plan: &BakePlan, path: &Path) -> Result<u64, PartsError> {
+pub(crate) fn write_plan(plan: &BakePlan, path: &Path) -> Result<u64, PartsError> {
     let bytes = plan_to_bytes(plan);
     write_atomic(path, |w| w.write_all(&bytes)).map_err(|e| PartsError::io(path, e))?;
     Ok(xxhash_rust::xxh3::xxh3_64(&bytes))
 }
 
 /// Reads and checks a plan file; returns the plan and its hash.
-pub fn read_plan(path: &Path) -> Result<(BakePlan, u64), PartsError> {
+pub(crate) fn read_plan(path: &Path) -> Result<(BakePlan, u64), PartsError> {
     let bytes = std::fs::read(path).map_err(|e| PartsError::io(path, e))?;
     let corrupt = |detail: &str| PartsError::Corrupt {
         path: path.display().to_string(),

@@ -11,8 +11,8 @@
 //! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
 //! no file.
 
-use crate::bake::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
-use crate::bake::plan::{BakePlan, PartsError, part_path, read_plan};
+use crate::bake::parts::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
+use crate::bake::parts::plan::{BakePlan, PartsError, part_path, read_plan};
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::ChunkRecord;
 use crate::io::write::{Layout, Stored, write_layout};
@@ -539,7 +539,7 @@ fn corrupt(path: &Path, detail: &str) -> PartsError {
 /// Copies one array of a part file to `out`, checking its hash.
 fn copy_array(
     path: &Path,
-    a: crate::bake::part::PartArray,
+    a: crate::bake::parts::part::PartArray,
     out: &mut dyn Write,
 ) -> Result<(), PartsError> {
     let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;

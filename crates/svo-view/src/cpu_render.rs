@@ -1,0 +1,339 @@
+//! `svo-view --cpu`: a render job on the CPU reference tracer. The octree's image (its leaves
+//! hit as cubes, contours or, with the mesh, the mesh's triangles), the triangle reference's
+//! (`--reference`), or both measured against each other (`--compare`); once, or timed over
+//! frames (`--bench`); or the primary rays alone cast and timed (`--cast`). A version-3 file
+//! past what one tree in memory holds is rendered chunk by chunk as one tree.
+
+use crate::job::{JobError, RenderJob, load_reference, prepare, sibling, write_output};
+use crate::report::{CameraReport, CompareReport, CpuRun, FrameReport, FrameTiming};
+use crate::timing::{cast_timed, render_timed};
+use svo::FormatError;
+use svo::io::ChunkedFile;
+use svo::render::{
+    Camera, ChunkTree, ChunkedSurfaces, Frame, MeshSurfaces, OctreeSurfaces, RenderScene,
+    RenderStats, SetupError, Surfaces, Tracer, compare, write_png,
+};
+use svo::trace::HitMode;
+
+/// Runs a render job on the CPU (see the module docs).
+pub fn render_file(job: &RenderJob) -> Result<FrameReport, JobError> {
+    svo::with_threads(job.threads, |threads| match prepare(job) {
+        Err(JobError::Setup(SetupError::Format(FormatError::TooLarge { .. }))) => {
+            render_chunked(job, threads)
+        }
+        Ok(scene) => render_scene(job, &scene, threads),
+        Err(e) => Err(e),
+    })?
+}
+
+/// What the frames of a job cost and found: the last frame (none for a cast), its counters
+/// and each frame's seconds.
+struct Timed {
+    frame: Option<Frame>,
+    stats: RenderStats,
+    times: Vec<f64>,
+}
+
+/// Renders `tracer`'s image of `job`, or with `job.cast` casts its primary rays, timed as
+/// the job asks.
+fn timed<S: Surfaces>(
+    job: &RenderJob,
+    tracer: &Tracer<S>,
+    camera: &Camera,
+) -> Result<Timed, JobError> {
+    if job.cast {
+        let (stats, times) = cast_timed(tracer, camera, job.bench_frames)?;
+        return Ok(Timed {
+            frame: None,
+            stats,
+            times,
+        });
+    }
+    let (frame, times) = render_timed(tracer, camera, job.bench_frames)?;
+    Ok(Timed {
+        stats: frame.stats,
+        frame: Some(frame),
+        times,
+    })
+}
+
+/// The octree's frames: its leaves hit as the job's mode says, through the mesh's triangles
+/// for the exact mode.
+fn octree_frames(job: &RenderJob, scene: &RenderScene) -> Result<Timed, JobError> {
+    let RenderScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+        ..
+    } = scene;
+    if job.trace.mode != HitMode::Exact {
+        let s = OctreeSurfaces::new(tree, job.trace.mode);
+        return timed(
+            job,
+            &Tracer::new(s, lights, sky.clone(), *phong, job.trace),
+            camera,
+        );
+    }
+    let path = job
+        .mesh
+        .as_ref()
+        .or(job.reference.as_ref())
+        .ok_or_else(|| {
+            JobError::Invalid(
+                "hit mode exact needs the mesh the tree was baked from: give --mesh or --reference"
+                    .into(),
+            )
+        })?;
+    let mesh = load_reference(path)?;
+    let s = svo::render::exact_surfaces(tree, &mesh)?;
+    timed(
+        job,
+        &Tracer::new(s, lights, sky.clone(), *phong, job.trace),
+        camera,
+    )
+}
+
+/// The triangle reference's frames.
+fn reference_frames(
+    job: &RenderJob,
+    scene: &RenderScene,
+    mesh: svo::Mesh,
+) -> Result<Timed, JobError> {
+    let s = MeshSurfaces::new(mesh, scene.tree.root, scene.tree.depth);
+    let tracer = Tracer::new(s, &scene.lights, scene.sky.clone(), scene.phong, job.trace);
+    timed(job, &tracer, &scene.camera)
+}
+
+/// The octree's and the reference's frames measured against each other; with an output, the
+/// reference's image and the difference image written beside it.
+fn compared(job: &RenderJob, svo: &Timed, reference: &Timed) -> Result<CompareReport, JobError> {
+    let (Some(s), Some(r)) = (&svo.frame, &reference.frame) else {
+        return Err(JobError::Invalid("--compare renders images".into()));
+    };
+    let diff =
+        compare(s, r).ok_or_else(|| JobError::Invalid("the two renders differ in size".into()))?;
+    let mut report = CompareReport {
+        diff,
+        svo_ms: FrameTiming::median(&svo.times) * 1e3,
+        reference_ms: FrameTiming::median(&reference.times) * 1e3,
+        reference_output: None,
+    };
+    if let Some(out) = &job.output {
+        let ref_out = sibling(out, "reference");
+        write_output(r, job.aov, &ref_out, r.stats.max_primary_steps.max(1))?;
+        write_png(
+            &sibling(out, "diff"),
+            s.width,
+            s.height,
+            &diff_rgb8(s, r, 4.0),
+        )?;
+        report.reference_output = Some(ref_out.display().to_string());
+    }
+    Ok(report)
+}
+
+/// A difference image: the absolute difference of the colours per channel, scaled by `gain`
+/// (sRGB bytes).
+fn diff_rgb8(a: &Frame, b: &Frame, gain: f32) -> Vec<u8> {
+    svo::render::colour_rgb8(a)
+        .iter()
+        .zip(svo::render::colour_rgb8(b))
+        .map(|(x, y)| (f32::from(x.abs_diff(y)) * gain).min(255.0) as u8)
+        .collect()
+}
+
+/// Writes the job's output from `timed`'s frame, if it asks for one: the written path and
+/// the cost heat map's scale.
+fn write_frame(job: &RenderJob, timed: &Timed) -> Result<(Option<String>, u32), JobError> {
+    let Some(frame) = &timed.frame else {
+        return Ok((None, 1));
+    };
+    let cost_scale = frame.stats.max_primary_steps.max(1);
+    let Some(out) = &job.output else {
+        return Ok((None, cost_scale));
+    };
+    write_output(frame, job.aov, out, cost_scale)?;
+    Ok((Some(out.display().to_string()), cost_scale))
+}
+
+/// The job on a tree in memory: the octree, the reference or both.
+fn render_scene(
+    job: &RenderJob,
+    scene: &RenderScene,
+    threads: usize,
+) -> Result<FrameReport, JobError> {
+    let reference = job.reference.as_deref().map(load_reference).transpose()?;
+    if job.compare && reference.is_none() {
+        return Err(JobError::Invalid("--compare needs --reference MESH".into()));
+    }
+    let octree = if reference.is_none() || job.compare {
+        Some(octree_frames(job, scene)?)
+    } else {
+        None
+    };
+    let reference = reference
+        .map(|mesh| reference_frames(job, scene, mesh))
+        .transpose()?;
+    let (shown, compare) = match (octree, reference) {
+        (Some(s), Some(r)) => {
+            let c = compared(job, &s, &r)?;
+            (s, Some(c))
+        }
+        (Some(s), None) => (s, None),
+        (None, Some(r)) => (r, None),
+        (None, None) => unreachable!("one of the two renders always runs"),
+    };
+    let (output, cost_scale) = write_frame(job, &shown)?;
+    let tree = &scene.tree;
+    Ok(FrameReport {
+        width: scene.camera.width,
+        height: scene.camera.height,
+        depth: tree.depth,
+        leaves: u64::from(tree.leaf_count),
+        hit: if job.reference.is_some() && !job.compare {
+            "triangles"
+        } else {
+            job.trace.mode.name()
+        },
+        timing: FrameTiming::new(&shown.times, &shown.stats),
+        stats: shown.stats,
+        output,
+        camera: CameraReport::of(&scene.camera),
+        cpu: Some(CpuRun {
+            threads,
+            cost_scale,
+            compare,
+        }),
+        gpu: None,
+    })
+}
+
+/// The job on a version-3 file past what one tree in memory holds: every chunk read as a
+/// tree of its own (all in memory at once) and traced through [`ChunkedSurfaces`]. The
+/// comparisons with the mesh and the exact hit mode are refused.
+fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError> {
+    if job.reference.is_some() || job.mesh.is_some() || job.trace.mode == HitMode::Exact {
+        return Err(JobError::Invalid(
+            "a tree stored in chunks past 2^31 leaves renders in the cube and contour hit \
+             modes, without --reference or --mesh"
+                .into(),
+        ));
+    }
+    let (file, trees) = ChunkedFile::load(&job.input).map_err(SetupError::from)?;
+    let chunks: Vec<ChunkTree> = trees
+        .into_iter()
+        .enumerate()
+        .map(|(i, tree)| ChunkTree {
+            cell: file.chunk_cell(i),
+            first_leaf: file.chunk_leaves(i).1,
+            tree,
+        })
+        .collect();
+    let (lo, hi) = chunks
+        .iter()
+        .map(|c| c.tree.occupied_bounds())
+        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+        .unwrap_or((file.root().origin, file.root().origin));
+    let stage = job
+        .setup()?
+        .stage(file.depth(), lo, hi, &file.build().scene)?;
+    let s = ChunkedSurfaces::new(
+        file.root(),
+        file.depth(),
+        file.level(),
+        &chunks,
+        job.trace.mode,
+    )?;
+    let tracer = Tracer::new(s, &stage.lights, stage.sky, stage.phong, job.trace);
+    let shown = timed(job, &tracer, &stage.camera)?;
+    let (output, cost_scale) = write_frame(job, &shown)?;
+    Ok(FrameReport {
+        width: stage.camera.width,
+        height: stage.camera.height,
+        depth: file.depth(),
+        leaves: file.leaf_count(),
+        hit: job.trace.mode.name(),
+        timing: FrameTiming::new(&shown.times, &shown.stats),
+        stats: shown.stats,
+        output,
+        camera: CameraReport::of(&stage.camera),
+        cpu: Some(CpuRun {
+            threads,
+            cost_scale,
+            compare: None,
+        }),
+        gpu: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec3, UVec3, Vec3};
+    use rand::{Rng, SeedableRng};
+
+    /// The path for files past one tree in memory (every chunk a tree of its own) writes the
+    /// image that reading the same version-3 file whole writes, byte for byte, and reports the
+    /// same rays; the comparisons with a mesh are refused there in one line.
+    #[test]
+    fn a_file_in_chunks_renders_the_image_of_the_whole_tree() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x7e4d);
+        let root = svo::RootCube {
+            origin: DVec3::new(0.0, -1.0, 2.0),
+            side: 3.0,
+        };
+        let cells: Vec<_> = (0..2000)
+            .map(|_| {
+                let c = UVec3::new(
+                    rng.random_range(0..64),
+                    rng.random_range(0..16),
+                    rng.random_range(0..64),
+                );
+                let t = rng.random_range(0..100) as f32 / 100.0;
+                let v = svo::Voxel {
+                    colour: [t, 0.4, 1.0 - t, 1.0],
+                    reflectivity: if t > 0.7 { 0.6 } else { 0.0 },
+                    normal: Some(Vec3::new(0.2, 1.0, t - 0.5)),
+                    ..svo::Voxel::default()
+                };
+                (c, v)
+            })
+            .collect();
+        let tree = svo::Octree::from_cells(root, 6, cells).unwrap();
+        let input = dir.path().join("c.svo");
+        let mut bytes = Vec::new();
+        svo::io::write_chunked_to(&tree, &svo::io::BuildInfo::new(), 3, &mut bytes).unwrap();
+        std::fs::write(&input, bytes).unwrap();
+        let job = |name: &str| RenderJob {
+            input: input.clone(),
+            output: Some(dir.path().join(name)),
+            width: 80,
+            height: 60,
+            threads: Some(2),
+            ..RenderJob::default()
+        };
+        let whole = render_file(&job("whole.png")).unwrap();
+        let chunked = svo::with_threads(Some(2), |threads| {
+            render_chunked(&job("chunks.png"), threads)
+        })
+        .unwrap()
+        .unwrap();
+        assert!(whole.stats.primary_hits > 500, "{:?}", whole.stats);
+        assert_eq!(chunked.stats.primary_hits, whole.stats.primary_hits);
+        assert_eq!(chunked.leaves, whole.leaves);
+        let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+        assert!(read("whole.png") == read("chunks.png"));
+        let e = render_chunked(
+            &RenderJob {
+                reference: Some(input.clone()),
+                ..job("no.png")
+            },
+            1,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("without --reference"), "{e}");
+    }
+}
