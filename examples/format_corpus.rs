@@ -1,6 +1,7 @@
 //! Writes the `.svo` conformance corpus and its manifest to `fixtures/format/conformance/`
 //! (or the folder given): `cargo run -p svo-examples --example format_corpus`.
-//! `tests/tests/format_conformance.rs` checks that the committed files are what this writes.
+//! The test `format_conformance` (`tests/tests/it/`) checks that the committed files are
+//! what this writes.
 
 use std::path::PathBuf;
 
@@ -16,13 +17,13 @@ fn main() -> anyhow::Result<()> {
             std::fs::remove_file(old)?;
         }
     }
-    let corpus = svo_examples::conformance::corpus();
+    let corpus = svo_tests::conformance::corpus();
     for e in &corpus {
         std::fs::write(dir.join(&e.name), &e.bytes)?;
     }
     std::fs::write(
         dir.join("manifest.tsv"),
-        svo_examples::conformance::manifest(&corpus),
+        svo_tests::conformance::manifest(&corpus),
     )?;
     println!("{} files in {}", corpus.len(), dir.display());
     Ok(())

@@ -1,6 +1,28 @@
-//! What the tests, examples and benchmarks of this repository share: where the real meshes
-//! are, and what a test does when something it needs is missing (under CI it fails; elsewhere
-//! it prints a notice and skips). The end-to-end tests themselves are in `tests/`.
+//! What the tests, examples, benchmarks and fuzz targets of this repository share:
+//!
+//! - where the real meshes are, and what a test does when something it needs is missing
+//!   (under CI it fails; elsewhere it prints a notice and skips);
+//! - [`seeds`]: every seeded test's seeds (`SVO_TEST_SEED` moves them all) and a seeded
+//!   generator; [`geometry`]: seeded random geometry on an integer lattice;
+//! - the references the library is held to, sharing no code with it: [`exact_sat`] (an
+//!   integer separating-axis test), [`oracle`] (the cells any `f64` triangle touches, in
+//!   exact arithmetic), [`ray_reference`] and [`ray_check`] (the leaves a ray enters, in
+//!   rationals, and the margin the tracer's `f32` arithmetic allows), [`spec_reader`] (a
+//!   `.svo` reader written from `docs/format.md` alone) and [`conformance`] (the format's
+//!   conformance corpus, encoded from the document);
+//! - [`fuzz_cases`]: what the fuzz targets check, as functions the tests also run.
+//!
+//! The end-to-end tests themselves are in `tests/it/`.
+
+pub mod conformance;
+pub mod exact_sat;
+pub mod fuzz_cases;
+pub mod geometry;
+pub mod oracle;
+pub mod ray_check;
+pub mod ray_reference;
+pub mod seeds;
+pub mod spec_reader;
 
 use std::path::{Path, PathBuf};
 

@@ -64,8 +64,6 @@ pub mod render;
 #[cfg(feature = "scene")]
 pub mod scene;
 mod solid;
-#[cfg(test)]
-mod test_rng;
 #[cfg(feature = "io")]
 mod thread_pool;
 #[cfg(feature = "trace")]

@@ -592,7 +592,7 @@ mod tests {
 
     /// `n` random triangles of about `size` around points of the unit cube.
     fn random_mesh(seed: u64, n: usize, size: f64) -> Mesh {
-        let mut r = crate::test_rng::unit_f64(seed);
+        let mut r = svo_tests::seeds::unit_f64(seed);
         let mut around = |c: f64| c + size * (2.0 * r() - 1.0);
         let mut m = Mesh::default();
         for i in 0..n as u32 {
@@ -649,7 +649,7 @@ mod tests {
     /// zeros of both signs and values that share their top bits.
     #[test]
     fn thickness_percentiles_equal_sorting() {
-        let mut rnd = crate::test_rng::xorshift(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = svo_tests::seeds::xorshift(0x9e37_79b9_7f4a_7c15);
         for len in [1usize, 2, 3, 19, 1000, 20_001] {
             let v: Vec<f32> = (0..len)
                 .map(|_| match rnd() % 4 {

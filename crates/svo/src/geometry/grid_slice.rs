@@ -403,7 +403,7 @@ mod tests {
 
     #[test]
     fn pieces_cover_the_triangle_and_stay_in_their_cells() {
-        let mut rnd = crate::test_rng::unit_f64(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = svo_tests::seeds::unit_f64(0x9e37_79b9_7f4a_7c15);
         for _ in 0..2000 {
             let v = [0; 3].map(|_| DVec3::new(rnd() * 8.0, rnd() * 8.0, rnd() * 8.0));
             let mut sum = 0.0;
@@ -422,7 +422,7 @@ mod tests {
 
     #[test]
     fn pieces_equal_clipping_to_each_cell() {
-        let mut rnd = crate::test_rng::unit_f64(0x2545_f491_4f6c_dd1d);
+        let mut rnd = svo_tests::seeds::unit_f64(0x2545_f491_4f6c_dd1d);
         for _ in 0..500 {
             let v = [0; 3]
                 .map(|_| DVec3::new(rnd() * 12.0 - 2.0, rnd() * 12.0 - 2.0, rnd() * 12.0 - 2.0));

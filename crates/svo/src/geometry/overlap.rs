@@ -194,7 +194,7 @@ mod tests {
     /// sides 1/8 to 1024.
     #[test]
     fn the_plane_bound_covers_the_rounding_error_analysis() {
-        let mut rnd = crate::test_rng::unit_f64(0x0bad_5eed_1234_5678);
+        let mut rnd = svo_tests::seeds::unit_f64(0x0bad_5eed_1234_5678);
         let u = f64::EPSILON / 2.0;
         for i in 0..20_000 {
             let v = [0; 3].map(|_| DVec3::new(rnd(), rnd(), rnd()) * 2e3 - DVec3::splat(1e3));

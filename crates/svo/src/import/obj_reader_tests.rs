@@ -12,7 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
 fn rng(seed: u64) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(crate::test_rng::seed(seed))
+    ChaCha8Rng::seed_from_u64(svo_tests::seeds::seed(seed))
 }
 
 /// Whether two meshes are the same to the bit.

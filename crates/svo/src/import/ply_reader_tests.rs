@@ -15,7 +15,7 @@ use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
 fn rng(seed: u64) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(crate::test_rng::seed(seed))
+    ChaCha8Rng::seed_from_u64(svo_tests::seeds::seed(seed))
 }
 
 /// The reference: the whole file through `DefaultElement`, then the same mapping as the

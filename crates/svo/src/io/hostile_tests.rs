@@ -52,7 +52,7 @@ struct Rng(Box<dyn FnMut() -> u64>);
 
 impl Rng {
     fn new(seed: u64) -> Self {
-        Self(Box::new(crate::test_rng::xorshift(seed)))
+        Self(Box::new(svo_tests::seeds::xorshift(seed)))
     }
     fn below(&mut self, n: usize) -> usize {
         ((self.0)() % n as u64) as usize

@@ -901,7 +901,7 @@ mod tests {
             .collect();
         files.sort();
         assert!(files.len() > 50, "{}", files.len());
-        let mut rnd = crate::test_rng::xorshift(0x51f0_7e11);
+        let mut rnd = svo_tests::seeds::xorshift(0x51f0_7e11);
         let (mut valid, mut refused, mut damaged) = (0, 0, 0);
         for f in &files {
             let bytes = std::fs::read(f).unwrap();

@@ -343,11 +343,11 @@ mod tests {
     /// (depths 1 to 12, sparse and dense), and neither panics on broken ones.
     #[test]
     fn the_derive_for_checked_trees_equals_the_derive() {
-        let mut next = crate::test_rng::xorshift(0x00DE_C4ED);
+        let mut next = svo_tests::seeds::xorshift(0x00DE_C4ED);
         let mut compared = 0usize;
         for depth in 1..=12u8 {
             for count in [1usize, 5, 60, 900] {
-                let cells = crate::test_rng::random_cells(&mut next, depth, count);
+                let cells = svo_tests::seeds::random_cells(&mut next, depth, count);
                 let t = tree(depth, &cells);
                 let mut fast = t.nodes.clone();
                 derive_checked(&mut fast, depth);
@@ -370,11 +370,11 @@ mod tests {
     /// node's units allow: the leaves' own box with each side rounded outward to a unit.
     #[test]
     fn boxes_hold_their_leaves_within_one_unit() {
-        let mut next = crate::test_rng::xorshift(0xB0_0D5);
+        let mut next = svo_tests::seeds::xorshift(0xB0_0D5);
         for depth in 1..=9u8 {
             for count in [1usize, 2, 7, 40] {
                 let n = 1u32 << depth;
-                let cells = crate::test_rng::random_cells(&mut next, depth, count);
+                let cells = svo_tests::seeds::random_cells(&mut next, depth, count);
                 let t = tree(depth, &cells);
                 let mut checked = 0;
                 for level in 0..depth {

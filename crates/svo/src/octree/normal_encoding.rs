@@ -50,7 +50,7 @@ mod tests {
 
     #[test]
     fn octahedral_normals_are_accurate() {
-        let mut r = crate::test_rng::unit_f64(21);
+        let mut r = svo_tests::seeds::unit_f64(21);
         let mut worst = 0.0f64;
         for _ in 0..200_000 {
             let mut c = || (2.0 * r() - 1.0) as f32;

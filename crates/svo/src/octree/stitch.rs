@@ -294,7 +294,7 @@ mod tests {
     /// Cutting a tree at every level and stitching its subtrees back gives its node array.
     #[test]
     fn stitching_the_cut_subtrees_gives_the_tree_back() {
-        let mut rnd = crate::test_rng::xorshift(0x5717_c4ed);
+        let mut rnd = svo_tests::seeds::xorshift(0x5717_c4ed);
         for depth in [1u8, 2, 3, 5] {
             for density in [1u32, 8, 64] {
                 let side = 1u32 << depth;

@@ -593,10 +593,10 @@ mod tests {
             origin: DVec3::ZERO,
             side: 1.0,
         };
-        let mut rnd = crate::test_rng::xorshift(0x5851_f42d_4c95_7f2d);
+        let mut rnd = svo_tests::seeds::xorshift(0x5851_f42d_4c95_7f2d);
         for depth in 1..=9u8 {
             for count in [1usize, 2, 7, 100] {
-                let cells = crate::test_rng::random_cells(&mut rnd, depth, count)
+                let cells = svo_tests::seeds::random_cells(&mut rnd, depth, count)
                     .into_iter()
                     .map(|c| (c, Voxel::default()));
                 let tree = from_cells(root, depth, cells).unwrap();

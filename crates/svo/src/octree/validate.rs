@@ -325,11 +325,11 @@ mod tests {
     /// parents' leaves swapped, and with one leaf parent's leaves moved by one.
     #[test]
     fn the_shape_walk_tells_the_leaf_order_as_its_own_walk_does() {
-        let mut next = crate::test_rng::xorshift(0x001E_AF0D);
+        let mut next = svo_tests::seeds::xorshift(0x001E_AF0D);
         let (mut valid, mut invalid) = (0, 0);
         for depth in 1..=7u8 {
             for count in [1usize, 3, 20, 300] {
-                let cells = crate::test_rng::random_cells(&mut next, depth, count)
+                let cells = svo_tests::seeds::random_cells(&mut next, depth, count)
                     .into_iter()
                     .map(|c| (c, Voxel::default()));
                 let root = RootCube {

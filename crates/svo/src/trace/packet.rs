@@ -528,8 +528,8 @@ mod tests {
     /// step caps that stop lanes midway, and callbacks that stop at chosen leaves.
     #[test]
     fn every_lane_sees_what_the_single_walk_sees() {
-        let mut next = crate::test_rng::xorshift(0xBA_C4E7);
-        let mut unit = crate::test_rng::unit_f64(0x51_DE);
+        let mut next = svo_tests::seeds::xorshift(0xBA_C4E7);
+        let mut unit = svo_tests::seeds::unit_f64(0x51_DE);
         let mut compared = 0usize;
         let mut hits = 0usize;
         for depth in 1..=6u8 {

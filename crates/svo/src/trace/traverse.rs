@@ -569,8 +569,8 @@ mod tests {
     /// cell faces, and between lattice points (through corners and edges).
     #[test]
     fn a_walk_from_a_node_sees_what_the_root_walk_sees_there() {
-        let mut next = crate::test_rng::xorshift(0x5_7A27);
-        let mut unit = crate::test_rng::unit_f64(0x9E37);
+        let mut next = svo_tests::seeds::xorshift(0x5_7A27);
+        let mut unit = svo_tests::seeds::unit_f64(0x9E37);
         let (mut compared, mut touched) = (0usize, 0usize);
         for depth in 2..=5u8 {
             for density in [0.05, 0.3, 0.9] {

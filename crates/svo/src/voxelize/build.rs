@@ -865,7 +865,7 @@ mod tests {
     fn home_names_the_only_child_the_bounds_reach() {
         const D: u8 = 5;
         let side = f64::from(1u32 << D);
-        let mut rnd = crate::test_rng::xorshift(0x2545_f491_4f6c_dd1d);
+        let mut rnd = svo_tests::seeds::xorshift(0x2545_f491_4f6c_dd1d);
         // A coordinate near `base` from the random word `r`.
         let coord = |r: u64, base: f64| -> f64 {
             let k = (r >> 8) % 4;

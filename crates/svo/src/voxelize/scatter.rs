@@ -670,7 +670,7 @@ mod tests {
 
     #[test]
     fn the_cell_sort_is_a_stable_sort_by_key() {
-        let mut rnd = crate::test_rng::unit_f64(0x5eed_c0de_2026_1124);
+        let mut rnd = svo_tests::seeds::unit_f64(0x5eed_c0de_2026_1124);
         let (mut tmp, mut counts) = (Vec::new(), Vec::new());
         for k in 1..=SCATTER_LEVELS {
             let bits = 3 * u32::from(k);

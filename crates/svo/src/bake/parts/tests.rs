@@ -198,7 +198,7 @@ fn lattice_soup(rng: &mut impl Rng, scale: f64, path: &Path) {
 #[test]
 fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::test_rng::seed(0x9A27_5EED));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(svo_tests::seeds::seed(0x9A27_5EED));
     let mut empty_parts = 0;
     for round in 0..30 {
         let scale = [1.0, 1.0, 1.0, 2f64.powi(-70), 2f64.powi(70)][round % 5];

@@ -1,5 +1,4 @@
-//! Helpers shared by the viewer's integration tests (each test binary uses some of them).
-#![allow(dead_code)]
+//! Helpers shared by the viewer's integration tests.
 
 use std::path::{Path, PathBuf};
 

@@ -5,7 +5,7 @@
 
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::{torus_svo, torus_svo_at};
 
 fn view(args: &[&str]) -> std::process::Output {

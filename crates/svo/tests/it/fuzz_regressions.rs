@@ -5,7 +5,7 @@
 
 #![cfg(all(feature = "io", feature = "obj", feature = "ply", feature = "gltf"))]
 
-mod common;
+use crate::common;
 
 use common::fuzz_cases;
 use std::path::Path;

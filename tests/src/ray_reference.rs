@@ -26,7 +26,7 @@ use std::collections::HashMap;
 use svo::RootCube;
 use svo::octree::{Channel, Octree, Voxel};
 
-use super::oracle::dyadic;
+use crate::oracle::dyadic;
 
 /// An exact rational `n / d`, `d > 0`.
 #[derive(Clone, Debug)]
@@ -36,6 +36,7 @@ pub struct Q {
 }
 
 impl Q {
+    /// The integer `i`.
     pub fn int(i: i64) -> Self {
         Self {
             n: BigInt::from(i),
@@ -59,6 +60,7 @@ impl Q {
         }
     }
 
+    /// `self + o`.
     pub fn add(&self, o: &Self) -> Self {
         Self {
             n: &self.n * &o.d + &o.n * &self.d,
@@ -66,6 +68,7 @@ impl Q {
         }
     }
 
+    /// `self - o`.
     pub fn sub(&self, o: &Self) -> Self {
         Self {
             n: &self.n * &o.d - &o.n * &self.d,
@@ -73,6 +76,7 @@ impl Q {
         }
     }
 
+    /// `self * o`.
     pub fn mul(&self, o: &Self) -> Self {
         Self {
             n: &self.n * &o.n,
@@ -90,6 +94,7 @@ impl Q {
         }
     }
 
+    /// The sign.
     pub fn sign(&self) -> Sign {
         self.n.sign()
     }
@@ -133,7 +138,9 @@ impl Ord for Q {
 /// words.
 #[derive(Clone, Copy, Debug)]
 pub struct RefCell {
+    /// The cell.
     pub lo: UVec3,
+    /// Its normal and contour words.
     pub words: (u32, u32),
 }
 
@@ -207,16 +214,20 @@ pub fn tree_of(depth: u8, cells: &[RefCell]) -> Octree {
 
 /// A ray in exact form, with the `f32` values it was made from.
 pub struct ExactRay {
+    /// The origin, exactly.
     pub o: [Q; 3],
+    /// The direction, exactly.
     pub d: [Q; 3],
     /// Per axis, the sign of the direction component, zeros included (`true`: negative).
     pub neg: [bool; 3],
+    /// Where the ray starts.
     pub tmin: Q,
     /// The origin, direction and `tmin` as given.
     f32s: ([f32; 3], [f32; 3], f32),
 }
 
 impl ExactRay {
+    /// The exact ray of the `f32` origin and direction, from `tmin`.
     pub fn new(o: [f32; 3], d: [f32; 3], tmin: f32) -> Self {
         Self {
             o: o.map(|v| Q::of(f64::from(v))),
@@ -235,7 +246,9 @@ impl ExactRay {
 
 /// A parameter interval `[a, b]`, `b == None` for no upper end.
 pub struct Interval {
+    /// Where it starts.
     pub a: Q,
+    /// Where it ends, if it does.
     pub b: Option<Q>,
 }
 

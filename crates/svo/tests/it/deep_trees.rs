@@ -6,7 +6,7 @@
 //! than one), and nodes stay a fraction of the leaves. Memory and time are measured per leaf
 //! in the benchmark report; this checks that nothing but the leaves grows.
 
-mod common;
+use crate::common;
 use common::oracle::{grid_triangles, touched_cells};
 use glam::DVec3;
 use std::collections::BTreeSet;

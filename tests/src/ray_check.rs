@@ -1,4 +1,4 @@
-//! The check of one traversal result against the exact reference ([`super::ray_reference`])
+//! The check of one traversal result against the exact reference ([`crate::ray_reference`])
 //! with the margin that the tracer's `f32` arithmetic allows, shared by the octree and the
 //! dense-grid tests.
 //!
@@ -22,7 +22,7 @@
 //! `tmin = 0`) get no cube margin at all: they must hit at exactly `T_in`, or where they
 //! start, or where they only touch the root, at a point of the hit cell's closed cube.
 
-use super::ray_reference::{ExactRay, Q, RefCell, contains, first_entry, octahedral};
+use crate::ray_reference::{ExactRay, Q, RefCell, contains, first_entry, octahedral};
 use glam::UVec3;
 use std::collections::HashMap;
 use svo::trace::{GridRay, HitMode};
@@ -50,7 +50,9 @@ pub fn margin(ray: &GridRay, tmin: f32, l: f64, mode: HitMode) -> f64 {
 /// exact region, in units of `u L`, and how many exact rays were held to no margin.
 #[derive(Default)]
 pub struct Worst {
+    /// Per mode (cube, contour), the worst distance outside, in units of `u L`.
     pub ratio: [f64; 2],
+    /// Rays held to no margin.
     pub exact: usize,
 }
 

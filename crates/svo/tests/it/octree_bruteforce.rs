@@ -2,7 +2,7 @@
 //! small seeded meshes, for every strategy at several depths: exact strategies give exactly
 //! the touched cells with exactly the touching triangles; the others give supersets.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{DVec3, UVec3};
 use rand::Rng;

@@ -1,6 +1,6 @@
 //! Leaf attributes: material mapping from MTL (including `Tr`), textures, binary PLY, padding and the builder.
 
-mod common;
+use crate::common;
 use common::{bake_at, rng};
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;

@@ -22,7 +22,7 @@
 
 #![cfg(feature = "trace")]
 
-mod common;
+use crate::common;
 
 use common::ray_check::U;
 use glam::{DVec3, UVec3};

@@ -5,7 +5,7 @@
 //! default strategy, sliced bottom levels) and every exact strategy's per-cell triangle lists
 //! must equal the oracle's cell for cell; the inexact strategies must contain them.
 
-mod common;
+use crate::common;
 use common::oracle::{grid_triangles, touched_cells};
 use common::rng;
 use glam::DVec3;

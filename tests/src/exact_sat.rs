@@ -25,12 +25,16 @@ fn dot(a: I3, b: I3) -> i128 {
 /// Which axes of the 13-axis SAT do not separate, computed exactly in integers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RefSat {
+    /// The three box axes do not separate.
     pub boxes: bool,
+    /// The triangle's plane does not separate.
     pub plane: bool,
+    /// The nine edge-cross axes do not separate.
     pub edges: bool,
 }
 
 impl RefSat {
+    /// No axis separates: the triangle and the box overlap.
     pub fn overlap(self) -> bool {
         self.boxes && self.plane && self.edges
     }

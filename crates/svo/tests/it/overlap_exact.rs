@@ -1,7 +1,7 @@
 //! Each overlap test against the exact integer SAT reference, on seeded random triangles and
 //! cells and on hand-made edge cases (faces, edges, corners, axis-aligned, degenerate).
 
-mod common;
+use crate::common;
 use common::*;
 use svo::voxelize::{
     GridTriangle, aabb_overlaps, edges_overlap, plane_overlaps, triangle_box_overlap, vertex_inside,

@@ -1,11 +1,10 @@
 //! What the fuzz targets check, as plain functions: `fuzz/fuzz_targets/*.rs` call them on
-//! the fuzzer's inputs, and `crates/svo/tests/fuzz_regressions.rs` on the inputs kept in
+//! the fuzzer's inputs, and svo's test `fuzz_regressions` on the inputs kept in
 //! `fixtures/fuzz/` (every crash the fuzzer found, and seeds). Each panics when a property
-//! fails. The module's parent must also declare the `exact_sat` module (the integer
-//! reference) and the `oracle` module (the exact voxelization oracle for any `f64` input);
-//! the three files depend only on `svo`, `glam`, `xxhash-rust`, `num-bigint` and `std`.
+//! fails. The checks use the integer reference ([`crate::exact_sat`]) and the exact
+//! voxelization oracle for any `f64` input ([`crate::oracle`]).
 
-use super::{exact_sat, oracle};
+use crate::{exact_sat, oracle};
 use glam::DVec3;
 use svo::io::{from_bytes, to_bytes};
 use svo::{BakeOptions, Mesh, MeshFormat, Strategy, bake_mesh};
@@ -181,7 +180,6 @@ fn raw(depth: u8, bytes: &[u8]) {
         from_bytes(&bytes).expect("a baked tree reads back");
         // The same mesh filled by voting (these meshes are rarely closed): a valid tree
         // that keeps every surface leaf.
-        #[cfg(feature = "solid")]
         {
             let solid_opts = BakeOptions {
                 solid: Some(svo::bake::SolidMode::Vote),

@@ -1,18 +1,16 @@
 //! The `.svo` conformance corpus (`fixtures/format/conformance/`, `docs/format.md`): the
-//! committed files are what the generator (`svo_examples::conformance`, an encoder written
+//! committed files are what the generator (`svo_tests::conformance`, an encoder written
 //! from the document) makes; svo's reader accepts exactly the valid ones and rejects each
 //! invalid one at the check its manifest names, with the check's number and name in the
 //! message; and svo's writer, given a valid tree back, writes the same bytes as the
 //! document's encoder (the canonical layout). A second reader, written from the document
-//! alone (`support/spec_reader.rs`), gives every file the same outcome and check.
-
-#[path = "support/spec_reader.rs"]
-mod spec_reader;
+//! alone (`svo_tests::spec_reader`), gives every file the same outcome and check.
 
 use std::collections::BTreeMap;
 use svo::io::{FormatError, from_bytes, to_bytes, write_chunked_to};
 use svo::octree::Check;
-use svo_examples::conformance::{corpus, manifest};
+use svo_tests::conformance::{corpus, manifest};
+use svo_tests::spec_reader;
 
 fn corpus_dir() -> std::path::PathBuf {
     svo_tests::repo_root().join("fixtures/format/conformance")

@@ -5,7 +5,7 @@
 //! each other on generic, axis-aligned, huge and offset meshes at depths up to 9, and the
 //! leaves' normals against per-contact clipping (the tests' own clipping).
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{DVec3, Vec3};
 use rand::Rng;

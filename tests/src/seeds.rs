@@ -1,12 +1,12 @@
-//! A seeded xorshift generator for the unit tests: the same sequence on every machine, and
-//! no dependency inside the library's own test modules.
+//! Seeds for every seeded test: a seeded xorshift generator (the same sequence on every
+//! machine) and the seeds the other generators start from.
 //!
 //! `SVO_TEST_SEED` (a number, decimal or `0x` hex) moves every seed of the seeded tests to
 //! other values, so a soak can run the same checks over new random cases; unset, the seeds are
 //! the ones written in the tests.
 
 /// `seed` as written, or mixed with `SVO_TEST_SEED` when that is set (never zero).
-pub(crate) fn seed(seed: u64) -> u64 {
+pub fn seed(seed: u64) -> u64 {
     match soak_salt() {
         None => seed,
         Some(salt) => splitmix(seed ^ splitmix(salt)).max(1),
@@ -37,7 +37,7 @@ fn splitmix(x: u64) -> u64 {
 }
 
 /// The xorshift64 sequence from `seed` (non-zero; moved by `SVO_TEST_SEED`, see [`seed`]).
-pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
+pub fn xorshift(seed: u64) -> impl FnMut() -> u64 {
     let mut seed = self::seed(seed);
     move || {
         seed ^= seed << 13;
@@ -48,14 +48,14 @@ pub(crate) fn xorshift(seed: u64) -> impl FnMut() -> u64 {
 }
 
 /// Uniform values in `[0, 1)` from [`xorshift`] (its top 53 bits).
-pub(crate) fn unit_f64(seed: u64) -> impl FnMut() -> f64 {
+pub fn unit_f64(seed: u64) -> impl FnMut() -> f64 {
     let mut next = xorshift(seed);
     move || (next() >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// `count` cells drawn from `next` in a grid of `2^depth` cells a side (x, y and z drawn in
 /// that order).
-pub(crate) fn random_cells(
+pub fn random_cells(
     next: &mut impl FnMut() -> u64,
     depth: u8,
     count: usize,

@@ -6,7 +6,7 @@
 //! reference of `common/ray_check.rs`, built from the cell list.
 #![cfg(feature = "trace")]
 
-mod common;
+use crate::common;
 
 use common::ray_check::{Worst, check_hit};
 use common::ray_reference::{RefCell, index_of, tree_of, with_words};

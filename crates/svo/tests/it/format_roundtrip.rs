@@ -3,7 +3,7 @@
 
 #![cfg(feature = "io")]
 
-mod common;
+use crate::common;
 use common::rng;
 use glam::{DVec3, UVec3};
 use rand::Rng;

@@ -1,6 +1,6 @@
-//! Shared helpers for the integration tests: an exact integer SAT reference and seeded
-//! random geometry.
-#![allow(dead_code)]
+//! Seeded random geometry on an integer lattice (the exact tests' coordinates are integers
+//! over [`DENOM`]), a bake at a depth, and the area of a triangle clipped to a cell, written
+//! apart from the library's clipping as a reference.
 
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
@@ -9,32 +9,19 @@ use rand_chacha::ChaCha8Rng;
 /// Coordinates in the exact tests are integers divided by this.
 pub const DENOM: f64 = 16.0;
 
-/// The library's seed helpers (`SVO_TEST_SEED` moves every seed; see there).
-#[path = "../../src/test_rng.rs"]
-mod test_rng;
-
 /// The generator for `seed`, or for `seed` mixed with `SVO_TEST_SEED` when that is set.
 pub fn rng(seed: u64) -> ChaCha8Rng {
-    ChaCha8Rng::seed_from_u64(test_rng::seed(seed))
+    ChaCha8Rng::seed_from_u64(crate::seeds::seed(seed))
 }
 
-mod exact_sat;
-pub mod oracle;
-#[cfg(feature = "trace")]
-pub mod ray_check;
-#[cfg(feature = "trace")]
-pub mod ray_reference;
-pub use exact_sat::*;
-#[cfg(feature = "io")]
-pub mod fuzz_cases;
 
 /// Integer point to f64 grid coordinates.
-pub fn to_f(p: I3) -> DVec3 {
+pub fn to_f(p: crate::exact_sat::I3) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / DENOM
 }
 
 /// A random integer point in `[lo, hi]^3`.
-pub fn rand_point(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> I3 {
+pub fn rand_point(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> crate::exact_sat::I3 {
     [
         r.random_range(lo..=hi),
         r.random_range(lo..=hi),
@@ -44,7 +31,7 @@ pub fn rand_point(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> I3 {
 
 /// A random triangle of a few kinds: general, near a cell, degenerate (segment or point),
 /// axis-aligned, or sliver.
-pub fn rand_triangle(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> [I3; 3] {
+pub fn rand_triangle(r: &mut ChaCha8Rng, lo: i128, hi: i128) -> [crate::exact_sat::I3; 3] {
     let a = rand_point(r, lo, hi);
     match r.random_range(0..6) {
         0 | 1 => [a, rand_point(r, lo, hi), rand_point(r, lo, hi)],

@@ -11,7 +11,7 @@
 //! the margin; rays whose arithmetic is exact get no cube margin at all.
 #![cfg(feature = "trace")]
 
-mod common;
+use crate::common;
 
 use common::ray_check::{Worst, check_hit};
 use common::ray_reference::{

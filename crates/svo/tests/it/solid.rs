@@ -6,7 +6,7 @@
 //! are refused.
 #![cfg(feature = "solid")]
 
-mod common;
+use crate::common;
 
 use glam::{DMat3, DVec3, UVec3};
 use rand::Rng;

@@ -4,7 +4,7 @@
 //! exact hit mode against the triangle reference.
 #![cfg(all(feature = "image-io", feature = "reference"))]
 
-mod common;
+use crate::common;
 
 use glam::{DVec3, UVec3, Vec3};
 use rand::Rng;

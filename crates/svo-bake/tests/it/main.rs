@@ -1,0 +1,6 @@
+//! The baker's integration tests, one binary: the command line (bakes, exports, conversions,
+//! bakes in parts and within a memory budget, bad input) and the bake in parts on a Slurm
+//! cluster of one node.
+
+mod cli;
+mod slurm;
