@@ -14,7 +14,6 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(crate::seeds::seed(seed))
 }
 
-
 /// Integer point to f64 grid coordinates.
 pub fn to_f(p: crate::exact_sat::I3) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / DENOM

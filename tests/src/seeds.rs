@@ -55,11 +55,7 @@ pub fn unit_f64(seed: u64) -> impl FnMut() -> f64 {
 
 /// `count` cells drawn from `next` in a grid of `2^depth` cells a side (x, y and z drawn in
 /// that order).
-pub fn random_cells(
-    next: &mut impl FnMut() -> u64,
-    depth: u8,
-    count: usize,
-) -> Vec<glam::UVec3> {
+pub fn random_cells(next: &mut impl FnMut() -> u64, depth: u8, count: usize) -> Vec<glam::UVec3> {
     let side = 1u64 << depth;
     (0..count)
         .map(|_| {
