@@ -5,7 +5,7 @@
 //! numbered check of `docs/format.md`, named by it.
 //!
 //! The files are encoded here from `docs/format.md` ([`Parts::encode`]), not by svo's writer:
-//! for every valid tree that svo can write, the test `tests/tests/format_conformance.rs`
+//! for every valid tree that svo can write, the test `tests/tests/it/format_conformance.rs`
 //! requires svo's writer to give the same bytes, so the canonical layout is stated and
 //! followed twice.
 

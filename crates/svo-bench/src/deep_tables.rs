@@ -1,5 +1,5 @@
 //! Deep trees: bake time and peak heap per leaf at depths 1 to 20 for the three shapes of
-//! `crates/svo/tests/deep_trees.rs` (a small triangle, a thin sliver, a bundle of long thin
+//! `crates/svo/tests/it/deep_trees.rs` (a small triangle, a thin sliver, a bundle of long thin
 //! triangles), so the claim that time and memory follow the leaves made, and nothing else,
 //! is a measured figure.
 
@@ -108,7 +108,7 @@ pub fn measure(max_depth: u8, runs: fn(u8) -> usize, log: &dyn Fn(&str)) -> Vec<
 /// The section's table.
 pub fn write(r: &mut Report, rows: &[DeepRow], runs_note: &str) {
     r.para(&format!(
-        "The three shapes of `crates/svo/tests/deep_trees.rs` (root: the unit cube): a \
+        "The three shapes of `crates/svo/tests/it/deep_trees.rs` (root: the unit cube): a \
          triangle with legs of 2^-12, a sliver 1/64 long and 1e-12 wide, and eight needles \
          1/64 long and 1e-9 wide; the whole bake (`bake_mesh`: voxelize, attributes, \
          contours), {runs_note}; peak heap is the most bytes live at once beyond those live \

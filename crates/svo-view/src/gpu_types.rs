@@ -2,7 +2,7 @@
 //! once here (`#[repr(C)]`, `bytemuck::Pod`), and the shader variant: the
 //! pipeline-overridable constants that leave out what a scene does not need.
 //!
-//! `tests/gpu_layout.rs` parses the linked WGSL with naga and checks every struct's size and
+//! `tests/it/gpu_layout.rs` parses the linked WGSL with naga and checks every struct's size and
 //! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
 
 use bytemuck::{Pod, Zeroable};

@@ -23,7 +23,7 @@
 //!   (winit, egui overlay).
 //!
 //! The shader (`src/shaders/trace/*.wesl`) ports `svo`'s traversal, leaf hits and Whitted
-//! loop; the golden tests (`tests/gpu_vs_cpu.rs`) hold the two to the same images.
+//! loop; the golden tests (`tests/it/gpu_vs_cpu.rs`) hold the two to the same images.
 
 pub mod camera_control;
 pub mod cpu_render;

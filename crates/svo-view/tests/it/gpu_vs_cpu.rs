@@ -721,7 +721,7 @@ fn step_cap_stops_gpu_rays_where_it_stops_cpu_rays() {
 
 /// Deep trees (depths 16, 20, 21, 24): clusters of leaves in the middle and the far corner of
 /// the root, where `f32` grid coordinates are coarsest, hit by rays from a few to a few
-/// hundred cells away (as `crates/svo/tests/deep_precision.rs` does on the CPU against an
+/// hundred cells away (as `crates/svo/tests/it/deep_precision.rs` does on the CPU against an
 /// `f64` reference): the GPU finds the CPU's leaf with the same steps and `t`. At depths 29
 /// and 30, the deepest (whose 64-ary views have 15 levels, a 2x2x2 root at the odd one), the
 /// cluster sits near the root's low corner, where `f32` still resolves a cell.

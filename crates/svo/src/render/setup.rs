@@ -15,7 +15,7 @@ use thiserror::Error;
 
 /// The deepest tree the renderers trace. Traversal runs in `f32` grid coordinates, whose cell
 /// planes are exact integers up to depth 24: there every ray hits each leaf it enters by more
-/// than the rounding of its plane parameters (`tests/deep_precision.rs`); from depth 25 the
+/// than the rounding of its plane parameters (`tests/it/deep_precision.rs`); from depth 25 the
 /// planes round and from depth 26 half the rays go wrong, so such trees are refused rather
 /// than rendered wrong.
 pub const MAX_TRACE_DEPTH: u8 = 24;

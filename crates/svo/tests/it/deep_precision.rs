@@ -7,7 +7,7 @@
 //! (`cargo test --test deep_precision -- --nocapture`) and asserts what `docs/stability.md`
 //! states: up to depth 24 every ray keeps the traversal's contract. A plane parameter is
 //! `(p - o) * (1 / d)` in `f32`, the exact parameter of a plane moved by up to `3u |p - o|`
-//! (`u = 2^-24`; `tests/common/ray_check.rs`), so a leaf counts as entered when the ray enters
+//! (`u = 2^-24`; `tests/src/ray_check.rs`), so a leaf counts as entered when the ray enters
 //! its cube shrunk by `3.25u` times its planes' largest distance from the origin: such a
 //! leaf must be hit, and no leaf later than its entry; a hit leaf must be met by its cube
 //! grown by the same margin, at its own entry parameter within `1e-3` cells plus the `f32`

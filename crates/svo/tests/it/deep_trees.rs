@@ -1,6 +1,6 @@
 //! Depths 1 to 20 for a single small triangle, a thin sliver and a bundle of long thin
 //! triangles: at every depth the leaves are exactly the cells the triangles touch (the exact
-//! big-integer oracle of `common/oracle.rs`, which shares no code with the library, descends
+//! big-integer oracle of `tests/src/oracle.rs`, which shares no code with the library, descends
 //! to depth 20 once and gives the touched cells of every level), the tree grows with the
 //! surface (leaves about 4x per level for a triangle wider than a cell, 2x for a sliver thinner
 //! than one), and nodes stay a fraction of the leaves. Memory and time are measured per leaf

@@ -1,4 +1,4 @@
-//! The voxelizer against the exact big-integer oracle (`common/oracle.rs`, which shares no
+//! The voxelizer against the exact big-integer oracle (`tests/src/oracle.rs`, which shares no
 //! code with the library) on floating-point input: seeded random meshes with full-precision
 //! coordinates, triangles built to pass within rounding of cell corners, edges and faces,
 //! `-0.0`, slivers, huge and tiny scales, and the shared real meshes. The bake's leaves (the

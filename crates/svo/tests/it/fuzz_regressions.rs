@@ -1,4 +1,4 @@
-//! The fuzz targets' checks (`tests/common/fuzz_cases.rs`) on every input kept in
+//! The fuzz targets' checks (`tests/src/fuzz_cases.rs`) on every input kept in
 //! `fixtures/fuzz/<target>/`: the seeds the fuzzer starts from and every input that once
 //! crashed a target. Runs on stable in every test run; the fuzzing itself needs nightly and
 //! `cargo fuzz` (see `docs/stability.md`).

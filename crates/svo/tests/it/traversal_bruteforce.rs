@@ -1,12 +1,12 @@
 //! The octree traversal against an exact reference: every ray against every cell of the
 //! list the tree was built from, its cube or contour slab decoded by the test itself, with
-//! the entry parameter computed in rationals (`common/ray_reference.rs`), on seeded random
+//! the entry parameter computed in rationals (`tests/src/ray_reference.rs`), on seeded random
 //! trees and rays: axis-parallel rays with `+0.0` and `-0.0` components, rays through lattice
 //! corners and edges, rays along cell faces, rays starting inside the root and inside leaves,
 //! directions scaled by `2^-69` to `2^60`, and a sparse deep tree.
 //!
 //! The margin that the tracer's `f32` arithmetic allows, and what each ray must satisfy, are
-//! stated in `common/ray_check.rs`: no cell entered by more than the margin is missed, the
+//! stated in `tests/src/ray_check.rs`: no cell entered by more than the margin is missed, the
 //! hit is no later than the first such entry, and its point lies in its cell's region within
 //! the margin; rays whose arithmetic is exact get no cube margin at all.
 #![cfg(feature = "trace")]

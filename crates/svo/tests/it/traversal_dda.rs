@@ -3,7 +3,7 @@
 //! so agree on every cube and contour hit, on seeded random trees and rays (including
 //! axis-parallel rays with signed zeros and rays through lattice corners). The two walks
 //! share the mirrored ray, so each DDA hit is also checked on its own against the exact
-//! reference of `common/ray_check.rs`, built from the cell list.
+//! reference of `tests/src/ray_check.rs`, built from the cell list.
 #![cfg(feature = "trace")]
 
 use crate::common;
