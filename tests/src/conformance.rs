@@ -536,8 +536,140 @@ fn header_len(bytes: &[u8]) -> usize {
     u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize
 }
 
+/// The trees the corpus's files are made of, as their parts.
+struct Trees {
+    /// Every channel per leaf, depth 3.
+    varied: Parts,
+    /// Every channel a constant.
+    constant: Parts,
+    /// A baked torus.
+    torus: Parts,
+    /// The same torus filled.
+    solid: Parts,
+    /// `varied` without channels.
+    none: Parts,
+    /// The empty tree.
+    empty: Parts,
+    /// One leaf at depth 1.
+    single: Parts,
+    /// Depth 30, three leaves.
+    deepest: Parts,
+    /// `constant` with lights and views.
+    with_scene: Parts,
+    /// `varied` as version 1.
+    v1: Parts,
+    /// `varied` in chunks at level 1.
+    chunked: Parts,
+    /// `varied` in chunks at level 2 (each a leaf parent).
+    leafy: Parts,
+    /// `deepest` in chunks at level 21.
+    deepest_chunked: Parts,
+    /// `varied`'s bytes, the file most invalid ones break.
+    base: Vec<u8>,
+}
+
+impl Trees {
+    fn new() -> Self {
+        let varied = Parts::of(&varied_tree(), &build(SceneInfo::default()));
+        let constant = Parts::of(&constant_tree(), &build(SceneInfo::default()));
+        let (surface, surface_build) = baked(false);
+        let (solid, solid_build) = baked(true);
+        let torus = Parts::of(&surface, &surface_build);
+        let solid = Parts::of(&solid, &solid_build);
+        let mut none = varied.clone();
+        none.channels.clear();
+        let empty = Parts::of(
+            &Octree::from_cells(root(), 3, []).expect("empty"),
+            &build(SceneInfo::default()),
+        );
+        let single = Parts::of(
+            &Octree::from_cells(root(), 1, [(UVec3::new(1, 0, 1), Voxel::water())])
+                .expect("one leaf"),
+            &build(SceneInfo::default()),
+        );
+        let deepest = Parts::of(
+            &Octree::from_cells(
+                root(),
+                30,
+                [
+                    UVec3::ZERO,
+                    UVec3::splat((1 << 30) - 1),
+                    UVec3::new(5, (1 << 29) + 3, 12345),
+                ]
+                .map(|c| (c, Voxel::solid([0.2, 0.4, 0.6, 1.0]))),
+            )
+            .expect("depth 30"),
+            &build(SceneInfo::default()),
+        );
+        let with_scene = Parts::of(&constant_tree(), &build(scene()));
+        let mut v1 = varied.clone();
+        v1.version = 1;
+        let chunked = varied.chunked(1);
+        let leafy = varied.chunked(2);
+        let deepest_chunked = deepest.chunked(21);
+        let base = varied.encode();
+        Self {
+            varied,
+            constant,
+            torus,
+            solid,
+            none,
+            empty,
+            single,
+            deepest,
+            with_scene,
+            v1,
+            chunked,
+            leafy,
+            deepest_chunked,
+            base,
+        }
+    }
+}
+
 /// The corpus, in manifest order.
 pub fn corpus() -> Vec<Entry> {
+    let t = Trees::new();
+    let mut out = valid_files(&t);
+    let mut invalid = |check: u8, name: &str, what: &str, bytes: Vec<u8>| {
+        out.push(Entry {
+            name: format!("check-{check:02}-{name}.svo"),
+            bytes,
+            check: Some(check),
+            what: what.into(),
+        });
+    };
+    preamble(&t, &mut invalid);
+    header_encoding(&t, &mut invalid);
+    header_values(&t, &mut invalid);
+    layout(&t, &mut invalid);
+    tree(&t, &mut invalid);
+    values(&t, &mut invalid);
+    version_3_header(&t, &mut invalid);
+    version_3_chunks(&t, &mut invalid);
+    out
+}
+
+/// What adds an invalid file: the check it fails, its name, what is wrong, its bytes.
+type Invalid<'a> = dyn FnMut(u8, &str, &str, Vec<u8>) + 'a;
+
+/// `base` changed by `f`, with the right checksum.
+fn sealed(base: &[u8], f: &dyn Fn(&mut Vec<u8>)) -> Vec<u8> {
+    let mut b = base.to_vec();
+    f(&mut b);
+    reseal(&mut b);
+    b
+}
+
+/// `p` changed by `f`, encoded.
+fn from(p: &Parts, f: &dyn Fn(&mut Parts)) -> Vec<u8> {
+    let mut p = p.clone();
+    f(&mut p);
+    p.encode()
+}
+
+/// The valid files.
+fn valid_files(t: &Trees) -> Vec<Entry> {
     let mut out = Vec::new();
     let mut valid = |name: &str, what: &str, parts: &Parts| {
         out.push(Entry {
@@ -547,134 +679,101 @@ pub fn corpus() -> Vec<Entry> {
             what: what.into(),
         });
     };
-    let varied = Parts::of(&varied_tree(), &build(SceneInfo::default()));
-    let constant = Parts::of(&constant_tree(), &build(SceneInfo::default()));
-    let (surface, surface_build) = baked(false);
-    let (solid, solid_build) = baked(true);
-    let torus = Parts::of(&surface, &surface_build);
-    let solid = Parts::of(&solid, &solid_build);
-    let mut none = varied.clone();
-    none.channels.clear();
-    let empty = Parts::of(
-        &Octree::from_cells(root(), 3, []).expect("empty"),
-        &build(SceneInfo::default()),
-    );
-    let single = Parts::of(
-        &Octree::from_cells(root(), 1, [(UVec3::new(1, 0, 1), Voxel::water())]).expect("one leaf"),
-        &build(SceneInfo::default()),
-    );
-    let deepest = Parts::of(
-        &Octree::from_cells(
-            root(),
-            30,
-            [
-                UVec3::ZERO,
-                UVec3::splat((1 << 30) - 1),
-                UVec3::new(5, (1 << 29) + 3, 12345),
-            ]
-            .map(|c| (c, Voxel::solid([0.2, 0.4, 0.6, 1.0]))),
-        )
-        .expect("depth 30"),
-        &build(SceneInfo::default()),
-    );
-    let with_scene = Parts::of(&constant_tree(), &build(scene()));
-    let mut v1 = varied.clone();
-    v1.version = 1;
+    let Trees {
+        varied,
+        constant,
+        torus,
+        solid,
+        none,
+        empty,
+        single,
+        deepest,
+        with_scene,
+        v1,
+        chunked,
+        leafy,
+        deepest_chunked,
+        ..
+    } = t;
     valid(
         "per-leaf",
         "every channel per leaf (normals, contours, colours, reflectivity, refractivity, IOR), depth 3, 12 leaves",
-        &varied,
+        varied,
     );
     valid(
         "constant",
         "every channel a constant, depth 2, 5 leaves",
-        &constant,
+        constant,
     );
     valid(
         "absent",
         "no channel at all: every leaf takes the defaults",
-        &none,
+        none,
     );
     valid(
         "bake",
         "a torus of 256 triangles baked at depth 4: per-leaf normals and contours, constant colour and materials",
-        &torus,
+        torus,
     );
     valid(
         "solid",
         "the same torus filled: interior leaves (normal word 0x80008000, whole-cell contour)",
-        &solid,
+        solid,
     );
     valid(
         "empty",
         "an empty tree: one root node without children, no leaves",
-        &empty,
+        empty,
     );
     valid(
         "single-leaf",
         "depth 1, one leaf: the root refers to it",
-        &single,
+        single,
     );
     valid(
         "depth-30",
         "the deepest tree: depth 30, three leaves at opposite corners",
-        &deepest,
+        deepest,
     );
-    valid("scene", "two lights and two camera views", &with_scene);
+    valid("scene", "two lights and two camera views", with_scene);
     valid(
         "version-1",
         "version 1 (no lights or views in the header)",
-        &v1,
+        v1,
     );
-    let chunked = varied.chunked(1);
     valid(
         "chunked",
         "version 3: the per-leaf tree in chunks at level 1 (each chunk a tree of its own, its leaves from 0)",
-        &chunked,
+        chunked,
     );
     valid(
         "chunked-level-0",
         "version 3: the baked torus as one chunk at level 0, the whole tree",
         &torus.chunked(0),
     );
-    let leafy = varied.chunked(2);
     valid(
         "chunked-leaf-parents",
         "version 3: chunks at level depth - 1, each one leaf parent",
-        &leafy,
+        leafy,
     );
     valid(
         "chunked-empty",
         "version 3: the empty tree, no chunk and no node",
         &empty.chunked(1),
     );
-    let deepest_chunked = deepest.chunked(21);
     valid(
         "chunked-depth-30",
         "version 3: the depth-30 tree in chunks at level 21, the deepest chunk level",
-        &deepest_chunked,
+        deepest_chunked,
     );
 
-    let mut invalid = |check: u8, name: &str, what: &str, bytes: Vec<u8>| {
-        out.push(Entry {
-            name: format!("check-{check:02}-{name}.svo"),
-            bytes,
-            check: Some(check),
-            what: what.into(),
-        });
-    };
-    let base = varied.encode();
-    let sealed = |f: &dyn Fn(&mut Vec<u8>)| {
-        let mut b = base.clone();
-        f(&mut b);
-        reseal(&mut b);
-        b
-    };
-    let from = |p: &Parts, f: &dyn Fn(&mut Parts)| {
-        let mut p = p.clone();
-        f(&mut p);
-        p.encode()
-    };
+    out
+}
+
+/// The invalid files of checks 1 to 5: the preamble and the checksum.
+fn preamble(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees { base, .. } = t;
+    let sealed = |f: &dyn Fn(&mut Vec<u8>)| sealed(&t.base, f);
     // 1-5: preamble and checksum.
     invalid(
         1,
@@ -722,8 +821,14 @@ pub fn corpus() -> Vec<Entry> {
         }),
     );
     let mut flipped = base.clone();
-    flipped[pad8(16 + header_len(&base)) + 3] ^= 0x10;
+    flipped[pad8(16 + header_len(base)) + 3] ^= 0x10;
     invalid(5, "checksum", "one bit of the node array flipped", flipped);
+}
+
+/// The invalid files of check 6: the header's encoding.
+fn header_encoding(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees { varied, .. } = t;
+    let sealed = |f: &dyn Fn(&mut Vec<u8>)| sealed(&t.base, f);
     // 6: the header's encoding.
     invalid(
         6,
@@ -755,6 +860,17 @@ pub fn corpus() -> Vec<Entry> {
         reseal(&mut b);
         b
     });
+}
+
+/// The invalid files of checks 7 to 11: the header's values.
+fn header_values(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees {
+        varied,
+        constant,
+        with_scene,
+        ..
+    } = t;
+    let sealed = |f: &dyn Fn(&mut Vec<u8>)| sealed(&t.base, f);
     // 7-11: header values.
     invalid(7, "depth-zero", "depth 0", sealed(&|b| b[at::DEPTH] = 0));
     invalid(7, "depth-31", "depth 31", sealed(&|b| b[at::DEPTH] = 31));
@@ -762,19 +878,19 @@ pub fn corpus() -> Vec<Entry> {
         8,
         "side-zero",
         "a root side of 0",
-        from(&varied, &|p| p.side = 0.0),
+        from(varied, &|p| p.side = 0.0),
     );
     invalid(
         8,
         "origin-nan",
         "a NaN in the root origin",
-        from(&varied, &|p| p.origin[1] = f64::NAN),
+        from(varied, &|p| p.origin[1] = f64::NAN),
     );
     invalid(
         8,
         "side-infinite",
         "an infinite root side",
-        from(&varied, &|p| p.side = f64::INFINITY),
+        from(varied, &|p| p.side = f64::INFINITY),
     );
     invalid(
         9,
@@ -786,43 +902,43 @@ pub fn corpus() -> Vec<Entry> {
         9,
         "leaves-per-node",
         "more than 8 leaves for each node (every channel constant, so no array grows)",
-        from(&constant, &|p| p.leaf_count = 8 * p.node_count + 1),
+        from(constant, &|p| p.leaf_count = 8 * p.node_count + 1),
     );
     invalid(
         9,
         "leaves-2-31",
         "2^31 + 1 leaves",
-        from(&constant, &|p| p.leaf_count = (1 << 31) + 1),
+        from(constant, &|p| p.leaf_count = (1 << 31) + 1),
     );
     invalid(
         10,
         "kind-unknown",
         "channel kind 6",
-        from(&constant, &|p| p.channels.push((6, Stored::Constant(0)))),
+        from(constant, &|p| p.channels.push((6, Stored::Constant(0)))),
     );
     invalid(
         10,
         "kind-order",
         "the colour channel listed before the contour",
-        from(&constant, &|p| p.channels.swap(1, 2)),
+        from(constant, &|p| p.channels.swap(1, 2)),
     );
     invalid(
         10,
         "kind-repeated",
         "the IOR channel twice",
-        from(&constant, &|p| p.channels.push((5, Stored::Constant(1)))),
+        from(constant, &|p| p.channels.push((5, Stored::Constant(1)))),
     );
     invalid(
         10,
         "constant-range",
         "a reflectivity constant of 256",
-        from(&constant, &|p| p.channels[3].1 = Stored::Constant(256)),
+        from(constant, &|p| p.channels[3].1 = Stored::Constant(256)),
     );
     invalid(
         10,
         "contour-without-normal",
         "a contour channel and no normal channel",
-        from(&constant, &|p| {
+        from(constant, &|p| {
             p.channels.remove(0);
         }),
     );
@@ -830,25 +946,25 @@ pub fn corpus() -> Vec<Entry> {
         11,
         "light-nan",
         "a light at a NaN position",
-        from(&with_scene, &|p| p.scene.lights[0].position[2] = f64::NAN),
+        from(with_scene, &|p| p.scene.lights[0].position[2] = f64::NAN),
     );
     invalid(
         11,
         "light-negative",
         "a light of negative intensity",
-        from(&with_scene, &|p| p.scene.lights[1].intensity = -1.0),
+        from(with_scene, &|p| p.scene.lights[1].intensity = -1.0),
     );
     invalid(
         11,
         "camera-up",
         "a view whose up is along its view direction",
-        from(&with_scene, &|p| p.scene.cameras[0].up = [0.0, 0.0, -2.0]),
+        from(with_scene, &|p| p.scene.cameras[0].up = [0.0, 0.0, -2.0]),
     );
     invalid(
         11,
         "camera-eye",
         "a view whose eye is its target",
-        from(&with_scene, &|p| {
+        from(with_scene, &|p| {
             p.scene.cameras[1].target = p.scene.cameras[1].eye
         }),
     );
@@ -856,14 +972,20 @@ pub fn corpus() -> Vec<Entry> {
         11,
         "camera-fov",
         "a field of view of 180 degrees",
-        from(&with_scene, &|p| p.scene.cameras[0].fov_deg = 180.0),
+        from(with_scene, &|p| p.scene.cameras[0].fov_deg = 180.0),
     );
     invalid(
         11,
         "camera-name",
         "a view name of 257 bytes",
-        from(&with_scene, &|p| p.scene.cameras[0].name = "v".repeat(257)),
+        from(with_scene, &|p| p.scene.cameras[0].name = "v".repeat(257)),
     );
+}
+
+/// The invalid files of checks 12 and 13: where the arrays are.
+fn layout(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees { varied, base, .. } = t;
+    let sealed = |f: &dyn Fn(&mut Vec<u8>)| sealed(&t.base, f);
     // 12-13: layout.
     invalid(
         12,
@@ -926,7 +1048,7 @@ pub fn corpus() -> Vec<Entry> {
         "padding-header",
         "a padding byte after the header is 1",
         {
-            let h = header_len(&base);
+            let h = header_len(base);
             assert!(
                 pad8(16 + h) > 16 + h,
                 "the per-leaf file's header needs padding"
@@ -945,18 +1067,23 @@ pub fn corpus() -> Vec<Entry> {
             sealed(&|b| b[off + 12] = 1)
         },
     );
+}
+
+/// The invalid files of checks 14 to 17: the tree.
+fn tree(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees { varied, .. } = t;
     // 14-17: the tree.
     invalid(
         14,
         "reserved-bits",
         "bit 8 of the root's info set",
-        from(&varied, &|p| p.nodes[0][0] |= 0x100),
+        from(varied, &|p| p.nodes[0][0] |= 0x100),
     );
     invalid(
         15,
         "childless",
         "a node other than the root without children",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             let (i, _, _) = leaf_parents(&p.nodes)[0];
             p.nodes[i][0] = 0;
         }),
@@ -965,13 +1092,13 @@ pub fn corpus() -> Vec<Entry> {
         15,
         "leaves-too-high",
         "the root refers to leaves in a depth-3 tree",
-        from(&varied, &|p| p.nodes[0][1] = (-1i32) as u32),
+        from(varied, &|p| p.nodes[0][1] = (-1i32) as u32),
     );
     invalid(
         16,
         "breadth-first-order",
         "a valid tree with its children blocks in breadth-first order instead of the canonical order",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             p.nodes = breadth_first_order(&p.nodes, p.depth)
         }),
     );
@@ -979,13 +1106,13 @@ pub fn corpus() -> Vec<Entry> {
         16,
         "cycle",
         "the root's children block starts at the root",
-        from(&varied, &|p| p.nodes[0][1] = 0),
+        from(varied, &|p| p.nodes[0][1] = 0),
     );
     invalid(
         16,
         "orphan",
         "an extra node that nothing refers to",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             p.nodes.push([1, (-1i32) as u32]);
             p.node_count += 1;
         }),
@@ -994,7 +1121,7 @@ pub fn corpus() -> Vec<Entry> {
         17,
         "leaf-order",
         "the first two leaf parents' leaves swapped, with their values, so every leaf keeps its data",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             let lp = leaf_parents(&p.nodes);
             let ((ia, ba, ka), (ib, bb, kb)) = (lp[0], lp[1]);
             assert!(bb == ba + ka, "the first two leaf parents are adjacent");
@@ -1018,7 +1145,7 @@ pub fn corpus() -> Vec<Entry> {
         17,
         "leaf-count",
         "one leaf more than the tree refers to (and one more value in each array)",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             p.leaf_count += 1;
             for (_, s) in &mut p.channels {
                 if let Stored::PerLeaf(bytes) = s {
@@ -1029,6 +1156,16 @@ pub fn corpus() -> Vec<Entry> {
             }
         }),
     );
+}
+
+/// The invalid files of check 18: the stored values.
+fn values(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees {
+        varied,
+        constant,
+        v1,
+        ..
+    } = t;
     // 18: values.
     let set_leaf = |p: &mut Parts, kind: u8, leaf: usize, v: u32| {
         for (k, s) in &mut p.channels {
@@ -1043,25 +1180,25 @@ pub fn corpus() -> Vec<Entry> {
         18,
         "normal-half",
         "a normal word with one half 0x8000",
-        from(&varied, &|p| set_leaf(p, 0, 3, 0x1234_8000)),
+        from(varied, &|p| set_leaf(p, 0, 3, 0x1234_8000)),
     );
     invalid(
         18,
         "interior-in-version-1",
         "the interior-leaf word 0x80008000 in a version-1 file",
-        from(&v1, &|p| set_leaf(p, 0, 3, 0x8000_8000)),
+        from(v1, &|p| set_leaf(p, 0, 3, 0x8000_8000)),
     );
     invalid(
         18,
         "contour-reversed",
         "a contour whose near plane is beyond its far plane",
-        from(&varied, &|p| set_leaf(p, 1, 5, 0x1000_2000)),
+        from(varied, &|p| set_leaf(p, 1, 5, 0x1000_2000)),
     );
     invalid(
         18,
         "interior-contour",
         "an interior leaf whose contour is not the whole cell",
-        from(&varied, &|p| {
+        from(varied, &|p| {
             set_leaf(p, 0, 2, 0x8000_8000);
             set_leaf(p, 1, 2, 0xF000_0000);
         }),
@@ -1070,10 +1207,20 @@ pub fn corpus() -> Vec<Entry> {
         18,
         "constant-normal-half",
         "a constant normal word with one half 0x8000",
-        from(&constant, &|p| {
+        from(constant, &|p| {
             p.channels[0].1 = Stored::Constant(0x8000_0000)
         }),
     );
+}
+
+/// The invalid files of version 3 (section 10): its header and chunk table, broken in
+/// the encoded bytes.
+fn version_3_header(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees {
+        chunked,
+        deepest_chunked,
+        ..
+    } = t;
     // Version 3 (section 10): its header, chunk table and chunks.
     let chunk_sealed = |p: &Parts, f: &dyn Fn(&mut Vec<u8>)| {
         let mut b = p.encode();
@@ -1085,25 +1232,25 @@ pub fn corpus() -> Vec<Entry> {
         7,
         "chunk-level-depth",
         "version 3: a chunk level equal to the depth",
-        chunk_sealed(&chunked, &|b| b[at3::CHUNK_LEVEL] = 3),
+        chunk_sealed(chunked, &|b| b[at3::CHUNK_LEVEL] = 3),
     );
     invalid(
         7,
         "chunk-level-22",
         "version 3: chunk level 22 in a depth-30 tree (codes past 64 bits)",
-        chunk_sealed(&deepest_chunked, &|b| b[at3::CHUNK_LEVEL] = 22),
+        chunk_sealed(deepest_chunked, &|b| b[at3::CHUNK_LEVEL] = 22),
     );
     invalid(
         9,
         "chunk-count",
         "version 3: more chunks than the 8 cells at level 1 (and than nodes)",
-        chunk_sealed(&chunked, &|b| put(b, at3::CHUNK_COUNT, &9u64.to_le_bytes())),
+        chunk_sealed(chunked, &|b| put(b, at3::CHUNK_COUNT, &9u64.to_le_bytes())),
     );
     invalid(
         12,
         "chunk-table-length",
         "version 3: the chunk table's length is not 24 times the chunk count",
-        chunk_sealed(&chunked, &|b| {
+        chunk_sealed(chunked, &|b| {
             let len = u64::from_le_bytes(
                 b[at3::CHUNKS_LEN..at3::CHUNKS_LEN + 8]
                     .try_into()
@@ -1112,16 +1259,26 @@ pub fn corpus() -> Vec<Entry> {
             put(b, at3::CHUNKS_LEN, &(len - 8).to_le_bytes());
         }),
     );
+}
+
+/// The invalid files of version 3 (section 10): its chunk records and chunks.
+fn version_3_chunks(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees {
+        constant,
+        chunked,
+        leafy,
+        ..
+    } = t;
     let table = |p: &Parts| p.chunks.clone().expect("chunks").1;
     assert!(
-        table(&chunked).len() >= 3,
+        table(chunked).len() >= 3,
         "the chunked file has chunks enough to break"
     );
     invalid(
         19,
         "chunk-order",
         "version 3: the first two chunk records swapped (codes decreasing)",
-        from(&chunked, &|p| {
+        from(chunked, &|p| {
             if let Some((_, t)) = &mut p.chunks {
                 t.swap(0, 1);
             }
@@ -1131,7 +1288,7 @@ pub fn corpus() -> Vec<Entry> {
         19,
         "chunk-code-range",
         "version 3: a chunk code of 8 at level 1",
-        from(&chunked, &|p| {
+        from(chunked, &|p| {
             if let Some((_, t)) = &mut p.chunks {
                 let last = t.len() - 1;
                 t[last][0] = 8;
@@ -1142,7 +1299,7 @@ pub fn corpus() -> Vec<Entry> {
         19,
         "chunk-no-nodes",
         "version 3: a chunk of no node, its nodes counted with the next chunk (the sums kept)",
-        from(&chunked, &|p| {
+        from(chunked, &|p| {
             if let Some((_, t)) = &mut p.chunks {
                 t[1][1] += t[0][1];
                 t[0][1] = 0;
@@ -1159,13 +1316,13 @@ pub fn corpus() -> Vec<Entry> {
         15,
         "chunk-empty-root",
         "version 3: a chunk whose root has no children",
-        from(&leafy, &|p| p.nodes[1][0] = 0),
+        from(leafy, &|p| p.nodes[1][0] = 0),
     );
     invalid(
         16,
         "chunk-global-first",
         "version 3: the second chunk's inner nodes point into the whole node array, not into the chunk's",
-        from(&chunked, &|p| {
+        from(chunked, &|p| {
             let t = table(p);
             let (start, n) = (t[0][1] as usize, t[1][1] as usize);
             for w in &mut p.nodes[start..start + n] {
@@ -1179,7 +1336,7 @@ pub fn corpus() -> Vec<Entry> {
         17,
         "chunk-global-leaves",
         "version 3: the second chunk's leaves numbered as in the whole tree, not from 0",
-        from(&chunked, &|p| {
+        from(chunked, &|p| {
             let t = table(p);
             let (start, n, base) = (t[0][1] as usize, t[1][1] as usize, t[0][2] as i64);
             for w in &mut p.nodes[start..start + n] {
@@ -1189,7 +1346,6 @@ pub fn corpus() -> Vec<Entry> {
             }
         }),
     );
-    out
 }
 
 /// The file offsets of version-3 header fields (docs/format.md, section 3).

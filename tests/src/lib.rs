@@ -69,3 +69,20 @@ pub fn model(rel: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// The thesis's pool scene file (`examples/scenes/pool.toml`) if the bunny it names by a
+/// path relative to itself (`../shared/models` beside the repository, whatever
+/// `$SVO_MODELS` says) is there; otherwise [`missing`] (a panic under CI) and `None`.
+pub fn pool_scene() -> Option<PathBuf> {
+    let root = repo_root();
+    let bunny = root.join("../shared/models/stanford/bun_zipper.ply");
+    if bunny.exists() {
+        Some(root.join("examples/scenes/pool.toml"))
+    } else {
+        missing(&format!(
+            "{}, which examples/scenes/pool.toml reads (clone the repository beside shared/)",
+            bunny.display()
+        ));
+        None
+    }
+}

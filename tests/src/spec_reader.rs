@@ -169,21 +169,56 @@ fn scene_ok(h: &Header) -> bool {
     lights && cameras
 }
 
-/// `Ok` for a valid file, else the number of the first check it fails.
+/// `Ok` for a valid file, else the number of the first check it fails, in the order of
+/// section 6: the preamble and checksum (1-5), the header (6-11), the layout (12-13), the
+/// chunk table of version 3 (19), the trees (14-17) and the values (18).
 pub fn check(b: &[u8]) -> Result<(), u8> {
+    let (version, hl) = preamble(b)?;
+    let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
+    header_values(&h)?;
+    layout(b, &h, hl)?;
+    let trees = chunk_table(b, &h)?;
+    let nodes = Nodes {
+        b,
+        base: h.nodes.0 as usize,
+    };
+    if (0..h.node_count as usize).any(|i| nodes.info(i) >> 8 != 0) {
+        return Err(14);
+    }
+    for t in &trees {
+        tree_shape(&nodes, t)?;
+    }
+    for t in &trees {
+        leaf_order(&nodes, t)?;
+    }
+    values(b, &h, version)
+}
+
+/// The little-endian `u32` at byte `i` of `b`.
+fn u32at(b: &[u8], i: usize) -> u32 {
+    u32::from_le_bytes(b[i..i + 4].try_into().unwrap())
+}
+
+/// A channel's element size in bytes, by kind.
+fn size(kind: u8) -> u64 {
+    [4u64, 4, 4, 1, 1, 2][usize::from(kind)]
+}
+
+/// Checks 1 to 5 (section 2, the layout): the magic, the size, the version, the header's length
+/// and the checksum; the version and the header's length.
+fn preamble(b: &[u8]) -> Result<(u32, usize), u8> {
     let l = b.len();
-    let u32at = |i: usize| u32::from_le_bytes(b[i..i + 4].try_into().unwrap());
     if l < 8 || b[..8] != MAGIC {
         return Err(1);
     }
     if l < 24 {
         return Err(2);
     }
-    let version = u32at(8);
+    let version = u32at(b, 8);
     if !(1..=3).contains(&version) {
         return Err(3);
     }
-    let hl = u32at(12) as usize;
+    let hl = u32at(b, 12) as usize;
     if hl > 65_536 || 16 + hl > l - 8 {
         return Err(4);
     }
@@ -191,7 +226,12 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     {
         return Err(5);
     }
-    let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
+    Ok((version, hl))
+}
+
+/// Checks 7 to 11 (section 3): the depth and chunk level, the root cube, the counts, the
+/// channels and the scene.
+fn header_values(h: &Header) -> Result<(), u8> {
     if !(1..=30).contains(&h.depth) || h.chunks.is_some_and(|(c, _, _)| c >= h.depth || c > 21) {
         return Err(7);
     }
@@ -205,7 +245,6 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     if !counts_ok || h.leaf_count > h.node_count.saturating_mul(8) {
         return Err(9);
     }
-    let size = |kind: u8| [4u64, 4, 4, 1, 1, 2][usize::from(kind)];
     let mut last = -1i16;
     for (kind, s) in &h.channels {
         if *kind > 5 || i16::from(*kind) <= last {
@@ -223,11 +262,16 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     if has(1) && !has(0) {
         return Err(10);
     }
-    if !scene_ok(&h) {
+    if !scene_ok(h) {
         return Err(11);
     }
-    // 12, 13: the layout and its padding.
-    let data_end = (l - 8) as u64;
+    Ok(())
+}
+
+/// Checks 12 and 13 (section 2, the layout): the arrays where the canonical layout puts them, and zero
+/// padding between them.
+fn layout(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
+    let data_end = (b.len() - 8) as u64;
     let mut arrays = Vec::new();
     if let Some((_, count, table)) = h.chunks {
         arrays.push((table, count * 24));
@@ -256,104 +300,156 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     {
         return Err(13);
     }
-    // 19 (version 3): the chunk table; then each chunk is a tree of its own.
-    let base = h.nodes.0 as usize;
-    let n = h.node_count as usize;
-    let info = |i: usize| u32at(base + 8 * i);
-    let mut trees = Vec::new(); // (first node, nodes, levels, leaves, root may be empty)
-    match h.chunks {
-        None => trees.push((0usize, n, h.depth, h.leaf_count, true)),
-        Some((c, count, (table, _))) => {
-            let u64at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
-            let (mut at, mut nodes, mut leaves) = (0usize, 0u64, 0u64);
-            let mut last = None;
-            for j in 0..count as usize {
-                let r = table as usize + 24 * j;
-                let (code, cn, cl) = (u64at(r), u64at(r + 8), u64at(r + 16));
-                if code >= 1 << (3 * c) || last.is_some_and(|l| code <= l) {
-                    return Err(19);
-                }
-                if !(1..=1 << 31).contains(&cn) || !(1..=1 << 31).contains(&cl) || cl > 8 * cn {
-                    return Err(19);
-                }
-                last = Some(code);
-                nodes += cn;
-                leaves += cl;
-                if nodes <= h.node_count {
-                    trees.push((at, cn as usize, h.depth - c, cl, false));
-                }
-                at += cn as usize;
-            }
-            if nodes != h.node_count || leaves != h.leaf_count {
-                return Err(19);
-            }
+    Ok(())
+}
+
+/// A tree of the node array: the whole tree, or a version-3 chunk.
+struct Tree {
+    /// Its first node in the node array.
+    start: usize,
+    /// Its nodes.
+    nodes: usize,
+    /// Its levels.
+    levels: u8,
+    /// Its leaves.
+    leaves: u64,
+    /// Whether its root may have no children (the whole tree may be empty; a chunk may not).
+    empty_root: bool,
+}
+
+/// Check 19 (section 10, version 3): the chunk table; the trees to check, each chunk a tree
+/// of its own (version 2: the whole tree).
+fn chunk_table(b: &[u8], h: &Header) -> Result<Vec<Tree>, u8> {
+    let Some((c, count, (table, _))) = h.chunks else {
+        return Ok(vec![Tree {
+            start: 0,
+            nodes: h.node_count as usize,
+            levels: h.depth,
+            leaves: h.leaf_count,
+            empty_root: true,
+        }]);
+    };
+    let u64at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
+    let mut trees = Vec::new();
+    let (mut at, mut nodes, mut leaves) = (0usize, 0u64, 0u64);
+    let mut last = None;
+    for j in 0..count as usize {
+        let r = table as usize + 24 * j;
+        let (code, cn, cl) = (u64at(r), u64at(r + 8), u64at(r + 16));
+        if code >= 1 << (3 * c) || last.is_some_and(|l| code <= l) {
+            return Err(19);
         }
+        if !(1..=1 << 31).contains(&cn) || !(1..=1 << 31).contains(&cl) || cl > 8 * cn {
+            return Err(19);
+        }
+        last = Some(code);
+        nodes += cn;
+        leaves += cl;
+        if nodes <= h.node_count {
+            trees.push(Tree {
+                start: at,
+                nodes: cn as usize,
+                levels: h.depth - c,
+                leaves: cl,
+                empty_root: false,
+            });
+        }
+        at += cn as usize;
     }
-    // 14-17: each tree, read from the node array in place.
-    if (0..n).any(|i| info(i) >> 8 != 0) {
-        return Err(14);
+    if nodes != h.node_count || leaves != h.leaf_count {
+        return Err(19);
     }
-    for &(start, n, depth, _, empty_root) in &trees {
-        let info = |i: usize| u32at(base + 8 * (start + i));
-        let first = |i: usize| u32at(base + 8 * (start + i) + 4);
-        let mut next = 1usize;
-        let mut stack = vec![(0usize, 0u8)];
-        while let Some((i, lv)) = stack.pop() {
-            let k = (info(i) & 0xFF).count_ones() as usize;
-            if k == 0 {
-                if i != 0 || !empty_root {
-                    return Err(15);
-                }
-                if first(i) != 0 {
-                    return Err(16);
-                }
-                continue;
-            }
-            let leafy = lv + 1 == depth;
-            if leafy != ((first(i) as i32) < 0) {
+    Ok(trees)
+}
+
+/// The node array, read in place.
+struct Nodes<'a> {
+    b: &'a [u8],
+    /// Its offset in the file.
+    base: usize,
+}
+
+impl Nodes<'_> {
+    /// Node `i`'s info word.
+    fn info(&self, i: usize) -> u32 {
+        u32at(self.b, self.base + 8 * i)
+    }
+
+    /// Node `i`'s first-child word.
+    fn first(&self, i: usize) -> u32 {
+        u32at(self.b, self.base + 8 * i + 4)
+    }
+}
+
+/// Checks 15 and 16 (section 4, the node array): the tree's shape (leaf parents exactly at the last level,
+/// no childless node but an empty root) and the canonical node order.
+fn tree_shape(nodes: &Nodes<'_>, t: &Tree) -> Result<(), u8> {
+    let info = |i: usize| nodes.info(t.start + i);
+    let first = |i: usize| nodes.first(t.start + i);
+    let mut next = 1usize;
+    let mut stack = vec![(0usize, 0u8)];
+    while let Some((i, lv)) = stack.pop() {
+        let k = (info(i) & 0xFF).count_ones() as usize;
+        if k == 0 {
+            if i != 0 || !t.empty_root {
                 return Err(15);
             }
-            if leafy {
-                continue;
-            }
-            if first(i) as usize != next || next + k > n {
+            if first(i) != 0 {
                 return Err(16);
             }
-            stack.extend((next..next + k).map(|j| (j, lv + 1)));
-            next += k;
+            continue;
         }
-        if next != n {
+        let leafy = lv + 1 == t.levels;
+        if leafy != ((first(i) as i32) < 0) {
+            return Err(15);
+        }
+        if leafy {
+            continue;
+        }
+        if first(i) as usize != next || next + k > t.nodes {
             return Err(16);
         }
+        stack.extend((next..next + k).map(|j| (j, lv + 1)));
+        next += k;
     }
-    for &(start, _, _, leaf_count, _) in &trees {
-        let info = |i: usize| u32at(base + 8 * (start + i));
-        let first = |i: usize| u32at(base + 8 * (start + i) + 4);
-        let mut seen = 0u64;
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let k = (info(i) & 0xFF).count_ones() as usize;
-            if (first(i) as i32) < 0 {
-                if (-i64::from(first(i) as i32) - 1) as u64 != seen {
-                    return Err(17);
-                }
-                seen += k as u64;
-            } else {
-                stack.extend((first(i) as usize..first(i) as usize + k).rev());
+    if next != t.nodes {
+        return Err(16);
+    }
+    Ok(())
+}
+
+/// Check 17 (section 4, the node array): leaves numbered in depth-first child order, from 0.
+fn leaf_order(nodes: &Nodes<'_>, t: &Tree) -> Result<(), u8> {
+    let info = |i: usize| nodes.info(t.start + i);
+    let first = |i: usize| nodes.first(t.start + i);
+    let mut seen = 0u64;
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let k = (info(i) & 0xFF).count_ones() as usize;
+        if (first(i) as i32) < 0 {
+            if (-i64::from(first(i) as i32) - 1) as u64 != seen {
+                return Err(17);
             }
-        }
-        if seen != leaf_count {
-            return Err(17);
+            seen += k as u64;
+        } else {
+            stack.extend((first(i) as usize..first(i) as usize + k).rev());
         }
     }
-    // 18: the values, constant or per leaf.
+    if seen != t.leaves {
+        return Err(17);
+    }
+    Ok(())
+}
+
+/// Check 18 (section 5, the channels): the normal and contour values, constant or per leaf.
+fn values(b: &[u8], h: &Header, version: u32) -> Result<(), u8> {
     let word = |kind: u8, leaf: u64| -> Option<u32> {
         h.channels
             .iter()
             .find(|(k, _)| *k == kind)
             .map(|(_, s)| match s {
                 Storage::Constant(v) => *v,
-                Storage::PerLeaf(o, _) => u32at(*o as usize + 4 * leaf as usize),
+                Storage::PerLeaf(o, _) => u32at(b, *o as usize + 4 * leaf as usize),
             })
     };
     let constant = |kind: u8| {

@@ -39,7 +39,7 @@ pub const THESIS: [(&str, [f64; 8]); 5] = [
 ];
 
 /// One strategy at one depth.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BakeCell {
     /// Median seconds of the in-memory bake.
     pub seconds: f64,
@@ -58,7 +58,7 @@ pub struct BakeCell {
 }
 
 /// Strategies x depths.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BakeTables {
     /// Depths measured (from 1).
     pub depths: Vec<u8>,
@@ -228,7 +228,7 @@ pub fn write(r: &mut Report, t: &BakeTables, runs_note: &str, plot: Option<&str>
 }
 
 /// One `svo-bake` pipeline measurement.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct PipelineRow {
     /// What was baked.
     pub label: String,

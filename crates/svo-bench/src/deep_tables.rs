@@ -10,6 +10,7 @@ use std::time::Instant;
 use svo::{BakeOptions, Mesh, bake_mesh};
 
 /// One shape at one depth.
+#[derive(serde::Serialize)]
 pub struct DeepRow {
     /// The shape's name.
     pub shape: &'static str,

@@ -83,7 +83,7 @@ pub fn distances<S: Surfaces>(surfaces: &S, rays: &[GridRay]) -> Vec<Option<f32>
 }
 
 /// Error statistics of one hit mode at one depth.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct GeometryError {
     /// Mean of `|t - t_ref|`, cells.
     pub mean: f64,

@@ -20,7 +20,7 @@ use svo_view::headless::render_scene;
 use svo_view::timing::{cast_timed, render_timed};
 
 /// One render measured against the reference.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct ImageRow {
     /// The view.
     pub view: View,
@@ -198,7 +198,7 @@ pub fn measure_view(
 }
 
 /// Primary-ray throughput of one configuration.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct Throughput {
     /// Depth.
     pub depth: u8,
@@ -267,7 +267,7 @@ pub fn throughput(
 /// General rays: the first hits of primary rays traced from the eye without the prepass,
 /// so that every ray goes through the general traversal as reflection, refraction and shadow
 /// rays do (`svo-view --cpu --bench --cast --no-prepass --threads 1`).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct GeneralRays {
     /// Camera: `framed` or `close-up`.
     pub camera: &'static str,
@@ -341,7 +341,7 @@ pub fn general_rays(
 
 /// The octree walk against the dense-grid DDA on the same primary rays (framed view, cube
 /// hits, no shading).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct DdaRow {
     /// Depth.
     pub depth: u8,

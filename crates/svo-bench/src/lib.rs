@@ -56,8 +56,10 @@ pub struct Options {
 }
 
 /// The settings a mode implies.
+#[derive(serde::Serialize)]
 struct Plan {
     bake_max_depth: u8,
+    #[serde(skip)]
     bake_runs: fn(u8) -> usize,
     depths: std::ops::RangeInclusive<u8>,
     image_depth: u8,
@@ -69,6 +71,7 @@ struct Plan {
     throughput_runs: u32,
     pipeline: Vec<(u8, Option<usize>, usize)>,
     deep_max_depth: u8,
+    #[serde(skip)]
     deep_runs: fn(u8) -> usize,
     /// Bakes in parts: (depth, in memory too, budget) on the bunny and the large mesh.
     parts: Vec<(u8, bool, u64)>,
@@ -124,6 +127,7 @@ impl Plan {
 }
 
 /// Everything measured at one depth.
+#[derive(serde::Serialize)]
 struct DepthResults {
     depth: u8,
     leaves: usize,
@@ -144,62 +148,160 @@ fn log(start: Instant, msg: &str) {
     eprintln!("[{:7.1} s] {msg}", start.elapsed().as_secs_f64());
 }
 
-/// Measures everything and writes the report; returns the report's path.
+/// Measures everything and writes the report, and its figures as JSON beside it
+/// (`benchmarks.json`); returns the report's path.
 pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     let start = Instant::now();
-    let plan = Plan::new(opts.quick);
-    let machine = Machine::detect();
-    let bench_dir = opts.out.join("bench");
-    std::fs::create_dir_all(&bench_dir)?;
-    plots::register_font()?;
-    let mesh = Mesh::load(&opts.mesh).map_err(|e| {
-        anyhow::anyhow!(
-            "cannot load the benchmark mesh {}: {e} (set SVO_MODELS to the shared models \
-             folder, or pass --mesh)",
-            opts.mesh.display()
-        )
-    })?;
-    // Relative to the repository where it lies beside or inside it, so the report names no
-    // machine's folders.
-    let root = svo_tests::repo_root();
-    let mesh_name = opts
-        .mesh
-        .strip_prefix(&root)
-        .unwrap_or(&opts.mesh)
-        .display()
-        .to_string();
-    log(
-        start,
-        &format!("{mesh_name}: {} triangles", mesh.triangles.len()),
-    );
-    let tmp = tempfile::tempdir()?;
     let lg = |m: &str| log(start, m);
-    // Which external baselines run, asked once and said at the start, not only in the
-    // report: without them the report is shorter.
-    let external = !opts.quick && !opts.no_external;
-    let [has_open3d, has_embree] = [external::OPEN3D, external::EMBREE].map(|b| {
-        let has = external && b.available();
-        if external && !has {
-            lg(&format!(
-                "notice: {} is not installed here (`{}`): the report will leave its rows out",
-                b.name, b.install
-            ));
-        }
-        has
-    });
-
-    // Bake tables.
-    let tables = bake_tables::measure(&mesh, plan.bake_max_depth, &plan.bake_runs, &lg)?;
+    let s = Setup::new(opts, &lg)?;
+    let tables = bake_tables::measure(&s.mesh, s.plan.bake_max_depth, &s.plan.bake_runs, &lg)?;
     plots::bake_time(
         &tables,
-        &bench_dir.join("bake_time.png"),
+        &s.bench_dir.join("bake_time.png"),
         "Bake time against depth per strategy (bunny)",
     )?;
+    let pipeline = measure_pipeline(opts, &s, &lg)?;
+    let deep = deep_tables::measure(s.plan.deep_max_depth, s.plan.deep_runs, &lg);
+    let parts = measure_parts(opts, &s, &lg);
+    let open3d = s.has_open3d.then(|| measure_open3d(opts, &s, &lg));
+    let (gpu, gpu_note) = gpu(opts, &lg);
+    let depths = measure_depths(&s, gpu.as_ref(), &lg)?;
+    let (embree, embree_general) = if s.has_embree {
+        measure_embree(opts, &s, &lg)?
+    } else {
+        (None, Vec::new())
+    };
+    for view in View::ALL {
+        let rows: Vec<ImageRow> = depths
+            .image_rows
+            .iter()
+            .filter(|r| r.view == view)
+            .cloned()
+            .collect();
+        plots::error_vs_time(
+            &rows,
+            &s.bench_dir
+                .join(format!("error_vs_time_{}.png", view.name())),
+            &format!("Image error against time per frame: {} view", view.name()),
+        )?;
+    }
+    plots::octree_vs_dda(&depths.dda_rows, &s.bench_dir.join("octree_vs_dda.png"))?;
+    let measured = Measured {
+        quick: opts.quick,
+        seconds: start.elapsed().as_secs_f64(),
+        machine: s.machine,
+        plan: s.plan,
+        mesh_name: s.mesh_name,
+        triangles: s.mesh.triangles.len(),
+        tables,
+        pipeline,
+        deep,
+        parts,
+        open3d,
+        per_depth: depths.per_depth,
+        image_rows: depths.image_rows,
+        dda_rows: depths.dda_rows,
+        throughput: depths.throughput,
+        embree,
+        general: depths.general,
+        embree_general,
+        external: s.external,
+        gpu_note,
+    };
+    let json = opts.out.join("benchmarks.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&measured)? + "\n")?;
+    let mut r = Report::default();
+    write_report(&mut r, opts, &measured);
+    let path = opts.out.join("benchmarks.md");
+    r.write(&path)?;
+    lg(&format!("wrote {} and {}", path.display(), json.display()));
+    Ok(path)
+}
 
-    // Pipeline per phase.
+/// What every measurement shares: the plan, the machine, the mesh, a scratch folder, and
+/// which external baselines run.
+struct Setup {
+    plan: Plan,
+    machine: Machine,
+    bench_dir: PathBuf,
+    mesh: Mesh,
+    /// The mesh's path as the report names it.
+    mesh_name: String,
+    tmp: tempfile::TempDir,
+    /// Whether the external baselines are asked for (the full variant without
+    /// `--no-external`).
+    external: bool,
+    has_open3d: bool,
+    has_embree: bool,
+}
+
+impl Setup {
+    fn new(opts: &Options, lg: &dyn Fn(&str)) -> anyhow::Result<Self> {
+        let bench_dir = opts.out.join("bench");
+        std::fs::create_dir_all(&bench_dir)?;
+        plots::register_font()?;
+        let mesh = Mesh::load(&opts.mesh).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot load the benchmark mesh {}: {e} (set SVO_MODELS to the shared models \
+                 folder, or pass --mesh)",
+                opts.mesh.display()
+            )
+        })?;
+        // Relative to the repository where it lies beside or inside it, so the report names
+        // no machine's folders.
+        let root = svo_tests::repo_root();
+        let mesh_name = opts
+            .mesh
+            .strip_prefix(&root)
+            .unwrap_or(&opts.mesh)
+            .display()
+            .to_string();
+        lg(&format!("{mesh_name}: {} triangles", mesh.triangles.len()));
+        // Which external baselines run, asked once and said at the start, not only in the
+        // report: without them the report is shorter.
+        let external = !opts.quick && !opts.no_external;
+        let [has_open3d, has_embree] = [external::OPEN3D, external::EMBREE].map(|b| {
+            let has = external && b.available();
+            if external && !has {
+                lg(&format!(
+                    "notice: {} is not installed here (`{}`): the report will leave its rows out",
+                    b.name, b.install
+                ));
+            }
+            has
+        });
+        Ok(Self {
+            plan: Plan::new(opts.quick),
+            machine: Machine::detect(),
+            bench_dir,
+            mesh,
+            mesh_name,
+            tmp: tempfile::tempdir()?,
+            external,
+            has_open3d,
+            has_embree,
+        })
+    }
+
+    /// The large mesh (the dragon), in the full variant where it exists.
+    fn large<'a>(&self, opts: &'a Options) -> Option<&'a Path> {
+        if opts.quick {
+            return None;
+        }
+        opts.large_mesh.as_deref().filter(|p| p.exists())
+    }
+}
+
+/// The whole `svo-bake` job per phase: the bunny at the plan's depths and threads, and the
+/// large mesh at depth 10.
+fn measure_pipeline(
+    opts: &Options,
+    s: &Setup,
+    lg: &dyn Fn(&str),
+) -> anyhow::Result<Vec<PipelineRow>> {
     let mut pipeline = Vec::new();
-    for &(depth, threads, runs) in &plan.pipeline {
-        let t = threads.unwrap_or(machine.threads);
+    for &(depth, threads, runs) in &s.plan.pipeline {
+        let t = threads.unwrap_or(s.machine.threads);
         lg(&format!("pipeline: bunny depth {depth}, {t} threads"));
         pipeline.push(bake_tables::pipeline(
             &format!("bunny `{}`", file_name(&opts.mesh)),
@@ -207,124 +309,133 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
             depth,
             t,
             runs,
-            tmp.path(),
+            s.tmp.path(),
         )?);
     }
-    if !opts.quick
-        && let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists())
-    {
+    if let Some(large) = s.large(opts) {
         lg("pipeline: large mesh depth 10");
         pipeline.push(bake_tables::pipeline(
             &format!("`{}`", file_name(large)),
             large,
             10,
-            machine.threads,
+            s.machine.threads,
             3,
-            tmp.path(),
+            s.tmp.path(),
         )?);
     }
+    Ok(pipeline)
+}
 
-    // Deep trees.
-    let deep = deep_tables::measure(plan.deep_max_depth, plan.deep_runs, &lg);
-
-    // Bakes in parts (the large mesh only in the full variant).
-    let mut parts = parts_tables::measure("bunny", &opts.mesh, &plan.parts, tmp.path(), &lg);
-    if !opts.quick
-        && let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists())
-    {
+/// Bakes in parts (the large mesh only in the full variant).
+fn measure_parts(opts: &Options, s: &Setup, lg: &dyn Fn(&str)) -> Vec<parts_tables::PartsRow> {
+    let mut parts = parts_tables::measure("bunny", &opts.mesh, &s.plan.parts, s.tmp.path(), lg);
+    if let Some(large) = s.large(opts) {
         parts.extend(parts_tables::measure(
             &format!("`{}`", file_name(large)),
             large,
-            &plan.parts,
-            tmp.path(),
-            &lg,
+            &s.plan.parts,
+            s.tmp.path(),
+            lg,
         ));
     }
+    parts
+}
 
-    // External baselines.
-    let open3d = if has_open3d {
-        let plans = |depths: &[u8]| -> Vec<side_by_side::Plan> {
-            depths
-                .iter()
-                .map(|&depth| side_by_side::Plan {
-                    depth,
-                    rounds: if depth <= 8 { 5 } else { 3 },
-                    runs: if depth <= 8 { 5 } else { 3 },
-                })
-                .collect()
-        };
-        let mut runs = vec![(
-            "bunny".to_string(),
-            side_by_side::measure(
-                "bunny",
-                &opts.mesh,
-                &mesh,
-                &plans(&[8, 10]),
-                tmp.path(),
-                &lg,
-            ),
-        )];
-        if let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists()) {
-            let label = file_name(large);
-            let run = Mesh::load(large)
-                .map_err(anyhow::Error::from)
-                .and_then(|m| {
-                    side_by_side::measure(&label, large, &m, &plans(&[10]), tmp.path(), &lg)
-                });
-            runs.push((label, run));
-        }
-        Some(runs)
-    } else {
-        None
+/// The bake against open3d, side by side, on the bunny and the large mesh.
+fn measure_open3d(opts: &Options, s: &Setup, lg: &dyn Fn(&str)) -> Vec<(String, Open3dRun)> {
+    let plans = |depths: &[u8]| -> Vec<side_by_side::Plan> {
+        depths
+            .iter()
+            .map(|&depth| side_by_side::Plan {
+                depth,
+                rounds: if depth <= 8 { 5 } else { 3 },
+                runs: if depth <= 8 { 5 } else { 3 },
+            })
+            .collect()
     };
+    let mut runs = vec![(
+        "bunny".to_string(),
+        side_by_side::measure(
+            "bunny",
+            &opts.mesh,
+            &s.mesh,
+            &plans(&[8, 10]),
+            s.tmp.path(),
+            lg,
+        ),
+    )];
+    if let Some(large) = opts.large_mesh.as_deref().filter(|p| p.exists()) {
+        let label = file_name(large);
+        let run = Mesh::load(large)
+            .map_err(anyhow::Error::from)
+            .and_then(|m| {
+                side_by_side::measure(&label, large, &m, &plans(&[10]), s.tmp.path(), lg)
+            });
+        runs.push((label, run));
+    }
+    runs
+}
 
-    // The GPU, where there is one. A software adapter (lavapipe) runs on the same CPU cores,
-    // so its times say nothing about a GPU: it is used in the quick variant (to exercise the
-    // GPU path) or when asked for.
-    let (gpu, gpu_note) = if opts.no_gpu {
-        (
+/// The GPU, where there is one, and the report's note on it. A software adapter (lavapipe)
+/// runs on the same CPU cores, so its times say nothing about a GPU: it is used in the quick
+/// variant (to exercise the GPU path) or when asked for.
+fn gpu(opts: &Options, lg: &dyn Fn(&str)) -> (Option<svo_view::gpu_context::GpuContext>, String) {
+    if opts.no_gpu {
+        return (
             None,
             "The GPU was not used in this run (`--no-gpu`).".to_string(),
-        )
-    } else {
-        match svo_view::gpu_context::GpuContext::new() {
-            Ok(ctx) if ctx.is_software() && !opts.quick && !opts.software_gpu => (
-                None,
-                format!(
-                    "The only adapter here is {}, which runs on this machine's CPU cores, so \
-                     it was not timed (`--software-gpu` times it anyway).",
-                    ctx.adapter_name()
-                ),
+        );
+    }
+    match svo_view::gpu_context::GpuContext::new() {
+        Ok(ctx) if ctx.is_software() && !opts.quick && !opts.software_gpu => (
+            None,
+            format!(
+                "The only adapter here is {}, which runs on this machine's CPU cores, so it \
+                 was not timed (`--software-gpu` times it anyway).",
+                ctx.adapter_name()
             ),
-            Ok(ctx) => {
-                let note = format!(
-                    "\"GPU\" is the same frame (cube and contour hits) traced by `svo-view`'s WGSL \
-                     port on {}{}: median of the same number of frames after an untimed one \
-                     (submit to completion, no read-back), and the PSNR of its image against the \
-                     CPU image (the GPU's error against the triangles is then the CPU's).",
-                    ctx.adapter_name(),
-                    if ctx.is_software() {
-                        ", a software adapter on this machine's CPU cores, not a GPU"
-                    } else {
-                        ""
-                    }
-                );
-                lg(&format!("GPU: {}", ctx.adapter_name()));
-                (Some(ctx), note)
-            }
-            Err(e) => (None, format!("No GPU adapter was found ({e}).")),
+        ),
+        Ok(ctx) => {
+            let note = format!(
+                "\"GPU\" is the same frame (cube and contour hits) traced by `svo-view`'s WGSL \
+                 port on {}{}: median of the same number of frames after an untimed one \
+                 (submit to completion, no read-back), and the PSNR of its image against the \
+                 CPU image (the GPU's error against the triangles is then the CPU's).",
+                ctx.adapter_name(),
+                if ctx.is_software() {
+                    ", a software adapter on this machine's CPU cores, not a GPU"
+                } else {
+                    ""
+                }
+            );
+            lg(&format!("GPU: {}", ctx.adapter_name()));
+            (Some(ctx), note)
         }
-    };
+        Err(e) => (None, format!("No GPU adapter was found ({e}).")),
+    }
+}
 
-    // Per depth: geometry error and images per view.
-    let samples = geometry_error::sample(&mesh, plan.samples, 0x5EED);
-    let water_mesh = views::water(&mesh);
-    let mut per_depth = Vec::new();
-    let mut image_rows: Vec<ImageRow> = Vec::new();
-    let mut dda_rows: Vec<DdaRow> = Vec::new();
-    let mut throughput: Vec<Throughput> = Vec::new();
-    let mut general: Vec<GeneralRays> = Vec::new();
-    for depth in plan.depths.clone() {
+/// What the depths measured: the geometric error, the images per view, the octree against
+/// the DDA, the throughput and the general rays.
+#[derive(Default)]
+struct Depths {
+    per_depth: Vec<DepthResults>,
+    image_rows: Vec<ImageRow>,
+    dda_rows: Vec<DdaRow>,
+    throughput: Vec<Throughput>,
+    general: Vec<GeneralRays>,
+}
+
+/// Every depth of the plan: bakes, then measures what [`Depths`] holds.
+fn measure_depths(
+    s: &Setup,
+    gpu: Option<&svo_view::gpu_context::GpuContext>,
+    lg: &dyn Fn(&str),
+) -> anyhow::Result<Depths> {
+    let samples = geometry_error::sample(&s.mesh, s.plan.samples, 0x5EED);
+    let water_mesh = views::water(&s.mesh);
+    let mut out = Depths::default();
+    for depth in s.plan.depths.clone() {
         lg(&format!("depth {depth}: bake, geometry error"));
         let bake = |m: &Mesh| -> anyhow::Result<(Octree, svo::bake::BakeStats)> {
             Ok(bake_mesh(
@@ -335,136 +446,110 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
                 },
             )?)
         };
-        let (tree, stats) = bake(&mesh)?;
-        let rays = geometry_error::rays(&samples, &tree.root, depth);
-        let reference =
-            geometry_error::distances(&MeshSurfaces::new(mesh.clone(), tree.root, depth), &rays);
-        let mut geometry = Vec::new();
-        for mode in [HitMode::Cube, HitMode::Contour] {
-            let got = geometry_error::distances(&OctreeSurfaces::new(&tree, mode), &rays);
-            geometry.push((mode.name(), geometry_error::compare(&got, &reference)));
-        }
-        let exact = exact_surfaces(&tree, &mesh).map_err(anyhow::Error::msg)?;
-        let got = geometry_error::distances(&exact, &rays);
-        geometry.push(("exact", geometry_error::compare(&got, &reference)));
-        per_depth.push(DepthResults {
-            depth,
-            leaves: stats.leaves,
-            cell: stats.cell_size,
-            thickness: stats.contour_thickness,
-            geometry,
-        });
-
+        let (tree, stats) = bake(&s.mesh)?;
+        out.per_depth
+            .push(geometry(&s.mesh, &tree, &stats, &samples)?);
         let (water_tree, _) = bake(&water_mesh)?;
         for view in View::ALL {
             lg(&format!("depth {depth}: view {}", view.name()));
             let (t, m) = if view.water() {
                 (&water_tree, &water_mesh)
             } else {
-                (&tree, &mesh)
+                (&tree, &s.mesh)
             };
             let size = if view == View::Framed {
-                plan.framed_size
+                s.plan.framed_size
             } else {
-                plan.view_size
+                s.plan.view_size
             };
-            let (rows, frames) =
-                image_tables::measure_view(view, t, m, size, plan.runs, gpu.as_ref())?;
-            image_rows.extend(rows);
-            if depth == plan.image_depth {
-                save_frames(&bench_dir, view, &frames)?;
+            let (rows, frames) = image_tables::measure_view(view, t, m, size, s.plan.runs, gpu)?;
+            out.image_rows.extend(rows);
+            if depth == s.plan.image_depth {
+                save_frames(&s.bench_dir, view, &frames)?;
             }
         }
         if depth <= svo::trace::MAX_DDA_DEPTH {
             lg(&format!("depth {depth}: octree against DDA"));
-            dda_rows.push(image_tables::dda(
+            out.dda_rows.push(image_tables::dda(
                 &tree,
-                &mesh,
-                plan.framed_size,
-                plan.runs,
+                &s.mesh,
+                s.plan.framed_size,
+                s.plan.runs,
             )?);
         }
-        if plan.throughput_depths.contains(&depth) {
+        if s.plan.throughput_depths.contains(&depth) {
             lg(&format!("depth {depth}: primary-ray throughput"));
-            throughput.extend(image_tables::throughput(
+            out.throughput.extend(image_tables::throughput(
                 &tree,
-                &mesh,
-                plan.framed_size,
-                plan.throughput_runs,
+                &s.mesh,
+                s.plan.framed_size,
+                s.plan.throughput_runs,
             )?);
             lg(&format!("depth {depth}: general rays"));
-            general.extend(image_tables::general_rays(
+            out.general.extend(image_tables::general_rays(
                 &tree,
-                &mesh,
-                plan.framed_size,
-                plan.throughput_runs,
+                &s.mesh,
+                s.plan.framed_size,
+                s.plan.throughput_runs,
             )?);
         }
     }
-    let embree = if has_embree {
-        lg("embree");
-        let (lo, hi) = mesh.bounds().ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
-        let cam = View::Framed.camera(lo, hi, plan.framed_size.0, plan.framed_size.1);
-        Some(external::embree(
-            &opts.mesh,
-            &cam,
-            plan.throughput_runs,
-            tmp.path(),
-        ))
-    } else {
-        None
-    };
-    let embree_general = if embree.is_some() {
-        lg("embree: general-ray cameras");
-        let mut v = Vec::new();
-        for (name, cam) in image_tables::general_cameras(&mesh, plan.framed_size)? {
-            let r = external::embree(&opts.mesh, &cam, plan.throughput_runs, tmp.path());
-            v.push((name, r));
-        }
-        v
-    } else {
-        Vec::new()
-    };
-    for view in View::ALL {
-        let rows: Vec<ImageRow> = image_rows
-            .iter()
-            .filter(|r| r.view == view)
-            .cloned()
-            .collect();
-        plots::error_vs_time(
-            &rows,
-            &bench_dir.join(format!("error_vs_time_{}.png", view.name())),
-            &format!("Image error against time per frame: {} view", view.name()),
-        )?;
-    }
-    plots::octree_vs_dda(&dda_rows, &bench_dir.join("octree_vs_dda.png"))?;
+    Ok(out)
+}
 
-    let measured = Measured {
-        machine,
-        plan,
-        mesh_name,
-        triangles: mesh.triangles.len(),
-        tables,
-        pipeline,
-        deep,
-        parts,
-        open3d,
-        per_depth,
-        image_rows,
-        dda_rows,
-        throughput,
-        embree,
-        general,
-        embree_general,
-        external,
-        gpu_note,
-    };
-    let mut r = Report::default();
-    write_report(&mut r, opts, &measured, start);
-    let path = opts.out.join("benchmarks.md");
-    r.write(&path)?;
-    lg(&format!("wrote {}", path.display()));
-    Ok(path)
+/// The geometric error of `tree` (baked from `mesh`) in each hit mode, on rays from `samples`.
+fn geometry(
+    mesh: &Mesh,
+    tree: &Octree,
+    stats: &svo::bake::BakeStats,
+    samples: &[geometry_error::Sample],
+) -> anyhow::Result<DepthResults> {
+    let depth = tree.depth;
+    let rays = geometry_error::rays(samples, &tree.root, depth);
+    let reference =
+        geometry_error::distances(&MeshSurfaces::new(mesh.clone(), tree.root, depth), &rays);
+    let mut geometry = Vec::new();
+    for mode in [HitMode::Cube, HitMode::Contour] {
+        let got = geometry_error::distances(&OctreeSurfaces::new(tree, mode), &rays);
+        geometry.push((mode.name(), geometry_error::compare(&got, &reference)));
+    }
+    let exact = exact_surfaces(tree, mesh)?;
+    let got = geometry_error::distances(&exact, &rays);
+    geometry.push(("exact", geometry_error::compare(&got, &reference)));
+    Ok(DepthResults {
+        depth,
+        leaves: stats.leaves,
+        cell: stats.cell_size,
+        thickness: stats.contour_thickness,
+        geometry,
+    })
+}
+
+/// Embree on the framed view's primary rays and on the general rays' cameras.
+#[allow(clippy::type_complexity)]
+fn measure_embree(
+    opts: &Options,
+    s: &Setup,
+    lg: &dyn Fn(&str),
+) -> anyhow::Result<(
+    Option<anyhow::Result<(f64, f64)>>,
+    Vec<(&'static str, anyhow::Result<(f64, f64)>)>,
+)> {
+    lg("embree");
+    let (lo, hi) = s
+        .mesh
+        .bounds()
+        .ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+    let size = s.plan.framed_size;
+    let runs = s.plan.throughput_runs;
+    let cam = View::Framed.camera(lo, hi, size.0, size.1);
+    let primary = external::embree(&opts.mesh, &cam, runs, s.tmp.path());
+    lg("embree: general-ray cameras");
+    let mut general = Vec::new();
+    for (name, cam) in image_tables::general_cameras(&s.mesh, size)? {
+        general.push((name, external::embree(&opts.mesh, &cam, runs, s.tmp.path())));
+    }
+    Ok((Some(primary), general))
 }
 
 fn file_name(p: &Path) -> String {
@@ -505,8 +590,14 @@ fn save_frames(dir: &Path, view: View, frames: &image_tables::ViewFrames) -> any
 /// One mesh against open3d: its version and rows, or why it failed.
 type Open3dRun = anyhow::Result<(String, Vec<side_by_side::SideBySide>)>;
 
-/// Everything the report is written from.
+/// Everything the report is written from, as measured: `benchmarks.json` holds it, and the
+/// Markdown report is rendered from it.
+#[derive(serde::Serialize)]
 struct Measured {
+    /// The quick variant (CI's), whose figures are not the report's.
+    quick: bool,
+    /// Seconds the measurements took.
+    seconds: f64,
     machine: Machine,
     plan: Plan,
     mesh_name: String,
@@ -515,24 +606,90 @@ struct Measured {
     pipeline: Vec<PipelineRow>,
     deep: Vec<deep_tables::DeepRow>,
     parts: Vec<parts_tables::PartsRow>,
+    #[serde(serialize_with = "named_results")]
     open3d: Option<Vec<(String, Open3dRun)>>,
     per_depth: Vec<DepthResults>,
     image_rows: Vec<ImageRow>,
     dda_rows: Vec<DdaRow>,
     throughput: Vec<Throughput>,
+    /// Embree's primary rays: seconds a frame and Mrays/s.
+    #[serde(serialize_with = "result")]
     embree: Option<anyhow::Result<(f64, f64)>>,
     general: Vec<GeneralRays>,
+    #[serde(serialize_with = "named_results")]
     embree_general: Vec<(&'static str, anyhow::Result<(f64, f64)>)>,
     external: bool,
     gpu_note: String,
+}
+
+/// A measurement that may have failed, as JSON: its value, or `{"error": message}`.
+fn result_value<T: serde::Serialize>(r: &anyhow::Result<T>) -> serde_json::Value {
+    match r {
+        Ok(v) => serde_json::to_value(v).unwrap_or(serde_json::Value::Null),
+        Err(e) => serde_json::json!({ "error": format!("{e:#}") }),
+    }
+}
+
+/// Serializes an optional measurement that may have failed ([`result_value`]).
+fn result<S: serde::Serializer, T: serde::Serialize>(
+    r: &Option<anyhow::Result<T>>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&r.as_ref().map(result_value), s)
+}
+
+/// Serializes named measurements that may have failed ([`result_value`]), as a map.
+fn named_results<S, N, T, L>(runs: &L, s: S) -> Result<S::Ok, S::Error>
+where
+    S: serde::Serializer,
+    N: AsRef<str>,
+    T: serde::Serialize,
+    L: NamedResults<N, T>,
+{
+    let map: Option<serde_json::Map<String, serde_json::Value>> = runs.named().map(|v| {
+        v.iter()
+            .map(|(n, r)| (n.as_ref().to_string(), result_value(r)))
+            .collect()
+    });
+    serde::Serialize::serialize(&map, s)
+}
+
+/// Lists of named measurements, optional or not.
+trait NamedResults<N, T> {
+    fn named(&self) -> Option<&[(N, anyhow::Result<T>)]>;
+}
+
+impl<N, T> NamedResults<N, T> for Vec<(N, anyhow::Result<T>)> {
+    fn named(&self) -> Option<&[(N, anyhow::Result<T>)]> {
+        Some(self)
+    }
+}
+
+impl<N, T> NamedResults<N, T> for Option<Vec<(N, anyhow::Result<T>)>> {
+    fn named(&self) -> Option<&[(N, anyhow::Result<T>)]> {
+        self.as_deref()
+    }
 }
 
 fn sci(x: f64) -> String {
     format!("{x:.2e}")
 }
 
-fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
-    let p = &m.plan;
+fn write_report(r: &mut Report, opts: &Options, m: &Measured) {
+    intro(r, opts, m);
+    bake_section(r, opts, m);
+    pipeline_section(r, opts, m);
+    open3d_section(r, opts, m);
+    deep_and_parts_section(r, opts, m);
+    geometry_section(r, opts, m);
+    images_section(r, opts, m);
+    throughput_section(r, opts, m);
+    dda_section(r, opts, m);
+    targets_section(r, opts, m);
+}
+
+/// The report's title and what its figures are.
+fn intro(r: &mut Report, opts: &Options, m: &Measured) {
     r.heading(1, "Benchmarks");
     r.para(&format!(
         "**Generated by `cargo run --release -p svo-bench{}`; do not edit by hand.** \
@@ -541,7 +698,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
         m.machine.line(),
         m.mesh_name,
         m.triangles,
-        start.elapsed().as_secs_f64()
+        m.seconds
     ));
     r.para(
         "Every time is a median (the runs are stated per table) measured in this one run, so \
@@ -559,7 +716,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
              tools): it checks that the generator works, its figures are not the report's.",
         );
     }
+}
 
+/// The bake against the thesis's tables.
+fn bake_section(r: &mut Report, opts: &Options, m: &Measured) {
     // 1. Bake tables.
     r.heading(2, "1. The bake against the thesis's build-time tables");
     let runs_note = if opts.quick {
@@ -574,7 +734,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
          edge axes and \"AABB + Plane\" no edge axis, so they keep cells no triangle touches \
          (the `+` counts). No strategy misses a touched cell (the `-` counts).",
     );
+}
 
+/// The `svo-bake` pipeline per phase.
+fn pipeline_section(r: &mut Report, _opts: &Options, m: &Measured) {
     // 2. Pipeline.
     r.heading(2, "2. The whole `svo-bake` pipeline, per phase");
     r.para(
@@ -585,7 +748,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
          benchmark's allocator.",
     );
     bake_tables::write_pipeline(r, &m.pipeline);
+}
 
+/// The bake against open3d, side by side.
+fn open3d_section(r: &mut Report, _opts: &Options, m: &Measured) {
     // 3. open3d.
     r.heading(3, "Against open3d, side by side");
     match &m.open3d {
@@ -656,7 +822,10 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             "Not run in this variant.".to_string()
         }),
     }
+}
 
+/// Deep trees, and bakes in parts.
+fn deep_and_parts_section(r: &mut Report, opts: &Options, m: &Measured) {
     r.heading(3, "Deep trees: time and heap per leaf");
     let deep_note = if opts.quick {
         "one run per depth (depths 1-8)"
@@ -670,7 +839,11 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
         "Bakes in parts: time a leaf and peak memory against the budget",
     );
     parts_tables::write(r, &m.parts);
+}
 
+/// The geometric error of the rendered surface.
+fn geometry_section(r: &mut Report, _opts: &Options, m: &Measured) {
+    let p = &m.plan;
     // 4. Geometry.
     r.heading(
         2,
@@ -728,7 +901,11 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
         ],
         &t,
     );
+}
 
+/// Images per view: time against image error.
+fn images_section(r: &mut Report, _opts: &Options, m: &Measured) {
+    let p = &m.plan;
     // 5. Images per view.
     r.heading(2, "4. Images: time per frame against image error, per view");
     r.para(&format!(
@@ -827,7 +1004,11 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
              ![{n} cost](bench/{n}_cost.png)"
         ));
     }
+}
 
+/// Primary-ray throughput (and the general rays).
+fn throughput_section(r: &mut Report, _opts: &Options, m: &Measured) {
+    let p = &m.plan;
     // 6. Throughput.
     r.heading(2, "5. Primary-ray throughput");
     r.para(&format!(
@@ -895,7 +1076,11 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
     if !m.general.is_empty() {
         general_rays_section(r, m);
     }
+}
 
+/// The octree against the dense-grid DDA.
+fn dda_section(r: &mut Report, _opts: &Options, m: &Measured) {
+    let p = &m.plan;
     // 7. DDA.
     r.heading(2, "6. The octree against the dense-grid DDA");
     r.para(&format!(
@@ -929,9 +1114,33 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
         &rows,
     );
     r.image("octree against DDA", "bench/octree_vs_dda.png");
+}
 
-    // 8. Targets.
+/// Where the project stands against its targets.
+fn targets_section(r: &mut Report, opts: &Options, m: &Measured) {
     r.heading(2, "7. Targets");
+    let mut t = bake_targets(m);
+    t.extend(ray_targets(m));
+    if !opts.quick {
+        let minutes = m.seconds / 60.0;
+        t.push(vec![
+            "this report regenerates in under 20 minutes on this machine".into(),
+            format!(
+                "{minutes:.1} min: {}",
+                if minutes < 20.0 { "met" } else { "**not met**" }
+            ),
+        ]);
+    }
+    if t.is_empty() {
+        r.para("(The quick variant measures no target.)");
+    } else {
+        r.table(&["target", "measured here"], &t);
+    }
+}
+
+/// The bake's targets: the depth-8 bake against open3d, depth 10 under a second, the large
+/// mesh within time and memory.
+fn bake_targets(m: &Measured) -> Vec<Vec<String>> {
     let mut t = Vec::new();
     if let Some(c) = m.tables.exact(8) {
         t.push(vec![
@@ -1011,6 +1220,13 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             ),
         ]);
     }
+    t
+}
+
+/// The rays' targets: primary and general rays against Embree.
+fn ray_targets(m: &Measured) -> Vec<Vec<String>> {
+    let mut t = Vec::new();
+    let embree = m.embree.as_ref().and_then(|e| e.as_ref().ok()).copied();
     if let Some((_, embree)) = embree {
         let at = |depth: u8, cast: bool| {
             m.throughput
@@ -1072,24 +1288,9 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured, start: Instant) {
             ]);
         }
     }
-    if !opts.quick {
-        let minutes = start.elapsed().as_secs_f64() / 60.0;
-        t.push(vec![
-            "this report regenerates in under 20 minutes on this machine".into(),
-            format!(
-                "{minutes:.1} min: {}",
-                if minutes < 20.0 { "met" } else { "**not met**" }
-            ),
-        ]);
-    }
-    if t.is_empty() {
-        r.para("(The quick variant measures no target.)");
-    } else {
-        r.table(&["target", "measured here"], &t);
-    }
+    t
 }
 
-/// Section 5's second table: general rays against Embree on the same rays, one thread each.
 fn general_rays_section(r: &mut Report, m: &Measured) {
     let p = &m.plan;
     r.heading(3, "General rays");

@@ -13,6 +13,7 @@ use svo::BakeOptions;
 use svo_bake::job::{BakeJob, GivenOptions, bake_file};
 
 /// One bake.
+#[derive(serde::Serialize)]
 pub struct PartsRow {
     /// The mesh, as the report names it.
     pub mesh: String,

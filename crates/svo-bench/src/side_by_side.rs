@@ -24,7 +24,7 @@ pub struct Plan {
 }
 
 /// One round's medians, in seconds.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct Round {
     /// open3d's voxel set.
     pub open3d: f64,
@@ -36,7 +36,7 @@ pub struct Round {
 }
 
 /// One depth of one mesh, measured in alternation.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct SideBySide {
     /// The mesh's label.
     pub label: String,

@@ -11,7 +11,7 @@ use svo::mesh::{Material, Mesh};
 use svo::render::{Camera, PointLight};
 
 /// A view of the image tables.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum View {
     /// `svo-view`'s default framing (the whole model, 12.6% of the rays hit the bunny).
     Framed,

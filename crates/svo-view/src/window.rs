@@ -355,24 +355,31 @@ impl App {
         Ok(())
     }
 
+    /// Moves the camera by the fly keys held, for `dt` seconds since the last frame.
+    fn fly(&mut self, dt: f64) {
+        if self.control.mode != CameraMode::Fly {
+            return;
+        }
+        let k = |c: KeyCode| f64::from(u8::from(self.held.keys.contains(&c)));
+        let f = k(KeyCode::KeyW) - k(KeyCode::KeyS);
+        let s = k(KeyCode::KeyD) - k(KeyCode::KeyA);
+        let u = k(KeyCode::KeyE) - k(KeyCode::KeyQ);
+        let boost = if self.held.shift { 4.0 } else { 1.0 };
+        self.control.fly(f, s, u, dt.min(0.25) * boost);
+    }
+
     fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), WindowError> {
         let now = Instant::now();
         let dt = self
             .last_frame
             .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
-        // Fly keys move the camera by the time since the last frame.
-        if self.control.mode == CameraMode::Fly {
-            let k = |c: KeyCode| f64::from(u8::from(self.held.keys.contains(&c)));
-            let f = k(KeyCode::KeyW) - k(KeyCode::KeyS);
-            let s = k(KeyCode::KeyD) - k(KeyCode::KeyA);
-            let u = k(KeyCode::KeyE) - k(KeyCode::KeyQ);
-            let boost = if self.held.shift { 4.0 } else { 1.0 };
-            self.control.fly(f, s, u, dt.min(0.25) * boost);
-        }
+        self.fly(dt);
         let lights = self.lights();
         let trace = self.settings.trace;
-        let settings = self.settings;
-        let ms_text = self.frame_ms.last().copied().unwrap_or(0.0);
+        let last = self
+            .opts
+            .quit_after
+            .is_some_and(|n| self.frame_ms.len() as u32 + 2 > n);
         let Some(r) = self.running.as_mut() else {
             return Ok(());
         };
@@ -389,140 +396,30 @@ impl App {
         )
         .map_err(JobError::from)?;
         r.renderer.write_uniforms(&r.ctx, &u);
-        let variant_text = r.renderer.variant().describe();
-        let texture = match r.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                r.surface.configure(&r.ctx.device, &r.config);
-                r.window.request_redraw();
-                return Ok(());
-            }
-            // Hidden or minimized: no frames until winit says the window shows again
-            // (WindowEvent::Occluded(false)), rather than asking again at once.
-            wgpu::CurrentSurfaceTexture::Occluded => return Ok(()),
-            _ => {
-                r.window.request_redraw();
-                return Ok(());
-            }
+        let Some(texture) = next_texture(r) else {
+            return Ok(());
         };
-        let view = texture
-            .texture
-            .create_view(&wgpu::TextureViewDescriptor::default());
+        let overlay = Overlay {
+            adapter: r.ctx.adapter_name(),
+            ms: self.frame_ms.last().copied().unwrap_or(0.0),
+            size: (fw, fh),
+            depth: tree.depth,
+            leaves: tree.leaf_count,
+            settings: self.settings,
+            variant: r.renderer.variant().describe(),
+        };
+        let capture = draw_frame(r, texture, &overlay, last && self.opts.screenshot.is_some())?;
+        self.end_frame(el, last, capture)
+    }
 
-        // The overlay.
-        let input = r.egui_state.take_egui_input(&r.window);
-        let tree_depth = tree.depth;
-        let leaves = tree.leaf_count;
-        let adapter = r.ctx.adapter_name();
-        let mrays = if ms_text > 0.0 {
-            f64::from(fw) * f64::from(fh) / (ms_text * 1e3)
-        } else {
-            0.0
-        };
-        let out = r.egui_ctx.run_pass(input, |ctx| {
-            if !settings.overlay {
-                return;
-            }
-            egui::Window::new("svo-view")
-                .default_pos(egui::pos2(8.0, 8.0))
-                .resizable(false)
-                .show(ctx, |ui| {
-                    ui.label(adapter.as_str());
-                    ui.label(format!(
-                        "{:.1} fps, {ms_text:.2} ms/frame, {mrays:.1} Mrays/s primary",
-                        if ms_text > 0.0 { 1e3 / ms_text } else { 0.0 }
-                    ));
-                    ui.label(format!(
-                        "{fw}x{fh} (1/{}), depth {tree_depth}, {leaves} leaves",
-                        settings.render_scale
-                    ));
-                    let path = if trace.max_path_bounces == u8::MAX {
-                        String::new()
-                    } else {
-                        format!(" (at most {} a path)", trace.max_path_bounces)
-                    };
-                    ui.label(format!(
-                        "hit {} [1/2], bounces {}{path} [ [ ] ], lights {} [L], shadows {} [G]",
-                        trace.mode.name(),
-                        trace.max_reflections,
-                        if settings.lights_on { "on" } else { "off" },
-                        trace.shadows.name()
-                    ));
-                    ui.label(format!("shader: {variant_text}"));
-                    ui.label("drag: turn, right drag: pan, wheel: zoom, Tab: orbit/fly");
-                    ui.label("P: screenshot, R: reset, -/=: render scale, F1: overlay");
-                });
-        });
-        r.egui_state
-            .handle_platform_output(&r.window, out.platform_output);
-        let prims = r.egui_ctx.tessellate(out.shapes, out.pixels_per_point);
-        let sd = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [r.config.width, r.config.height],
-            pixels_per_point: out.pixels_per_point,
-        };
-        // Take the texture changes out (epaint checks that none is dropped unapplied).
-        let mut textures = out.textures_delta;
-        let (set, free) = (
-            std::mem::take(&mut textures.set),
-            std::mem::take(&mut textures.free),
-        );
-        for (id, deltas) in &set {
-            for delta in deltas {
-                r.egui_renderer
-                    .update_texture(&r.ctx.device, &r.ctx.queue, *id, delta);
-            }
-        }
-        let mut enc = r
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("window frame"),
-            });
-        r.renderer.encode(&mut enc);
-        let last = self
-            .opts
-            .quit_after
-            .is_some_and(|n| self.frame_ms.len() as u32 + 2 > n);
-        let extra =
-            r.egui_renderer
-                .update_buffers(&r.ctx.device, &r.ctx.queue, &mut enc, &prims, &sd);
-        {
-            let mut pass = enc
-                .begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("blit and overlay"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                })
-                .forget_lifetime();
-            r.blit.draw(&mut pass);
-            r.egui_renderer.render(&mut pass, &prims, &sd);
-        }
-        let capture = if last && self.opts.screenshot.is_some() {
-            capture_copy(r, &texture.texture, &mut enc)
-        } else {
-            None
-        };
-        r.ctx
-            .queue
-            .submit(extra.into_iter().chain(std::iter::once(enc.finish())));
-        r.ctx.queue.present(texture);
-        for id in &free {
-            r.egui_renderer.free_texture(id);
-        }
-        r.ctx.check()?;
-
+    /// Counts the frame just shown; after the last one (`quit_after`), saves it where asked
+    /// and closes, else asks for the next.
+    fn end_frame(
+        &mut self,
+        el: &ActiveEventLoop,
+        last: bool,
+        capture: Option<Capture>,
+    ) -> Result<(), WindowError> {
         let now = Instant::now();
         match self.last_frame {
             None => self.startup_ms = Some(now.duration_since(self.start).as_secs_f64() * 1e3),
@@ -531,28 +428,188 @@ impl App {
                 .push(now.duration_since(t).as_secs_f64() * 1e3),
         }
         self.last_frame = Some(now);
-        if last {
-            // Wait for the frame, then save it: the window as shown (frame and overlay)
-            // where the surface can be copied, else the frame.
-            r.ctx.wait()?;
-            match (capture, &self.opts.screenshot) {
-                (Some(c), Some(path)) => {
-                    let rgb = read_capture(&r.ctx, &c)?;
-                    svo::render::write_png(path, c.width, c.height, &rgb)
-                        .map_err(JobError::from)?;
-                    self.screenshots.push(path.clone());
-                }
-                (None, Some(_)) => self.screenshot()?,
-                _ => {}
-            }
-            el.exit();
+        let Some(r) = &self.running else {
+            return Ok(());
+        };
+        if !last {
+            r.window.request_redraw();
             return Ok(());
         }
-        if let Some(r) = &self.running {
-            r.window.request_redraw();
+        // Wait for the frame, then save it: the window as shown (frame and overlay) where
+        // the surface can be copied, else the frame.
+        r.ctx.wait()?;
+        match (capture, &self.opts.screenshot) {
+            (Some(c), Some(path)) => {
+                let rgb = read_capture(&r.ctx, &c)?;
+                svo::render::write_png(path, c.width, c.height, &rgb).map_err(JobError::from)?;
+                self.screenshots.push(path.clone());
+            }
+            (None, Some(_)) => self.screenshot()?,
+            _ => {}
         }
+        el.exit();
         Ok(())
     }
+}
+
+/// The surface's next texture to draw into; `None` when there is none now (the surface
+/// reconfigured, or the window hidden: winit says when it shows again).
+fn next_texture(r: &mut Running) -> Option<wgpu::SurfaceTexture> {
+    match r.surface.get_current_texture() {
+        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+            Some(t)
+        }
+        wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+            r.surface.configure(&r.ctx.device, &r.config);
+            r.window.request_redraw();
+            None
+        }
+        // Hidden or minimized: no frames until winit says the window shows again
+        // (WindowEvent::Occluded(false)), rather than asking again at once.
+        wgpu::CurrentSurfaceTexture::Occluded => None,
+        _ => {
+            r.window.request_redraw();
+            None
+        }
+    }
+}
+
+/// What the overlay shows.
+struct Overlay {
+    adapter: String,
+    /// The last frame's milliseconds (0 before the second frame).
+    ms: f64,
+    /// The frame size.
+    size: (u32, u32),
+    depth: u8,
+    leaves: u32,
+    settings: Settings,
+    /// The shader variant's paths.
+    variant: String,
+}
+
+impl Overlay {
+    /// The overlay's window, unless it is turned off.
+    fn show(&self, ctx: &egui::Context) {
+        if !self.settings.overlay {
+            return;
+        }
+        let (ms, (fw, fh), trace) = (self.ms, self.size, self.settings.trace);
+        let mrays = if ms > 0.0 {
+            f64::from(fw) * f64::from(fh) / (ms * 1e3)
+        } else {
+            0.0
+        };
+        egui::Window::new("svo-view")
+            .default_pos(egui::pos2(8.0, 8.0))
+            .resizable(false)
+            .show(ctx, |ui| {
+                ui.label(self.adapter.as_str());
+                ui.label(format!(
+                    "{:.1} fps, {ms:.2} ms/frame, {mrays:.1} Mrays/s primary",
+                    if ms > 0.0 { 1e3 / ms } else { 0.0 }
+                ));
+                ui.label(format!(
+                    "{fw}x{fh} (1/{}), depth {}, {} leaves",
+                    self.settings.render_scale, self.depth, self.leaves
+                ));
+                let path = if trace.max_path_bounces == u8::MAX {
+                    String::new()
+                } else {
+                    format!(" (at most {} a path)", trace.max_path_bounces)
+                };
+                ui.label(format!(
+                    "hit {} [1/2], bounces {}{path} [ [ ] ], lights {} [L], shadows {} [G]",
+                    trace.mode.name(),
+                    trace.max_reflections,
+                    if self.settings.lights_on { "on" } else { "off" },
+                    trace.shadows.name()
+                ));
+                ui.label(format!("shader: {}", self.variant));
+                ui.label("drag: turn, right drag: pan, wheel: zoom, Tab: orbit/fly");
+                ui.label("P: screenshot, R: reset, -/=: render scale, F1: overlay");
+            });
+    }
+}
+
+/// Traces the frame, draws it and the overlay into `texture` and presents it; with
+/// `capture`, also copies the surface for a screenshot.
+fn draw_frame(
+    r: &mut Running,
+    texture: wgpu::SurfaceTexture,
+    overlay: &Overlay,
+    capture: bool,
+) -> Result<Option<Capture>, WindowError> {
+    let view = texture
+        .texture
+        .create_view(&wgpu::TextureViewDescriptor::default());
+    let input = r.egui_state.take_egui_input(&r.window);
+    let out = r.egui_ctx.run_pass(input, |ctx| overlay.show(ctx));
+    r.egui_state
+        .handle_platform_output(&r.window, out.platform_output);
+    let prims = r.egui_ctx.tessellate(out.shapes, out.pixels_per_point);
+    let sd = egui_wgpu::ScreenDescriptor {
+        size_in_pixels: [r.config.width, r.config.height],
+        pixels_per_point: out.pixels_per_point,
+    };
+    // Take the texture changes out (epaint checks that none is dropped unapplied).
+    let mut textures = out.textures_delta;
+    let (set, free) = (
+        std::mem::take(&mut textures.set),
+        std::mem::take(&mut textures.free),
+    );
+    for (id, deltas) in &set {
+        for delta in deltas {
+            r.egui_renderer
+                .update_texture(&r.ctx.device, &r.ctx.queue, *id, delta);
+        }
+    }
+    let mut enc = r
+        .ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("window frame"),
+        });
+    r.renderer.encode(&mut enc);
+    let extra = r
+        .egui_renderer
+        .update_buffers(&r.ctx.device, &r.ctx.queue, &mut enc, &prims, &sd);
+    {
+        let mut pass = enc
+            .begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blit and overlay"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            })
+            .forget_lifetime();
+        r.blit.draw(&mut pass);
+        r.egui_renderer.render(&mut pass, &prims, &sd);
+    }
+    let capture = if capture {
+        capture_copy(r, &texture.texture, &mut enc)
+    } else {
+        None
+    };
+    r.ctx
+        .queue
+        .submit(extra.into_iter().chain(std::iter::once(enc.finish())));
+    r.ctx.queue.present(texture);
+    for id in &free {
+        r.egui_renderer.free_texture(id);
+    }
+    r.ctx.check()?;
+    Ok(capture)
 }
 
 impl ApplicationHandler for App {

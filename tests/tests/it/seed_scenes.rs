@@ -4,18 +4,13 @@
 //! bunny view sees the bunny in every pixel, the parallel view (inside the hollow bunny) sees
 //! only the bunny and costs more traversal steps per ray than the bunny view.
 
-use std::path::PathBuf;
 use svo::render::{NO_LEAF, OctreeSurfaces, RenderScene, SceneSetup, TraceOptions, Tracer, render};
-
-/// The scene file, when the bunny it reads (from `../shared/models`) is there.
-fn pool_scene() -> Option<PathBuf> {
-    svo_tests::model("stanford/bun_zipper.ply")?;
-    Some(svo_tests::repo_root().join("examples/scenes/pool.toml"))
-}
 
 #[test]
 fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
-    let Some(path) = pool_scene() else { return };
+    let Some(path) = svo_tests::pool_scene() else {
+        return;
+    };
     let scene = svo::scene::load_scene(&path).unwrap();
     assert_eq!(scene.depth, Some(8));
     let names: Vec<&str> = scene.info.cameras.iter().map(|c| c.name.as_str()).collect();

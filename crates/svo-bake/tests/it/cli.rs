@@ -259,87 +259,162 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// One bad invocation: the input file (name and contents, or `None` for one that does not
+/// exist), the arguments after it (`{out}` stands for the output path, `{dir}` for the
+/// folder), and a phrase the one-line error must contain.
+struct Bad {
+    input: (&'static str, Option<&'static str>),
+    args: &'static [&'static str],
+    needle: &'static str,
+}
+
+const TRIANGLE: Option<&str> = Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+const OUT: &[&str] = &["-o", "{out}"];
+
+const BAD_INPUT: &[Bad] = &[
+    Bad {
+        input: ("nope.obj", None),
+        args: OUT,
+        needle: "nope.obj",
+    },
+    Bad {
+        input: ("mesh.txt", Some("hello")),
+        args: OUT,
+        needle: "unsupported mesh format",
+    },
+    Bad {
+        input: ("nan.obj", Some("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n")),
+        args: OUT,
+        needle: "non-finite",
+    },
+    Bad {
+        input: ("inf.obj", Some("v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n")),
+        args: OUT,
+        needle: "non-finite",
+    },
+    Bad {
+        input: ("idx.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")),
+        args: OUT,
+        needle: "",
+    },
+    Bad {
+        input: ("empty.obj", Some("# nothing\n")),
+        args: OUT,
+        needle: "no triangles",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["-o", "{out}", "--threads", "0"],
+        needle: "threads",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["-o", "{out}", "--threads", "100000"],
+        needle: "threads",
+    },
+    Bad {
+        input: (
+            "bad.ply",
+            Some(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                 end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+            ),
+        ),
+        args: OUT,
+        needle: "vertex 7",
+    },
+    Bad {
+        input: (
+            "trunc.ply",
+            Some("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"),
+        ),
+        args: OUT,
+        needle: "cannot parse",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "0", "-o", "{out}"],
+        needle: "depth 0",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "31", "-o", "{out}"],
+        needle: "depth 31",
+    },
+    // Past the memory a bake to .svo goes into parts, which are refused at their number or
+    // the disk they need; other outputs are refused at the memory estimate.
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "24", "-o", "{out}"],
+        needle: "lower --depth",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "24", "-o", "{dir}/out.binvox"],
+        needle: "--force",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "24", "--force", "-o", "{dir}/out.binvox"],
+        needle: "more than one tree in memory holds",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["-o", "{dir}/no/such/dir/x.svo"],
+        needle: "does not exist",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["-o", "{dir}/x.stl"],
+        needle: "unsupported output",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--depth", "11", "-o", "{dir}/x.binvox"],
+        needle: "binvox holds grids up to 1024",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--channels", "contour", "-o", "{out}"],
+        needle: "normal",
+    },
+    Bad {
+        input: ("tri.obj", TRIANGLE),
+        args: &["--channels", "sparkle", "-o", "{out}"],
+        needle: "unknown channel",
+    },
+    Bad {
+        input: (
+            "bad.svo",
+            Some("\u{89}SVO\r\n\u{1a}\nxxxxxxxxxxxxxxxxxxxxxxxxxxxx"),
+        ),
+        args: &["-o", "{dir}/x.binvox"],
+        needle: "",
+    },
+];
+
 #[test]
 fn bad_input_gives_one_clear_line_and_no_output() {
     let d = tmp();
     let out = d.path().join("out.svo");
-    let o = s(&out);
-    fails(&[s(&d.path().join("nope.obj")), "-o", o], "nope.obj");
-    let txt = write(d.path(), "mesh.txt", "hello");
-    fails(&[s(&txt), "-o", o], "unsupported mesh format");
-    let nan = write(
-        d.path(),
-        "nan.obj",
-        "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n",
-    );
-    fails(&[s(&nan), "-o", o], "non-finite");
-    let inf = write(
-        d.path(),
-        "inf.obj",
-        "v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n",
-    );
-    fails(&[s(&inf), "-o", o], "non-finite");
-    let idx = write(d.path(), "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-    fails(&[s(&idx), "-o", o], "");
-    let empty = write(d.path(), "empty.obj", "# nothing\n");
-    fails(&[s(&empty), "-o", o], "no triangles");
-    let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    fails(&[s(&tri), "-o", o, "--threads", "0"], "threads");
-    fails(&[s(&tri), "-o", o, "--threads", "100000"], "threads");
-    let ply = write(
-        d.path(),
-        "bad.ply",
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
-    );
-    fails(&[s(&ply), "-o", o], "vertex 7");
-    let trunc = write(
-        d.path(),
-        "trunc.ply",
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n",
-    );
-    fails(&[s(&trunc), "-o", o], "cannot parse");
-    let tri = write(d.path(), "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    fails(&[s(&tri), "--depth", "0", "-o", o], "depth 0");
-    fails(&[s(&tri), "--depth", "31", "-o", o], "depth 31");
-    // Past the memory a bake to .svo goes into parts, which are refused at their number or
-    // the disk they need; other outputs are refused at the memory estimate.
-    fails(&[s(&tri), "--depth", "24", "-o", o], "lower --depth");
-    let binvox = d.path().join("out.binvox");
-    fails(&[s(&tri), "--depth", "24", "-o", s(&binvox)], "--force");
-    fails(
-        &[s(&tri), "--depth", "24", "--force", "-o", s(&binvox)],
-        "more than one tree in memory holds",
-    );
-    fails(
-        &[s(&tri), "-o", s(&d.path().join("no/such/dir/x.svo"))],
-        "does not exist",
-    );
-    fails(
-        &[s(&tri), "-o", s(&d.path().join("x.stl"))],
-        "unsupported output",
-    );
-    fails(
-        &[
-            s(&tri),
-            "--depth",
-            "11",
-            "-o",
-            s(&d.path().join("x.binvox")),
-        ],
-        "binvox holds grids up to 1024",
-    );
-    fails(&[s(&tri), "--channels", "contour", "-o", o], "normal");
-    fails(
-        &[s(&tri), "--channels", "sparkle", "-o", o],
-        "unknown channel",
-    );
-    let bad_svo = write(
-        d.path(),
-        "bad.svo",
-        "\u{89}SVO\r\n\u{1a}\nxxxxxxxxxxxxxxxxxxxxxxxxxxxx",
-    );
-    fails(&[s(&bad_svo), "-o", s(&d.path().join("x.binvox"))], "");
-    assert!(!out.exists(), "an output was written");
+    let dir = s(d.path());
+    for case in BAD_INPUT {
+        let (name, text) = case.input;
+        let input = match text {
+            Some(text) => write(d.path(), name, text),
+            None => d.path().join(name),
+        };
+        let mut args = vec![s(&input).to_owned()];
+        args.extend(
+            case.args
+                .iter()
+                .map(|a| a.replace("{out}", s(&out)).replace("{dir}", dir)),
+        );
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails(&args, case.needle);
+        assert!(!out.exists(), "{args:?} wrote an output");
+    }
     // Nothing but our inputs in the folder: no partial or temporary files.
     let names: Vec<String> = std::fs::read_dir(d.path())
         .unwrap()

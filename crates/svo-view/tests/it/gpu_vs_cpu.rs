@@ -330,14 +330,13 @@ fn the_wide_view_renders_the_same() {
 /// bit for bit.
 #[test]
 fn the_thesis_pool_views() {
-    let root = svo_tests::repo_root();
-    if svo_tests::model("stanford/bun_zipper.ply").is_none() {
+    let Some(path) = svo_tests::pool_scene() else {
         return;
-    }
+    };
     let Some(ctx) = gpu() else {
         return;
     };
-    let pool = svo::scene::load_scene(&root.join("examples/scenes/pool.toml")).unwrap();
+    let pool = svo::scene::load_scene(&path).unwrap();
     let opts = svo::BakeOptions {
         depth: 7,
         ..svo::BakeOptions::default()

@@ -7,7 +7,7 @@
 //! hit distance (scene units along the unit view ray, `+inf` on a miss), the shading
 //! normal, the leaf index and the traversal steps (the cost heat map).
 
-use crate::render::camera::{Camera, CameraError};
+use crate::render::camera::{Camera, CameraError, CameraRays};
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::Surfaces;
 use crate::render::whitted::{PrimaryStart, Sample, SampleStats, Tracer};
@@ -160,6 +160,106 @@ impl BandOut<'_> {
     }
 }
 
+/// What every band of one frame shares: the tracer, the camera's rays, the eye in grid
+/// coordinates and the prepass's view.
+struct Bands<'a, S: Surfaces> {
+    tracer: &'a Tracer<S>,
+    rays: &'a CameraRays,
+    eye: Vec3,
+    width: u32,
+    view: Option<PrimaryView>,
+}
+
+impl<S: Surfaces> Bands<'_, S> {
+    /// One band of rows starting at row `y0`: its primary rays decided together, then each
+    /// pixel shaded into `out` (whose buffers hold the band's pixels).
+    fn render(&self, scratch: &mut PrimaryScratch, y0: u32, mut out: BandOut<'_>) -> RenderStats {
+        let rows = (out.colour.len() / self.width as usize) as u32;
+        let decided = self
+            .view
+            .as_ref()
+            .map(|v| PrimaryBand::decided_by(v, self.tracer.surfaces(), y0, rows, scratch));
+        let start = |i: usize| {
+            decided
+                .as_ref()
+                .map_or(PrimaryStart::From(0.0), |b| b.start(i))
+        };
+        if self.tracer.packs() {
+            self.packed(y0, rows, &start, &mut out);
+        } else {
+            self.single(y0, rows, &start, &mut out);
+        }
+        out.stats
+    }
+
+    /// The band's pixels `(index in the band, x, y)`, row by row.
+    fn pixels(&self, y0: u32, rows: u32) -> impl Iterator<Item = (usize, u32, u32)> + use<'_, S> {
+        let w = self.width;
+        (0..rows)
+            .flat_map(move |r| (0..w).map(move |x| (x, y0 + r)))
+            .enumerate()
+            .map(|(i, (x, y))| (i, x, y))
+    }
+
+    /// Four neighbouring pixels at a time, their rays after the primary ones walked together.
+    fn packed(
+        &self,
+        y0: u32,
+        rows: u32,
+        start: &impl Fn(usize) -> PrimaryStart,
+        out: &mut BandOut<'_>,
+    ) {
+        let tracer = self.tracer;
+        let mut group = [(0usize, Vec3::ZERO, PrimaryStart::From(0.0)); LANES];
+        let mut n = 0;
+        for p in self.pixels(y0, rows).map(Some).chain([None]) {
+            if let Some((i, x, y)) = p {
+                let start = start(i);
+                let dir = self.rays.dir_f32(x, y);
+                if let PrimaryStart::Miss { tests } = start {
+                    out.miss(i, tracer.miss_colour(dir), tests);
+                    continue;
+                }
+                group[n] = (i, dir, start);
+                n += 1;
+                if n < LANES {
+                    continue;
+                }
+            } else if n == 0 {
+                break;
+            }
+            let samples =
+                tracer.trace_primary4(self.eye, &group.map(|g| g.1), &group.map(|g| g.2), n);
+            for (s, &(i, ..)) in samples.iter().zip(&group).take(n) {
+                out.sample(i, s);
+            }
+            n = 0;
+        }
+    }
+
+    /// One pixel at a time.
+    fn single(
+        &self,
+        y0: u32,
+        rows: u32,
+        start: &impl Fn(usize) -> PrimaryStart,
+        out: &mut BandOut<'_>,
+    ) {
+        for (i, x, y) in self.pixels(y0, rows) {
+            let start = start(i);
+            // The grid direction of a unit scene direction is the same unit vector (the
+            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
+            let dir = self.rays.dir_f32(x, y);
+            if let PrimaryStart::Miss { tests } = start {
+                // The prepass proved the ray hits nothing: the sky, without casting it.
+                out.miss(i, self.tracer.miss_colour(dir), tests);
+                continue;
+            }
+            out.sample(i, &self.tracer.trace_primary(self.eye, dir, start));
+        }
+    }
+}
+
 /// Renders into `f`, reusing its buffers (a benchmark loop then allocates nothing per
 /// frame). Rows are rendered in parallel, each written in place.
 pub fn render_into<S: Surfaces>(
@@ -178,23 +278,21 @@ pub fn render_into<S: Surfaces>(
     f.normal.resize(px, Vec3::ZERO);
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
-    let eye = tracer.to_grid(camera.eye);
-    let view = PrimaryView::new(tracer, &rays);
-    // One band of rows: its primary rays decided together, then each pixel shaded.
+    let bands = Bands {
+        tracer,
+        rays: &rays,
+        eye: tracer.to_grid(camera.eye),
+        width: w,
+        view: PrimaryView::new(tracer, &rays),
+    };
     let band = |scratch: &mut PrimaryScratch,
                 y0: u32,
                 colour: &mut [Vec3],
                 depth: &mut [f32],
                 normal: &mut [Vec3],
                 leaf: &mut [u32],
-                cost: &mut [u32]|
-     -> RenderStats {
-        let rows = (colour.len() / w as usize) as u32;
-        let decided = view
-            .as_ref()
-            .map(|v| PrimaryBand::decided_by(v, tracer.surfaces(), y0, rows, scratch));
-        let pixels = (0..colour.len() as u32 / w).flat_map(|r| (0..w).map(move |x| (x, y0 + r)));
-        let mut out = BandOut {
+                cost: &mut [u32]| {
+        let out = BandOut {
             colour,
             depth,
             normal,
@@ -202,54 +300,7 @@ pub fn render_into<S: Surfaces>(
             cost,
             stats: RenderStats::default(),
         };
-        if tracer.packs() {
-            // Four neighbouring pixels at a time, their rays after the primary ones walked
-            // together.
-            let mut group = [(0usize, Vec3::ZERO, PrimaryStart::From(0.0)); LANES];
-            let mut n = 0;
-            let pixels = pixels.enumerate().map(Some).chain([None]);
-            for p in pixels {
-                if let Some((i, (x, y))) = p {
-                    let start = decided
-                        .as_ref()
-                        .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-                    let dir = rays.dir_f32(x, y);
-                    if let PrimaryStart::Miss { tests } = start {
-                        out.miss(i, tracer.miss_colour(dir), tests);
-                        continue;
-                    }
-                    group[n] = (i, dir, start);
-                    n += 1;
-                    if n < LANES {
-                        continue;
-                    }
-                } else if n == 0 {
-                    break;
-                }
-                let samples =
-                    tracer.trace_primary4(eye, &group.map(|g| g.1), &group.map(|g| g.2), n);
-                for (s, &(i, ..)) in samples.iter().zip(&group).take(n) {
-                    out.sample(i, s);
-                }
-                n = 0;
-            }
-            return out.stats;
-        }
-        for (i, (x, y)) in pixels.enumerate() {
-            let start = decided
-                .as_ref()
-                .map_or(PrimaryStart::From(0.0), |b| b.start(i));
-            // The grid direction of a unit scene direction is the same unit vector (the
-            // mapping is a uniform scale); the tracer scales it so `t` is in scene units.
-            let dir = rays.dir_f32(x, y);
-            if let PrimaryStart::Miss { tests } = start {
-                // The prepass proved the ray hits nothing: the sky, without casting it.
-                out.miss(i, tracer.miss_colour(dir), tests);
-                continue;
-            }
-            out.sample(i, &tracer.trace_primary(eye, dir, start));
-        }
-        out.stats
+        bands.render(scratch, y0, out)
     };
     let chunk = w as usize * BAND as usize;
     #[cfg(feature = "parallel")]

@@ -486,153 +486,52 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 
 /// Parses a scene from its text; mesh paths are relative to `dir`; `name` is used in errors.
 pub(crate) fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, SceneError> {
-    let invalid = |what: String| SceneError::Invalid {
-        path: name.to_string(),
-        what,
-    };
     let f: SceneFile = toml::from_str(text).map_err(|e| SceneError::Parse {
         path: name.to_string(),
         message: e.to_string().trim_end().replace('\n', " "),
     })?;
+    let mut b = Objects {
+        name,
+        materials: &f.material,
+        objects: Vec::new(),
+    };
     if let Some(d) = f.depth
         && !(1..=crate::MAX_DEPTH).contains(&d)
     {
-        return Err(invalid(format!(
-            "depth {d} is outside 1..={}",
-            crate::MAX_DEPTH
-        )));
+        return Err(b.invalid(format!("depth {d} is outside 1..={}", crate::MAX_DEPTH)));
     }
     let solid = match &f.solid {
         None => None,
         Some(s) => Some(
             s.parse::<SolidMode>()
-                .map_err(|_| invalid(format!("unknown solid mode {s:?} (closed, vote)")))?,
+                .map_err(|_| b.invalid(format!("unknown solid mode {s:?} (closed, vote)")))?,
         ),
     };
-    let mut objects: Vec<Object> = Vec::new();
-    // Each object: its mesh in place with its material (or void), under its name.
-    let mut add = |what: String,
-                   name: Option<&String>,
-                   mesh: Mesh,
-                   mat: Option<&String>,
-                   tr: Result<Transform, String>|
-     -> Result<(), SceneError> {
-        let tr = tr.map_err(|e| invalid(format!("{what}: {e}")))?;
-        let (mut mesh, void) = match mat {
-            None => (mesh, false),
-            Some(n) => {
-                match material(n, &f.material).map_err(|e| invalid(format!("{what}: {e}")))? {
-                    None => (mesh, true),
-                    Some(m) => (with_material(mesh, m), false),
-                }
-            }
-        };
-        tr.apply(&mut mesh);
-        // A scene file names its own lights and views; a glTF's are not taken along.
-        mesh.scene = SceneInfo::default();
-        objects.push(Object {
-            name: name.cloned(),
-            mesh,
-            void,
-            used: false,
-        });
-        Ok(())
-    };
-    for (i, e) in f.mesh.iter().enumerate() {
-        let file = dir.join(&e.file);
-        let mesh = load_mesh(&file).map_err(|source| SceneError::Mesh {
-            path: name.to_string(),
-            index: i,
-            source,
-        })?;
-        let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
-        add(
-            format!("mesh {i} ({})", e.file.display()),
-            e.name.as_ref(),
-            mesh,
-            e.material.as_ref(),
-            tr,
-        )?;
+    b.meshes(&f.mesh, dir)?;
+    b.boxes(&f.boxes)?;
+    b.spheres(&f.sphere)?;
+    b.rectangles(&f.rectangle)?;
+    if let Some(e) = b.duplicate() {
+        return Err(b.invalid(e));
     }
-    for (i, e) in f.boxes.iter().enumerate() {
-        let what = format!("box {i}");
-        let (lo, hi) = (DVec3::from_array(e.min), DVec3::from_array(e.max));
-        if !(finite3(e.min) && finite3(e.max) && lo.cmplt(hi).all()) {
-            return Err(invalid(format!(
-                "{what}: min must be finite and below max on every axis"
-            )));
-        }
-        let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
-        add(
-            what,
-            e.name.as_ref(),
-            Mesh::cuboid(lo, hi),
-            e.material.as_ref(),
-            tr,
-        )?;
+    b.csgs(&f.csg)?;
+    let mesh = b.placed()?;
+    let info = stored_views(&f);
+    info.validate().map_err(|e| b.invalid(e.to_string()))?;
+    if let Some(n) = repeated(info.cameras.iter().map(|c| c.name.as_str())) {
+        return Err(b.invalid(format!("two cameras are named {n:?}")));
     }
-    for (i, e) in f.sphere.iter().enumerate() {
-        let what = format!("sphere {i}");
-        let detail = e.detail.unwrap_or(16);
-        if !(finite3(e.centre) && e.radius.is_finite() && e.radius > 0.0) {
-            return Err(invalid(format!(
-                "{what}: centre must be finite and radius positive"
-            )));
-        }
-        if !(1..=MAX_SPHERE_DETAIL).contains(&detail) {
-            return Err(invalid(format!(
-                "{what}: detail {detail} is outside 1..={MAX_SPHERE_DETAIL}"
-            )));
-        }
-        let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
-        let mesh = Mesh::sphere(DVec3::from_array(e.centre), e.radius, detail);
-        add(what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
-    }
-    for (i, e) in f.rectangle.iter().enumerate() {
-        let what = format!("rectangle {i}");
-        let n = DVec3::from_array(e.normal);
-        if !(finite3(e.centre)
-            && n.is_finite()
-            && n.length_squared() > 0.0
-            && e.size.iter().all(|s| s.is_finite() && *s > 0.0))
-        {
-            return Err(invalid(format!(
-                "{what}: centre must be finite, normal non-zero and size positive"
-            )));
-        }
-        let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
-        let mesh = Mesh::rectangle(DVec3::from_array(e.centre), n, e.size);
-        add(what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
-    }
-    let duplicate = |objects: &[Object]| {
-        repeated(objects.iter().filter_map(|o| o.name.as_deref()))
-            .map(|n| format!("two objects are named {n:?}"))
-    };
-    if let Some(e) = duplicate(&objects) {
-        return Err(invalid(e));
-    }
-    for (i, e) in f.csg.iter().enumerate() {
-        let what = format!("csg {i}");
-        let obj = csg(&mut objects, e, &f.material).map_err(|m| invalid(format!("{what}: {m}")))?;
-        objects.push(obj);
-        if let Some(e) = duplicate(&objects) {
-            return Err(invalid(format!("{what}: {e}")));
-        }
-    }
-    let mut out = Mesh::default();
-    let mut placed = 0usize;
-    for o in objects {
-        if !o.used && !o.void {
-            out.append(o.mesh);
-            placed += 1;
-        }
-    }
-    if placed == 0 {
-        return Err(SceneError::Empty {
-            path: name.to_string(),
-        });
-    }
-    let info = SceneInfo {
+    Ok(Scene {
+        mesh,
+        info,
+        depth: f.depth,
+        solid,
+    })
+}
+
+/// The scene's lights and camera views as stored with the tree.
+fn stored_views(f: &SceneFile) -> SceneInfo {
+    SceneInfo {
         lights: f
             .light
             .iter()
@@ -653,17 +552,177 @@ pub(crate) fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, S
                 fov_deg: c.fov.unwrap_or(40.0),
             })
             .collect(),
-    };
-    info.validate().map_err(|e| invalid(e.to_string()))?;
-    if let Some(n) = repeated(info.cameras.iter().map(|c| c.name.as_str())) {
-        return Err(invalid(format!("two cameras are named {n:?}")));
     }
-    Ok(Scene {
-        mesh: out,
-        info,
-        depth: f.depth,
-        solid,
-    })
+}
+
+/// The objects of a scene file as its entries are read, one kind of entry after another.
+struct Objects<'a> {
+    /// The scene file, for errors.
+    name: &'a str,
+    /// Its `[material.*]` table.
+    materials: &'a BTreeMap<String, MaterialEntry>,
+    objects: Vec<Object>,
+}
+
+impl Objects<'_> {
+    /// The error for `what` in this scene.
+    fn invalid(&self, what: String) -> SceneError {
+        SceneError::Invalid {
+            path: self.name.to_string(),
+            what,
+        }
+    }
+
+    /// Adds `mesh` (entry `what`, named `name`) in place with its material (or void).
+    fn add(
+        &mut self,
+        what: &str,
+        name: Option<&String>,
+        mesh: Mesh,
+        mat: Option<&String>,
+        tr: Result<Transform, String>,
+    ) -> Result<(), SceneError> {
+        let tr = tr.map_err(|e| self.invalid(format!("{what}: {e}")))?;
+        let (mut mesh, void) = match mat {
+            None => (mesh, false),
+            Some(n) => match material(n, self.materials)
+                .map_err(|e| self.invalid(format!("{what}: {e}")))?
+            {
+                None => (mesh, true),
+                Some(m) => (with_material(mesh, m), false),
+            },
+        };
+        tr.apply(&mut mesh);
+        // A scene file names its own lights and views; a glTF's are not taken along.
+        mesh.scene = SceneInfo::default();
+        self.objects.push(Object {
+            name: name.cloned(),
+            mesh,
+            void,
+            used: false,
+        });
+        Ok(())
+    }
+
+    /// The `[[mesh]]` entries: mesh files, relative to `dir`.
+    fn meshes(&mut self, entries: &[MeshEntry], dir: &Path) -> Result<(), SceneError> {
+        for (i, e) in entries.iter().enumerate() {
+            let file = dir.join(&e.file);
+            let mesh = load_mesh(&file).map_err(|source| SceneError::Mesh {
+                path: self.name.to_string(),
+                index: i,
+                source,
+            })?;
+            let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
+            self.add(
+                &format!("mesh {i} ({})", e.file.display()),
+                e.name.as_ref(),
+                mesh,
+                e.material.as_ref(),
+                tr,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The `[[box]]` entries.
+    fn boxes(&mut self, entries: &[BoxEntry]) -> Result<(), SceneError> {
+        for (i, e) in entries.iter().enumerate() {
+            let what = format!("box {i}");
+            let (lo, hi) = (DVec3::from_array(e.min), DVec3::from_array(e.max));
+            if !(finite3(e.min) && finite3(e.max) && lo.cmplt(hi).all()) {
+                return Err(self.invalid(format!(
+                    "{what}: min must be finite and below max on every axis"
+                )));
+            }
+            let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
+            let mesh = Mesh::cuboid(lo, hi);
+            self.add(&what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
+        }
+        Ok(())
+    }
+
+    /// The `[[sphere]]` entries.
+    fn spheres(&mut self, entries: &[SphereEntry]) -> Result<(), SceneError> {
+        for (i, e) in entries.iter().enumerate() {
+            let what = format!("sphere {i}");
+            let detail = e.detail.unwrap_or(16);
+            if !(finite3(e.centre) && e.radius.is_finite() && e.radius > 0.0) {
+                return Err(
+                    self.invalid(format!("{what}: centre must be finite and radius positive"))
+                );
+            }
+            if !(1..=MAX_SPHERE_DETAIL).contains(&detail) {
+                return Err(self.invalid(format!(
+                    "{what}: detail {detail} is outside 1..={MAX_SPHERE_DETAIL}"
+                )));
+            }
+            let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
+            let mesh = Mesh::sphere(DVec3::from_array(e.centre), e.radius, detail);
+            self.add(&what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
+        }
+        Ok(())
+    }
+
+    /// The `[[rectangle]]` entries.
+    fn rectangles(&mut self, entries: &[RectangleEntry]) -> Result<(), SceneError> {
+        for (i, e) in entries.iter().enumerate() {
+            let what = format!("rectangle {i}");
+            let n = DVec3::from_array(e.normal);
+            if !(finite3(e.centre)
+                && n.is_finite()
+                && n.length_squared() > 0.0
+                && e.size.iter().all(|s| s.is_finite() && *s > 0.0))
+            {
+                return Err(self.invalid(format!(
+                    "{what}: centre must be finite, normal non-zero and size positive"
+                )));
+            }
+            let tr = Transform::new(e.scale.as_ref(), e.rotate, e.translate);
+            let mesh = Mesh::rectangle(DVec3::from_array(e.centre), n, e.size);
+            self.add(&what, e.name.as_ref(), mesh, e.material.as_ref(), tr)?;
+        }
+        Ok(())
+    }
+
+    /// The message for two objects of one name, if any.
+    fn duplicate(&self) -> Option<String> {
+        repeated(self.objects.iter().filter_map(|o| o.name.as_deref()))
+            .map(|n| format!("two objects are named {n:?}"))
+    }
+
+    /// The `[[csg]]` entries, each over the objects before it.
+    fn csgs(&mut self, entries: &[CsgEntry]) -> Result<(), SceneError> {
+        for (i, e) in entries.iter().enumerate() {
+            let what = format!("csg {i}");
+            let obj = csg(&mut self.objects, e, self.materials)
+                .map_err(|m| self.invalid(format!("{what}: {m}")))?;
+            self.objects.push(obj);
+            if let Some(e) = self.duplicate() {
+                return Err(self.invalid(format!("{what}: {e}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// The placed objects as one mesh: CSG operands used up, void objects left out; an
+    /// error when nothing is left.
+    fn placed(&mut self) -> Result<Mesh, SceneError> {
+        let mut out = Mesh::default();
+        let mut placed = 0usize;
+        for o in std::mem::take(&mut self.objects) {
+            if !o.used && !o.void {
+                out.append(o.mesh);
+                placed += 1;
+            }
+        }
+        if placed == 0 {
+            return Err(SceneError::Empty {
+                path: self.name.to_string(),
+            });
+        }
+        Ok(out)
+    }
 }
 
 #[cfg(test)]

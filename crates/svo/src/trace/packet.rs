@@ -500,6 +500,167 @@ mod tests {
         })
     }
 
+    /// Four rays to walk together, their ranges, the lanes that walk and the step cap.
+    struct Packet {
+        rays: [GridRay; LANES],
+        tmin: [f32; LANES],
+        tmax: [f32; LANES],
+        active: u8,
+        max_steps: u32,
+    }
+
+    /// Four rays of one kind (primary, shadow, axis-parallel, lattice to lattice or any), in
+    /// a root of `2^depth` cells, with their `tmin` and `tmax`.
+    fn random_packet(
+        next: &mut dyn FnMut() -> u64,
+        unit: &mut dyn FnMut() -> f64,
+        depth: u8,
+    ) -> Packet {
+        let n = (1u32 << depth) as f32;
+        let mut f = || unit() as f32;
+        let point = |f: &mut dyn FnMut() -> f32| Vec3::new(f() * n, f() * n, f() * n);
+        let lattice = |k: u64| (k % ((1u64 << depth) + 5)) as f32 - 2.0;
+        let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
+        let kind = next() % 5;
+        let eye = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero() * n * 1.7
+            + Vec3::splat(n * 0.5);
+        let target = point(&mut f);
+        let mut rays = [GridRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::X,
+        }; LANES];
+        let mut tmin = [0.0f32; LANES];
+        let mut tmax = [f32::INFINITY; LANES];
+        for l in 0..LANES {
+            rays[l] = match kind {
+                // Primary rays: one eye, nearby directions.
+                0 => GridRay {
+                    origin: eye,
+                    dir: target - eye + Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5) * n * 0.1,
+                },
+                // Shadow rays: nearby origins inside, toward one point.
+                1 => {
+                    let o = target + Vec3::new(f(), f(), f()) * 2.0;
+                    GridRay {
+                        origin: o,
+                        dir: eye - o,
+                    }
+                }
+                // Axis-parallel with signed zeros.
+                2 => {
+                    let mut d = Vec3::new(
+                        signed_zero(next()),
+                        signed_zero(next()),
+                        signed_zero(next()),
+                    );
+                    d.x = if kind & 1 == 0 { 1.0 } else { -1.0 };
+                    let o = Vec3::new(-1.0, lattice(next()), lattice(next()));
+                    GridRay { origin: o, dir: d }
+                }
+                // Lattice points to lattice points: edges and corners.
+                3 => {
+                    let o = Vec3::new(lattice(next()), lattice(next()), lattice(next()));
+                    let mut d = Vec3::new(
+                        1.0 + (next() % 3) as f32,
+                        1.0 + (next() % 3) as f32,
+                        (next() % 3) as f32,
+                    );
+                    if d.z == 0.0 {
+                        d.z = signed_zero(next());
+                    }
+                    GridRay { origin: o, dir: d }
+                }
+                // Anything: random origins and directions (often mixed octants).
+                _ => GridRay {
+                    origin: point(&mut f),
+                    dir: Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5),
+                },
+            };
+            if next().is_multiple_of(4) {
+                tmin[l] = f() * 0.5;
+            }
+            if next().is_multiple_of(4) {
+                tmax[l] = tmin[l] + f() * 2.0;
+            }
+        }
+        let active = if next().is_multiple_of(5) {
+            (next() % 16) as u8
+        } else {
+            0b1111
+        };
+        let max_steps = if next().is_multiple_of(6) {
+            (next() % 12) as u32
+        } else if next().is_multiple_of(10) {
+            // Beyond the packet's step counters: walked one lane at a time.
+            u32::MAX
+        } else {
+            MAX_STEPS
+        };
+        Packet {
+            rays,
+            tmin,
+            tmax,
+            active,
+            max_steps,
+        }
+    }
+
+    /// Checks lane `l` of the packet walks (`got` with normals, `bare` without) against the
+    /// single walk, which it returns.
+    fn check_lane(
+        l: usize,
+        tree: &Octree,
+        p: &Packet,
+        stop: &dyn Fn(&LeafEntry) -> bool,
+        got: &[Seen; LANES],
+        bare: &[Seen; LANES],
+    ) -> Seen {
+        let Packet {
+            rays,
+            tmin,
+            tmax,
+            active,
+            max_steps,
+        } = p;
+        let (active, max_steps) = (*active, *max_steps);
+        let want = if active >> l & 1 != 0 {
+            alone(tree, &rays[l], tmin[l], tmax[l], max_steps, stop)
+        } else {
+            (Vec::new(), None, 0, false)
+        };
+        assert_eq!(
+            got[l], want,
+            "depth {}, lane {l} of {rays:?} in [{tmin:?}, {tmax:?}], \
+             {max_steps} steps",
+            tree.depth
+        );
+        // Without normals: the same but for the normals, which are zero
+        // where the lanes walk together.
+        let strip = |s: &Seen| {
+            let mut s = s.clone();
+            for e in &mut s.0 {
+                e.entry_normal = Vec3::ZERO;
+                e.exit_normal = Vec3::ZERO;
+            }
+            s
+        };
+        assert_eq!(strip(&bare[l]), strip(&want), "without normals, lane {l}");
+        let mixed = (0..LANES).any(|k| {
+            active >> k & 1 != 0
+                && rays[k].dir.is_negative_bitmask() != rays[l].dir.is_negative_bitmask()
+        });
+        if !mixed && max_steps < 1 << 24 {
+            assert!(
+                bare[l]
+                    .0
+                    .iter()
+                    .all(|e| e.entry_normal == Vec3::ZERO && e.exit_normal == Vec3::ZERO),
+                "no normals made, lane {l}"
+            );
+        }
+        want
+    }
+
     fn random_tree(depth: u8, density: f64, unit: &mut impl FnMut() -> f64) -> Option<Octree> {
         let side = 1u32 << depth;
         let mut cells = Vec::new();
@@ -537,132 +698,16 @@ mod tests {
                 let Some(tree) = random_tree(depth, density, &mut unit) else {
                     continue;
                 };
-                let n = (1u32 << depth) as f32;
                 for _ in 0..150 {
-                    let mut f = || unit() as f32;
-                    let point = |f: &mut dyn FnMut() -> f32| Vec3::new(f() * n, f() * n, f() * n);
-                    let lattice = |k: u64| (k % ((1u64 << depth) + 5)) as f32 - 2.0;
-                    let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
-                    let kind = next() % 5;
-                    let eye =
-                        Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero() * n * 1.7
-                            + Vec3::splat(n * 0.5);
-                    let target = point(&mut f);
-                    let mut rays = [GridRay {
-                        origin: Vec3::ZERO,
-                        dir: Vec3::X,
-                    }; LANES];
-                    let mut tmin = [0.0f32; LANES];
-                    let mut tmax = [f32::INFINITY; LANES];
-                    for l in 0..LANES {
-                        rays[l] = match kind {
-                            // Primary rays: one eye, nearby directions.
-                            0 => GridRay {
-                                origin: eye,
-                                dir: target - eye
-                                    + Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5) * n * 0.1,
-                            },
-                            // Shadow rays: nearby origins inside, toward one point.
-                            1 => {
-                                let o = target + Vec3::new(f(), f(), f()) * 2.0;
-                                GridRay {
-                                    origin: o,
-                                    dir: eye - o,
-                                }
-                            }
-                            // Axis-parallel with signed zeros.
-                            2 => {
-                                let mut d = Vec3::new(
-                                    signed_zero(next()),
-                                    signed_zero(next()),
-                                    signed_zero(next()),
-                                );
-                                d.x = if kind & 1 == 0 { 1.0 } else { -1.0 };
-                                let o = Vec3::new(-1.0, lattice(next()), lattice(next()));
-                                GridRay { origin: o, dir: d }
-                            }
-                            // Lattice points to lattice points: edges and corners.
-                            3 => {
-                                let o =
-                                    Vec3::new(lattice(next()), lattice(next()), lattice(next()));
-                                let mut d = Vec3::new(
-                                    1.0 + (next() % 3) as f32,
-                                    1.0 + (next() % 3) as f32,
-                                    (next() % 3) as f32,
-                                );
-                                if d.z == 0.0 {
-                                    d.z = signed_zero(next());
-                                }
-                                GridRay { origin: o, dir: d }
-                            }
-                            // Anything: random origins and directions (often mixed octants).
-                            _ => GridRay {
-                                origin: point(&mut f),
-                                dir: Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5),
-                            },
-                        };
-                        if next().is_multiple_of(4) {
-                            tmin[l] = f() * 0.5;
-                        }
-                        if next().is_multiple_of(4) {
-                            tmax[l] = tmin[l] + f() * 2.0;
-                        }
-                    }
-                    let active = if next().is_multiple_of(5) {
-                        (next() % 16) as u8
-                    } else {
-                        0b1111
-                    };
-                    let max_steps = if next().is_multiple_of(6) {
-                        (next() % 12) as u32
-                    } else if next().is_multiple_of(10) {
-                        // Beyond the packet's step counters: walked one lane at a time.
-                        u32::MAX
-                    } else {
-                        MAX_STEPS
-                    };
+                    let p = random_packet(&mut next, &mut unit, depth);
                     let k = next() % 4;
                     let stop = move |e: &LeafEntry| k != 0 && u64::from(e.leaf) % 4 == k;
-                    let got = packed(&tree, &rays, tmin, tmax, active, max_steps, &stop);
+                    let (rays, tmin, tmax) = (&p.rays, p.tmin, p.tmax);
+                    let got = packed(&tree, rays, tmin, tmax, p.active, p.max_steps, &stop);
                     let bare =
-                        packed_with::<false>(&tree, &rays, tmin, tmax, active, max_steps, &stop);
+                        packed_with::<false>(&tree, rays, tmin, tmax, p.active, p.max_steps, &stop);
                     for l in 0..LANES {
-                        let want = if active >> l & 1 != 0 {
-                            alone(&tree, &rays[l], tmin[l], tmax[l], max_steps, &stop)
-                        } else {
-                            (Vec::new(), None, 0, false)
-                        };
-                        assert_eq!(
-                            got[l], want,
-                            "depth {depth}, lane {l} of {rays:?} in [{tmin:?}, {tmax:?}], \
-                             {max_steps} steps"
-                        );
-                        // Without normals: the same but for the normals, which are zero
-                        // where the lanes walk together.
-                        let strip = |s: &Seen| {
-                            let mut s = s.clone();
-                            for e in &mut s.0 {
-                                e.entry_normal = Vec3::ZERO;
-                                e.exit_normal = Vec3::ZERO;
-                            }
-                            s
-                        };
-                        assert_eq!(strip(&bare[l]), strip(&want), "without normals, lane {l}");
-                        let mixed = (0..LANES).any(|k| {
-                            active >> k & 1 != 0
-                                && rays[k].dir.is_negative_bitmask()
-                                    != rays[l].dir.is_negative_bitmask()
-                        });
-                        if !mixed && max_steps < 1 << 24 {
-                            assert!(
-                                bare[l]
-                                    .0
-                                    .iter()
-                                    .all(|e| e.entry_normal == Vec3::ZERO
-                                        && e.exit_normal == Vec3::ZERO),
-                                "no normals made, lane {l}"
-                            );
-                        }
+                        let want = check_lane(l, &tree, &p, &stop, &got, &bare);
                         compared += 1;
                         hits += usize::from(want.1.is_some());
                     }

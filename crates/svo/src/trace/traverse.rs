@@ -560,6 +560,135 @@ mod tests {
         }
     }
 
+    /// A cube of `2^depth` cells a side with each cell present with probability `density`,
+    /// or `None` when no cell is.
+    fn dense_random_tree(depth: u8, density: f64, unit: &mut dyn FnMut() -> f64) -> Option<Octree> {
+        let side = 1u32 << depth;
+        let mut cells = Vec::new();
+        for x in 0..side {
+            for y in 0..side {
+                for z in 0..side {
+                    if unit() < density {
+                        cells.push((UVec3::new(x, y, z), Voxel::default()));
+                    }
+                }
+            }
+        }
+        if cells.is_empty() {
+            return None;
+        }
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: f64::from(side),
+        };
+        Some(Octree::from_cells(root, depth, cells).unwrap())
+    }
+
+    /// A ray (with its `tmin`) in a root of `side` cells: from outside towards a point
+    /// inside, from inside (sometimes starting later), axis-parallel with signed zeros, or
+    /// from a lattice point along a small integer direction.
+    fn random_ray(
+        next: &mut dyn FnMut() -> u64,
+        unit: &mut dyn FnMut() -> f64,
+        side: u32,
+    ) -> (GridRay, f32) {
+        let n = side as f32;
+        let mut f = || unit() as f32;
+        let inside = Vec3::new(f() * n, f() * n, f() * n);
+        let lattice = |k: u64| (k % (u64::from(side) + 5)) as f32 - 2.0;
+        let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
+        match next() % 4 {
+            0 => {
+                let o = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero() * n * 1.5
+                    + Vec3::splat(n * 0.5);
+                (
+                    GridRay {
+                        origin: o,
+                        dir: inside - o,
+                    },
+                    0.0,
+                )
+            }
+            1 => {
+                let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
+                let tmin = if next().is_multiple_of(3) {
+                    f() * n
+                } else {
+                    0.0
+                };
+                (
+                    GridRay {
+                        origin: inside,
+                        dir: d,
+                    },
+                    tmin,
+                )
+            }
+            2 => {
+                let axis = (next() % 3) as usize;
+                let mut d = Vec3::new(
+                    signed_zero(next()),
+                    signed_zero(next()),
+                    signed_zero(next()),
+                );
+                d[axis] = if next() & 1 == 0 { 1.0 } else { -1.0 };
+                let mut o = inside.floor();
+                o[axis] = if d[axis] > 0.0 { -1.0 } else { n + 1.0 };
+                (GridRay { origin: o, dir: d }, 0.0)
+            }
+            _ => {
+                let o = Vec3::new(lattice(next()), lattice(next()), lattice(next()));
+                let mut d = Vec3::new(
+                    (next() % 5) as f32 - 2.0,
+                    (next() % 5) as f32 - 2.0,
+                    (next() % 5) as f32 - 2.0,
+                );
+                if d == Vec3::ZERO {
+                    d.x = 1.0;
+                }
+                for k in 0..3 {
+                    if d[k] == 0.0 {
+                        d[k] = signed_zero(next());
+                    }
+                }
+                (GridRay { origin: o, dir: d }, 0.0)
+            }
+        }
+    }
+
+    /// Walks `ray` from start node `s` and checks it against `all`, what the root walk
+    /// handed over: `Some(true)` when they agree on some leaves, `Some(false)` when both saw
+    /// none, `None` when the ray only touches the node (the walk declines it).
+    fn walk_matches(
+        tree: &Octree,
+        ray: &GridRay,
+        tmin: f32,
+        s: StartNode,
+        all: &[LeafEntry],
+    ) -> Option<bool> {
+        let within =
+            |c: UVec3| c.cmpge(s.origin).all() && c.cmplt(s.origin + UVec3::splat(s.side)).all();
+        let want: Vec<LeafEntry> = all.iter().copied().filter(|e| within(e.cell)).collect();
+        let mut got: Vec<LeafEntry> = Vec::new();
+        let walked = traverse_node(tree, ray, s, tmin, f32::INFINITY, MAX_STEPS, |e| {
+            got.push(*e);
+            None::<()>
+        });
+        if walked.is_none() {
+            // Touched at one parameter: whatever the root walk handed over
+            // there it entered and left at once.
+            assert!(got.is_empty());
+            assert!(
+                want.iter().all(|e| e.t_enter == e.t_exit),
+                "{ray:?} from {tmin}: node {s:?}: {want:?}"
+            );
+            None
+        } else {
+            assert_eq!(got, want, "{ray:?} from {tmin}: node {s:?}");
+            Some(!want.is_empty())
+        }
+    }
+
     /// A walk started at an inner node (what the primary-ray prepass does) hands over exactly
     /// the leaves of that node that the walk from the root hands over, with the same entries,
     /// for every node of every level, unless the ray only touches the node's cube at a point,
@@ -574,26 +703,10 @@ mod tests {
         let (mut compared, mut touched) = (0usize, 0usize);
         for depth in 2..=5u8 {
             for density in [0.05, 0.3, 0.9] {
-                let side = 1u32 << depth;
-                let mut cells = Vec::new();
-                for x in 0..side {
-                    for y in 0..side {
-                        for z in 0..side {
-                            if unit() < density {
-                                cells.push((UVec3::new(x, y, z), Voxel::default()));
-                            }
-                        }
-                    }
-                }
-                if cells.is_empty() {
+                let Some(tree) = dense_random_tree(depth, density, &mut unit) else {
                     continue;
-                }
-                let root = RootCube {
-                    origin: DVec3::ZERO,
-                    side: f64::from(side),
                 };
-                let tree = Octree::from_cells(root, depth, cells).unwrap();
-                let n = side as f32;
+                let side = 1u32 << depth;
                 let nodes: Vec<StartNode> = (1..depth)
                     .flat_map(|l| tree.nodes_at_level(l, usize::MAX).unwrap())
                     .map(|(index, origin, side)| StartNode {
@@ -603,99 +716,17 @@ mod tests {
                     })
                     .collect();
                 for _ in 0..200 {
-                    let mut f = || unit() as f32;
-                    let inside = Vec3::new(f() * n, f() * n, f() * n);
-                    let lattice = |k: u64| (k % (u64::from(side) + 5)) as f32 - 2.0;
-                    let signed_zero = |k: u64| if k & 1 == 0 { 0.0 } else { -0.0 };
-                    let (ray, tmin) = match next() % 4 {
-                        0 => {
-                            let o = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).normalize_or_zero()
-                                * n
-                                * 1.5
-                                + Vec3::splat(n * 0.5);
-                            (
-                                GridRay {
-                                    origin: o,
-                                    dir: inside - o,
-                                },
-                                0.0,
-                            )
-                        }
-                        1 => {
-                            let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5);
-                            let tmin = if next().is_multiple_of(3) {
-                                f() * n
-                            } else {
-                                0.0
-                            };
-                            (
-                                GridRay {
-                                    origin: inside,
-                                    dir: d,
-                                },
-                                tmin,
-                            )
-                        }
-                        2 => {
-                            let axis = (next() % 3) as usize;
-                            let mut d = Vec3::new(
-                                signed_zero(next()),
-                                signed_zero(next()),
-                                signed_zero(next()),
-                            );
-                            d[axis] = if next() & 1 == 0 { 1.0 } else { -1.0 };
-                            let mut o = inside.floor();
-                            o[axis] = if d[axis] > 0.0 { -1.0 } else { n + 1.0 };
-                            (GridRay { origin: o, dir: d }, 0.0)
-                        }
-                        _ => {
-                            let o = Vec3::new(lattice(next()), lattice(next()), lattice(next()));
-                            let mut d = Vec3::new(
-                                (next() % 5) as f32 - 2.0,
-                                (next() % 5) as f32 - 2.0,
-                                (next() % 5) as f32 - 2.0,
-                            );
-                            if d == Vec3::ZERO {
-                                d.x = 1.0;
-                            }
-                            for k in 0..3 {
-                                if d[k] == 0.0 {
-                                    d[k] = signed_zero(next());
-                                }
-                            }
-                            (GridRay { origin: o, dir: d }, 0.0)
-                        }
-                    };
+                    let (ray, tmin) = random_ray(&mut next, &mut unit, side);
                     let mut all: Vec<LeafEntry> = Vec::new();
                     traverse(&tree, &ray, tmin, f32::INFINITY, MAX_STEPS, |e| {
                         all.push(*e);
                         None::<()>
                     });
                     for s in &nodes {
-                        let within = |c: UVec3| {
-                            c.cmpge(s.origin).all()
-                                && c.cmplt(s.origin + UVec3::splat(s.side)).all()
-                        };
-                        let want: Vec<LeafEntry> =
-                            all.iter().copied().filter(|e| within(e.cell)).collect();
-                        let mut got: Vec<LeafEntry> = Vec::new();
-                        let walked =
-                            traverse_node(&tree, &ray, *s, tmin, f32::INFINITY, MAX_STEPS, |e| {
-                                got.push(*e);
-                                None::<()>
-                            });
-                        if walked.is_none() {
-                            // Touched at one parameter: whatever the root walk handed over
-                            // there it entered and left at once.
-                            assert!(got.is_empty());
-                            assert!(
-                                want.iter().all(|e| e.t_enter == e.t_exit),
-                                "{ray:?} from {tmin}: node {s:?}: {want:?}"
-                            );
-                            touched += 1;
-                        } else {
-                            assert_eq!(got, want, "{ray:?} from {tmin}: node {s:?}");
-                            compared += usize::from(!want.is_empty());
+                        match walk_matches(&tree, &ray, tmin, *s, &all) {
+                            Some(true) => compared += 1,
+                            Some(false) => {}
+                            None => touched += 1,
                         }
                     }
                 }

@@ -268,6 +268,23 @@ pub(crate) fn scatter_pairs(
     )
 }
 
+/// One block of the bake's bottom levels: `n` cells a side (`k` bits a local coordinate)
+/// from grid cell `base`.
+struct Block {
+    n: i64,
+    k: u8,
+    base: [i64; 3],
+    node_min: DVec3,
+}
+
+impl Block {
+    /// The contact key (local Morton code) of the block's cell `p`.
+    #[inline]
+    fn key(&self, p: [i64; 3]) -> u16 {
+        morton_local(p[0] as u32, p[1] as u32, p[2] as u32, self.k)
+    }
+}
+
 /// The bake's bottom levels: the same cells as [`scatter_pairs`], each leaf emitted with its
 /// attributes computed from the triangles' parts in it (see the module docs).
 pub(crate) fn scatter_sliced(
@@ -285,121 +302,39 @@ pub(crate) fn scatter_sliced(
     let geometry = inputs.needs_geometry();
     let t0 = Instant::now();
     let (n, k, base) = block(ctx, level, cell);
-    let node_min = DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64);
+    let b = Block {
+        n,
+        k,
+        base,
+        node_min: DVec3::new(base[0] as f64, base[1] as f64, base[2] as f64),
+    };
+    scratch.contacts.clear();
+    scratch.pts.clear();
+    for &ti in list {
+        let t = &ctx.tris[ti as usize];
+        // Exactly degenerate triangles, and those whose slicing fails, take the cell tests.
+        let sliced = geometry
+            && t.n != DVec3::ZERO
+            && slice_triangle(&b, t, ti, inputs.unit_normal(ti), scratch, tests);
+        if !sliced {
+            cell_tested(
+                &b,
+                t,
+                ti,
+                geometry,
+                &mut scratch.contacts,
+                &mut scratch.pts,
+                tests,
+            );
+        }
+    }
     let ScatterScratch {
         contacts,
         pts,
         sort_tmp,
         counts,
-        verify,
-        slicer,
         ..
     } = scratch;
-    contacts.clear();
-    pts.clear();
-    let key_of = |p: [i64; 3]| morton_local(p[0] as u32, p[1] as u32, p[2] as u32, k);
-    for &ti in list {
-        let t = &ctx.tris[ti as usize];
-        let first = contacts.len();
-        // Exactly degenerate triangles, and those whose slicing fails, take the cell tests.
-        let mut sliced = false;
-        if geometry && t.n != DVec3::ZERO {
-            let local = t.v.map(|v| v - node_min);
-            let reach = local
-                .iter()
-                .fold(n as f64, |a, v| a.max(v.abs().max_element()));
-            let eps = SLICE_MARGIN * reach;
-            // The parts' areas from their projections on the plane across the unit normal's
-            // dominant axis `w`: `area = fan_w / (2 |u_w|)`, with `|u_w| >= 1 / sqrt(3)`.
-            // (A triangle whose normal's length underflows has no unit normal; its parts
-            // take their areas from the full fan, `polygon_area`.)
-            let unit = inputs.unit_normal(ti);
-            let w = dominant_axis(unit);
-            let half_over = if unit == DVec3::ZERO {
-                None
-            } else {
-                Some(0.5 / unit[w].abs())
-            };
-            verify.clear();
-            sliced = slicer.slice(local, n as u32, eps, &mut |c, part| {
-                let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-                let start = pts.len() as u32;
-                let (sum, fan) = match w {
-                    0 => digest_part::<0>(part, m, pts),
-                    1 => digest_part::<1>(part, m, pts),
-                    _ => digest_part::<2>(part, m, pts),
-                };
-                // A centroid well inside the cell is within rounding of a point of the
-                // triangle: the contact is proven. Other parts take the exact test.
-                // (The mean by a reciprocal from a table rather than a division: rounding
-                // either way is far inside `eps`, and a part that misses the proof by it
-                // only takes the exact test.)
-                let centroid = sum * RECIP[part.points().len()];
-                if !well_inside(centroid - m, eps) {
-                    verify.push(contacts.len());
-                }
-                let area = half_over.map_or_else(|| part.area(), |h| fan.abs() * h);
-                contacts.push(Contact {
-                    key: key_of(c.map(i64::from)),
-                    tri: ti,
-                    area,
-                    start,
-                    len: part.points().len() as u32,
-                });
-            });
-            if sliced && !verify.is_empty() {
-                let test = CellTest::new(t, node_min, n as f64);
-                let mut dead = 0;
-                for &i in verify.iter() {
-                    let c = local_cell(contacts[i].key, k);
-                    *tests += 1;
-                    if !test.touches(c[0], c[1], c[2]) {
-                        contacts[i].len = u32::MAX;
-                        dead += 1;
-                    }
-                }
-                if dead > 0 {
-                    let mut w = first;
-                    for r in first..contacts.len() {
-                        if contacts[r].len != u32::MAX {
-                            contacts[w] = contacts[r];
-                            w += 1;
-                        }
-                    }
-                    contacts.truncate(w);
-                }
-            } else if !sliced {
-                // Start over with the cell tests.
-                contacts.truncate(first);
-            }
-        }
-        if !sliced {
-            touched_cells(t, base, n, tests, &mut |c| {
-                if geometry {
-                    let m = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-                    let p = clip_to_unit_cube(t.v.map(|v| v - node_min - m));
-                    if p.len == 0 {
-                        push_touch(contacts, pts, t, ti, node_min, c, key_of(c));
-                        return;
-                    }
-                    contacts.push(Contact {
-                        key: key_of(c),
-                        tri: ti,
-                        area: p.area(),
-                        start: pts.len() as u32,
-                        len: p.len as u32,
-                    });
-                    pts.extend(p.points().iter().map(|q| q.as_vec3()));
-                } else {
-                    contacts.push(Contact {
-                        key: key_of(c),
-                        tri: ti,
-                        ..Contact::default()
-                    });
-                }
-            });
-        }
-    }
     // Triangles stay in list order within a cell: a stable sort by cell.
     sort_by_cell(contacts, sort_tmp, counts, 3 * u32::from(k));
     let contacts = &*contacts;
@@ -426,6 +361,135 @@ pub(crate) fn scatter_sliced(
     chunk.leaves.t_attributes += t2 - t1;
     chunk.leaves.t_contours += t3 - t2;
     node
+}
+
+/// Slices triangle `ti` (unit normal `unit`) into the block's cells and pushes a contact
+/// for each part whose centroid proves it or that the exact cell test confirms. Returns
+/// false, with nothing pushed, when the slicing fails (the caller then takes the cell tests).
+#[inline]
+fn slice_triangle(
+    b: &Block,
+    t: &GridTriangle,
+    ti: u32,
+    unit: DVec3,
+    scratch: &mut ScatterScratch,
+    tests: &mut u64,
+) -> bool {
+    let ScatterScratch {
+        contacts,
+        pts,
+        verify,
+        slicer,
+        ..
+    } = scratch;
+    let first = contacts.len();
+    let local = t.v.map(|v| v - b.node_min);
+    let reach = local
+        .iter()
+        .fold(b.n as f64, |a, v| a.max(v.abs().max_element()));
+    let eps = SLICE_MARGIN * reach;
+    // The parts' areas from their projections on the plane across the unit normal's
+    // dominant axis `w`: `area = fan_w / (2 |u_w|)`, with `|u_w| >= 1 / sqrt(3)`.
+    // (A triangle whose normal's length underflows has no unit normal; its parts
+    // take their areas from the full fan, `polygon_area`.)
+    let w = dominant_axis(unit);
+    let half_over = if unit == DVec3::ZERO {
+        None
+    } else {
+        Some(0.5 / unit[w].abs())
+    };
+    verify.clear();
+    let sliced = slicer.slice(local, b.n as u32, eps, &mut |c, part| {
+        let m = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+        let start = pts.len() as u32;
+        let (sum, fan) = match w {
+            0 => digest_part::<0>(part, m, pts),
+            1 => digest_part::<1>(part, m, pts),
+            _ => digest_part::<2>(part, m, pts),
+        };
+        // A centroid well inside the cell is within rounding of a point of the
+        // triangle: the contact is proven. Other parts take the exact test.
+        // (The mean by a reciprocal from a table rather than a division: rounding
+        // either way is far inside `eps`, and a part that misses the proof by it
+        // only takes the exact test.)
+        let centroid = sum * RECIP[part.points().len()];
+        if !well_inside(centroid - m, eps) {
+            verify.push(contacts.len());
+        }
+        let area = half_over.map_or_else(|| part.area(), |h| fan.abs() * h);
+        contacts.push(Contact {
+            key: b.key(c.map(i64::from)),
+            tri: ti,
+            area,
+            start,
+            len: part.points().len() as u32,
+        });
+    });
+    if !sliced {
+        contacts.truncate(first);
+        return false;
+    }
+    if !verify.is_empty() {
+        let test = CellTest::new(t, b.node_min, b.n as f64);
+        let mut dead = 0;
+        for &i in verify.iter() {
+            let c = local_cell(contacts[i].key, b.k);
+            *tests += 1;
+            if !test.touches(c[0], c[1], c[2]) {
+                contacts[i].len = u32::MAX;
+                dead += 1;
+            }
+        }
+        if dead > 0 {
+            let mut w = first;
+            for r in first..contacts.len() {
+                if contacts[r].len != u32::MAX {
+                    contacts[w] = contacts[r];
+                    w += 1;
+                }
+            }
+            contacts.truncate(w);
+        }
+    }
+    true
+}
+
+/// The cells of the block that triangle `ti` touches, by the cell tests, each pushed as a
+/// contact (with its part clipped to the cell when the attributes need `geometry`).
+#[inline]
+fn cell_tested(
+    b: &Block,
+    t: &GridTriangle,
+    ti: u32,
+    geometry: bool,
+    contacts: &mut Vec<Contact>,
+    pts: &mut Vec<Vec3>,
+    tests: &mut u64,
+) {
+    touched_cells(t, b.base, b.n, tests, &mut |c| {
+        if !geometry {
+            contacts.push(Contact {
+                key: b.key(c),
+                tri: ti,
+                ..Contact::default()
+            });
+            return;
+        }
+        let m = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+        let p = clip_to_unit_cube(t.v.map(|v| v - b.node_min - m));
+        if p.len == 0 {
+            push_touch(contacts, pts, t, ti, b.node_min, c, b.key(c));
+            return;
+        }
+        contacts.push(Contact {
+            key: b.key(c),
+            tri: ti,
+            area: p.area(),
+            start: pts.len() as u32,
+            len: p.len as u32,
+        });
+        pts.extend(p.points().iter().map(|q| q.as_vec3()));
+    });
 }
 
 /// Sorts `items` by their cell key (`bits` wide) and keeps the order of equal keys (the

@@ -1002,16 +1002,8 @@ fn a_light_inside_closed_geometry_lights_only_the_inside() {
     }
 }
 
-/// A render traces four neighbouring pixels in lockstep and walks their rays after the
-/// primary ones, and their shadow rays, as packets (and a cast without the prepass its
-/// primary rays): the same image, AOVs and counters bit for bit as walking every ray alone.
-/// Glass panes and mirrors over a floor in every shadow mode (shadow rays that pass through
-/// surfaces and multiply, or stop), a glass block without normals (a medium), and the torus
-/// at depth 7 with cube and contour hits, two lights (one inside the tube's ring); without
-/// bounces, with one, and with svo-view's default limits; with and without the prepass, at
-/// sizes whose rows do not split into fours.
-#[test]
-fn packets_change_nothing() {
+/// The scenes of [`packets_change_nothing`]: a tree, its lights, a view and its hit mode.
+fn packet_scenes() -> Vec<(Octree, Vec<PointLight>, Camera, HitMode)> {
     let pane = glass_pane();
     let mut cells: Vec<(UVec3, Voxel)> = Vec::new();
     for x in 0..16 {
@@ -1044,10 +1036,9 @@ fn packets_change_nothing() {
     let torus = torus_tree(7);
     let (lo, hi) = torus.occupied_bounds();
     let c = (lo + hi) * 0.5;
-    type Case<'a> = (&'a Octree, Vec<PointLight>, Camera, HitMode);
-    let cases: Vec<Case> = vec![
+    vec![
         (
-            &panes,
+            panes,
             vec![PointLight {
                 position: DVec3::new(4.5, 15.5, 8.5),
                 colour: Vec3::ONE,
@@ -1064,7 +1055,7 @@ fn packets_change_nothing() {
             HitMode::Cube,
         ),
         (
-            &block,
+            block,
             vec![PointLight {
                 position: DVec3::new(8.5, 14.5, 8.5),
                 colour: Vec3::ONE,
@@ -1081,7 +1072,7 @@ fn packets_change_nothing() {
             HitMode::Cube,
         ),
         (
-            &torus,
+            torus,
             vec![
                 PointLight {
                     position: c + (hi - lo) * DVec3::new(0.3, 1.5, 0.8),
@@ -1097,9 +1088,40 @@ fn packets_change_nothing() {
             Camera::framing(lo, hi, 83, 29, 40.0),
             HitMode::Contour,
         ),
-    ];
+    ]
+}
+
+/// Panics at the first pixel where `a` and `b` differ in any bit of any output.
+fn assert_same_pixels(a: &svo::render::Frame, b: &svo::render::Frame, what: &str) {
+    let bits = |c: Vec3| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
+    let differs = (0..a.colour.len()).find(|&i| {
+        bits(a.colour[i]) != bits(b.colour[i])
+            || bits(a.normal[i]) != bits(b.normal[i])
+            || a.depth[i].to_bits() != b.depth[i].to_bits()
+            || a.leaf[i] != b.leaf[i]
+            || a.cost[i] != b.cost[i]
+    });
+    if let Some(i) = differs {
+        panic!(
+            "{what}: pixel {i} differs: colour {} / {}, leaf {} / {}",
+            a.colour[i], b.colour[i], a.leaf[i], b.leaf[i]
+        );
+    }
+}
+
+/// A render traces four neighbouring pixels in lockstep and walks their rays after the
+/// primary ones, and their shadow rays, as packets (and a cast without the prepass its
+/// primary rays): the same image, AOVs and counters bit for bit as walking every ray alone.
+/// Glass panes and mirrors over a floor in every shadow mode (shadow rays that pass through
+/// surfaces and multiply, or stop), a glass block without normals (a medium), and the torus
+/// at depth 7 with cube and contour hits, two lights (one inside the tube's ring); without
+/// bounces, with one, and with svo-view's default limits; with and without the prepass, at
+/// sizes whose rows do not split into fours.
+#[test]
+fn packets_change_nothing() {
     let (mut shadow_rays, mut secondary) = (0, 0);
-    for (tree, lights, cam, first_mode) in cases {
+    for (tree, lights, cam, first_mode) in packet_scenes() {
+        let tree = &tree;
         for mode in [first_mode, HitMode::Cube] {
             for shadows in [
                 ShadowMode::None,
@@ -1131,20 +1153,7 @@ fn packets_change_nothing() {
                     };
                     let ((a, ca), (b, cb)) = (frame(true), frame(false));
                     let what = format!("{mode:?} {shadows:?} prepass {prepass} bounces {bounces}");
-                    let bits = |c: Vec3| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()];
-                    let differs = (0..a.colour.len()).find(|&i| {
-                        bits(a.colour[i]) != bits(b.colour[i])
-                            || bits(a.normal[i]) != bits(b.normal[i])
-                            || a.depth[i].to_bits() != b.depth[i].to_bits()
-                            || a.leaf[i] != b.leaf[i]
-                            || a.cost[i] != b.cost[i]
-                    });
-                    if let Some(i) = differs {
-                        panic!(
-                            "{what}: pixel {i} differs: colour {} / {}, leaf {} / {}",
-                            a.colour[i], b.colour[i], a.leaf[i], b.leaf[i]
-                        );
-                    }
+                    assert_same_pixels(&a, &b, &what);
                     assert_eq!(a.stats, b.stats, "{what}");
                     assert_eq!((&ca.leaf, ca.steps), (&cb.leaf, cb.steps), "{what}");
                     shadow_rays += a.stats.shadow_rays;

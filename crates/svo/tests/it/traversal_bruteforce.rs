@@ -101,16 +101,18 @@ fn signed_zero(rng: &mut impl Rng) -> f32 {
     if rng.random_bool(0.5) { 0.0 } else { -0.0 }
 }
 
-/// A ray of one of the families the module doc lists, with its `tmin`.
-fn random_ray(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
-    let inside = |rng: &mut dyn rand::RngCore| {
-        Vec3::new(
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-            rng.random_range(0.0..n),
-        )
-    };
-    let unit = |rng: &mut dyn rand::RngCore| loop {
+/// A point inside the root of `n` cells a side.
+fn inside(rng: &mut impl Rng, n: f32) -> Vec3 {
+    Vec3::new(
+        rng.random_range(0.0..n),
+        rng.random_range(0.0..n),
+        rng.random_range(0.0..n),
+    )
+}
+
+/// A unit direction, uniform over the sphere.
+fn unit(rng: &mut impl Rng) -> Vec3 {
+    loop {
         let v = Vec3::new(
             rng.random_range(-1.0..1.0),
             rng.random_range(-1.0..1.0),
@@ -119,124 +121,116 @@ fn random_ray(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
         if v.length() > 0.1 && v.length() < 1.0 {
             break v.normalize();
         }
-    };
-    let lattice = |rng: &mut dyn rand::RngCore| {
-        let k = n as i32;
-        Vec3::new(
-            rng.random_range(-2..=k + 2) as f32,
-            rng.random_range(-2..=k + 2) as f32,
-            rng.random_range(-2..=k + 2) as f32,
-        )
-    };
+    }
+}
+
+/// A lattice point of the root of `n` cells or up to two cells outside it.
+fn lattice(rng: &mut impl Rng, n: f32) -> Vec3 {
+    let k = n as i32;
+    Vec3::new(
+        rng.random_range(-2..=k + 2) as f32,
+        rng.random_range(-2..=k + 2) as f32,
+        rng.random_range(-2..=k + 2) as f32,
+    )
+}
+
+fn ray(origin: Vec3, dir: Vec3) -> (GridRay, f32) {
+    (GridRay { origin, dir }, 0.0)
+}
+
+/// A ray of one of the families the module doc lists, with its `tmin`.
+fn random_ray(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
     match rng.random_range(0..8) {
         // From outside towards a point inside.
         0 => {
-            let target = inside(rng);
+            let target = inside(rng, n);
             let o = Vec3::splat(n * 0.5) + unit(rng) * n * 1.5;
-            (
-                GridRay {
-                    origin: o,
-                    dir: target - o,
-                },
-                0.0,
-            )
+            ray(o, target - o)
         }
-        // From inside, any direction, sometimes starting later along the ray.
-        1 => {
-            let tmin = if rng.random_bool(0.3) {
-                rng.random_range(0.0..n)
-            } else {
-                0.0
-            };
-            (
-                GridRay {
-                    origin: inside(rng),
-                    dir: unit(rng),
-                },
-                tmin,
-            )
-        }
-        // Axis-parallel: one non-zero component, the others signed zeros.
-        2 => {
-            let axis = rng.random_range(0..3);
-            let mut d = Vec3::new(signed_zero(rng), signed_zero(rng), signed_zero(rng));
-            d[axis] = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let mut o = inside(rng);
-            o[axis] = if d[axis] > 0.0 { -1.0 } else { n + 1.0 };
-            // Often exactly on a cell face or edge.
-            for k in 0..3 {
-                if k != axis && rng.random_bool(0.5) {
-                    o[k] = o[k].floor();
-                }
-            }
-            (GridRay { origin: o, dir: d }, 0.0)
-        }
+        1 => from_inside(rng, n),
+        2 => axis_parallel(rng, n),
         // Along a face: two non-zero components, the origin on a lattice plane.
         3 => {
             let axis = rng.random_range(0..3);
             let mut d = unit(rng);
             d[axis] = signed_zero(rng);
-            let mut o = inside(rng);
+            let mut o = inside(rng, n);
             o[axis] = rng.random_range(0..=n as u32) as f32;
-            (GridRay { origin: o, dir: d }, 0.0)
+            ray(o, d)
         }
-        // Through lattice corners and edges: integer origin, small integer direction.
-        4 => {
-            let mut d = Vec3::new(
-                rng.random_range(-2..=2) as f32,
-                rng.random_range(-2..=2) as f32,
-                rng.random_range(-2..=2) as f32,
-            );
-            if d == Vec3::ZERO {
-                d.x = 1.0;
-            }
-            for k in 0..3 {
-                if d[k] == 0.0 {
-                    d[k] = signed_zero(rng);
-                }
-            }
-            (
-                GridRay {
-                    origin: lattice(rng),
-                    dir: d,
-                },
-                0.0,
-            )
-        }
+        4 => through_lattice(rng, n),
         // Exact diagonals through the root's corners.
         5 => {
-            let s = |rng: &mut dyn rand::RngCore| if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let d = Vec3::new(s(rng), s(rng), s(rng));
-            let o = Vec3::splat(n * 0.5) - d * n;
-            (GridRay { origin: o, dir: d }, 0.0)
+            let mut s = || if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+            let d = Vec3::new(s(), s(), s());
+            ray(Vec3::splat(n * 0.5) - d * n, d)
         }
         // A ray from outside towards a point inside with its direction scaled by a power
         // of two (exactly): the tracer's precision must not depend on the direction's length.
         7 => {
-            let target = inside(rng);
+            let target = inside(rng, n);
             let o = Vec3::splat(n * 0.5) + unit(rng) * n * 1.5;
             let k = [-69, -40, -20, 20, 60][rng.random_range(0..5)];
-            (
-                GridRay {
-                    origin: o,
-                    dir: (target - o) * 2f32.powi(k),
-                },
-                0.0,
-            )
+            ray(o, (target - o) * 2f32.powi(k))
         }
         // Tiny (denormal-ish) components.
         _ => {
             let mut d = unit(rng);
             d[rng.random_range(0..3)] = if rng.random_bool(0.5) { 1e-30 } else { -1e-30 };
-            (
-                GridRay {
-                    origin: inside(rng),
-                    dir: d,
-                },
-                0.0,
-            )
+            ray(inside(rng, n), d)
         }
     }
+}
+
+/// From inside, any direction, sometimes starting later along the ray.
+fn from_inside(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
+    let tmin = if rng.random_bool(0.3) {
+        rng.random_range(0.0..n)
+    } else {
+        0.0
+    };
+    let origin = inside(rng, n);
+    (
+        GridRay {
+            origin,
+            dir: unit(rng),
+        },
+        tmin,
+    )
+}
+
+/// Axis-parallel: one non-zero component, the others signed zeros, the origin often exactly
+/// on a cell face or edge.
+fn axis_parallel(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
+    let axis = rng.random_range(0..3);
+    let mut d = Vec3::new(signed_zero(rng), signed_zero(rng), signed_zero(rng));
+    d[axis] = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let mut o = inside(rng, n);
+    o[axis] = if d[axis] > 0.0 { -1.0 } else { n + 1.0 };
+    for k in 0..3 {
+        if k != axis && rng.random_bool(0.5) {
+            o[k] = o[k].floor();
+        }
+    }
+    ray(o, d)
+}
+
+/// Through lattice corners and edges: integer origin, small integer direction.
+fn through_lattice(rng: &mut impl Rng, n: f32) -> (GridRay, f32) {
+    let mut d = Vec3::new(
+        rng.random_range(-2..=2) as f32,
+        rng.random_range(-2..=2) as f32,
+        rng.random_range(-2..=2) as f32,
+    );
+    if d == Vec3::ZERO {
+        d.x = 1.0;
+    }
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            d[k] = signed_zero(rng);
+        }
+    }
+    ray(lattice(rng, n), d)
 }
 
 #[test]
@@ -395,6 +389,75 @@ fn extreme(params: [Option<&Q>; 3], better: fn(&Q, &Q) -> bool) -> Option<(Q, us
     best
 }
 
+/// A ray of integer origin (up to two cells outside a root of `n` cells) and small integer
+/// direction (zeros signed at random), with a `tmin` and `tmax` sometimes inside the root.
+fn exact_ray(rng: &mut impl Rng, n: i32) -> ([f32; 3], [f32; 3], f32, f32) {
+    let mut o = [0.0f32; 3];
+    let mut d = [0.0f32; 3];
+    for k in 0..3 {
+        o[k] = rng.random_range(-2..=n + 2) as f32;
+        d[k] = rng.random_range(-2..=2) as f32;
+        if d[k] == 0.0 {
+            d[k] = signed_zero(rng);
+        }
+    }
+    if d.iter().all(|v| *v == 0.0) {
+        d[rng.random_range(0..3)] = 1.0;
+    }
+    let tmin = if rng.random_bool(0.3) {
+        rng.random_range(0..n) as f32
+    } else {
+        0.0
+    };
+    let tmax = if rng.random_bool(0.3) {
+        tmin + rng.random_range(0..=n) as f32
+    } else {
+        f32::INFINITY
+    };
+    (o, d, tmin, tmax)
+}
+
+/// Checks a handed-over entry's parameters and faces against the exact ray's: it enters at
+/// the latest axis entry (or `tmin` when it starts inside), by that axis's face, and leaves
+/// at the earliest axis exit (or `tmax`), by that axis's face; ties go to the first axis.
+fn check_entry_and_exit(er: &ExactRay, e: &LeafEntry, qmax: Option<&Q>, what: &str) {
+    let (t_in, t_out) = (Q::of(f64::from(e.t_enter)), Q::of(f64::from(e.t_exit)));
+    let p = axis_params(er, e.cell);
+    // Entry: the latest t0, ties to the first axis.
+    let t0 = extreme(p.each_ref().map(|(a, _)| a.as_ref()), |a, b| a > b);
+    let starts_inside = t0.as_ref().is_none_or(|(a, _)| *a < er.tmin);
+    let enter = if starts_inside {
+        er.tmin.clone()
+    } else {
+        t0.clone().unwrap().0
+    };
+    assert!(
+        t_in == enter,
+        "{what}: enters at {}, not {}",
+        e.t_enter,
+        enter.approx()
+    );
+    let mut want_in = Vec3::ZERO;
+    if !starts_inside {
+        let k = t0.unwrap().1;
+        want_in[k] = if er.neg[k] { 1.0 } else { -1.0 };
+    }
+    assert_eq!(e.entry_normal, want_in, "{what}: entry face");
+    // Exit: the earliest t1, ties to the first axis.
+    let (exit, k) = extreme(p.each_ref().map(|(_, b)| b.as_ref()), |a, b| a < b)
+        .expect("a non-zero component bounds the cell");
+    let exit = qmax.map_or(exit.clone(), |m| exit.min(m.clone()));
+    assert!(
+        t_out == exit,
+        "{what}: leaves at {}, not {}",
+        e.t_exit,
+        exit.approx()
+    );
+    let mut want_out = Vec3::ZERO;
+    want_out[k] = if er.neg[k] { -1.0 } else { 1.0 };
+    assert_eq!(e.exit_normal, want_out, "{what}: exit face");
+}
+
 /// Every leaf entry an exact ray's walk hands over (integer origin, components `0`, `+-1`,
 /// `+-2`, integer `tmin`, so the `f32` arithmetic is exact), against the exact values: the
 /// entry parameter `max(max t0, tmin)` and the exit `min t1`, bit for bit; the entry face
@@ -413,28 +476,7 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
             };
             let n = 1i32 << depth;
             for _ in 0..800 {
-                let mut o = [0.0f32; 3];
-                let mut d = [0.0f32; 3];
-                for k in 0..3 {
-                    o[k] = rng.random_range(-2..=n + 2) as f32;
-                    d[k] = rng.random_range(-2..=2) as f32;
-                    if d[k] == 0.0 {
-                        d[k] = signed_zero(&mut rng);
-                    }
-                }
-                if d.iter().all(|v| *v == 0.0) {
-                    d[rng.random_range(0..3)] = 1.0;
-                }
-                let tmin = if rng.random_bool(0.3) {
-                    rng.random_range(0..n) as f32
-                } else {
-                    0.0
-                };
-                let tmax = if rng.random_bool(0.3) {
-                    tmin + rng.random_range(0..=n) as f32
-                } else {
-                    f32::INFINITY
-                };
+                let (o, d, tmin, tmax) = exact_ray(&mut rng, n);
                 let ray = GridRay {
                     origin: Vec3::from(o),
                     dir: Vec3::from(d),
@@ -479,40 +521,7 @@ fn every_entry_of_an_exact_ray_has_exact_parameters_and_faces() {
                             "{what}: interval"
                         );
                     }
-                    let p = axis_params(&er, e.cell);
-                    // Entry: the latest t0, ties to the first axis.
-                    let t0 = extreme(p.each_ref().map(|(a, _)| a.as_ref()), |a, b| a > b);
-                    let starts_inside = t0.as_ref().is_none_or(|(a, _)| *a < er.tmin);
-                    let enter = if starts_inside {
-                        er.tmin.clone()
-                    } else {
-                        t0.clone().unwrap().0
-                    };
-                    assert!(
-                        t_in == enter,
-                        "{what}: enters at {}, not {}",
-                        e.t_enter,
-                        enter.approx()
-                    );
-                    let mut want_in = Vec3::ZERO;
-                    if !starts_inside {
-                        let k = t0.unwrap().1;
-                        want_in[k] = if er.neg[k] { 1.0 } else { -1.0 };
-                    }
-                    assert_eq!(e.entry_normal, want_in, "{what}: entry face");
-                    // Exit: the earliest t1, ties to the first axis.
-                    let (exit, k) = extreme(p.each_ref().map(|(_, b)| b.as_ref()), |a, b| a < b)
-                        .expect("a non-zero component bounds the cell");
-                    let exit = qmax.as_ref().map_or(exit.clone(), |m| exit.min(m.clone()));
-                    assert!(
-                        t_out == exit,
-                        "{what}: leaves at {}, not {}",
-                        e.t_exit,
-                        exit.approx()
-                    );
-                    let mut want_out = Vec3::ZERO;
-                    want_out[k] = if er.neg[k] { -1.0 } else { 1.0 };
-                    assert_eq!(e.exit_normal, want_out, "{what}: exit face");
+                    check_entry_and_exit(&er, e, qmax.as_ref(), &what);
                     entries += 1;
                 }
                 // Every cell the ray enters is handed over, if it enters by `tmax` (at `tmax`

@@ -79,6 +79,9 @@ struct Sub {
     s: PartSubtree,
 }
 
+/// A part's file and its checked header.
+type Header = (PathBuf, PartHeader);
+
 /// Merges the parts of `plan` (hash `plan_hash`), part `i` read from `path_of(i)`.
 pub(crate) fn merge_with(
     plan: &BakePlan,
@@ -88,8 +91,72 @@ pub(crate) fn merge_with(
     format: MergeFormat,
 ) -> Result<MergeReport, PartsError> {
     let t0 = Instant::now();
+    let headers = read_headers(plan, plan_hash, path_of)?;
+    let (subs, leaf_off, leaves) = subtrees(&headers);
+    let stubs: Vec<Stub> = subs
+        .iter()
+        .map(|s| Stub {
+            code: s.s.code,
+            below: s.s.nodes,
+        })
+        .collect();
+    let whole = stitch::node_count(&stubs, plan.level);
+    let chunked = format == MergeFormat::Chunked || leaves > MAX_LEAVES || whole > MAX_LEAVES;
+    if chunked {
+        check_chunks(&subs)?;
+    }
+    // Version 3 stores each subtree with its root; version 2 adds the levels above them.
+    let node_count = if chunked {
+        subs.iter().map(|s| 1 + s.s.nodes).sum()
+    } else {
+        whole
+    };
+    let (channels, copied) = channels(&headers, leaves);
+    let layout = Layout {
+        root_origin: plan.root_origin,
+        root_side: plan.root_side,
+        depth: plan.depth,
+        node_count,
+        leaf_count: leaves,
+        channels,
+        build: &plan.build,
+        chunks: chunked.then_some((plan.level, subs.len() as u64)),
+    };
+    let merged = Merged {
+        headers: &headers,
+        subs: &subs,
+        stubs: &stubs,
+        leaf_off: &leaf_off,
+        copied: &copied,
+        level: plan.level,
+        chunked,
+    };
+    let bytes = merged.write(&layout, output)?;
+    let sum = |f: fn(&PartHeader) -> u64| headers.iter().map(|(_, h)| f(h)).sum();
+    Ok(MergeReport {
+        bytes,
+        version: if chunked { 3 } else { 2 },
+        chunks: if chunked { subs.len() as u64 } else { 0 },
+        nodes: node_count,
+        leaves,
+        parts: plan.part_count(),
+        seconds: t0.elapsed().as_secs_f64(),
+        channels: channel_names(&layout.channels),
+        overlap_tests: sum(|h| h.stats.overlap_tests),
+        leaf_triangle_pairs: sum(|h| h.stats.leaf_triangle_pairs),
+        false_positives: sum(|h| h.stats.false_positives),
+    })
+}
+
+/// Every part's header, read and checked ([`check_part`]); an error names the part that is
+/// missing, foreign or malformed.
+fn read_headers(
+    plan: &BakePlan,
+    plan_hash: u64,
+    path_of: &dyn Fn(u32) -> PathBuf,
+) -> Result<Vec<Header>, PartsError> {
     let count = plan.part_count();
-    let mut headers = Vec::with_capacity(count as usize);
+    let mut headers: Vec<Header> = Vec::with_capacity(count as usize);
     for i in 0..count {
         let path = path_of(i);
         if !path.exists() {
@@ -110,7 +177,11 @@ pub(crate) fn merge_with(
         })?;
         headers.push((path, h));
     }
-    // The subtrees in increasing code, and each part's first leaf.
+    Ok(headers)
+}
+
+/// The parts' subtrees in increasing code, each part's first leaf, and the leaves in all.
+fn subtrees(headers: &[Header]) -> (Vec<Sub>, Vec<u64>, u64) {
     let mut subs: Vec<Sub> = Vec::new();
     let mut leaf_off = Vec::with_capacity(headers.len());
     let mut leaves = 0u64;
@@ -119,37 +190,31 @@ pub(crate) fn merge_with(
         leaves += h.leaves();
         subs.extend(h.subtrees.iter().rev().map(|&s| Sub { part: i as u32, s }));
     }
-    let level = plan.level;
-    let stubs: Vec<Stub> = subs
+    (subs, leaf_off, leaves)
+}
+
+/// Refuses a tree in chunks one of whose subtrees is larger than a chunk holds.
+fn check_chunks(subs: &[Sub]) -> Result<(), PartsError> {
+    match subs
         .iter()
-        .map(|s| Stub {
-            code: s.s.code,
-            below: s.s.nodes,
-        })
-        .collect();
-    let whole = stitch::node_count(&stubs, level);
-    let chunked = format == MergeFormat::Chunked || leaves > MAX_LEAVES || whole > MAX_LEAVES;
-    if chunked
-        && let Some(s) = subs
-            .iter()
-            .find(|s| s.s.nodes >= MAX_LEAVES || s.s.leaves > MAX_LEAVES)
+        .find(|s| s.s.nodes >= MAX_LEAVES || s.s.leaves > MAX_LEAVES)
     {
-        return Err(PartsError::Unsupported(format!(
+        Some(s) => Err(PartsError::Unsupported(format!(
             "the subtree {} at the parts' level holds {} nodes and {} leaves, more than a chunk \
              holds (2^31 each): plan more parts, which cuts the tree deeper",
             s.s.code,
             s.s.nodes + 1,
             s.s.leaves
-        )));
+        ))),
+        None => Ok(()),
     }
-    // Version 3 stores each subtree with its root; version 2 adds the levels above them.
-    let node_count = if chunked {
-        subs.iter().map(|s| 1 + s.s.nodes).sum()
-    } else {
-        whole
-    };
-    // Channels: the parts agree on kinds and storage (checked); a per-leaf channel whose
-    // leaves all hold one value becomes a constant, as the whole bake's compaction does.
+}
+
+/// The merged file's channels, and which of them are copied from the parts' arrays (their
+/// indices in part 0's channel list). The parts agree on kinds and storage (checked); a
+/// per-leaf channel whose leaves all hold one value becomes a constant, as the whole bake's
+/// compaction does.
+fn channels(headers: &[Header], leaves: u64) -> (Vec<(u8, Stored)>, Vec<usize>) {
     let first = headers
         .first()
         .map(|(_, h)| h.channels.clone())
@@ -178,95 +243,113 @@ pub(crate) fn merge_with(
             }
         }
     }
-    let layout = Layout {
-        root_origin: plan.root_origin,
-        root_side: plan.root_side,
-        depth: plan.depth,
-        node_count,
-        leaf_count: leaves,
-        channels,
-        build: &plan.build,
-        chunks: chunked.then_some((level, subs.len() as u64)),
-    };
-    let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
-    let fail = |e: PartsError| {
-        let msg = e.to_string();
-        *failure.borrow_mut() = Some(e);
-        std::io::Error::other(msg)
-    };
-    let mut bytes = 0;
-    let written = write_atomic(output, |w| {
-        bytes = write_layout(&layout, w, &mut |i, out| {
-            let i = if chunked {
-                match i {
-                    0 => return write_chunk_table(&subs, out),
-                    1 => return write_chunks(&headers, &subs, out).map_err(&fail),
-                    _ => i - 1,
-                }
-            } else {
-                i
+    (channels, copied)
+}
+
+/// The channels' names and how the file stores them, for the report.
+fn channel_names(channels: &[(u8, Stored)]) -> Vec<(String, String)> {
+    channels
+        .iter()
+        .map(|&(kind, s)| {
+            let name = crate::octree::ChannelKind::ALL
+                .get(usize::from(kind))
+                .map_or("?", |k| k.name());
+            let storage = match s {
+                Stored::Constant(_) => "constant",
+                Stored::PerLeaf(_) => "per-leaf",
             };
-            if i == 0 {
-                let mut nodes = NodeWriter {
-                    out,
-                    headers: &headers,
-                    leaf_off: &leaf_off,
-                    reader: None,
-                    buf: Vec::new(),
-                };
-                stitch::stitch(&stubs, level, &mut |piece| match piece {
-                    Piece::Top(n) => nodes.put(n),
-                    Piece::Root { index, at } => nodes.put(Node {
-                        info: u32::from(subs[index].s.mask),
-                        first: at as u32,
-                    }),
-                    Piece::Below { index, at } => nodes.region(&subs[index], at).map_err(&fail),
-                })?;
-                nodes.finish_part().map_err(&fail)?;
-                nodes.flush()
-            } else {
-                let k = copied[i - 1];
-                for (path, h) in &headers {
-                    let a = h.arrays[1 + per_leaf_rank(h, k)];
-                    copy_array(path, a, out).map_err(&fail)?;
-                }
-                Ok(())
-            }
-        })?;
-        Ok(())
-    });
-    if let Err(e) = written {
-        return Err(failure
-            .into_inner()
-            .unwrap_or_else(|| PartsError::io(output, e)));
+            (name.to_string(), storage.to_string())
+        })
+        .collect()
+}
+
+/// What the merged file is made of: the parts, their subtrees in increasing code, and the
+/// channels copied from their arrays.
+struct Merged<'a> {
+    headers: &'a [Header],
+    subs: &'a [Sub],
+    stubs: &'a [Stub],
+    leaf_off: &'a [u64],
+    copied: &'a [usize],
+    level: u8,
+    chunked: bool,
+}
+
+impl Merged<'_> {
+    /// Writes the file of `layout` atomically, its arrays streamed from the parts; its bytes.
+    fn write(&self, layout: &Layout<'_>, output: &Path) -> Result<u64, PartsError> {
+        let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
+        let fail = |e: PartsError| {
+            let msg = e.to_string();
+            *failure.borrow_mut() = Some(e);
+            std::io::Error::other(msg)
+        };
+        let mut bytes = 0;
+        let written = write_atomic(output, |w| {
+            bytes = write_layout(layout, w, &mut |i, out| self.array(i, out, &fail))?;
+            Ok(())
+        });
+        match written {
+            Ok(()) => Ok(bytes),
+            Err(e) => Err(failure
+                .into_inner()
+                .unwrap_or_else(|| PartsError::io(output, e))),
+        }
     }
-    let sum = |f: fn(&PartHeader) -> u64| headers.iter().map(|(_, h)| f(h)).sum();
-    Ok(MergeReport {
-        bytes,
-        version: if chunked { 3 } else { 2 },
-        chunks: if chunked { subs.len() as u64 } else { 0 },
-        nodes: node_count,
-        leaves,
-        parts: count,
-        seconds: t0.elapsed().as_secs_f64(),
-        channels: layout
-            .channels
-            .iter()
-            .map(|&(kind, s)| {
-                let name = crate::octree::ChannelKind::ALL
-                    .get(usize::from(kind))
-                    .map_or("?", |k| k.name());
-                let storage = match s {
-                    Stored::Constant(_) => "constant",
-                    Stored::PerLeaf(_) => "per-leaf",
-                };
-                (name.to_string(), storage.to_string())
-            })
-            .collect(),
-        overlap_tests: sum(|h| h.stats.overlap_tests),
-        leaf_triangle_pairs: sum(|h| h.stats.leaf_triangle_pairs),
-        false_positives: sum(|h| h.stats.false_positives),
-    })
+
+    /// Writes array `i` of the layout (version 3: the chunk table, the chunks, the channels;
+    /// version 2: the nodes, the channels); a part's error goes through `fail`.
+    fn array(
+        &self,
+        i: usize,
+        out: &mut dyn Write,
+        fail: &dyn Fn(PartsError) -> std::io::Error,
+    ) -> std::io::Result<()> {
+        let i = if self.chunked {
+            match i {
+                0 => return write_chunk_table(self.subs, out),
+                1 => return write_chunks(self.headers, self.subs, out).map_err(fail),
+                _ => i - 1,
+            }
+        } else {
+            i
+        };
+        if i == 0 {
+            return self.nodes(out, fail);
+        }
+        let k = self.copied[i - 1];
+        for (path, h) in self.headers {
+            let a = h.arrays[1 + per_leaf_rank(h, k)];
+            copy_array(path, a, out).map_err(fail)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the version-2 node array: the levels above the parts' subtrees and the
+    /// subtrees below them, in the canonical node order.
+    fn nodes(
+        &self,
+        out: &mut dyn Write,
+        fail: &dyn Fn(PartsError) -> std::io::Error,
+    ) -> std::io::Result<()> {
+        let mut nodes = NodeWriter {
+            out,
+            headers: self.headers,
+            leaf_off: self.leaf_off,
+            reader: None,
+            buf: Vec::new(),
+        };
+        stitch::stitch(self.stubs, self.level, &mut |piece| match piece {
+            Piece::Top(n) => nodes.put(n),
+            Piece::Root { index, at } => nodes.put(Node {
+                info: u32::from(self.subs[index].s.mask),
+                first: at as u32,
+            }),
+            Piece::Below { index, at } => nodes.region(&self.subs[index], at).map_err(fail),
+        })?;
+        nodes.finish_part().map_err(fail)?;
+        nodes.flush()
+    }
 }
 
 /// The rank of channel `k` among the part's per-leaf channels (its array is `1 +` that).
