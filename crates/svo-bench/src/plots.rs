@@ -4,6 +4,7 @@
 
 use crate::bake_tables::BakeTables;
 use crate::image_tables::{DdaRow, ImageRow};
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 use svo::Strategy;
@@ -29,6 +30,30 @@ pub fn register_font() -> anyhow::Result<()> {
     anyhow::bail!("no TrueType font found for the plots (install fonts-dejavu-core)")
 }
 
+/// Draws a plot of `size` pixels with `draw` into an RGB buffer and writes it to `path` as
+/// PNG.
+fn png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let mut buf = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        draw(&root)?;
+        root.present()?;
+    }
+    image::save_buffer_with_format(
+        path,
+        &buf,
+        size.0,
+        size.1,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )?;
+    Ok(())
+}
+
 const COLOURS: [RGBColor; 6] = [
     RGBColor(214, 39, 40),
     RGBColor(31, 119, 180),
@@ -40,168 +65,168 @@ const COLOURS: [RGBColor; 6] = [
 
 /// Bake time (ms, log scale) against depth, one line per strategy.
 pub fn bake_time(t: &BakeTables, path: &Path, caption: &str) -> anyhow::Result<()> {
-    let root = BitMapBackend::new(path, (900, 520)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let all: Vec<f64> = t.cells.iter().flatten().map(|c| c.seconds * 1e3).collect();
-    let lo = all.iter().copied().fold(f64::INFINITY, f64::min).max(1e-3) * 0.7;
-    let hi = all.iter().copied().fold(0.0, f64::max) * 1.4;
-    let (d0, d1) = (
-        f64::from(*t.depths.first().unwrap_or(&1)),
-        f64::from(*t.depths.last().unwrap_or(&1)),
-    );
-    let mut c = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(64)
-        .build_cartesian_2d(d0 - 0.2..d1 + 0.2, (lo..hi).log_scale())?;
-    c.configure_mesh()
-        .x_desc("depth")
-        .y_desc("ms, median (log)")
-        .draw()?;
-    for (si, s) in Strategy::ALL.iter().enumerate() {
-        let colour = COLOURS[si % COLOURS.len()];
-        let pts: Vec<(f64, f64)> = t
-            .depths
-            .iter()
-            .zip(&t.cells[si])
-            .map(|(&d, cell)| (f64::from(d), cell.seconds * 1e3))
-            .collect();
-        c.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
-            .label(s.name())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-        c.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
-    }
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()?;
-    root.present()?;
-    Ok(())
+    png(path, (900, 520), |root| {
+        root.fill(&WHITE)?;
+        let all: Vec<f64> = t.cells.iter().flatten().map(|c| c.seconds * 1e3).collect();
+        let lo = all.iter().copied().fold(f64::INFINITY, f64::min).max(1e-3) * 0.7;
+        let hi = all.iter().copied().fold(0.0, f64::max) * 1.4;
+        let (d0, d1) = (
+            f64::from(*t.depths.first().unwrap_or(&1)),
+            f64::from(*t.depths.last().unwrap_or(&1)),
+        );
+        let mut c = ChartBuilder::on(root)
+            .caption(caption, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
+            .build_cartesian_2d(d0 - 0.2..d1 + 0.2, (lo..hi).log_scale())?;
+        c.configure_mesh()
+            .x_desc("depth")
+            .y_desc("ms, median (log)")
+            .draw()?;
+        for (si, s) in Strategy::ALL.iter().enumerate() {
+            let colour = COLOURS[si % COLOURS.len()];
+            let pts: Vec<(f64, f64)> = t
+                .depths
+                .iter()
+                .zip(&t.cells[si])
+                .map(|(&d, cell)| (f64::from(d), cell.seconds * 1e3))
+                .collect();
+            c.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
+                .label(s.name())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            c.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+        }
+        c.configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()?;
+        Ok(())
+    })
 }
 
 /// PSNR against ms per frame for one view: one curve per hit mode through the depths, and
 /// the triangle reference's median as a marker.
 pub fn error_vs_time(rows: &[ImageRow], path: &Path, caption: &str) -> anyhow::Result<()> {
-    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let psnr = |r: &ImageRow| r.psnr.min(70.0);
-    let shown: Vec<&ImageRow> = rows.iter().filter(|r| r.mode != "triangles").collect();
-    let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
-    let (lo, hi) = shown
-        .iter()
-        .map(|r| psnr(r))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
-    let (lo, hi) = if lo.is_finite() {
-        (lo, hi)
-    } else {
-        (0.0, 70.0)
-    };
-    let mut c = ChartBuilder::on(&root)
-        .caption(caption, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(56)
-        .build_cartesian_2d(0.0..max_ms, (lo - 3.0).floor()..(hi + 2.0).ceil())?;
-    c.configure_mesh()
-        .x_desc("ms per frame (median)")
-        .y_desc("PSNR vs triangles, dB (capped at 70)")
-        .draw()?;
-    for (mode, colour) in [
-        ("cube", COLOURS[0]),
-        ("contour", COLOURS[1]),
-        ("exact", COLOURS[2]),
-    ] {
-        let pts: Vec<(f64, f64, u8)> = shown
+    png(path, (900, 560), |root| {
+        root.fill(&WHITE)?;
+        let psnr = |r: &ImageRow| r.psnr.min(70.0);
+        let shown: Vec<&ImageRow> = rows.iter().filter(|r| r.mode != "triangles").collect();
+        let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
+        let (lo, hi) = shown
             .iter()
-            .filter(|r| r.mode == mode)
-            .map(|r| (r.seconds * 1e3, psnr(r), r.depth))
+            .map(|r| psnr(r))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        let (lo, hi) = if lo.is_finite() {
+            (lo, hi)
+        } else {
+            (0.0, 70.0)
+        };
+        let mut c = ChartBuilder::on(root)
+            .caption(caption, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..max_ms, (lo - 3.0).floor()..(hi + 2.0).ceil())?;
+        c.configure_mesh()
+            .x_desc("ms per frame (median)")
+            .y_desc("PSNR vs triangles, dB (capped at 70)")
+            .draw()?;
+        for (mode, colour) in [
+            ("cube", COLOURS[0]),
+            ("contour", COLOURS[1]),
+            ("exact", COLOURS[2]),
+        ] {
+            let pts: Vec<(f64, f64, u8)> = shown
+                .iter()
+                .filter(|r| r.mode == mode)
+                .map(|r| (r.seconds * 1e3, psnr(r), r.depth))
+                .collect();
+            c.draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                colour.stroke_width(2),
+            ))?
+            .label(mode)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            c.draw_series(pts.iter().map(|&(x, y, d)| {
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 3, colour.filled())
+                    + Text::new(format!("d{d}"), (5, -12), ("sans-serif", 12))
+            }))?;
+        }
+        let ref_ms: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.mode == "triangles")
+            .map(|r| r.seconds * 1e3)
             .collect();
-        c.draw_series(LineSeries::new(
-            pts.iter().map(|p| (p.0, p.1)),
-            colour.stroke_width(2),
-        ))?
-        .label(mode)
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-        c.draw_series(pts.iter().map(|&(x, y, d)| {
-            EmptyElement::at((x, y))
-                + Circle::new((0, 0), 3, colour.filled())
-                + Text::new(format!("d{d}"), (5, -12), ("sans-serif", 12))
-        }))?;
-    }
-    let ref_ms: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.mode == "triangles")
-        .map(|r| r.seconds * 1e3)
-        .collect();
-    if !ref_ms.is_empty() {
-        let ms = crate::report::median(&ref_ms);
-        let y = (lo - 2.0).floor();
-        c.draw_series(std::iter::once(
-            EmptyElement::at((ms, y))
-                + TriangleMarker::new((0, 0), 6, BLACK.filled())
-                + Text::new("triangles (BVH), median", (8, -6), ("sans-serif", 13)),
-        ))?;
-    }
-    c.configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()?;
-    root.present()?;
-    Ok(())
+        if !ref_ms.is_empty() {
+            let ms = crate::report::median(&ref_ms);
+            let y = (lo - 2.0).floor();
+            c.draw_series(std::iter::once(
+                EmptyElement::at((ms, y))
+                    + TriangleMarker::new((0, 0), 6, BLACK.filled())
+                    + Text::new("triangles (BVH), median", (8, -6), ("sans-serif", 13)),
+            ))?;
+        }
+        c.configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()?;
+        Ok(())
+    })
 }
 
 /// Octree and DDA ms per frame against depth.
 pub fn octree_vs_dda(rows: &[DdaRow], path: &Path) -> anyhow::Result<()> {
-    let root = BitMapBackend::new(path, (900, 480)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let max_ms = rows
-        .iter()
-        .map(|r| r.octree.max(r.dda) * 1e3)
-        .fold(1.0, f64::max)
-        * 1.15;
-    let (d0, d1) = (
-        rows.first().map_or(4, |r| r.depth),
-        rows.last().map_or(10, |r| r.depth),
-    );
-    let mut c = ChartBuilder::on(&root)
-        .caption(
-            "Primary rays, cube hits: octree against dense-grid DDA",
-            ("sans-serif", 20),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(56)
-        .build_cartesian_2d(f64::from(d0) - 0.3..f64::from(d1) + 0.3, 0.0..max_ms)?;
-    c.configure_mesh()
-        .x_desc("depth")
-        .y_desc("ms per frame (median)")
-        .draw()?;
-    for (i, (name, colour)) in [("octree", COLOURS[1]), ("DDA", COLOURS[0])]
-        .into_iter()
-        .enumerate()
-    {
-        let pts: Vec<(f64, f64)> = rows
+    png(path, (900, 480), |root| {
+        root.fill(&WHITE)?;
+        let max_ms = rows
             .iter()
-            .map(|r| {
-                (
-                    f64::from(r.depth),
-                    if i == 0 { r.octree } else { r.dda } * 1e3,
-                )
-            })
-            .collect();
-        c.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-        c.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
-    }
-    c.configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()?;
-    root.present()?;
-    Ok(())
+            .map(|r| r.octree.max(r.dda) * 1e3)
+            .fold(1.0, f64::max)
+            * 1.15;
+        let (d0, d1) = (
+            rows.first().map_or(4, |r| r.depth),
+            rows.last().map_or(10, |r| r.depth),
+        );
+        let mut c = ChartBuilder::on(root)
+            .caption(
+                "Primary rays, cube hits: octree against dense-grid DDA",
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d(f64::from(d0) - 0.3..f64::from(d1) + 0.3, 0.0..max_ms)?;
+        c.configure_mesh()
+            .x_desc("depth")
+            .y_desc("ms per frame (median)")
+            .draw()?;
+        for (i, (name, colour)) in [("octree", COLOURS[1]), ("DDA", COLOURS[0])]
+            .into_iter()
+            .enumerate()
+        {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .map(|r| {
+                    (
+                        f64::from(r.depth),
+                        if i == 0 { r.octree } else { r.dda } * 1e3,
+                    )
+                })
+                .collect();
+            c.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            c.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+        }
+        c.configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()?;
+        Ok(())
+    })
 }
