@@ -554,7 +554,7 @@ fn compute_pipeline(
     })?;
     let desc = wgpu::ShaderModuleDescriptor {
         label: Some("trace"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
+        source: wgpu::ShaderSource::Wgsl(String::from(&*source).into()),
     };
     // wgpu's default checks bound every loop (a counter per iteration, so that a loop
     // without an end cannot hang the device), which cost 6-18% of a frame on the H100

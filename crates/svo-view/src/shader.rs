@@ -14,6 +14,8 @@
 
 use crate::gpu_types::MAX_LIGHTS;
 use std::borrow::Cow;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 use svo::render::MAX_BOUNCES;
 use thiserror::Error;
 use wesl::{CompileOptions, ManglerKind, ModulePath, VirtualResolver, Wesl};
@@ -90,7 +92,31 @@ pub fn constants_module(link: &ShaderLink) -> String {
 }
 
 /// The tracer's WGSL for `link`: the modules linked from the root, unused items stripped.
-pub fn trace_source(link: &ShaderLink) -> Result<String, ShaderError> {
+/// Each link is made once a process and kept (a viewer that switches walks, or a benchmark
+/// that makes pipelines for many scenes, links each shader once).
+pub fn trace_source(link: &ShaderLink) -> Result<Arc<str>, ShaderError> {
+    static LINKED: OnceLock<Mutex<HashMap<ShaderLink, Arc<str>>>> = OnceLock::new();
+    let linked = LINKED.get_or_init(Default::default);
+    // A poisoned lock only means another thread panicked while linking: the map holds
+    // finished links only.
+    let cached = linked
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .get(link)
+        .cloned();
+    if let Some(source) = cached {
+        return Ok(source);
+    }
+    let source: Arc<str> = link_modules(link)?.into();
+    linked
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .insert(*link, Arc::clone(&source));
+    Ok(source)
+}
+
+/// Links the modules for `link` (what [`trace_source`] keeps).
+fn link_modules(link: &ShaderLink) -> Result<String, ShaderError> {
     let mut resolver = VirtualResolver::new();
     let path = |name: &str| {
         format!("package::{name}")

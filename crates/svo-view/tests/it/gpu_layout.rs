@@ -26,7 +26,7 @@ fn linked(link: &ShaderLink) -> (String, naga::Module) {
     Validator::new(ValidationFlags::all(), Capabilities::empty())
         .validate(&m)
         .unwrap_or_else(|e| panic!("{link:?}: {}", e.emit_to_string(&src)));
-    (src, m)
+    (src.to_string(), m)
 }
 
 /// The default link: the octree walk, stacks of the most the shader allows.
