@@ -430,7 +430,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::octree::{RootCube, Voxel};
     use crate::trace::traverse::{MAX_STEPS, traverse};
@@ -661,7 +661,13 @@ mod tests {
         want
     }
 
-    fn random_tree(depth: u8, density: f64, unit: &mut impl FnMut() -> f64) -> Option<Octree> {
+    /// A cube of `2^depth` cells a side with each cell present with probability `density`,
+    /// or `None` when no cell is.
+    pub(crate) fn random_tree(
+        depth: u8,
+        density: f64,
+        unit: &mut impl FnMut() -> f64,
+    ) -> Option<Octree> {
         let side = 1u32 << depth;
         let mut cells = Vec::new();
         for x in 0..side {

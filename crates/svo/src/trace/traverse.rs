@@ -560,30 +560,6 @@ mod tests {
         }
     }
 
-    /// A cube of `2^depth` cells a side with each cell present with probability `density`,
-    /// or `None` when no cell is.
-    fn dense_random_tree(depth: u8, density: f64, unit: &mut dyn FnMut() -> f64) -> Option<Octree> {
-        let side = 1u32 << depth;
-        let mut cells = Vec::new();
-        for x in 0..side {
-            for y in 0..side {
-                for z in 0..side {
-                    if unit() < density {
-                        cells.push((UVec3::new(x, y, z), Voxel::default()));
-                    }
-                }
-            }
-        }
-        if cells.is_empty() {
-            return None;
-        }
-        let root = RootCube {
-            origin: DVec3::ZERO,
-            side: f64::from(side),
-        };
-        Some(Octree::from_cells(root, depth, cells).unwrap())
-    }
-
     /// A ray (with its `tmin`) in a root of `side` cells: from outside towards a point
     /// inside, from inside (sometimes starting later), axis-parallel with signed zeros, or
     /// from a lattice point along a small integer direction.
@@ -703,7 +679,9 @@ mod tests {
         let (mut compared, mut touched) = (0usize, 0usize);
         for depth in 2..=5u8 {
             for density in [0.05, 0.3, 0.9] {
-                let Some(tree) = dense_random_tree(depth, density, &mut unit) else {
+                let Some(tree) =
+                    crate::trace::packet::tests::random_tree(depth, density, &mut unit)
+                else {
                     continue;
                 };
                 let side = 1u32 << depth;
