@@ -1,7 +1,7 @@
 //! What the tests, examples, benchmarks and fuzz targets of this repository share:
 //!
-//! - where the real meshes are, and what a test does when something it needs is missing
-//!   (under CI it fails; elsewhere it prints a notice and skips);
+//! - where the real meshes are, and what a test does when something it needs is missing:
+//!   [`harness`] reports it ignored, with its reason (under CI it fails);
 //! - [`seeds`]: every seeded test's seeds (`SVO_TEST_SEED` moves them all) and a seeded
 //!   generator; [`geometry`]: seeded random geometry on an integer lattice;
 //! - the references the library is held to, sharing no code with it: [`exact_sat`] (an
@@ -14,10 +14,12 @@
 //!
 //! The end-to-end tests themselves are in `tests/it/`.
 
+pub mod bake_check;
 pub mod conformance;
 pub mod exact_sat;
 pub mod fuzz_cases;
 pub mod geometry;
+pub mod harness;
 pub mod oracle;
 pub mod ray_check;
 pub mod ray_reference;
@@ -48,11 +50,12 @@ pub fn under_ci() -> bool {
     std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "0" | "false"))
 }
 
-/// Reports that `what` is missing: a panic under CI, else a notice on stderr (the caller
-/// then skips).
+/// Reports that `what` is missing: a panic under CI, else a notice on stderr. For a part of
+/// a test (an extra case on a shared mesh); a whole test that needs something goes through
+/// [`harness`], which reports it ignored.
 pub fn missing(what: &str) {
     assert!(!under_ci(), "CI needs {what}");
-    eprintln!("skipped: {what} is missing");
+    eprintln!("notice: {what} is missing; the cases that need it are left out");
 }
 
 /// The path of a shared mesh, `rel` inside [`models_dir`], if it exists; otherwise
@@ -70,19 +73,37 @@ pub fn model(rel: &str) -> Option<PathBuf> {
     }
 }
 
-/// The thesis's pool scene file (`examples/scenes/pool.toml`) if the bunny it names by a
-/// path relative to itself (`../shared/models` beside the repository, whatever
-/// `$SVO_MODELS` says) is there; otherwise [`missing`] (a panic under CI) and `None`.
+/// Where the bunny that `examples/scenes/pool.toml` names is found as the scene finds it:
+/// in a folder of `$SVO_MODELS`, or in `../shared/models` beside the repository.
+pub fn pool_scene_bunny() -> Option<PathBuf> {
+    let mut folders: Vec<PathBuf> = std::env::var_os("SVO_MODELS")
+        .map(|l| std::env::split_paths(&l).collect())
+        .unwrap_or_default();
+    folders.push(repo_root().join("../shared/models"));
+    folders
+        .into_iter()
+        .map(|f| f.join("stanford/bun_zipper.ply"))
+        .find(|p| p.is_file())
+}
+
+/// The thesis's pool scene file (`examples/scenes/pool.toml`) if its bunny is where the scene
+/// looks for it ([`pool_scene_bunny`]); otherwise [`missing`] (a panic under CI) and `None`.
 pub fn pool_scene() -> Option<PathBuf> {
-    let root = repo_root();
-    let bunny = root.join("../shared/models/stanford/bun_zipper.ply");
-    if bunny.exists() {
-        Some(root.join("examples/scenes/pool.toml"))
+    if pool_scene_bunny().is_some() {
+        Some(repo_root().join("examples/scenes/pool.toml"))
     } else {
-        missing(&format!(
-            "{}, which examples/scenes/pool.toml reads (clone the repository beside shared/)",
-            bunny.display()
-        ));
+        missing(
+            "stanford/bun_zipper.ply, which examples/scenes/pool.toml reads (set SVO_MODELS to the models folder)",
+        );
         None
     }
+}
+
+/// The full path of the executable `tool` on `PATH` or in the system folders, if it is there.
+pub fn find_tool(tool: &str) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    std::env::split_paths(&path)
+        .chain(["/usr/sbin", "/usr/bin", "/sbin"].map(PathBuf::from))
+        .map(|d| d.join(tool))
+        .find(|p| p.is_file())
 }

@@ -4,7 +4,7 @@
 //! frames (`--bench`); or the primary rays alone cast and timed (`--cast`). A version-3 file
 //! past what one tree in memory holds is rendered chunk by chunk as one tree.
 
-use crate::job::{JobError, RenderJob, load_reference, prepare, sibling, write_output};
+use crate::job::{JobError, RenderJob, diff_path, load_reference, prepare, sibling, write_output};
 use crate::report::{CameraReport, CompareReport, CpuRun, FrameReport, FrameTiming};
 use crate::timing::{cast_timed, render_timed};
 use svo::FormatError;
@@ -119,17 +119,15 @@ fn compared(job: &RenderJob, svo: &Timed, reference: &Timed) -> Result<CompareRe
         svo_ms: FrameTiming::median(&svo.times) * 1e3,
         reference_ms: FrameTiming::median(&reference.times) * 1e3,
         reference_output: None,
+        diff_output: None,
     };
     if let Some(out) = &job.output {
         let ref_out = sibling(out, "reference");
         write_output(r, job.aov, &ref_out, r.stats.max_primary_steps.max(1))?;
-        write_png(
-            &sibling(out, "diff"),
-            s.width,
-            s.height,
-            &diff_rgb8(s, r, 4.0),
-        )?;
+        let diff_out = diff_path(out);
+        write_png(&diff_out, s.width, s.height, &diff_rgb8(s, r, 4.0))?;
         report.reference_output = Some(ref_out.display().to_string());
+        report.diff_output = Some(diff_out.display().to_string());
     }
     Ok(report)
 }

@@ -292,7 +292,7 @@ pub fn write_output(f: &Frame, a: Aov, out: &Path, cost_scale: u32) -> Result<()
     }
 }
 
-/// `dir/name.png` -> `dir/name.<tag>.png`.
+/// `dir/name.ext` -> `dir/name.<tag>.ext`.
 pub fn sibling(out: &Path, tag: &str) -> PathBuf {
     let stem = out
         .file_stem()
@@ -303,4 +303,14 @@ pub fn sibling(out: &Path, tag: &str) -> PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     out.with_file_name(format!("{stem}.{tag}.{ext}"))
+}
+
+/// Where `--compare` writes its difference image beside `out`: always a PNG of the colour
+/// difference, `dir/name.diff.png`, whatever the AOV and the output's extension.
+pub fn diff_path(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}.diff.png"))
 }

@@ -133,8 +133,9 @@ struct Args {
     #[arg(long, requires = "bench", requires = "cpu")]
     cast: bool,
     /// Render this triangle mesh (the reference) instead of the octree; with --compare,
-    /// render both and print RMSE, PSNR and the hit/miss disagreement (the reference and a
-    /// diff image are written beside the output as NAME.reference.png and NAME.diff.png).
+    /// render both and print RMSE, PSNR and the hit/miss disagreement (beside the output,
+    /// the reference's image in the same AOV as NAME.reference.EXT, and the colour difference,
+    /// scaled by 4, always as the PNG NAME.diff.png whatever the AOV).
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Render the octree and the --reference mesh and compare them.

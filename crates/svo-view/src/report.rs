@@ -80,6 +80,8 @@ pub struct CompareReport {
     pub reference_ms: f64,
     /// Where the reference image went.
     pub reference_output: Option<String>,
+    /// Where the difference image (a PNG of the colour difference) went.
+    pub diff_output: Option<String>,
 }
 
 /// The GPU frame compared with the CPU reference's (`--vs-cpu`).
@@ -201,8 +203,8 @@ impl FrameReport {
                 c.svo_ms,
                 c.reference_ms
             )?;
-            if let Some(r) = &c.reference_output {
-                writeln!(f, "wrote {r} and the diff image beside it")?;
+            if let (Some(r), Some(d)) = (&c.reference_output, &c.diff_output) {
+                writeln!(f, "wrote {r} and {d}")?;
             }
         }
         if let Some(c) = self.gpu.as_ref().and_then(|g| g.vs_cpu.as_ref()) {

@@ -72,9 +72,13 @@ pub mod voxelize;
 
 pub mod prelude;
 
-// The differential checks of the importers, for the fuzz targets only (`cargo fuzz` builds
-// with `--cfg fuzzing`); not part of the API.
-#[cfg(all(fuzzing, any(feature = "obj", feature = "ply")))]
+// The differential checks of the importers, for the fuzz targets (`cargo fuzz` builds with
+// `--cfg fuzzing`) and this repository's tests on the shared meshes (the hidden
+// `differential` feature); not part of the API.
+#[cfg(all(
+    any(fuzzing, feature = "differential"),
+    any(feature = "obj", feature = "ply")
+))]
 #[doc(hidden)]
 pub use import::differential as fuzz_import;
 

@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 use svo::io::BuildInfo;
 use svo::{BakeOptions, bake_mesh};
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
 /// The models folder, when the bunny is in it.
 fn models() -> Option<PathBuf> {
@@ -29,7 +31,6 @@ fn bake_with(threads: usize, mesh: &svo::Mesh, depth: u8) -> Vec<u8> {
     svo::io::to_bytes(&tree, &BuildInfo::default())
 }
 
-#[test]
 fn same_bytes_for_1_2_and_4_threads() {
     let Some(m) = models() else { return };
     for (file, depth) in [
@@ -41,4 +42,12 @@ fn same_bytes_for_1_2_and_4_threads() {
         assert_eq!(one, bake_with(2, &mesh, depth), "{file}: 1 vs 2 threads");
         assert_eq!(one, bake_with(4, &mesh, depth), "{file}: 1 vs 4 threads");
     }
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![trial!(
+        same_bytes_for_1_2_and_4_threads,
+        Need::model("stanford/stanford-bunny.obj")
+    )]
 }

@@ -10,13 +10,14 @@ use std::collections::BTreeMap;
 use svo::io::{FormatError, from_bytes, to_bytes, write_chunked_to};
 use svo::octree::Check;
 use svo_tests::conformance::{corpus, manifest};
+use svo_tests::harness::Test;
 use svo_tests::spec_reader;
+use svo_tests::trial;
 
 fn corpus_dir() -> std::path::PathBuf {
     svo_tests::repo_root().join("fixtures/format/conformance")
 }
 
-#[test]
 fn committed_corpus_is_what_the_generator_makes() {
     let dir = corpus_dir();
     let made = corpus();
@@ -53,7 +54,6 @@ fn committed_corpus_is_what_the_generator_makes() {
     assert_eq!(text, manifest(&made), "manifest.tsv differs; {regenerate}");
 }
 
-#[test]
 fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
     let dir = corpus_dir();
     let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
@@ -116,7 +116,6 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
     assert_eq!(numbers, (1..=19).collect::<Vec<u8>>());
 }
 
-#[test]
 fn the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins() {
     let dir = corpus_dir();
     let read = |name: &str| {
@@ -132,4 +131,13 @@ fn the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins() {
         read("valid-chunked-depth-30.svo"),
         read("valid-depth-30.svo")
     );
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(committed_corpus_is_what_the_generator_makes),
+        trial!(the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check),
+        trial!(the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins),
+    ]
 }

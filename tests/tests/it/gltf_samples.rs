@@ -9,6 +9,8 @@ use svo::render::{
     MeshSurfaces, OctreeSurfaces, RenderScene, SceneSetup, TraceOptions, Tracer, render,
 };
 use svo::trace::HitMode;
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
 /// The glTF samples' folder, when they are there.
 fn gltf_dir() -> Option<PathBuf> {
@@ -24,7 +26,6 @@ enum Expect {
     Textured,
 }
 
-#[test]
 fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
     let Some(dir) = gltf_dir() else { return };
     let samples = [
@@ -128,4 +129,12 @@ fn gltf_samples_bake_with_their_materials_and_render_like_their_triangles() {
             d.hit_mismatch
         );
     }
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![trial!(
+        gltf_samples_bake_with_their_materials_and_render_like_their_triangles,
+        Need::model("gltf/Box.glb")
+    )]
 }

@@ -6,8 +6,9 @@ use std::collections::BTreeMap;
 use svo::render::{OctreeSurfaces, Phong, ShadowMode, Sky, TraceOptions, Tracer, render};
 use svo::trace::HitMode;
 use svo_examples::report2019::{ReportMaterial, report_material, report_scene};
+use svo_tests::harness::Test;
+use svo_tests::trial;
 
-#[test]
 fn report_box_has_the_reports_regions() {
     let depth = 5;
     let n = 32u32;
@@ -50,7 +51,6 @@ fn report_box_has_the_reports_regions() {
     assert!(scene.tree.leaf_at(UVec3::new(5, 16, 0)).is_some());
 }
 
-#[test]
 fn report_scene_renders_with_its_three_lights() {
     let scene = report_scene(5, 96, 96).unwrap();
     let black = Sky {
@@ -116,7 +116,6 @@ fn report_scene_renders_with_its_three_lights() {
 
 /// The committed `examples/scenes/report2019.svo` (written by `examples/report_scene.rs`) is
 /// exactly what the library builds today, and renders from its stored view and lights.
-#[test]
 fn committed_report_scene_file_is_current_and_renders_its_view() {
     let path = svo_tests::repo_root().join("examples/scenes/report2019.svo");
     let committed = std::fs::read(&path).unwrap();
@@ -150,4 +149,13 @@ fn committed_report_scene_file_is_current_and_renders_its_view() {
     );
     let f = render(&t, &s.camera).unwrap();
     assert!(f.stats.primary_hits > 64 * 64 / 3, "{:?}", f.stats);
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(report_box_has_the_reports_regions),
+        trial!(report_scene_renders_with_its_three_lights),
+        trial!(committed_report_scene_file_is_current_and_renders_its_view),
+    ]
 }

@@ -5,8 +5,9 @@
 //! only the bunny and costs more traversal steps per ray than the bunny view.
 
 use svo::render::{NO_LEAF, OctreeSurfaces, RenderScene, SceneSetup, TraceOptions, Tracer, render};
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
-#[test]
 fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
     let Some(path) = svo_tests::pool_scene() else {
         return;
@@ -95,7 +96,6 @@ fn pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows() {
 
 /// Needs the `csg` feature (the Manifold kernel's C++ build).
 #[cfg(feature = "csg")]
-#[test]
 fn csg_scene_file_bakes_solid_with_its_bowl_hollowed_out() {
     let root = svo_tests::repo_root();
     let scene = svo::scene::load_scene(&root.join("examples/scenes/csg.toml")).unwrap();
@@ -121,4 +121,18 @@ fn csg_scene_file_bakes_solid_with_its_bowl_hollowed_out() {
     assert!(!filled(glam::DVec3::new(0.95, 0.95, 0.95)));
     // The floor under it.
     assert!(filled(glam::DVec3::new(2.0, -1.15, 2.0)));
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    #[allow(unused_mut)]
+    let mut v = vec![trial!(
+        pool_scene_bakes_and_its_three_views_show_what_the_thesis_shows,
+        Need::pool_scene()
+    )];
+    #[cfg(feature = "csg")]
+    v.push(trial!(
+        csg_scene_file_bakes_solid_with_its_bowl_hollowed_out
+    ));
+    v
 }

@@ -3,13 +3,18 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_svo-bake"))
 }
 
+/// The mesh whose presence stands for the shared models.
+const BUNNY: &str = "stanford/stanford-bunny.obj";
+
 /// The shared models folder (`SVO_MODELS`, else `../shared/models`), when the bunny is in
-/// it; in CI its absence is a failure, elsewhere the test is skipped.
+/// it (the tests that call this need [`BUNNY`]).
 fn models() -> Option<PathBuf> {
     svo_tests::model("stanford/stanford-bunny.obj")?;
     Some(svo_tests::models_dir())
@@ -52,7 +57,6 @@ fn read_tree(p: &Path) -> svo::Octree {
     svo::io::read_file(p).unwrap().0
 }
 
-#[test]
 fn bakes_bunny_obj_and_ply_and_prints_summary() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -97,7 +101,6 @@ fn bakes_bunny_obj_and_ply_and_prints_summary() {
     );
 }
 
-#[test]
 fn gltf_variants_give_the_same_cells() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -118,7 +121,6 @@ fn gltf_variants_give_the_same_cells() {
     assert_eq!(trees[0].leaf_count, 32 * 32 * 32 - 30 * 30 * 30);
 }
 
-#[test]
 fn textured_and_transmissive_gltf_get_per_leaf_channels() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -150,7 +152,6 @@ fn textured_and_transmissive_gltf_get_per_leaf_channels() {
     assert!(t.attributes.colour.is_per_leaf());
 }
 
-#[test]
 fn gzipped_dragon_bakes() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -171,7 +172,6 @@ fn gzipped_dragon_bakes() {
     );
 }
 
-#[test]
 fn exports_hold_exactly_the_octree_cells() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -220,7 +220,6 @@ fn exports_hold_exactly_the_octree_cells() {
     assert_eq!(back, cells);
 }
 
-#[test]
 fn output_is_identical_for_1_2_and_8_threads_and_json_and_quiet_work() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -326,6 +325,22 @@ const BAD_INPUT: &[Bad] = &[
     },
     Bad {
         input: (
+            "elem.ply",
+            Some(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nend_header\n0 0 0\n1 0 0\n0 x 0\n",
+            ),
+        ),
+        args: OUT,
+        needle: "Line 10",
+    },
+    Bad {
+        input: ("pos.obj", Some("v 0 0 0\nv 1 0 0\nv 0 y 0\nf 1 2 3\n")),
+        args: OUT,
+        needle: "line 3: position parse error",
+    },
+    Bad {
+        input: (
             "trunc.ply",
             Some("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"),
         ),
@@ -394,7 +409,6 @@ const BAD_INPUT: &[Bad] = &[
     },
 ];
 
-#[test]
 fn bad_input_gives_one_clear_line_and_no_output() {
     let d = tmp();
     let out = d.path().join("out.svo");
@@ -428,7 +442,6 @@ fn bad_input_gives_one_clear_line_and_no_output() {
     );
 }
 
-#[test]
 fn failed_bake_keeps_the_previous_output() {
     let d = tmp();
     let out = d.path().join("keep.svo");
@@ -447,7 +460,6 @@ fn failed_bake_keeps_the_previous_output() {
 /// Killing `svo-bake` at any moment (SIGKILL, no chance to clean up) leaves the previous
 /// output or the complete new one, never a partial file: kills spread evenly over a bake's
 /// whole run time, from before it reads its input to after it has finished.
-#[test]
 fn killed_bake_leaves_the_old_output_or_the_whole_new_one() {
     let Some(m) = models() else { return };
     let d = tmp();
@@ -501,7 +513,6 @@ fn killed_bake_leaves_the_old_output_or_the_whole_new_one() {
 /// The glTF files on which the gltf crates panic (found by the `mesh_import` fuzz target,
 /// kept in `fixtures/fuzz/mesh_import/crash-gltf-*`, whose first byte picks the format) are
 /// refused with one clear line.
-#[test]
 fn hostile_gltf_files_give_one_clear_line() {
     let d = tmp();
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/fuzz/mesh_import");
@@ -523,7 +534,6 @@ fn hostile_gltf_files_give_one_clear_line() {
     assert!(n >= 3, "only {n} hostile glTF files");
 }
 
-#[test]
 fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
     let torus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/torus.obj");
     let d = tmp();
@@ -597,7 +607,6 @@ fn solid_bakes_refuse_open_meshes_and_fill_closed_ones() {
     assert!(out.contains("interior leaves (vote fill"), "{out}");
 }
 
-#[test]
 fn scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line() {
     let d = tmp();
     let scene = write(
@@ -660,10 +669,57 @@ fn scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_li
     }
 }
 
+/// A scene's relative mesh path is found beside the scene, in a folder of `SVO_MODELS` or in
+/// the scene's `models` folders, in that order; found nowhere, one line lists the folders.
+fn scene_meshes_are_found_beside_in_svo_models_or_in_models() {
+    let d = tmp();
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    for sub in ["scenes", "env/m", "lib/m"] {
+        std::fs::create_dir_all(d.path().join(sub)).unwrap();
+    }
+    write(&d.path().join("env/m"), "tri.obj", tri);
+    let scene = write(
+        &d.path().join("scenes"),
+        "s.toml",
+        "depth = 3\nmodels = [\"../lib\"]\n[[mesh]]\nfile = \"m/tri.obj\"\n",
+    );
+    let out = d.path().join("s.svo");
+    let bake = |models: Option<&Path>| {
+        let mut c = bin();
+        c.args([s(&scene), "-o", s(&out), "-q"]);
+        match models {
+            Some(m) => c.env("SVO_MODELS", m),
+            None => c.env_remove("SVO_MODELS"),
+        };
+        c.output().unwrap()
+    };
+    // In SVO_MODELS (a path list: a missing folder first is passed over).
+    let list = std::env::join_paths([d.path().join("none"), d.path().join("env")]).unwrap();
+    assert!(bake(Some(Path::new(&list))).status.success());
+    // Nowhere: one line naming the file and every folder tried, in order.
+    std::fs::remove_file(&out).unwrap();
+    let o = bake(None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && !out.exists(), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("mesh 0: m/tri.obj is in none of"), "{err}");
+    assert!(err.contains("SVO_MODELS"), "{err}");
+    let (here, lib) = (err.find("scenes,").unwrap(), err.find("lib").unwrap());
+    assert!(here < lib, "{err}");
+    // In the scene's `models` folder.
+    write(&d.path().join("lib/m"), "tri.obj", tri);
+    assert!(bake(None).status.success());
+    // Beside the scene first: a broken file there is the one read.
+    std::fs::create_dir_all(d.path().join("scenes/m")).unwrap();
+    write(&d.path().join("scenes/m"), "tri.obj", "v 0 0 x\n");
+    let o = bake(Some(&d.path().join("env")));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("line 1: position parse error"), "{err}");
+}
+
 /// `--memory` bakes in parts into the same file as the bake in memory, and says so; plan,
 /// part and merge give it too; what no file can hold, a budget that the mesh alone exceeds,
 /// a bad size, a solid fill in parts and a part index past the plan are one clear line each.
-#[test]
 fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     let d = tmp();
     let torus = svo_tests::repo_root().join("fixtures/torus.obj");
@@ -771,4 +827,36 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
         "none.svoplan",
     );
     assert!(!out.exists());
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(
+            bakes_bunny_obj_and_ply_and_prints_summary,
+            Need::model(BUNNY)
+        ),
+        trial!(gltf_variants_give_the_same_cells, Need::model(BUNNY)),
+        trial!(
+            textured_and_transmissive_gltf_get_per_leaf_channels,
+            Need::model(BUNNY)
+        ),
+        trial!(gzipped_dragon_bakes, Need::model(BUNNY)),
+        trial!(exports_hold_exactly_the_octree_cells, Need::model(BUNNY)),
+        trial!(
+            output_is_identical_for_1_2_and_8_threads_and_json_and_quiet_work,
+            Need::model(BUNNY)
+        ),
+        trial!(bad_input_gives_one_clear_line_and_no_output),
+        trial!(failed_bake_keeps_the_previous_output),
+        trial!(
+            killed_bake_leaves_the_old_output_or_the_whole_new_one,
+            Need::model(BUNNY)
+        ),
+        trial!(hostile_gltf_files_give_one_clear_line),
+        trial!(solid_bakes_refuse_open_meshes_and_fill_closed_ones),
+        trial!(scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line),
+        trial!(scene_meshes_are_found_beside_in_svo_models_or_in_models),
+        trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
+    ]
 }

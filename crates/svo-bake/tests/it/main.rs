@@ -4,3 +4,9 @@
 
 mod cli;
 mod slurm;
+
+fn main() -> std::process::ExitCode {
+    let mut tests = cli::trials();
+    tests.extend(slurm::trials());
+    svo_tests::harness::main(tests)
+}

@@ -4,12 +4,14 @@
 //! requeued by Slurm, and the merged file is byte for byte the bake in one process.
 //!
 //! Needs `munged`, `slurmctld`, `slurmd`, `sbatch`, `squeue`, `scontrol` and `sinfo` (Debian's
-//! `slurm-wlm` and `munge`; `.ci/run` installs them) and permission to start them (root, or a
-//! user that may run them): missing, it fails under CI and is skipped elsewhere.
+//! `slurm-wlm` and `munge`; `.ci/run` installs them) and root to start them: without them the
+//! harness reports the test ignored, except under CI, where it fails.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
 const TOOLS: [&str; 7] = [
     "munged",
@@ -23,11 +25,28 @@ const TOOLS: [&str; 7] = [
 
 /// The full path of `tool` on the PATH or in the system folders, if it is there.
 fn find(tool: &str) -> Option<PathBuf> {
-    let path = std::env::var_os("PATH").unwrap_or_default();
-    std::env::split_paths(&path)
-        .chain(["/usr/sbin", "/usr/bin", "/sbin"].map(PathBuf::from))
-        .map(|d| d.join(tool))
-        .find(|p| p.is_file())
+    svo_tests::find_tool(tool)
+}
+
+/// Slurm's and munge's programs, and root (the cluster's daemons run as root).
+fn slurm_need() -> Need {
+    Need::new(
+        "Slurm and munge, run as root (apt-get install slurm-wlm munge)",
+        || {
+            if let Some(t) = TOOLS.iter().find(|t| find(t).is_none()) {
+                return Err(format!("{t} is not installed"));
+            }
+            let uid = Command::new("id")
+                .arg("-u")
+                .output()
+                .map_err(|e| e.to_string())?;
+            if String::from_utf8_lossy(&uid.stdout).trim() == "0" {
+                Ok(())
+            } else {
+                Err("not running as root".into())
+            }
+        },
+    )
 }
 
 /// A free TCP port on this machine (bound, then let go).
@@ -213,23 +232,18 @@ impl Cluster {
     }
 }
 
-#[test]
 fn sixteen_parts_on_slurm_with_a_killed_part_merge_into_the_single_process_bake() {
-    if let Some(t) = TOOLS.iter().find(|t| find(t).is_none()) {
-        svo_tests::missing(&format!("Slurm's {t} (apt-get install slurm-wlm munge)"));
-        return;
-    }
-    let mesh = svo_tests::model("stanford/bun_zipper.ply")
-        .unwrap_or_else(|| svo_tests::repo_root().join("fixtures/torus.obj"));
+    // The bunny where the shared models are, else the torus fixture.
+    let bunny = svo_tests::models_dir().join("stanford/bun_zipper.ply");
+    let mesh = if bunny.is_file() {
+        bunny
+    } else {
+        svo_tests::repo_root().join("fixtures/torus.obj")
+    };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let cluster = match Cluster::start(&dir.join("cluster")) {
-        Ok(c) => c,
-        Err(e) => {
-            svo_tests::missing(&format!("a single-node Slurm cluster ({e})"));
-            return;
-        }
-    };
+    let cluster = Cluster::start(&dir.join("cluster"))
+        .unwrap_or_else(|e| panic!("a single-node Slurm cluster did not start: {e}"));
     let bin = env!("CARGO_BIN_EXE_svo-bake");
     // The first run of part 3 marks that it runs and waits to be killed; its rerun bakes.
     let mark = dir.join("part3.started");
@@ -331,4 +345,12 @@ fn sixteen_parts_on_slurm_with_a_killed_part_merge_into_the_single_process_bake(
         "the merged file differs from the single-process bake"
     );
     drop(cluster);
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![trial!(
+        sixteen_parts_on_slurm_with_a_killed_part_merge_into_the_single_process_bake,
+        slurm_need()
+    )]
 }

@@ -7,6 +7,8 @@ use naga::valid::{Capabilities, ValidationFlags, Validator};
 use std::mem::{offset_of, size_of};
 use std::path::Path;
 use svo::octree::Node;
+use svo_tests::harness::Test;
+use svo_tests::trial;
 use svo_view::gpu_types::{GpuLight, GpuParams, GpuPixel, GpuRay, GpuRayHit, GpuUniforms};
 use svo_view::shader::{MAX_RAY_STACK, ShaderLink, trace_source};
 
@@ -38,7 +40,6 @@ fn default_link() -> ShaderLink {
     }
 }
 
-#[test]
 fn every_wgsl_file_parses_and_validates() {
     let mut n = 0;
     for entry in std::fs::read_dir(shader_dir()).unwrap() {
@@ -110,7 +111,6 @@ macro_rules! rust_struct {
     };
 }
 
-#[test]
 fn shared_structs_match_the_wgsl() {
     let (_, m) = linked(&default_link());
     let cases = [
@@ -154,7 +154,6 @@ fn shared_structs_match_the_wgsl() {
     );
 }
 
-#[test]
 fn shader_constants_name_real_overrides() {
     // Every pipeline constant the variant sets exists in the shader (a typo would make
     // pipeline creation fail at run time, and only on a GPU).
@@ -206,7 +205,6 @@ fn constant(m: &naga::Module, name: &str) -> f64 {
     }
 }
 
-#[test]
 fn constants_shared_with_rust_have_the_rust_values() {
     // The module `constants` is generated from the Rust values; what naga reads from the
     // linked WGSL is each value exactly, the float to the bit.
@@ -230,7 +228,6 @@ fn constants_shared_with_rust_have_the_rust_values() {
     );
 }
 
-#[test]
 fn stacks_sized_for_the_scene_still_validate() {
     // The link sizes the two private stacks for the scene (function arrays cannot be sized
     // by pipeline constants): each size must land, and the result must still validate.
@@ -263,4 +260,15 @@ fn stacks_sized_for_the_scene_still_validate() {
             assert_eq!(rstack, [rays], "the ray stack");
         }
     }
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(every_wgsl_file_parses_and_validates),
+        trial!(shared_structs_match_the_wgsl),
+        trial!(shader_constants_name_real_overrides),
+        trial!(constants_shared_with_rust_have_the_rust_values),
+        trial!(stacks_sized_for_the_scene_still_validate),
+    ]
 }

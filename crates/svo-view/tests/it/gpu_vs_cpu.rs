@@ -4,13 +4,16 @@
 //! `svo::trace::cast` on seeded random rays, axis-parallel rays with `+0.0`/`-0.0`,
 //! rays through lattice corners and edges, and rays starting inside.
 //!
-//! Without an adapter the tests print a notice and pass, except under CI (`CI` set), where
+//! Without an adapter the harness reports the tests ignored, except under CI (`CI` set), where
 //! a missing adapter is a failure: CI installs lavapipe (`mesa-vulkan-drivers`).
 
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
+
+use crate::common;
 use glam::{DVec3, Vec3};
 use rand::{Rng, SeedableRng};
 use std::path::Path;
-use std::sync::{Mutex, OnceLock};
 use svo::octree::{Octree, RootCube, Voxel};
 use svo::render::{
     Frame, NO_LEAF, OctreeSurfaces, RenderScene, SceneSetup, ShadowMode, TraceOptions, Tracer,
@@ -22,24 +25,9 @@ use svo_view::gpu_render::{GpuLayout, GpuRenderer};
 use svo_view::gpu_types::{GpuRay, ShaderVariant, tree_uniforms};
 use svo_view::headless::render_scene;
 
-/// One device for the whole test binary (opening one per test costs time on lavapipe);
-/// tests take turns.
+/// The shared device, taken in turn ([`common::gpu_context`]).
 fn gpu() -> Option<std::sync::MutexGuard<'static, GpuContext>> {
-    static CTX: OnceLock<Option<Mutex<GpuContext>>> = OnceLock::new();
-    let ctx = CTX.get_or_init(|| match GpuContext::new() {
-        Ok(c) => {
-            eprintln!("GPU tests on {}", c.adapter_name());
-            Some(Mutex::new(c))
-        }
-        Err(e) => {
-            svo_tests::missing(&format!(
-                "a GPU adapter (lavapipe: apt-get install mesa-vulkan-drivers) for the GPU tests: {e}"
-            ));
-            None
-        }
-    });
-    ctx.as_ref()
-        .map(|m| m.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
+    common::gpu_context().ok()
 }
 
 /// How many of `n` leaves or rays may differ between the GPU and the CPU: none on lavapipe,
@@ -159,7 +147,6 @@ fn same_image(
     Some(g.frame.stats)
 }
 
-#[test]
 fn reflective_torus_contour_with_shadows() {
     // The fixture's copper: reflection, one light, product shadows.
     let Some(st) = same_image(torus(None, 6), TraceOptions::default(), 0.5) else {
@@ -168,7 +155,6 @@ fn reflective_torus_contour_with_shadows() {
     assert!(st.secondary_rays > 0 && st.shadow_rays > 0, "{st:?}");
 }
 
-#[test]
 fn glass_torus_cube_refraction() {
     let glass = GLASS_MTL;
     let trace = TraceOptions {
@@ -186,7 +172,6 @@ fn glass_torus_cube_refraction() {
 /// The path limit of the 2015 thesis's tracer (one bounce a path: the primary ray's
 /// reflection and refraction, nothing after them) on the glass torus: the same image as the
 /// CPU, at most two secondary rays per primary hit, fewer than without the limit.
-#[test]
 fn path_bounce_limit_of_one_renders_the_same() {
     let glass = GLASS_MTL;
     let trace = TraceOptions {
@@ -241,7 +226,6 @@ fn scenes_of_every_path(glass_depth: u8) -> Vec<(&'static str, Octree, TraceOpti
 /// at odd ones (whose view has a root of 2x2x2 cells, down to depth 1), with the scene's
 /// shader and with every shader path compiled in. Its steps count cells, so they differ; at
 /// depth 6 and deeper they are fewer.
-#[test]
 fn the_wide_view_renders_the_same() {
     let Some(ctx) = gpu() else {
         return;
@@ -328,7 +312,6 @@ fn the_wide_view_renders_the_same() {
 /// (contours, no shadow rays, one bounce a path): the GPU against the CPU (the same hit/miss
 /// mask, nearly the same leaves and colours), and the GPU's two walks against each other,
 /// bit for bit.
-#[test]
 fn the_thesis_pool_views() {
     let Some(path) = svo_tests::pool_scene() else {
         return;
@@ -390,7 +373,6 @@ fn the_thesis_pool_views() {
     }
 }
 
-#[test]
 fn solid_glass_torus_passes_through_its_interior_leaves() {
     // A solid bake: the interior leaves (normal word NO_NORMAL) are passed through on both
     // tracers, so refracted rays meet the far side of the surface, not the next cell.
@@ -433,7 +415,6 @@ fn glass_block_on_a_floor() -> Octree {
     .unwrap()
 }
 
-#[test]
 fn volumetric_glass_block_on_a_floor() {
     // Opaque-shadowed.
     let trace = TraceOptions {
@@ -448,7 +429,6 @@ fn volumetric_glass_block_on_a_floor() {
 
 /// The 2019 report's voxel box (glass panes and semi-solid cube as volumetric media, a
 /// solid frame, void holes): the same image on both.
-#[test]
 fn report_scene_2019() {
     let tree = svo_examples::report2019::report_scene(5, 64, 64)
         .unwrap()
@@ -466,7 +446,6 @@ fn report_scene_2019() {
 
 /// A glass box inside a water box (surface leaves with outward normals): refraction from
 /// water into glass and back uses both media's IORs (nested media), on both tracers.
-#[test]
 fn glass_inside_water_nested_media() {
     let root = RootCube {
         origin: DVec3::ZERO,
@@ -669,7 +648,6 @@ fn check_batch(
     capped
 }
 
-#[test]
 fn batch_rays_hit_the_same_leaves() {
     let Some(ctx) = gpu() else {
         return;
@@ -703,7 +681,6 @@ fn batch_rays_hit_the_same_leaves() {
 /// The step cap stops the GPU's rays where it stops the CPU's (the shader's loops run
 /// without wgpu's loop bounds, so the cap is what ends a long traversal): the torus's rays
 /// with caps of 1 to 40 steps, some stopped and some not at each cap.
-#[test]
 fn step_cap_stops_gpu_rays_where_it_stops_cpu_rays() {
     let Some(ctx) = gpu() else {
         return;
@@ -724,7 +701,6 @@ fn step_cap_stops_gpu_rays_where_it_stops_cpu_rays() {
 /// `f64` reference): the GPU finds the CPU's leaf with the same steps and `t`. At depths 29
 /// and 30, the deepest (whose 64-ary views have 15 levels, a 2x2x2 root at the odd one), the
 /// cluster sits near the root's low corner, where `f32` still resolves a cell.
-#[test]
 fn deep_tree_batch_rays_hit_the_same_leaves() {
     let Some(ctx) = gpu() else {
         return;
@@ -772,7 +748,6 @@ fn deep_tree_batch_rays_hit_the_same_leaves() {
     }
 }
 
-#[test]
 fn a_tree_split_over_bindings_renders_the_same() {
     // Arena chunks far below the adapter's limit force the split a large tree needs.
     let Some(ctx) = gpu() else {
@@ -830,4 +805,39 @@ fn render_with(ctx: &GpuContext, s: &RenderScene, trace: &TraceOptions, r: &GpuR
         .unwrap();
     r.render(ctx, &u).unwrap();
     r.read_frame(ctx, std::time::Duration::ZERO).unwrap()
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(reflective_torus_contour_with_shadows, common::gpu_need()),
+        trial!(glass_torus_cube_refraction, common::gpu_need()),
+        trial!(
+            path_bounce_limit_of_one_renders_the_same,
+            common::gpu_need()
+        ),
+        trial!(the_wide_view_renders_the_same, common::gpu_need()),
+        trial!(
+            the_thesis_pool_views,
+            common::gpu_need(),
+            Need::pool_scene()
+        ),
+        trial!(
+            solid_glass_torus_passes_through_its_interior_leaves,
+            common::gpu_need()
+        ),
+        trial!(volumetric_glass_block_on_a_floor, common::gpu_need()),
+        trial!(report_scene_2019, common::gpu_need()),
+        trial!(glass_inside_water_nested_media, common::gpu_need()),
+        trial!(batch_rays_hit_the_same_leaves, common::gpu_need()),
+        trial!(
+            step_cap_stops_gpu_rays_where_it_stops_cpu_rays,
+            common::gpu_need()
+        ),
+        trial!(deep_tree_batch_rays_hit_the_same_leaves, common::gpu_need()),
+        trial!(
+            a_tree_split_over_bindings_renders_the_same,
+            common::gpu_need()
+        ),
+    ]
 }

@@ -1,9 +1,11 @@
 //! `svo-view --headless` end to end: the colour image and the depth AOV written by the GPU,
 //! the benchmark line with the adapter's name, `--vs-cpu`, and one-line errors (before any
 //! adapter is needed) for what the GPU path does not do, or when no mode is given.
-//! Without an adapter the rendering test prints a notice and passes, except under CI.
+//! Without an adapter the harness reports the rendering test ignored (under CI: failed).
 
 use std::process::Command;
+use svo_tests::harness::Test;
+use svo_tests::trial;
 
 use crate::common;
 use common::{torus_svo, torus_svo_at};
@@ -24,7 +26,6 @@ fn error_line(o: &std::process::Output) -> String {
     e
 }
 
-#[test]
 fn headless_renders_on_the_gpu() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -108,7 +109,6 @@ fn headless_renders_on_the_gpu() {
     assert_eq!(render(false), render(true));
 }
 
-#[test]
 fn what_the_gpu_does_not_do_is_a_clear_error() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -126,4 +126,12 @@ fn what_the_gpu_does_not_do_is_a_clear_error() {
     assert!(!out.exists(), "no output after an error");
     // --vs-cpu without --headless is refused by the parser.
     assert!(!view(&[s, "--cpu", "--vs-cpu"]).status.success());
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(headless_renders_on_the_gpu, common::gpu_need()),
+        trial!(what_the_gpu_does_not_do_is_a_clear_error),
+    ]
 }

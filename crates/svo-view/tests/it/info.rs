@@ -1,6 +1,8 @@
 //! `svo-view --info` on a file the library writes, and its errors on bad files.
 
 use std::process::Command;
+use svo_tests::harness::Test;
+use svo_tests::trial;
 
 fn view(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_svo-view"))
@@ -9,7 +11,6 @@ fn view(args: &[&str]) -> std::process::Output {
         .expect("run svo-view")
 }
 
-#[test]
 fn info_describes_a_file_and_errors_are_one_line() {
     let d = tempfile::tempdir().unwrap();
     let root = svo::RootCube {
@@ -76,7 +77,6 @@ fn info_describes_a_file_and_errors_are_one_line() {
     }
 }
 
-#[test]
 fn a_closed_stdout_ends_quietly() {
     // `svo-view file --info | head -1`: the reader has gone before the report is written.
     let d = tempfile::tempdir().unwrap();
@@ -110,7 +110,6 @@ fn a_closed_stdout_ends_quietly() {
 /// The conformance corpus (`fixtures/format/conformance/`): for every invalid file `--info`
 /// names the check it fails, by number and name, on one line; for a valid file it prints the
 /// header's fields: version, header length, where each array is, the checksum.
-#[test]
 fn info_names_the_failed_check_and_prints_the_header() {
     let dir =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/format/conformance");
@@ -158,4 +157,13 @@ fn info_names_the_failed_check_and_prints_the_header() {
     );
     let o = view(&[dir.join("valid-version-1.svo").to_str().unwrap(), "--info"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("format         version 1,"));
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(info_describes_a_file_and_errors_are_one_line),
+        trial!(a_closed_stdout_ends_quietly),
+        trial!(info_names_the_failed_check_and_prints_the_header),
+    ]
 }

@@ -3,6 +3,8 @@
 //! output left behind for bad input.
 
 use std::process::Command;
+use svo_tests::harness::Test;
+use svo_tests::trial;
 
 use crate::common;
 use common::torus_obj;
@@ -43,7 +45,6 @@ fn ok(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
-#[test]
 fn renders_colour_and_aovs() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -150,7 +151,41 @@ fn renders_colour_and_aovs() {
     assert!(std::fs::metadata(&exr).unwrap().len() > 100);
 }
 
-#[test]
+/// With any AOV and any output extension, `--compare` writes the reference in that AOV beside
+/// the output and the colour difference as the PNG `NAME.diff.png`.
+fn compare_writes_a_png_diff_for_every_aov() {
+    let d = tempfile::tempdir().unwrap();
+    let svo = torus_svo(d.path());
+    let obj = torus_obj();
+    for (aov, out, reference) in [
+        ("depth", "d.pfm", "d.reference.pfm"),
+        ("normal", "n.png", "n.reference.png"),
+        ("cost", "c.png", "c.reference.png"),
+    ] {
+        let report = ok(&view(&[
+            svo.to_str().unwrap(),
+            "--reference",
+            obj.to_str().unwrap(),
+            "--compare",
+            "--aov",
+            aov,
+            "-o",
+            d.path().join(out).to_str().unwrap(),
+            "--size",
+            "32x24",
+        ]));
+        let stem = out.split('.').next().unwrap();
+        let diff = d.path().join(format!("{stem}.diff.png"));
+        let bytes = std::fs::read(&diff).unwrap_or_else(|e| panic!("{aov}: {e}"));
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{aov}: not a PNG");
+        let img = image::load_from_memory(&bytes).unwrap();
+        assert_eq!((img.width(), img.height()), (32, 24), "{aov}");
+        assert!(d.path().join(reference).exists(), "{aov}");
+        assert!(!d.path().join(format!("{stem}.diff.pfm")).exists(), "{aov}");
+        assert!(report.contains(&diff.display().to_string()), "{report}");
+    }
+}
+
 fn compare_with_the_triangle_reference_and_bench() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -226,7 +261,6 @@ fn compare_with_the_triangle_reference_and_bench() {
     assert!(j["stats"]["primary_rays"].as_u64() == Some(256));
 }
 
-#[test]
 fn bad_input_gives_one_line_and_no_output() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -317,7 +351,6 @@ fn bad_input_gives_one_line_and_no_output() {
     );
 }
 
-#[test]
 fn stored_views_and_lights_are_used_unless_overridden() {
     use svo::mesh::{SceneInfo, StoredCamera, StoredLight};
     let d = tempfile::tempdir().unwrap();
@@ -404,7 +437,6 @@ fn stored_views_and_lights_are_used_unless_overridden() {
     );
 }
 
-#[test]
 fn a_scene_file_is_a_triangle_reference() {
     // The triangles svo-bake voxelizes from a scene file are its ground truth too.
     let d = tempfile::tempdir().unwrap();
@@ -460,7 +492,6 @@ fn a_scene_file_is_a_triangle_reference() {
 
 /// `--path-bounces` reaches the tracer: the copper torus reflects, and with no bounce a path
 /// no secondary ray is traced; a value out of range is a one-line error.
-#[test]
 fn path_bounce_limit_on_the_command_line() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
@@ -478,4 +509,17 @@ fn path_bounce_limit_on_the_command_line() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("path-bounces"), "{err}");
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![
+        trial!(renders_colour_and_aovs),
+        trial!(compare_writes_a_png_diff_for_every_aov),
+        trial!(compare_with_the_triangle_reference_and_bench),
+        trial!(bad_input_gives_one_line_and_no_output),
+        trial!(stored_views_and_lights_are_used_unless_overridden),
+        trial!(a_scene_file_is_a_triangle_reference),
+        trial!(path_bounce_limit_on_the_command_line),
+    ]
 }

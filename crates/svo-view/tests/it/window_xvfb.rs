@@ -1,12 +1,14 @@
 //! The window under Xvfb with lavapipe: `svo-view FILE` opens a window, renders a few frames
 //! (trace, blit, overlay), captures the window and exits. Without Xvfb or an adapter the
-//! test prints a notice and passes, except under CI (`CI` set), where both are installed by
-//! `.ci/run`.
+//! harness reports the test ignored, except under CI (`CI` set), where both are installed by
+//! `.ci/run` and their absence fails it.
 #![cfg(feature = "window")]
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+use svo_tests::harness::{Need, Test};
+use svo_tests::trial;
 
 use crate::common;
 use common::torus_svo;
@@ -52,7 +54,6 @@ fn start_xvfb() -> Option<Xvfb> {
     Some(x)
 }
 
-#[test]
 fn window_opens_renders_and_captures() {
     let Some(x) = start_xvfb() else {
         skip_or_fail("Xvfb is not installed or did not start (apt-get install xvfb)");
@@ -94,4 +95,13 @@ fn window_opens_renders_and_captures() {
         (40..120).any(|x| *img.get_pixel(x, 90) != corner),
         "no torus in the capture"
     );
+}
+
+/// This module's tests, with what each needs of the machine.
+pub(crate) fn trials() -> Vec<Test> {
+    vec![trial!(
+        window_opens_renders_and_captures,
+        Need::tool("Xvfb", "apt-get install xvfb"),
+        common::gpu_need()
+    )]
 }

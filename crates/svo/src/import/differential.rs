@@ -18,10 +18,11 @@ fn position_bits(m: &Mesh) -> Vec<[u64; 3]> {
 
 /// Our geometry-only OBJ reader stands in for tobj: on a file it takes, tobj must give the
 /// same mesh (positions to the bit, in the same order; the same triangles and materials).
+/// Returns whether our reader took the file.
 #[cfg(feature = "obj")]
-pub fn same_as_tobj(bytes: &[u8]) {
+pub fn same_as_tobj(bytes: &[u8]) -> bool {
     let Some(fast) = super::obj_geometry::parse(bytes) else {
-        return;
+        return false;
     };
     let reference = super::obj::obj_from_bytes_tobj(bytes, Path::new("fuzz"))
         .expect("tobj reads what our reader takes");
@@ -32,6 +33,7 @@ pub fn same_as_tobj(bytes: &[u8]) {
     );
     assert_eq!(fast.triangles, reference.triangles, "triangles differ");
     assert_eq!(fast.triangle_materials, reference.triangle_materials);
+    true
 }
 
 /// The PLY importer (which reads plain ASCII payloads by its own scan) and `ply-rs-bw` alone
@@ -57,6 +59,24 @@ pub fn same_as_ply_crate(bytes: &[u8]) {
             b.map(|m| m.triangles.len())
         ),
     }
+}
+
+/// Whether the PLY importer's own scan of plain ASCII payloads reads `bytes` (rather than
+/// handing them to `ply-rs-bw`).
+#[cfg(feature = "ply")]
+pub fn ply_ascii_scan_takes(bytes: &[u8]) -> bool {
+    use ply_rs_bw::parser::{Parser, Reader};
+    use ply_rs_bw::ply::DefaultElement;
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mut reader = Reader::new(&mut cursor);
+    let Ok(header) = Parser::<DefaultElement>::new().read_header(&mut reader) else {
+        return false;
+    };
+    let at = usize::try_from(reader.get_ref().position()).unwrap_or(usize::MAX);
+    bytes
+        .get(at..)
+        .and_then(|rest| super::ply_ascii::read_ascii_mesh(&header, rest))
+        .is_some()
 }
 
 #[cfg(test)]

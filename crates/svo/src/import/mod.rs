@@ -7,9 +7,13 @@
 //!
 //! Depends on [`crate::mesh`] only.
 
-// Public for the fuzz targets' re-export (`svo::fuzz_import`, under `cfg(fuzzing)` only).
-#[cfg(all(any(test, fuzzing), any(feature = "obj", feature = "ply")))]
-#[cfg_attr(not(fuzzing), allow(unreachable_pub))]
+// Public for the fuzz targets' and the repository's tests' re-export (`svo::fuzz_import`,
+// under `cfg(fuzzing)` or the hidden `differential` feature only).
+#[cfg(all(
+    any(test, fuzzing, feature = "differential"),
+    any(feature = "obj", feature = "ply")
+))]
+#[cfg_attr(not(any(fuzzing, feature = "differential")), allow(unreachable_pub))]
 pub mod differential;
 #[cfg(feature = "gltf")]
 pub(crate) mod gltf;
@@ -41,9 +45,11 @@ pub(crate) fn io_error(path: &Path, cause: std::io::Error) -> MeshError {
     allow(dead_code)
 )]
 pub(crate) fn parse_error(path: &Path, message: impl std::fmt::Display) -> MeshError {
+    // One line, whatever the parser wrote (ply-rs-bw's messages span several).
+    let message = message.to_string();
     MeshError::Parse {
         path: path.display().to_string(),
-        message: message.to_string(),
+        message: message.split_whitespace().collect::<Vec<_>>().join(" "),
     }
 }
 

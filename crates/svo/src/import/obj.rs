@@ -72,7 +72,7 @@ pub(crate) fn obj_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshErro
 
 /// Reads an OBJ from memory through tobj alone (what [`obj_from_bytes`] does for a file its
 /// own geometry reader declines): the reference that reader is tested against.
-#[cfg(any(test, fuzzing))]
+#[cfg(any(test, fuzzing, feature = "differential"))]
 pub(crate) fn obj_from_bytes_tobj(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_obj(bytes, name, None)
 }
@@ -136,6 +136,41 @@ fn huge_texture_or_normal_index(bytes: &[u8]) -> Option<usize> {
     None
 }
 
+/// The first line (1-based) at which tobj's parse of `bytes` fails, and tobj's error there:
+/// the shortest prefix of whole lines that tobj rejects ends with that line (tobj reads line
+/// by line; found by bisection, without material libraries). `None` when every prefix
+/// parses.
+fn failing_line(bytes: &[u8], opts: &tobj::LoadOptions) -> Option<(usize, tobj::LoadError)> {
+    let ends: Vec<usize> = bytes
+        .iter()
+        .enumerate()
+        .filter(|&(_, &b)| b == b'\n')
+        .map(|(i, _)| i + 1)
+        .chain((bytes.last() != Some(&b'\n')).then_some(bytes.len()))
+        .collect();
+    let parse = |lines: usize| {
+        let prefix = &bytes[..ends[lines - 1]];
+        tobj::load_obj_buf(&mut std::io::Cursor::new(prefix), opts, |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .err()
+    };
+    if ends.is_empty() {
+        return None;
+    }
+    let mut first = parse(ends.len())?;
+    // Invariant: the first `lo` lines parse, the first `hi` do not (tobj's error: `first`).
+    let (mut lo, mut hi) = (0, ends.len());
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        match parse(mid) {
+            Some(e) => (hi, first) = (mid, e),
+            None => lo = mid,
+        }
+    }
+    Some((hi, first))
+}
+
 /// Reads an OBJ through tobj; `dir` is where its MTL files and textures are, if anywhere.
 fn read_obj(bytes: &[u8], path: &Path, dir: Option<&Path>) -> Result<Mesh, MeshError> {
     if let Some(line) = huge_texture_or_normal_index(bytes) {
@@ -156,7 +191,10 @@ fn read_obj(bytes: &[u8], path: &Path, dir: Option<&Path>) -> Result<Mesh, MeshE
         None => Err(tobj::LoadError::OpenFileFailed),
     };
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, loader)
-        .map_err(|e| parse_error(path, e))?;
+        .map_err(|e| match failing_line(bytes, &opts) {
+        Some((line, first)) => parse_error(path, format!("line {line}: {first}")),
+        None => parse_error(path, e),
+    })?;
     // A missing or broken MTL file is not fatal: the default material is used.
     let materials = materials.unwrap_or_default();
 
@@ -291,6 +329,32 @@ pub(crate) fn load_texture(path: &Path) -> Option<Texture> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_parse_error_names_its_line() {
+        let cases = [
+            ("v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n", 3, "position"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0\nf 1//1 2//1 3//1\n",
+                4,
+                "normal",
+            ),
+            ("# c\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 q\n", 5, "face"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 1", 5, "position"),
+        ];
+        for (text, line, what) in cases {
+            let e = obj_from_bytes(text.as_bytes(), Path::new("t.obj"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("line {line}: {what}")), "{e}");
+        }
+        assert!(failing_line(b"v 0 0 0\n", &tobj::LoadOptions::default()).is_none());
+        // Two faults: the first line that fails, with its own error.
+        let e = obj_from_bytes(b"v 0 0 0\nv 1 0 0\nf 1 2 3\nv 1 1\n", Path::new("t.obj"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3: ") && !e.contains("position"), "{e}");
+    }
 
     #[test]
     fn texture_and_normal_indices_that_would_overflow_in_tobj_are_found() {

@@ -65,33 +65,6 @@ fn check(text: &[u8]) -> bool {
 }
 
 #[test]
-fn the_shared_meshes_read_the_same() {
-    for (file, gz) in [
-        ("stanford/stanford-bunny.obj", false),
-        ("stanford/dragon_vrip_res2.obj.gz", true),
-        ("classic/spot.obj", false),
-        ("classic/teapot.obj", false),
-    ] {
-        let Some(path) = svo_tests::model(file) else {
-            continue;
-        };
-        let raw = std::fs::read(&path).unwrap();
-        let bytes = if gz {
-            use std::io::Read;
-            let mut out = Vec::new();
-            flate2::read::GzDecoder::new(&raw[..])
-                .read_to_end(&mut out)
-                .unwrap();
-            out
-        } else {
-            raw
-        };
-        // Every one of these is geometry only, so the reader must take it.
-        assert!(check(&bytes), "{file}: the reader declined");
-    }
-}
-
-#[test]
 fn hand_made_cases() {
     // (file, whether the reader must take it)
     let cases: &[(&str, bool)] = &[

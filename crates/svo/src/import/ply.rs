@@ -123,7 +123,7 @@ pub(crate) fn ply_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshErro
 
 /// Reads a PLY from memory through the crate alone (what [`ply_from_bytes`] does for a file
 /// the ASCII fast path declines): the reference that fast path is tested against.
-#[cfg(any(test, fuzzing))]
+#[cfg(any(test, fuzzing, feature = "differential"))]
 pub(crate) fn ply_from_bytes_crate(bytes: &[u8], name: &Path) -> Result<Mesh, MeshError> {
     read_bytes(bytes, name, false)
 }

@@ -1,5 +1,6 @@
 //! Scene files: a small TOML format that `svo-bake scene.toml -o scene.svo` reads. A scene is
-//! meshes (any supported format, paths relative to the scene file) and primitives (boxes,
+//! meshes (any supported format, found beside the scene file, in `$SVO_MODELS` or in the
+//! scene's `models` folders) and primitives (boxes,
 //! spheres, rectangles), each with a transform, a material and optionally a name; boolean
 //! operations between named objects (`[[csg]]`, through `scene/csg.rs`); materials by preset or by a
 //! table of the file; point lights and named camera views (stored in the `.svo`); and bake
@@ -8,6 +9,7 @@
 //! ```toml
 //! depth = 8
 //! solid = "vote"                 # optional: closed or vote
+//! models = ["../meshes"]         # optional: more folders for mesh files (after $SVO_MODELS)
 //!
 //! [material.tiles]
 //! preset = "solid"               # void, glass, semi-solid, solid, water (default: solid)
@@ -99,8 +101,25 @@ pub enum SceneError {
         /// What is wrong and where.
         what: String,
     },
+    /// A `[[mesh]]`'s relative `file` is in none of the folders searched (see
+    /// [`load_scene`]).
+    #[error(
+        "scene {path}: mesh {index}: {file} is in none of {}{}",
+        list(tried),
+        MODELS_HINT
+    )]
+    MeshNotFound {
+        /// The scene file.
+        path: String,
+        /// Which `[[mesh]]`, from 0.
+        index: usize,
+        /// The `file` as written.
+        file: String,
+        /// The folders searched, in order.
+        tried: Vec<PathBuf>,
+    },
     /// A mesh of the scene could not be loaded.
-    #[error("scene {path}: mesh {index}: {source}")]
+    #[error("scene {path}: mesh {index}")]
     Mesh {
         /// The scene file.
         path: String,
@@ -237,6 +256,8 @@ struct CameraEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SceneFile {
+    #[serde(default)]
+    models: Vec<PathBuf>,
     depth: Option<u8>,
     solid: Option<String>,
     #[serde(default)]
@@ -474,7 +495,32 @@ fn boolean(_: &Mesh, _: &Mesh, _: CsgOp) -> Result<Mesh, String> {
     )
 }
 
+/// What [`SceneError::MeshNotFound`] suggests.
+const MODELS_HINT: &str = " (set SVO_MODELS to the folder that holds it)";
+
+/// `a, b, c` from paths.
+fn list(paths: &[PathBuf]) -> String {
+    let v: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    v.join(", ")
+}
+
+/// The folders in which a scene file at `dir` with top-level `models = [...]` looks for a
+/// mesh's relative `file`, in order (see [`load_scene`]).
+pub(crate) fn mesh_search_path(dir: &Path, models: &[PathBuf]) -> Vec<PathBuf> {
+    let mut v = vec![dir.to_path_buf()];
+    if let Some(list) = std::env::var_os("SVO_MODELS") {
+        v.extend(std::env::split_paths(&list).filter(|p| !p.as_os_str().is_empty()));
+    }
+    v.extend(models.iter().map(|m| dir.join(m)));
+    v
+}
+
 /// Loads a scene file.
+///
+/// A `[[mesh]]`'s relative `file` is looked for in the scene file's folder, then in each
+/// folder of the environment variable `SVO_MODELS` (a path list, separated as `PATH` is), then
+/// in each folder of the scene's top-level `models = [...]` (relative to the scene file); the
+/// first that holds it wins. An absolute `file` is used as it is.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|cause| SceneError::Io {
         path: path.display().to_string(),
@@ -507,7 +553,7 @@ pub(crate) fn parse_scene(text: &str, dir: &Path, name: &str) -> Result<Scene, S
                 .map_err(|_| b.invalid(format!("unknown solid mode {s:?} (closed, vote)")))?,
         ),
     };
-    b.meshes(&f.mesh, dir)?;
+    b.meshes(&f.mesh, &mesh_search_path(dir, &f.models))?;
     b.boxes(&f.boxes)?;
     b.spheres(&f.sphere)?;
     b.rectangles(&f.rectangle)?;
@@ -604,10 +650,20 @@ impl Objects<'_> {
         Ok(())
     }
 
-    /// The `[[mesh]]` entries: mesh files, relative to `dir`.
-    fn meshes(&mut self, entries: &[MeshEntry], dir: &Path) -> Result<(), SceneError> {
+    /// The `[[mesh]]` entries: mesh files, relative ones found along `search`.
+    fn meshes(&mut self, entries: &[MeshEntry], search: &[PathBuf]) -> Result<(), SceneError> {
         for (i, e) in entries.iter().enumerate() {
-            let file = dir.join(&e.file);
+            let found = if e.file.is_absolute() {
+                Some(e.file.clone())
+            } else {
+                search.iter().map(|d| d.join(&e.file)).find(|p| p.is_file())
+            };
+            let file = found.ok_or_else(|| SceneError::MeshNotFound {
+                path: self.name.to_string(),
+                index: i,
+                file: e.file.display().to_string(),
+                tried: search.to_vec(),
+            })?;
             let mesh = load_mesh(&file).map_err(|source| SceneError::Mesh {
                 path: self.name.to_string(),
                 index: i,

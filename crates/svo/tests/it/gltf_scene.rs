@@ -6,11 +6,81 @@
 use serde_json::{Value, json};
 use svo::{Mesh, MeshFormat};
 
-/// `Box-Embedded.gltf` (from `../shared/models`) with lights and cameras added.
-fn box_with(extra: impl FnOnce(&mut Value)) -> Option<Vec<u8>> {
-    let path = svo_tests::model("gltf/Box-Embedded.gltf")?;
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut j: Value = serde_json::from_str(&text).unwrap();
+/// A red unit box as glTF JSON and its binary buffer (8 corners, 12 triangles): the shape of
+/// the Khronos `Box` sample (a root node turned by a matrix, holding the mesh's node).
+fn box_gltf() -> (Value, Vec<u8>) {
+    let mut bin = Vec::new();
+    for i in 0..8u32 {
+        for axis in 0..3 {
+            let c: f32 = if i >> axis & 1 == 1 { 0.5 } else { -0.5 };
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    // Two triangles per face, corners as bit patterns (x = bit 0, y = bit 1, z = bit 2).
+    let faces: [[u16; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    for [a, b, c, d] in faces {
+        for i in [a, b, c, a, c, d] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    let j = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 96},
+            {"buffer": 0, "byteOffset": 96, "byteLength": 72}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+             "min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5]},
+            {"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"}
+        ],
+        "materials": [{"name": "Red", "pbrMetallicRoughness":
+            {"baseColorFactor": [0.8, 0.0, 0.0, 1.0], "metallicFactor": 0.0}}],
+        "meshes": [{"name": "Mesh", "primitives":
+            [{"attributes": {"POSITION": 0}, "indices": 1, "mode": 4, "material": 0}]}],
+        "nodes": [
+            {"children": [1], "matrix": [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0,
+                                         0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]},
+            {"mesh": 0}
+        ],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    (j, bin)
+}
+
+/// A binary glTF (GLB) of `json` and its buffer.
+fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut text = serde_json::to_vec(json).unwrap();
+    text.resize(text.len().next_multiple_of(4), b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut out = Vec::with_capacity(total);
+    let u32le = |v: usize| u32::try_from(v).unwrap().to_le_bytes();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&u32le(total));
+    out.extend_from_slice(&u32le(text.len()));
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&u32le(bin.len()));
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
+}
+
+/// [`box_gltf`] with lights and cameras added, then `extra`, as a GLB.
+fn box_with(extra: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let (mut j, bin) = box_gltf();
     j["extensionsUsed"] = json!(["KHR_lights_punctual"]);
     j["extensions"] = json!({"KHR_lights_punctual": {"lights": [
         {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 12.0},
@@ -36,14 +106,12 @@ fn box_with(extra: impl FnOnce(&mut Value)) -> Option<Vec<u8>> {
     ]);
     j["scenes"][0]["nodes"] = json!([0, base, base + 2, base + 3, base + 4, base + 5]);
     extra(&mut j);
-    Some(serde_json::to_vec(&j).unwrap())
+    glb(&j, &bin)
 }
 
 #[test]
 fn lights_and_cameras_are_placed_by_their_nodes() {
-    let Some(bytes) = box_with(|_| {}) else {
-        return;
-    };
+    let bytes = box_with(|_| {});
     let mesh = Mesh::from_bytes(&bytes, MeshFormat::Gltf).unwrap();
     let s = &mesh.scene;
     // The point light and the spot (as a point light); not the directional one.
@@ -123,7 +191,7 @@ fn malformed_lights_and_cameras_never_panic() {
         Box::new(|j| j["nodes"][5]["scale"] = json!([0.0, 0.0, 0.0])),
     ];
     for (i, f) in cases.iter().enumerate() {
-        let Some(bytes) = box_with(f) else { return };
+        let bytes = box_with(f);
         match Mesh::from_bytes(&bytes, MeshFormat::Gltf) {
             Ok(m) => m.scene.validate().unwrap(),
             Err(e) => assert!(!e.to_string().is_empty(), "case {i}"),
