@@ -392,6 +392,9 @@ fn bake_in_parts(
             level: plan.level,
             part_seconds: r.part_seconds.clone(),
             part_bytes: r.part_bytes,
+            resumed_parts: r.resumed_parts.len() as u32,
+            removed_folders: paths(&r.removed_folders),
+            other_folders: paths(&r.other_folders),
             merge: r.merge.clone(),
             peak_resident: peak_resident(),
         }),
@@ -417,4 +420,9 @@ fn load_input(job: &BakeJob, is_scene: bool) -> Result<(Mesh, SceneInfo, BakeOpt
     let mesh = Mesh::load(&job.input)?;
     let scene = mesh.scene.clone();
     Ok((mesh, scene, job.options.clone()))
+}
+
+/// Paths as the report prints them.
+fn paths(p: &[PathBuf]) -> Vec<String> {
+    p.iter().map(|p| p.display().to_string()).collect()
 }

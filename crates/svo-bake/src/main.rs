@@ -217,13 +217,62 @@ fn main() {
         {
             return;
         }
+        // Stopped by a signal: that thread says so and exits (the error is its doing).
+        if STOPPING.load(std::sync::atomic::Ordering::SeqCst) {
+            loop {
+                std::thread::park();
+            }
+        }
         eprintln!("svo-bake: error: {e:#}");
         std::process::exit(1);
     }
 }
 
+/// Set once a signal stops the program.
+static STOPPING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// On SIGINT (Ctrl-C) or SIGTERM (what Slurm sends at a time limit or on preemption): removes
+/// what the run left beside `output` (a bake's part files, an unfinished output; the
+/// previous output stays as it was), says so in one line and exits with 128 + the signal.
+#[cfg(unix)]
+fn stop_on_signals(output: &std::path::Path) -> anyhow::Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
+        .context("cannot watch for SIGINT and SIGTERM")?;
+    let output = output.to_path_buf();
+    std::thread::spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            STOPPING.store(true, std::sync::atomic::Ordering::SeqCst);
+            let removed = svo::bake::parts::remove_leftovers(&output);
+            let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
+            eprintln!(
+                "svo-bake: error: stopped by {name}: removed what it had begun beside {} ({} part folder(s) and unfinished file(s)); a previous file there is as it was",
+                output.display(),
+                removed.len()
+            );
+            std::process::exit(128 + sig);
+        }
+    });
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn stop_on_signals(_: &std::path::Path) -> anyhow::Result<()> {
+    Ok(())
+}
+
 fn real_main() -> anyhow::Result<()> {
     let args = Args::parse();
+    let written = match &args.command {
+        Some(Command::Plan { output, .. } | Command::Merge { output, .. }) => output.clone(),
+        Some(Command::Part { plan, index, .. }) => part_path(plan, *index),
+        None => args
+            .output
+            .clone()
+            .or_else(|| args.input.as_deref().map(default_output))
+            .unwrap_or_default(),
+    };
+    stop_on_signals(&written)?;
     match &args.command {
         Some(Command::Plan {
             mesh,

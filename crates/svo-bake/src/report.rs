@@ -21,6 +21,12 @@ pub struct PartsReport {
     pub part_seconds: Vec<f64>,
     /// Bytes of all part files together.
     pub part_bytes: u64,
+    /// Parts an interrupted earlier run of the same bake had finished, taken as they were.
+    pub resumed_parts: u32,
+    /// Part folders of earlier bakes into the same output with other settings, removed.
+    pub removed_folders: Vec<String>,
+    /// Part folders of bakes into other outputs beside this one, left alone.
+    pub other_folders: Vec<String>,
     /// The merge.
     pub merge: MergeReport,
     /// The process's peak resident set at the end (Linux `VmHWM`), bytes, if known.
@@ -185,7 +191,27 @@ impl BakeReport {
                 "{:.2} GiB",
                 b as f64 / GIB
             ))
-        )
+        )?;
+        if p.resumed_parts > 0 {
+            writeln!(
+                f,
+                "  resumed     {} of the {} parts from an interrupted run of this bake (checked whole)",
+                p.resumed_parts, p.parts
+            )?;
+        }
+        for d in &p.removed_folders {
+            writeln!(
+                f,
+                "  removed     {d} (the parts of an earlier bake into this output)"
+            )?;
+        }
+        for d in &p.other_folders {
+            writeln!(
+                f,
+                "  left alone  {d} (the parts of a bake into another output: removed when that output is baked again or its bake is stopped)"
+            )?;
+        }
+        Ok(())
     }
 }
 

@@ -717,6 +717,134 @@ fn scene_meshes_are_found_beside_in_svo_models_or_in_models() {
     assert!(err.contains("line 1: position parse error"), "{err}");
 }
 
+/// The hidden files beside an output: part folders and unfinished outputs.
+fn leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect()
+}
+
+/// A bake in parts stopped by SIGINT or SIGTERM at seeded random moments removes its part
+/// files and any unfinished output, leaves the previous output as it was and says so in one
+/// line; killed (SIGKILL), it leaves its parts, and the next run of the same bake resumes from
+/// them to the uninterrupted bake's bytes, removing the parts of a bake with other settings
+/// and reporting another output's.
+#[cfg(unix)]
+fn interrupted_bakes_clean_up_and_killed_ones_resume() {
+    use std::time::Instant;
+    let d = tmp();
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let (whole, out) = (d.path().join("whole.svo"), d.path().join("out.svo"));
+    let args = |o: &Path| -> Vec<String> {
+        [
+            s(&torus),
+            "--depth",
+            "10",
+            "--memory",
+            "16MiB",
+            "--threads",
+            "1",
+            "-o",
+            s(o),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let t = Instant::now();
+    let text = ok(&args(&whole).iter().map(String::as_str).collect::<Vec<_>>());
+    let full = t.elapsed();
+    assert!(text.contains(" parts at level "), "{text}");
+    let want = std::fs::read(&whole).unwrap();
+    let old = b"the previous output".to_vec();
+    let mut next = svo_tests::seeds::xorshift(svo_tests::seeds::seed(0x5167));
+    let mut at = || full.mul_f64((next() % 1000) as f64 / 1000.0 * 0.9 + 0.05);
+    let start = || {
+        bin()
+            .args(args(&out))
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let signal = |pid: u32, sig: &str| {
+        let st = Command::new("kill")
+            .args(["-s", sig, &pid.to_string()])
+            .status();
+        assert!(st.is_ok_and(|s| s.success()), "kill -s {sig}");
+    };
+    let mut stopped = Vec::new();
+    for (sig, code) in [("INT", 130), ("TERM", 143), ("INT", 130), ("TERM", 143)] {
+        std::fs::write(&out, &old).unwrap();
+        let child = start();
+        std::thread::sleep(at());
+        signal(child.id(), sig);
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        if o.status.success() {
+            // Done before the signal came: the whole new file.
+            assert!(std::fs::read(&out).unwrap() == want, "SIG{sig}");
+        } else {
+            assert_eq!(o.status.code(), Some(code), "SIG{sig}: {err}");
+            // One line of error (after the note that the bake goes into parts).
+            let errors: Vec<&str> = err.lines().filter(|l| l.contains("error")).collect();
+            assert_eq!(errors.len(), 1, "SIG{sig}: {err}");
+            assert!(
+                errors[0].starts_with(&format!("svo-bake: error: stopped by SIG{sig}")),
+                "{err}"
+            );
+            stopped.push(sig);
+            assert_eq!(std::fs::read(&out).unwrap(), old, "SIG{sig}");
+        }
+        assert_eq!(leftovers(d.path()), Vec::<String>::new(), "SIG{sig}");
+    }
+    assert!(
+        stopped.contains(&"INT") && stopped.contains(&"TERM"),
+        "{stopped:?}"
+    );
+    // Killed: the parts stay; the next run takes the finished ones and bakes the rest.
+    let mut resumed = 0;
+    for round in 0..4 {
+        std::fs::remove_file(&out).ok();
+        let mut child = start();
+        // Late in the bake, so that some parts are done.
+        std::thread::sleep(
+            full.mul_f64(0.5 + 0.1 * f64::from(round))
+                .min(at() + full / 2),
+        );
+        signal(child.id(), "KILL");
+        child.wait().unwrap();
+        let text = ok(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
+        resumed += usize::from(text.contains("  resumed "));
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "round {round}: {text}"
+        );
+        assert_eq!(leftovers(d.path()), Vec::<String>::new(), "round {round}");
+    }
+    assert!(resumed > 0, "no run found parts to resume");
+    // Another plan's parts for this output are removed; another output's are reported.
+    let stale = d.path().join(".svo-parts.out.svo.0123456789abcdef");
+    let other = d.path().join(".svo-parts.other.svo.0123456789abcdef");
+    for f in [&stale, &other] {
+        std::fs::create_dir_all(f).unwrap();
+        std::fs::write(f.join("00000.svopart"), b"junk").unwrap();
+    }
+    let text = ok(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(
+        text.contains(&format!("removed     {}", stale.display())),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("left alone  {}", other.display())),
+        "{text}"
+    );
+    assert!(!stale.exists() && other.exists());
+    assert!(std::fs::read(&out).unwrap() == want);
+}
+
 /// `--memory` bakes in parts into the same file as the bake in memory, and says so; plan,
 /// part and merge give it too; what no file can hold, a budget that the mesh alone exceeds,
 /// a bad size, a solid fill in parts and a part index past the plan are one clear line each.
@@ -858,5 +986,7 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line),
         trial!(scene_meshes_are_found_beside_in_svo_models_or_in_models),
         trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
+        #[cfg(unix)]
+        trial!(interrupted_bakes_clean_up_and_killed_ones_resume),
     ]
 }

@@ -7,13 +7,13 @@
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
 use crate::bake::parts::merge::{MergeFormat, MergeReport, merge_with};
-use crate::bake::parts::part::{bake_parts, touched_counts, write_part};
+use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
     BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes,
 };
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// What a bake within a memory budget did.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,13 +28,22 @@ pub struct PartsReport {
     pub merge: MergeReport,
     /// Degenerate triangles of the mesh (kept, as the bake in memory keeps them).
     pub degenerate_triangles: usize,
+    /// The parts a killed earlier run of the same bake had finished, taken as they were.
+    pub resumed_parts: Vec<u32>,
+    /// Part folders of earlier bakes into the same output with another plan, removed.
+    pub removed_folders: Vec<PathBuf>,
+    /// Part folders of bakes into other outputs found beside it, left alone (another bake
+    /// may be running into them; [`remove_leftovers`] removes an output's).
+    pub other_folders: Vec<PathBuf>,
 }
 
 /// Bakes `mesh` (read from `mesh_path`, which the plan names) into `output` within `budget`
 /// bytes of memory: enough parts that each one's estimated peak fits in the budget beside the
 /// mesh and the lists that bin its triangles to the parts, each baked in this
-/// process into a file in a temporary folder beside `output` and removed at the end, then
-/// merged. The same bytes as the bake in memory; `build` is what the file records of the
+/// process into a file in a folder beside `output` (`.svo-parts.NAME.HASH`, the plan's hash),
+/// then merged; the folder is removed at the end. A run killed before then leaves it: the
+/// next run of the same bake takes the parts it finished, checked whole, and bakes the rest;
+/// one with another plan removes it. The same bytes as the bake in memory; `build` is what the file records of the
 /// bake (`opts.max_memory` is not used). `progress` receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around
 /// the merge.
 pub fn bake_within(
@@ -52,14 +61,16 @@ pub fn bake_within(
         ..opts.clone()
     };
     let plan = plan_for_budget(mesh, mesh_path, &opts, budget, build)?;
-    let (merge, part_seconds, part_bytes, degenerate_triangles) =
-        bake_planned(mesh, &plan, output, progress)?;
+    let p = bake_planned(mesh, &plan, output, progress)?;
     Ok(PartsReport {
         plan,
-        part_seconds,
-        part_bytes,
-        merge,
-        degenerate_triangles,
+        part_seconds: p.part_seconds,
+        part_bytes: p.part_bytes,
+        merge: p.merge,
+        degenerate_triangles: p.degenerate,
+        resumed_parts: p.resumed,
+        removed_folders: p.removed,
+        other_folders: p.others,
     })
 }
 
@@ -164,43 +175,198 @@ fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError
     }
 }
 
-/// Bakes `plan` in this process into `output`: each part into a file in a temporary folder
-/// beside `output` (removed at the end, whatever happens), then the merge. `progress`
-/// receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around the merge.
-/// Returns the merge's report, each part's seconds, the part files' bytes and the number of
-/// degenerate triangles.
+/// What [`bake_planned`] did.
+pub(crate) struct Planned {
+    pub(crate) merge: MergeReport,
+    pub(crate) part_seconds: Vec<f64>,
+    pub(crate) part_bytes: u64,
+    pub(crate) degenerate: usize,
+    pub(crate) resumed: Vec<u32>,
+    pub(crate) removed: Vec<PathBuf>,
+    pub(crate) others: Vec<PathBuf>,
+}
+
+/// The name every part folder of a bake into `output` starts with: `.svo-parts.NAME.`, beside
+/// it.
+fn folder_prefix(output: &Path) -> String {
+    let name = output
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    format!(".svo-parts.{name}.")
+}
+
+/// The folder `output`'s parts of the plan with hash `plan_hash` are baked into:
+/// `.svo-parts.NAME.HASH` beside it, so that a later run of the same bake (the same mesh,
+/// options and parts) finds the parts a killed one finished.
+fn parts_folder(dir: &Path, output: &Path, plan_hash: u64) -> PathBuf {
+    dir.join(format!("{}{plan_hash:016x}", folder_prefix(output)))
+}
+
+/// The folder an output is written beside.
+fn output_dir(output: &Path) -> &Path {
+    match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Removes what interrupted bakes into `output` left beside it: the part folders of bakes
+/// within a memory budget (`.svo-parts.NAME.*`) and unfinished outputs (`.NAME.*.tmp`, which
+/// an atomic write renames over `output` only once whole). For a program that stops a bake on
+/// a signal; returns what it removed.
+pub fn remove_leftovers(output: &Path) -> Vec<PathBuf> {
+    let dir = output_dir(output);
+    let name = output
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let (parts, tmp) = (folder_prefix(output), format!(".{name}."));
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut removed = Vec::new();
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let path = e.path();
+        let gone = if file.starts_with(&parts) {
+            // A part may be renamed into the folder while it goes: try again.
+            (0..8).any(|_| std::fs::remove_dir_all(&path).is_ok() || !path.exists())
+        } else if file.starts_with(&tmp) && file.ends_with(".tmp") {
+            std::fs::remove_file(&path).is_ok()
+        } else {
+            false
+        };
+        if gone {
+            removed.push(path);
+        }
+    }
+    removed
+}
+
+/// Removes a folder when dropped (the part files, once merged or after an error).
+struct RemoveOnDrop(PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Prepares `output`'s part folder for `plan`: removes the folders of other bakes into
+/// `output` (an earlier run with other options or another mesh) and, inside its own, every
+/// file that is not a complete, undamaged part of this plan. Returns the folder, the parts
+/// it already holds, the folders removed and the part folders of other outputs found beside
+/// it (reported, not touched: another bake may be running into them).
+fn prepare_folder(output: &Path, plan: &BakePlan, hash: u64) -> Result<Folder, PartsError> {
+    let dir = output_dir(output);
+    let folder = parts_folder(dir, output, hash);
+    let mine = folder_prefix(output);
+    let (mut removed, mut others) = (Vec::new(), Vec::new());
+    for e in std::fs::read_dir(dir)
+        .map_err(|e| PartsError::io(dir, e))?
+        .flatten()
+    {
+        let (name, path) = (e.file_name().to_string_lossy().into_owned(), e.path());
+        if path == folder || !name.starts_with(".svo-parts.") {
+            continue;
+        }
+        if name.starts_with(&mine) {
+            std::fs::remove_dir_all(&path).map_err(|e| PartsError::io(&path, e))?;
+            removed.push(path);
+        } else {
+            others.push(path);
+        }
+    }
+    std::fs::create_dir_all(&folder).map_err(|e| PartsError::io(&folder, e))?;
+    let count = plan.part_count();
+    let mut resumed = Vec::new();
+    for e in std::fs::read_dir(&folder)
+        .map_err(|e| PartsError::io(&folder, e))?
+        .flatten()
+    {
+        let (name, path) = (e.file_name().to_string_lossy().into_owned(), e.path());
+        let index = name
+            .strip_suffix(".svopart")
+            .and_then(|n| n.parse::<u32>().ok())
+            .filter(|&i| i < count && name == part_name(i));
+        match index {
+            Some(i) if is_complete_part(&path, hash, i) => resumed.push(i),
+            _ => std::fs::remove_file(&path).map_err(|e| PartsError::io(&path, e))?,
+        }
+    }
+    resumed.sort_unstable();
+    others.sort();
+    Ok(Folder {
+        path: folder,
+        resumed,
+        removed,
+        others,
+    })
+}
+
+/// A bake's part folder, ready ([`prepare_folder`]).
+struct Folder {
+    path: PathBuf,
+    resumed: Vec<u32>,
+    removed: Vec<PathBuf>,
+    others: Vec<PathBuf>,
+}
+
+/// Part `i`'s file name inside the part folder.
+fn part_name(i: u32) -> String {
+    format!("{i:05}.svopart")
+}
+
+/// Bakes `plan` in this process into `output`: each part into a file in the part folder
+/// beside `output` ([`parts_folder`]; the parts a killed run of the same bake finished are
+/// kept and not baked again), then the merge; the folder is removed at the end, whatever
+/// happens, except when the process is killed. `progress` receives [`Phase::Part`] as each
+/// part ends and [`Phase::Merge`] around the merge.
 pub(crate) fn bake_planned(
     mesh: &Mesh,
     plan: &BakePlan,
     output: &Path,
     progress: &(dyn Fn(Phase, f64) + Sync),
-) -> Result<(MergeReport, Vec<f64>, u64, usize), PartsError> {
-    let dir = match output.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    check_disk(mesh, plan, dir)?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".svo-parts.")
-        .tempdir_in(dir)
-        .map_err(|e| PartsError::io(dir, e))?;
+) -> Result<Planned, PartsError> {
+    check_disk(mesh, plan, output_dir(output))?;
     let hash = xxhash_rust::xxh3::xxh3_64(&plan_to_bytes(plan));
-    let path_of = |i: u32| tmp.path().join(format!("{i:05}.svopart"));
+    let Folder {
+        path,
+        resumed,
+        removed,
+        others,
+    } = prepare_folder(output, plan, hash)?;
+    let guard = RemoveOnDrop(path);
+    let path_of = |i: u32| guard.0.join(part_name(i));
     let count = plan.part_count();
     let mut seconds = Vec::with_capacity(count as usize);
-    let mut bytes = 0;
+    let mut bytes: u64 = resumed
+        .iter()
+        .filter_map(|&i| std::fs::metadata(path_of(i)).ok())
+        .map(|m| m.len())
+        .sum();
+    let mut done = resumed.len() as u32;
     let mut t = std::time::Instant::now();
-    progress(Phase::Part, 0.0);
-    let degenerate = bake_parts(mesh, plan, hash, 0..count, &mut |i, part| {
+    progress(Phase::Part, f64::from(done) / f64::from(count));
+    let todo = (0..count).filter(|i| resumed.binary_search(i).is_err());
+    let degenerate = bake_parts(mesh, plan, hash, todo, &mut |i, part| {
         bytes += write_part(&part, &path_of(i))?;
         drop(part);
         seconds.push(t.elapsed().as_secs_f64());
         t = std::time::Instant::now();
-        progress(Phase::Part, f64::from(i + 1) / f64::from(count));
+        done += 1;
+        progress(Phase::Part, f64::from(done) / f64::from(count));
         Ok(())
     })?;
     progress(Phase::Merge, 0.0);
-    let merged = merge_with(plan, hash, &path_of, output, MergeFormat::Auto)?;
+    let merge = merge_with(plan, hash, &path_of, output, MergeFormat::Auto)?;
     progress(Phase::Merge, 1.0);
-    Ok((merged, seconds, bytes, degenerate))
+    Ok(Planned {
+        merge,
+        part_seconds: seconds,
+        part_bytes: bytes,
+        degenerate,
+        resumed,
+        removed,
+        others,
+    })
 }

@@ -26,7 +26,7 @@ pub(crate) mod plan;
 mod tests;
 
 pub use bins::BinsReport;
-pub use bounded::{PartsReport, bake_within};
+pub use bounded::{PartsReport, bake_within, remove_leftovers};
 pub use merge::{MergeFormat, MergeReport, merge_parts};
 pub use part::{PartReport, bake_part_file};
 pub use plan::{BakePlan, PartsError, part_path, plan_file};

@@ -561,6 +561,38 @@ pub(crate) fn write_part(part: &PartData, path: &Path) -> Result<u64, PartsError
     Ok(written)
 }
 
+/// Whether `path` holds the whole, undamaged part `index` of the plan whose hash is
+/// `plan_hash`: its header checks out and every array's bytes have the hash it records.
+pub(crate) fn is_complete_part(path: &Path, plan_hash: u64, index: u32) -> bool {
+    use std::io::{Seek, SeekFrom};
+    let Ok(h) = read_part_header(path) else {
+        return false;
+    };
+    if h.plan_hash != plan_hash || h.index != index {
+        return false;
+    }
+    let Ok(mut f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut buf = vec![0u8; 1 << 20];
+    h.arrays.iter().all(|a| {
+        let mut hasher = xxhash_rust::xxh3::Xxh3::new();
+        let mut left = a.len;
+        if f.seek(SeekFrom::Start(a.offset)).is_err() {
+            return false;
+        }
+        while left > 0 {
+            let n = usize::try_from(left.min(buf.len() as u64)).unwrap_or(buf.len());
+            if f.read_exact(&mut buf[..n]).is_err() {
+                return false;
+            }
+            hasher.update(&buf[..n]);
+            left -= n as u64;
+        }
+        hasher.digest() == a.hash
+    })
+}
+
 /// Reads and checks a part file's header: its magic, version and header hash, and that the
 /// file is as long as its arrays say (a truncated part is refused here). The arrays' hashes
 /// are checked as the merge copies them.
