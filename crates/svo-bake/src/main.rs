@@ -246,7 +246,7 @@ fn stop_on_signals(output: &std::path::Path) -> anyhow::Result<()> {
             let removed = svo::bake::parts::remove_leftovers(&output);
             let name = if sig == SIGINT { "SIGINT" } else { "SIGTERM" };
             eprintln!(
-                "svo-bake: error: stopped by {name}: removed what it had begun beside {} ({} part folder(s) and unfinished file(s)); a previous file there is as it was",
+                "svo-bake: error: stopped by {name}: removed what it had begun beside {} ({} part folder(s) and unfinished file(s)); that file is as it was, unless the bake had already put its new one in place",
                 output.display(),
                 removed.len()
             );

@@ -760,7 +760,6 @@ fn interrupted_bakes_clean_up_and_killed_ones_resume() {
     let want = std::fs::read(&whole).unwrap();
     let old = b"the previous output".to_vec();
     let mut next = svo_tests::seeds::xorshift(svo_tests::seeds::seed(0x5167));
-    let mut at = || full.mul_f64((next() % 1000) as f64 / 1000.0 * 0.9 + 0.05);
     let start = || {
         bin()
             .args(args(&out))
@@ -775,45 +774,61 @@ fn interrupted_bakes_clean_up_and_killed_ones_resume() {
             .status();
         assert!(st.is_ok_and(|s| s.success()), "kill -s {sig}");
     };
-    let mut stopped = Vec::new();
-    for (sig, code) in [("INT", 130), ("TERM", 143), ("INT", 130), ("TERM", 143)] {
-        std::fs::write(&out, &old).unwrap();
-        let child = start();
-        std::thread::sleep(at());
-        signal(child.id(), sig);
-        let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        if o.status.success() {
-            // Done before the signal came: the whole new file.
-            assert!(std::fs::read(&out).unwrap() == want, "SIG{sig}");
-        } else {
-            assert_eq!(o.status.code(), Some(code), "SIG{sig}: {err}");
-            // One line of error (after the note that the bake goes into parts).
-            let errors: Vec<&str> = err.lines().filter(|l| l.contains("error")).collect();
-            assert_eq!(errors.len(), 1, "SIG{sig}: {err}");
-            assert!(
-                errors[0].starts_with(&format!("svo-bake: error: stopped by SIG{sig}")),
-                "{err}"
-            );
-            stopped.push(sig);
-            assert_eq!(std::fs::read(&out).unwrap(), old, "SIG{sig}");
+    // Waits until the bake has begun its parts (its folder is there), then a seeded random
+    // share of the whole bake's time.
+    let in_parts = |share: f64| {
+        let t = Instant::now();
+        while leftovers(d.path())
+            .iter()
+            .all(|n| !n.starts_with(".svo-parts."))
+        {
+            assert!(t.elapsed() < full * 20, "no part folder appeared");
+            std::thread::sleep(std::time::Duration::from_millis(2));
         }
-        assert_eq!(leftovers(d.path()), Vec::<String>::new(), "SIG{sig}");
+        std::thread::sleep(full.mul_f64(share));
+    };
+    // Each signal stops at least two runs, at seeded random moments; a run that finished
+    // first (the signal came after its output was in place) is not counted.
+    for (sig, code) in [("INT", 130), ("TERM", 143)] {
+        let mut stopped = 0;
+        for attempt in 0..12 {
+            if stopped == 2 {
+                break;
+            }
+            std::fs::write(&out, &old).unwrap();
+            let child = start();
+            in_parts((next() % 1000) as f64 / 1000.0 * 0.6);
+            signal(child.id(), sig);
+            let o = child.wait_with_output().unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            let now = std::fs::read(&out).unwrap();
+            if o.status.success() {
+                assert!(now == want, "SIG{sig} attempt {attempt}");
+            } else {
+                assert_eq!(o.status.code(), Some(code), "SIG{sig}: {err}");
+                // One line of error (after the note that the bake goes into parts).
+                let errors: Vec<&str> = err.lines().filter(|l| l.contains("error")).collect();
+                assert_eq!(errors.len(), 1, "SIG{sig}: {err}");
+                assert!(
+                    errors[0].starts_with(&format!("svo-bake: error: stopped by SIG{sig}")),
+                    "{err}"
+                );
+                // The previous output, or the whole new one if the signal came as it was
+                // renamed into place.
+                assert!(now == old || now == want, "SIG{sig} attempt {attempt}");
+                stopped += usize::from(now == old);
+            }
+            assert_eq!(leftovers(d.path()), Vec::<String>::new(), "SIG{sig}");
+        }
+        assert_eq!(stopped, 2, "SIG{sig} stopped {stopped} of the runs");
     }
-    assert!(
-        stopped.contains(&"INT") && stopped.contains(&"TERM"),
-        "{stopped:?}"
-    );
     // Killed: the parts stay; the next run takes the finished ones and bakes the rest.
     let mut resumed = 0;
     for round in 0..4 {
         std::fs::remove_file(&out).ok();
         let mut child = start();
-        // Late in the bake, so that some parts are done.
-        std::thread::sleep(
-            full.mul_f64(0.5 + 0.1 * f64::from(round))
-                .min(at() + full / 2),
-        );
+        // Late enough that some parts are done, at times into the merge.
+        in_parts(0.3 + (next() % 1000) as f64 / 1000.0 * 0.6);
         signal(child.id(), "KILL");
         child.wait().unwrap();
         let text = ok(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
