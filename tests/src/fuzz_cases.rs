@@ -59,7 +59,9 @@ pub fn mesh_import(data: &[u8]) {
     // kept inputs).
     #[cfg(fuzzing)]
     match format {
-        MeshFormat::Obj => svo::fuzz_import::same_as_tobj(bytes),
+        MeshFormat::Obj => {
+            svo::fuzz_import::same_as_tobj(bytes);
+        }
         MeshFormat::Ply => svo::fuzz_import::same_as_ply_crate(bytes),
         _ => {}
     }
