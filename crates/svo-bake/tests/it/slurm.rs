@@ -23,17 +23,12 @@ const TOOLS: [&str; 7] = [
     "sinfo",
 ];
 
-/// The full path of `tool` on the PATH or in the system folders, if it is there.
-fn find(tool: &str) -> Option<PathBuf> {
-    svo_tests::find_tool(tool)
-}
-
 /// Slurm's and munge's programs, and root (the cluster's daemons run as root).
 fn slurm_need() -> Need {
     Need::new(
         "Slurm and munge, run as root (apt-get install slurm-wlm munge)",
         || {
-            if let Some(t) = TOOLS.iter().find(|t| find(t).is_none()) {
+            if let Some(t) = TOOLS.iter().find(|t| svo_tests::find_tool(t).is_none()) {
                 return Err(format!("{t} is not installed"));
             }
             let uid = Command::new("id")

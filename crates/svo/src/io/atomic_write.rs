@@ -11,17 +11,14 @@
 //! first, the kernel lets go of it at exit. Nothing is left behind either way.
 
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Writes `path` atomically with what `write` produces.
 pub(crate) fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -57,24 +54,41 @@ pub(crate) fn write_atomic(
             .name("svo-unlink".into())
             .spawn(move || drop(old));
     }
-    remove_stale(dir, &prefix);
+    remove_stale(path);
     Ok(())
 }
 
-/// Removes what killed writes of the same file left in `dir`: `PREFIX` + six random
-/// characters + `.tmp`, as the temporary files here are named.
-fn remove_stale(dir: &Path, prefix: &str) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
+/// The folder `path` is written in (`.` for a bare file name).
+pub(crate) fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Removes what killed writes of `path` left beside it: `.NAME.` + six random characters +
+/// `.tmp`, as [`write_atomic`] names its temporary files. Returns what it removed.
+pub(crate) fn remove_stale(path: &Path) -> Vec<PathBuf> {
+    let prefix = format!(
+        ".{}.",
+        path.file_name().unwrap_or_default().to_string_lossy()
+    );
+    let Ok(entries) = std::fs::read_dir(parent_dir(path)) else {
+        return Vec::new();
     };
+    let mut removed = Vec::new();
     for e in entries.flatten() {
         let name = e.file_name();
         let name = name.to_string_lossy();
-        if name.len() == prefix.len() + 6 + 4 && name.starts_with(prefix) && name.ends_with(".tmp")
+        if name.len() == prefix.len() + 6 + 4
+            && name.starts_with(&prefix)
+            && name.ends_with(".tmp")
+            && std::fs::remove_file(e.path()).is_ok()
         {
-            let _ = std::fs::remove_file(e.path());
+            removed.push(e.path());
         }
     }
+    removed
 }
 
 /// Files below this size are freed faster than a thread starts.

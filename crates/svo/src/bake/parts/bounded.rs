@@ -11,6 +11,7 @@ use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, wri
 use crate::bake::parts::plan::{
     BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes,
 };
+use crate::io::atomic_write::{parent_dir, remove_stale};
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
 use std::path::{Path, PathBuf};
@@ -202,40 +203,22 @@ fn parts_folder(dir: &Path, output: &Path, plan_hash: u64) -> PathBuf {
     dir.join(format!("{}{plan_hash:016x}", folder_prefix(output)))
 }
 
-/// The folder an output is written beside.
-fn output_dir(output: &Path) -> &Path {
-    match output.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    }
-}
-
 /// Removes what interrupted bakes into `output` left beside it: the part folders of bakes
 /// within a memory budget (`.svo-parts.NAME.*`) and unfinished outputs (`.NAME.*.tmp`, which
 /// an atomic write renames over `output` only once whole). For a program that stops a bake on
 /// a signal; returns what it removed.
 pub fn remove_leftovers(output: &Path) -> Vec<PathBuf> {
-    let dir = output_dir(output);
-    let name = output
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let (parts, tmp) = (folder_prefix(output), format!(".{name}."));
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Vec::new();
+    let prefix = folder_prefix(output);
+    let mut removed = remove_stale(output);
+    let Ok(entries) = std::fs::read_dir(parent_dir(output)) else {
+        return removed;
     };
-    let mut removed = Vec::new();
     for e in entries.flatten() {
-        let file = e.file_name().to_string_lossy().into_owned();
         let path = e.path();
-        let gone = if file.starts_with(&parts) {
-            // A part may be renamed into the folder while it goes: try again.
-            (0..8).any(|_| std::fs::remove_dir_all(&path).is_ok() || !path.exists())
-        } else if file.starts_with(&tmp) && file.ends_with(".tmp") {
-            std::fs::remove_file(&path).is_ok()
-        } else {
-            false
-        };
-        if gone {
+        // A part may be renamed into the folder while it goes: try again.
+        if e.file_name().to_string_lossy().starts_with(&prefix)
+            && (0..8).any(|_| std::fs::remove_dir_all(&path).is_ok() || !path.exists())
+        {
             removed.push(path);
         }
     }
@@ -257,7 +240,7 @@ impl Drop for RemoveOnDrop {
 /// it already holds, the folders removed and the part folders of other outputs found beside
 /// it (reported, not touched: another bake may be running into them).
 fn prepare_folder(output: &Path, plan: &BakePlan, hash: u64) -> Result<Folder, PartsError> {
-    let dir = output_dir(output);
+    let dir = parent_dir(output);
     let folder = parts_folder(dir, output, hash);
     let mine = folder_prefix(output);
     let (mut removed, mut others) = (Vec::new(), Vec::new());
@@ -327,7 +310,7 @@ pub(crate) fn bake_planned(
     output: &Path,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<Planned, PartsError> {
-    check_disk(mesh, plan, output_dir(output))?;
+    check_disk(mesh, plan, parent_dir(output))?;
     let hash = xxhash_rust::xxh3::xxh3_64(&plan_to_bytes(plan));
     let Folder {
         path,
