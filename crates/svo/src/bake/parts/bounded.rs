@@ -204,7 +204,7 @@ fn parts_folder(dir: &Path, output: &Path, plan_hash: u64) -> PathBuf {
 }
 
 /// Removes what interrupted bakes into `output` left beside it: the part folders of bakes
-/// within a memory budget (`.svo-parts.NAME.*`) and unfinished outputs (`.NAME.*.tmp`, which
+/// within a memory budget (`.svo-parts.NAME.*`) and unfinished outputs (`.NAME.XXXXXX.tmp`, which
 /// an atomic write renames over `output` only once whole). For a program that stops a bake on
 /// a signal; returns what it removed.
 pub fn remove_leftovers(output: &Path) -> Vec<PathBuf> {
