@@ -1,6 +1,6 @@
 //! The bake held to the exact oracle ([`crate::oracle`]): the cells a bake keeps are exactly
-//! those its triangles touch, every strategy's triangle lists agree, and the size estimate
-//! bounds the leaves.
+//! those its triangles touch, every strategy's triangle lists agree, and the size estimate's
+//! bound holds.
 
 use crate::oracle::{grid_triangles, touched_cells};
 use std::collections::{BTreeMap, BTreeSet};
@@ -8,10 +8,10 @@ use svo::bake::voxelize_mesh;
 use svo::{BakeOptions, Mesh, Strategy, bake_mesh};
 
 /// Bakes `mesh` at `depth` and checks it against the oracle; returns the number of cells.
-/// Where `bounded`, the size estimate must be at least the oracle's leaf count (it is for
-/// general meshes; triangles laid along cell faces and edges touch more cells than their
-/// area and perimeter count, so there it may be below).
-pub fn check(mesh: &Mesh, depth: u8, what: &str, bounded: bool) -> usize {
+/// The size estimate's `max_leaves` must be at least the oracle's leaf count for every mesh;
+/// where `general` (no triangle laid along cell faces and edges, which touch more cells than
+/// their area and perimeter count), so must its `leaves`.
+pub fn check(mesh: &Mesh, depth: u8, what: &str, general: bool) -> usize {
     let (tree, _) = bake_mesh(
         mesh,
         &BakeOptions {
@@ -32,16 +32,22 @@ pub fn check(mesh: &Mesh, depth: u8, what: &str, bounded: bool) -> usize {
         "{what}: duplicate leaves"
     );
     compare_cells(&got, &want_cells, &format!("{what}, bake at depth {depth}"));
-    // The size estimate that memory checks rely on is an upper bound on the leaves.
     let opts = BakeOptions {
         depth,
         ..Default::default()
     };
-    let estimate = svo::bake::estimate_bake(mesh, &opts).unwrap().leaves;
+    let estimate = svo::bake::estimate_bake(mesh, &opts).unwrap();
+    let touched = want_cells.len() as f64;
     assert!(
-        !bounded || estimate >= want_cells.len() as f64,
-        "{what}: estimated {estimate} leaves, the oracle finds {}",
-        want_cells.len()
+        estimate.max_leaves >= touched && estimate.max_leaves >= estimate.leaves,
+        "{what}: at most {} leaves (estimated {}), the oracle finds {touched}",
+        estimate.max_leaves,
+        estimate.leaves
+    );
+    assert!(
+        !general || estimate.leaves >= touched,
+        "{what}: estimated {} leaves, the oracle finds {touched}",
+        estimate.leaves
     );
 
     for strategy in Strategy::ALL {

@@ -364,6 +364,7 @@ fn bake_in_parts(
         nodes: merge.nodes as usize,
         leaves: merge.leaves as usize,
         estimated_leaves: plan.estimated_leaves,
+        max_leaves: plan.max_leaves,
         overlap_tests: merge.overlap_tests,
         leaf_triangle_pairs: merge.leaf_triangle_pairs as usize,
         false_positives: merge.false_positives as usize,

@@ -315,7 +315,7 @@ fn plan(
         .with_context(|| format!("planning the bake of {}", mesh.display()))?;
     say!(
         "{}: {} parts of the subtrees at level {} (depth {}; about {:.3e} leaves in all, \
-         the largest part {:.3e})",
+         the largest part at most {:.3e})",
         output.display(),
         plan.part_count(),
         plan.level,

@@ -85,8 +85,8 @@ impl BakeReport {
         )?;
         writeln!(
             f,
-            "  tree        {} nodes, {} leaves (estimated {:.0}), {} triangle/leaf pairs",
-            self.nodes, self.leaves, b.estimated_leaves, b.leaf_triangle_pairs
+            "  tree        {} nodes, {} leaves (estimated {:.0}, at most {:.0}), {} triangle/leaf pairs",
+            self.nodes, self.leaves, b.estimated_leaves, b.max_leaves, b.leaf_triangle_pairs
         )?;
         if let Some(mode) = &b.solid {
             writeln!(

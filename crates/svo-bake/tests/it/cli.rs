@@ -946,7 +946,7 @@ fn memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly() {
     let o = s(&out);
     fails(
         &[s(&torus), "--depth", "24", "--memory", "8GiB", "-o", o],
-        "more than 65536 parts of 2^30 leaves",
+        "more than 65536 parts of 2^31 leaves hold",
     );
     fails(
         &[s(&torus), "--depth", "18", "--memory", "8GiB", "-o", o],

@@ -27,29 +27,29 @@ pub enum BakeError {
         /// The requested depth.
         depth: u8,
     },
-    /// The estimated memory exceeds the limit.
+    /// The memory the bake may need exceeds the limit.
     #[error(
-        "depth {depth} would make about {leaves:.3e} leaves and need about {gib:.1} GiB, more than the {limit_gib:.1} GiB allowed"
+        "depth {depth} could make up to {leaves:.3e} leaves and need up to {gib:.1} GiB, more than the {limit_gib:.1} GiB allowed"
     )]
     TooLarge {
         /// The requested depth.
         depth: u8,
-        /// Estimated leaves.
+        /// The most leaves the bake can make ([`Estimate::max_leaves`](crate::bake::Estimate)).
         leaves: f64,
-        /// Estimated peak memory, GiB.
+        /// Peak memory for that many leaves, GiB.
         gib: f64,
         /// The limit, GiB.
         limit_gib: f64,
     },
-    /// The estimated leaves exceed what one tree in memory holds (2^31).
+    /// The bake could make more leaves than one tree in memory holds (2^31).
     #[error(
-        "depth {depth} would make about {leaves:.3e} leaves, more than one tree in memory holds \
+        "depth {depth} could make up to {leaves:.3e} leaves, more than one tree in memory holds \
          (2^31): bake to .svo in parts (past 2^31 leaves the file is format version 3), or at a lower depth"
     )]
     TooManyLeaves {
         /// The requested depth.
         depth: u8,
-        /// Estimated leaves.
+        /// The most leaves the bake can make ([`Estimate::max_leaves`](crate::bake::Estimate)).
         leaves: f64,
     },
     /// A closed-mesh solid bake of a mesh with open edges.
@@ -141,6 +141,8 @@ pub struct BakeStats {
     pub leaves: usize,
     /// Leaves estimated before the bake.
     pub estimated_leaves: f64,
+    /// The most leaves the bake could make, known before it ([`crate::bake::Estimate`]).
+    pub max_leaves: f64,
     /// Triangle/cell overlap tests run: the tests of children and cells the voxelizer
     /// decided by testing. Contacts it proved without a test are not counted: a triangle
     /// whose bounds lie inside one child (filed there by the split's shortcut) and a sliced
@@ -199,7 +201,7 @@ pub(crate) fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, Esti
         const GIB: f64 = (1u64 << 30) as f64;
         return Err(BakeError::TooLarge {
             depth: opts.depth,
-            leaves: est.leaves,
+            leaves: est.max_leaves,
             gib: est.bytes / GIB,
             limit_gib: limit as f64 / GIB,
         });
@@ -207,9 +209,9 @@ pub(crate) fn prepare(mesh: &Mesh, opts: &BakeOptions) -> Result<(RootCube, Esti
     Ok((root, est))
 }
 
-/// The leaves and peak memory a bake of `mesh` with `opts` would have, estimated (an upper
-/// estimate of the surface; a solid fill adds its interior) after the same checks the bake
-/// makes, but without its memory limit.
+/// The leaves a bake of `mesh` with `opts` would make, estimated and bounded, and its peak
+/// memory for the bound (of the surface; a solid fill adds its interior), after the same
+/// checks the bake makes, but without its memory limit.
 pub fn estimate_bake(mesh: &Mesh, opts: &BakeOptions) -> Result<Estimate, BakeError> {
     let opts = BakeOptions {
         max_memory: None,
@@ -304,10 +306,10 @@ pub(crate) fn bake_for_file(
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<(Octree, BakeStats), BakeError> {
     let (root, est) = prepare(mesh, opts)?;
-    if est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
+    if est.max_leaves > crate::octree::validate::MAX_LEAVES as f64 {
         return Err(BakeError::TooManyLeaves {
             depth: opts.depth,
-            leaves: est.leaves,
+            leaves: est.max_leaves,
         });
     }
     let t0 = Instant::now();
@@ -372,6 +374,7 @@ pub(crate) fn bake_for_file(
         nodes: tree.nodes.len(),
         leaves: tree.leaf_count as usize,
         estimated_leaves: est.leaves,
+        max_leaves: est.max_leaves,
         overlap_tests: tests,
         leaf_triangle_pairs: pairs as usize,
         false_positives,

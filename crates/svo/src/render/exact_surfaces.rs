@@ -135,26 +135,31 @@ impl LeafShape for ExactLeaves {
     }
 }
 
-/// Ray/triangle intersection (Möller and Trumbore), two-sided, edges inclusive.
+/// Ray/triangle intersection (Möller and Trumbore), two-sided, edges inclusive, computed in
+/// `f64`: the parameter of a ray that meets the triangle at a grazing angle is ill-conditioned
+/// (its rounding error grows as one over the angle's cosine), and in `f32` it can be off by
+/// thousandths of a cell where the triangle reference is right.
 #[inline]
 fn moller_trumbore(ray: &GridRay, a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (origin, dir) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
     let e1 = b - a;
     let e2 = c - a;
-    let p = ray.dir.cross(e2);
+    let p = dir.cross(e2);
     let det = e1.dot(p);
     if det == 0.0 || !det.is_finite() {
         return None;
     }
     let inv = 1.0 / det;
-    let s = ray.origin - a;
+    let s = origin - a;
     let u = s.dot(p) * inv;
     if !(0.0..=1.0).contains(&u) {
         return None;
     }
     let q = s.cross(e1);
-    let v = ray.dir.dot(q) * inv;
+    let v = dir.dot(q) * inv;
     if v < 0.0 || u + v > 1.0 {
         return None;
     }
-    Some(e2.dot(q) * inv)
+    Some((e2.dot(q) * inv) as f32)
 }

@@ -423,14 +423,29 @@ fn torus_tree(depth: u8) -> Octree {
 #[test]
 fn exact_hits_equal_the_triangle_reference() {
     // Every triangle that touches a leaf is in its list, so the exact mode must find the
-    // same first hit as the BVH over all triangles, on every ray.
+    // same first hit as the BVH over all triangles, on every ray. The reference computes its
+    // parameter in `f32`, which at grazing angles is off by up to thousandths of a cell;
+    // where the two differ by more than 1e-4, the exact mode is held to the first hit over
+    // all triangles computed in `f64`.
     let mesh = torus_mesh();
     let tree = torus_tree(5);
     let exact = exact_surfaces(&tree, &mesh).unwrap();
+    let grid: Vec<[DVec3; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            t.map(|i| {
+                tree.root
+                    .to_grid(mesh.positions[i as usize], tree.depth)
+                    .as_vec3()
+                    .as_dvec3()
+            })
+        })
+        .collect();
     let tris = MeshSurfaces::new(mesh, tree.root, tree.depth);
     let mut rng = common::rng(0xE8AC7);
     let n = 32.0f32;
-    let mut hits = 0;
+    let (mut hits, mut grazing) = (0, 0);
     for _ in 0..20_000 {
         let ray = ray_into(&mut rng, n, 8.0);
         let a = exact.closest(&ray, &Query::all(1 << 16));
@@ -439,17 +454,37 @@ fn exact_hits_equal_the_triangle_reference() {
             (None, None) => {}
             (Some(x), Some(y)) => {
                 hits += 1;
-                assert!(
-                    (x.t - y.t).abs() < 1e-3,
-                    "{ray:?}: exact {} vs reference {}",
-                    x.t,
-                    y.t
-                );
+                if (x.t - y.t).abs() >= 1e-4 {
+                    grazing += 1;
+                    let truth = first_hit_f64(&grid, &ray).expect("the reference hit");
+                    assert!(
+                        (f64::from(x.t) - truth).abs() < 1e-4,
+                        "{ray:?}: exact {} vs reference {} and f64 {truth}",
+                        x.t,
+                        y.t
+                    );
+                }
             }
             (x, y) => panic!("{ray:?}: exact {x:?} vs reference {y:?}"),
         }
     }
+    println!("{hits} hits, {grazing} beyond 1e-4 of the f32 reference");
     assert!(hits > 3000, "{hits}");
+}
+
+/// The first hit of `ray` (from `t = 0`) over all `tris`, two-sided, edges inclusive, in `f64`.
+fn first_hit_f64(tris: &[[DVec3; 3]], ray: &svo::trace::GridRay) -> Option<f64> {
+    let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+    let hit = |[a, b, c]: &[DVec3; 3]| {
+        let (e1, e2) = (*b - *a, *c - *a);
+        let p = d.cross(e2);
+        let inv = 1.0 / e1.dot(p);
+        let s = o - *a;
+        let q = s.cross(e1);
+        let (u, v, t) = (s.dot(p) * inv, d.dot(q) * inv, e2.dot(q) * inv);
+        (inv.is_finite() && u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= 0.0).then_some(t)
+    };
+    tris.iter().filter_map(hit).min_by(f64::total_cmp)
 }
 
 #[test]

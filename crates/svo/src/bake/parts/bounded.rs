@@ -9,7 +9,7 @@ use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
 use crate::bake::parts::merge::{MergeFormat, MergeReport, merge_with};
 use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
-    BakePlan, MAX_PARTS, PartsError, least_parts, plan_bake, plan_to_bytes,
+    BakePlan, MAX_PARTS, PART_LEAVES, PartsError, least_parts, plan_bake, plan_to_bytes,
 };
 use crate::io::atomic_write::{parent_dir, remove_stale};
 use crate::io::header::BuildInfo;
@@ -75,10 +75,10 @@ pub fn bake_within(
     })
 }
 
-/// The plan of `mesh`'s bake for a memory budget: enough parts that each one's estimated
-/// peak (its leaves and the setup of its own triangles) fits in `budget` bytes beside the
-/// mesh and the lists that bin its triangles to the parts, and that each holds about 2^30
-/// leaves at most.
+/// The plan of `mesh`'s bake for a memory budget: enough parts that each one's peak for the
+/// most leaves it can make, with the setup of its own triangles, fits in `budget` bytes beside
+/// the mesh and the lists that bin its triangles to the parts, and that none can make more
+/// than 2^31 leaves.
 pub(crate) fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -99,14 +99,14 @@ pub(crate) fn plan_for_budget(
         });
     }
     // Enough parts for the budget, and at least what a plan needs.
-    let least = least_parts(est.leaves);
+    let least = least_parts(est.max_leaves);
     if least > f64::from(MAX_PARTS) {
         return Err(PartsError::TooManyParts {
             depth: opts.depth,
-            leaves: est.leaves,
+            leaves: est.max_leaves,
         });
     }
-    let mut parts = (est.leaves * BYTES_PER_LEAF / room)
+    let mut parts = (est.max_leaves * BYTES_PER_LEAF / room)
         .max(least)
         .ceil()
         .max(1.0) as u32;
@@ -124,9 +124,10 @@ pub(crate) fn plan_for_budget(
             .parts
             .iter()
             .zip(touched_counts(mesh, &plan))
-            .map(|(p, t)| p.estimated_leaves * BYTES_PER_LEAF + t as f64 * BYTES_PER_TRIANGLE)
+            .map(|(p, t)| p.max_leaves * BYTES_PER_LEAF + t as f64 * BYTES_PER_TRIANGLE)
             .fold(0.0, f64::max);
-        if largest <= room || parts >= MAX_PARTS {
+        let fits = largest <= room && plan.largest_part_leaves() <= PART_LEAVES;
+        if fits || parts >= MAX_PARTS {
             return Ok(plan);
         }
         // A subtree larger than a part's share cannot be split: more parts stop helping.

@@ -15,7 +15,7 @@
 //! part of another plan is refused.
 
 use crate::bake::bake_mesh::{BakeError, BakeOptions, prepare};
-use crate::bake::estimate::triangle_cells;
+use crate::bake::estimate::triangle_cells_bound;
 use crate::geometry::grid::RootCube;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::BuildInfo;
@@ -30,12 +30,15 @@ use thiserror::Error;
 /// The first bytes of a plan file.
 const PLAN_MAGIC: [u8; 8] = *b"\x89SVOPLN\n";
 /// The plan file's version.
-const PLAN_VERSION: u32 = 1;
-/// The fewest parts for `leaves` estimated leaves: a part holds at most 2^31 leaves, and the
-/// estimate is not an upper bound, so parts of 2^30 on average.
-pub(crate) fn least_parts(leaves: f64) -> f64 {
-    (leaves / f64::from(1u32 << 30)).ceil()
+const PLAN_VERSION: u32 = 2;
+/// The fewest parts for at most `max_leaves` leaves ([`crate::bake::Estimate::max_leaves`]):
+/// a part holds at most 2^31 leaves.
+pub(crate) fn least_parts(max_leaves: f64) -> f64 {
+    (max_leaves / PART_LEAVES).ceil()
 }
+
+/// The most leaves a part holds.
+pub(crate) const PART_LEAVES: f64 = (1u64 << 31) as f64;
 
 /// The most parts a plan may have.
 pub(crate) const MAX_PARTS: u32 = 1 << 16;
@@ -109,14 +112,14 @@ pub enum PartsError {
         /// The budget, GiB.
         budget_gib: f64,
     },
-    /// The tree needs more parts than a plan may have.
+    /// The tree may need more parts than a plan may have.
     #[error(
-        "depth {depth} would make about {leaves:.3e} leaves, more than 65536 parts of 2^30 leaves"
+        "depth {depth} could make up to {leaves:.3e} leaves, more than 65536 parts of 2^31 leaves hold"
     )]
     TooManyParts {
         /// The depth.
         depth: u8,
-        /// Estimated leaves.
+        /// The most leaves the bake can make.
         leaves: f64,
     },
     /// The part files and the output would not fit on the disk.
@@ -156,8 +159,9 @@ pub(crate) struct PlanPart {
     pub(crate) start: u64,
     /// One past the last code.
     pub(crate) end: u64,
-    /// Estimated leaves (an over-estimate, as [`crate::bake::Estimate`]).
-    pub(crate) estimated_leaves: f64,
+    /// The most leaves the part can make: the sum of its triangles' bounds
+    /// ([`crate::bake::Estimate::max_leaves`]).
+    pub(crate) max_leaves: f64,
 }
 
 /// A bake split into parts, as the plan file stores it.
@@ -187,6 +191,8 @@ pub struct BakePlan {
     pub build: BuildInfo,
     /// Estimated leaves of the whole tree.
     pub estimated_leaves: f64,
+    /// The most leaves the whole tree can make ([`crate::bake::Estimate::max_leaves`]).
+    pub max_leaves: f64,
 }
 
 impl BakePlan {
@@ -216,12 +222,9 @@ impl BakePlan {
         self.parts.len() as u32
     }
 
-    /// The largest part's estimated leaves (an over-estimate, as [`crate::bake::Estimate`]).
+    /// The most leaves the largest part can make ([`crate::bake::Estimate::max_leaves`]).
     pub fn largest_part_leaves(&self) -> f64 {
-        self.parts
-            .iter()
-            .map(|p| p.estimated_leaves)
-            .fold(0.0, f64::max)
+        self.parts.iter().map(|p| p.max_leaves).fold(0.0, f64::max)
     }
 }
 
@@ -292,12 +295,12 @@ pub(crate) fn plan_bake(
             ..opts.clone()
         },
     )?;
-    let least = least_parts(est.leaves);
+    let least = least_parts(est.max_leaves);
     if f64::from(parts) < least {
         return Err(PartsError::Unsupported(format!(
-            "depth {} would make about {:.3e} leaves: plan at least {least} parts (a part holds \
+            "depth {} could make up to {:.3e} leaves: plan at least {least} parts (a part holds \
              at most 2^31 leaves)",
-            opts.depth, est.leaves
+            opts.depth, est.max_leaves
         )));
     }
     let level = parts_level(opts.depth, parts);
@@ -315,11 +318,12 @@ pub(crate) fn plan_bake(
         parts: deal(&weights, level, parts),
         build,
         estimated_leaves: est.leaves,
+        max_leaves: est.max_leaves,
     })
 }
 
-/// Per node at `level` (Morton code, estimated leaves), in code order: each triangle's
-/// estimated cells ([`triangle_cells`], as the bake's estimate sums them) counted in the node
+/// Per node at `level` (Morton code, most leaves), in code order: each triangle's bound on
+/// its cells ([`triangle_cells_bound`], as the bake's estimate sums them) counted in the node
 /// holding its centroid.
 fn subtree_estimates(mesh: &Mesh, root: &RootCube, depth: u8, level: u8) -> Vec<(u64, f64)> {
     let n = (1u64 << depth) as f64;
@@ -330,7 +334,7 @@ fn subtree_estimates(mesh: &Mesh, root: &RootCube, depth: u8, level: u8) -> Vec<
         let [a, b, c] = t.map(|i| {
             (mesh.positions.get(i as usize).copied().unwrap_or_default() - root.origin) * scale
         });
-        let cells = triangle_cells(a, b, c);
+        let cells = triangle_cells_bound(a, b, c);
         let centroid = (a + b + c) / 3.0;
         let cell = centroid
             .clamp(glam::DVec3::ZERO, glam::DVec3::splat(n - 1.0))
@@ -366,7 +370,7 @@ fn deal(weights: &[(u64, f64)], level: u8, parts: u32) -> Vec<PlanPart> {
             out.push(PlanPart {
                 start,
                 end: code + 1,
-                estimated_leaves: sum,
+                max_leaves: sum,
             });
             start = code + 1;
             sum = 0.0;
@@ -375,13 +379,13 @@ fn deal(weights: &[(u64, f64)], level: u8, parts: u32) -> Vec<PlanPart> {
     out.push(PlanPart {
         start,
         end: all,
-        estimated_leaves: sum,
+        max_leaves: sum,
     });
     while out.len() < parts as usize {
         out.push(PlanPart {
             start: all,
             end: all,
-            estimated_leaves: 0.0,
+            max_leaves: 0.0,
         });
     }
     out
@@ -582,7 +586,7 @@ mod tests {
         let parts = deal(&w[..1], 2, 4);
         assert_eq!(parts.len(), 4);
         assert_eq!((parts[0].start, parts[0].end), (0, 4));
-        assert!(parts[1..].iter().all(|p| p.estimated_leaves == 0.0));
+        assert!(parts[1..].iter().all(|p| p.max_leaves == 0.0));
         assert_eq!(parts.last().unwrap().end, 64);
     }
 }
