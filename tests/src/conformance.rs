@@ -647,6 +647,7 @@ pub fn corpus() -> Vec<Entry> {
     values(&t, &mut invalid);
     version_3_header(&t, &mut invalid);
     version_3_chunks(&t, &mut invalid);
+    edge_rules(&t, &mut invalid);
     out
 }
 
@@ -736,6 +737,15 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         deepest,
     );
     valid("scene", "two lights and two camera views", with_scene);
+    valid(
+        "camera-up-subnormal-square",
+        "the scene's first view with up (0, 1e-160, 0): up . up is subnormal, its reciprocal square root finite",
+        &{
+            let mut p = with_scene.clone();
+            p.scene.cameras[0].up = [0.0, 1e-160, 0.0];
+            p
+        },
+    );
     valid(
         "version-1",
         "version 1 (no lights or views in the header)",
@@ -893,6 +903,15 @@ fn header_values(t: &Trees, invalid: &mut Invalid<'_>) {
         from(varied, &|p| p.side = f64::INFINITY),
     );
     invalid(
+        8,
+        "origin-plus-side-overflow",
+        "a root origin of 1e308 and side of 1e308: each finite, their sum (the far corner) not",
+        from(varied, &|p| {
+            p.origin[2] = 1e308;
+            p.side = 1e308;
+        }),
+    );
+    invalid(
         9,
         "no-nodes",
         "a node count of 0",
@@ -959,6 +978,18 @@ fn header_values(t: &Trees, invalid: &mut Invalid<'_>) {
         "camera-up",
         "a view whose up is along its view direction",
         from(with_scene, &|p| p.scene.cameras[0].up = [0.0, 0.0, -2.0]),
+    );
+    invalid(
+        11,
+        "camera-up-overflow",
+        "a view whose up (0, 1e200, 0) has a square that overflows: w is 0",
+        from(with_scene, &|p| p.scene.cameras[0].up = [0.0, 1e200, 0.0]),
+    );
+    invalid(
+        11,
+        "camera-up-underflow",
+        "a view whose up (0, 1e-170, 0) has a square that underflows to 0: w is 0",
+        from(with_scene, &|p| p.scene.cameras[0].up = [0.0, 1e-170, 0.0]),
     );
     invalid(
         11,
@@ -1348,11 +1379,156 @@ fn version_3_chunks(t: &Trees, invalid: &mut Invalid<'_>) {
     );
 }
 
+/// The nodes of a valid tree in the order the walk of checks 15 and 16 visits them
+/// (docs/format.md, section 9: a stack, the last child popped first).
+fn walk_order(nodes: &[[u32; 2]], depth: u8) -> Vec<(usize, u8)> {
+    let mut order = Vec::new();
+    let mut stack = vec![(0usize, 0u8)];
+    while let Some((i, level)) = stack.pop() {
+        order.push((i, level));
+        let [info, first] = nodes[i];
+        let k = (info & 0xFF).count_ones() as usize;
+        if k == 0 || level + 1 == depth {
+            continue;
+        }
+        stack.extend((0..k).map(|j| (first as usize + j, level + 1)));
+    }
+    order
+}
+
+/// The invalid files of the rules for edge cases: arrays of length 0, the empty tree's root,
+/// constants without leaves, products past 2^64, and files that break checks 15 and 16 both.
+fn edge_rules(t: &Trees, invalid: &mut Invalid<'_>) {
+    let Trees {
+        varied,
+        empty,
+        chunked,
+        ..
+    } = t;
+    invalid(
+        10,
+        "empty-constant-range",
+        "the empty tree with a reflectivity constant of 256 (constants are checked without leaves too)",
+        from(empty, &|p| p.channels = vec![(3, Stored::Constant(256))]),
+    );
+    invalid(
+        18,
+        "empty-constant-normal-half",
+        "the empty tree with a constant normal word whose half is 0x8000",
+        from(empty, &|p| {
+            p.channels = vec![(0, Stored::Constant(0x8000_0000))]
+        }),
+    );
+    invalid(
+        16,
+        "empty-root-first",
+        "the empty tree with its childless root's first 1 instead of 0",
+        from(empty, &|p| p.nodes[0][1] = 1),
+    );
+    invalid(
+        12,
+        "chunk-empty-misplaced",
+        "version 3: the empty tree's chunk table, of length 0, 8 bytes after where the layout puts it",
+        {
+            let mut b = empty.chunked(1).encode();
+            let off = u64::from_le_bytes(
+                b[at3::CHUNKS_OFFSET..at3::CHUNKS_OFFSET + 8]
+                    .try_into()
+                    .expect("8 bytes"),
+            );
+            put(&mut b, at3::CHUNKS_OFFSET, &(off + 8).to_le_bytes());
+            reseal(&mut b);
+            b
+        },
+    );
+    invalid(
+        12,
+        "chunk-node-length-overflow",
+        "version 3: a node count of 2^61 + 1, whose node array's length 8 * node_count passes 2^64",
+        {
+            let mut b = chunked.encode();
+            put(&mut b, at3::NODE_COUNT, &((1u64 << 61) + 1).to_le_bytes());
+            reseal(&mut b);
+            b
+        },
+    );
+    // Version 3's order: check 14 on the whole node array, then 15 and 16 on every chunk,
+    // then 17 on every chunk.
+    invalid(
+        14,
+        "chunk-before-15",
+        "version 3: the first chunk's root without children (check 15) and a reserved bit in the last node (14): 14 is named",
+        from(chunked, &|p| {
+            p.nodes[0][0] = 0;
+            let last = p.nodes.len() - 1;
+            p.nodes[last][0] |= 0x100;
+        }),
+    );
+    invalid(
+        16,
+        "chunk-before-17",
+        "version 3: the first chunk's first leaf parent numbers its leaves from 1 (check 17) and the second chunk's inner nodes point into the whole node array (16): 16 is named",
+        from(chunked, &|p| {
+            let t = p.chunks.clone().expect("chunks").1;
+            let (start, n) = (t[0][1] as usize, t[1][1] as usize);
+            assert_eq!(
+                p.nodes[1][1] as i32, -1,
+                "the first leaf parent's leaves start at 0"
+            );
+            p.nodes[1][1] = (-2i32) as u32;
+            for w in &mut p.nodes[start..start + n] {
+                if (w[1] as i32) > 0 {
+                    w[1] += start as u32;
+                }
+            }
+        }),
+    );
+    let order = walk_order(&varied.nodes, varied.depth);
+    let leaf_parents: Vec<usize> = order
+        .iter()
+        .filter(|&&(_, l)| l + 1 == varied.depth)
+        .map(|&(i, _)| i)
+        .collect();
+    let inner: Vec<usize> = order
+        .iter()
+        .filter(|&&(_, l)| l > 0 && l + 1 < varied.depth)
+        .map(|&(i, _)| i)
+        .collect();
+    let (first_leafy, last_leafy) = (leaf_parents[0], leaf_parents[leaf_parents.len() - 1]);
+    let (first_inner, last_inner) = (inner[0], inner[inner.len() - 1]);
+    invalid(
+        15,
+        "and-16-same-node",
+        "the first leaf parent the walk meets refers to nodes, at 0: it breaks check 15 and 16 at one node, and 15 is named",
+        from(varied, &|p| p.nodes[first_leafy][1] = 0),
+    );
+    invalid(
+        15,
+        "before-16",
+        "the walk meets a childless leaf parent (check 15) before an inner node whose children block is one node late (16)",
+        from(varied, &|p| {
+            p.nodes[first_leafy][0] = 0;
+            p.nodes[last_inner][1] += 1;
+        }),
+    );
+    invalid(
+        16,
+        "before-15",
+        "the walk meets an inner node whose children block is one node late (check 16) before a childless leaf parent (15)",
+        from(varied, &|p| {
+            p.nodes[first_inner][1] += 1;
+            p.nodes[last_leafy][0] = 0;
+        }),
+    );
+}
+
 /// The file offsets of version-3 header fields (docs/format.md, section 3).
 mod at3 {
     pub const CHUNK_LEVEL: usize = super::at::DEPTH + 1;
     pub const CHUNK_COUNT: usize = CHUNK_LEVEL + 1;
-    pub const CHUNKS_LEN: usize = CHUNK_COUNT + 3 * 8 + 8;
+    pub const NODE_COUNT: usize = CHUNK_COUNT + 8;
+    pub const CHUNKS_OFFSET: usize = CHUNK_COUNT + 3 * 8;
+    pub const CHUNKS_LEN: usize = CHUNKS_OFFSET + 8;
 }
 
 /// The manifest: one line a file, tab-separated: name, `valid` or `invalid`, the check's

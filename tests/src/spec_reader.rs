@@ -235,7 +235,12 @@ fn header_values(h: &Header) -> Result<(), u8> {
     if !(1..=30).contains(&h.depth) || h.chunks.is_some_and(|(c, _, _)| c >= h.depth || c > 21) {
         return Err(7);
     }
-    if !(h.origin.iter().all(|x| x.is_finite()) && h.side.is_finite() && h.side > 0.0) {
+    let far_corner = h.origin.map(|x| x + h.side);
+    if !(h.origin.iter().all(|x| x.is_finite())
+        && h.side.is_finite()
+        && h.side > 0.0
+        && far_corner.iter().all(|x| x.is_finite()))
+    {
         return Err(8);
     }
     let counts_ok = match h.chunks {

@@ -28,8 +28,8 @@ pub enum OctreeError {
         /// Cells per axis.
         side: u64,
     },
-    /// The root cube is not finite and positive.
-    #[error("root cube is not finite and positive")]
+    /// The root cube is not finite and positive (its origin, side and far corner).
+    #[error("root cube is not finite and positive (its origin, side and far corner)")]
     BadRoot,
     /// The tree fails one of the format's numbered checks (`docs/format.md`).
     #[error("{check}: {detail}")]
@@ -135,7 +135,8 @@ fn check(root: &RootCube, depth: u8) -> Result<(), OctreeError> {
     if !(1..=crate::MAX_DEPTH).contains(&depth) {
         return Err(OctreeError::Depth(depth));
     }
-    if !(root.side.is_finite() && root.side > 0.0 && root.origin.is_finite()) {
+    let far_corner = root.origin + root.side;
+    if !(root.side.is_finite() && root.side > 0.0 && far_corner.is_finite()) {
         return Err(OctreeError::BadRoot);
     }
     Ok(())

@@ -56,10 +56,10 @@ pub(crate) fn check_root_and_counts(
             format!("depth {depth} is outside 1..={}", crate::MAX_DEPTH),
         ));
     }
-    if !(side.is_finite() && side > 0.0 && origin.is_finite()) {
+    if !(side.is_finite() && side > 0.0 && origin.is_finite() && (origin + side).is_finite()) {
         return Err((
             Check::RootCube,
-            "root cube is not finite and positive".into(),
+            "root cube is not finite and positive (its origin, side and far corner)".into(),
         ));
     }
     if node_count == 0 {
