@@ -188,12 +188,16 @@ pub(crate) fn gltf_from_bytes(bytes: &[u8], name: &Path) -> Result<Mesh, MeshErr
 /// Parses, validates and converts a glTF document; `base` resolves its file references.
 fn read_gltf(bytes: &[u8], name: &Path, base: Option<&Path>) -> Result<Mesh, MeshError> {
     let err = |e: gltf::Error| parse_error(name, e);
-    // Parsed once, checked, then validated: the validation is what can panic.
+    check_glb_header(bytes, name)?;
+    // Parsed once, checked, then validated. The checks cover every panic we know of in the
+    // gltf crates; a panic we do not know of still becomes an error for this file instead of
+    // ending the program.
+    let failed = |_| parse_error(name, "the glTF library failed on this file");
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(bytes).map_err(err)?;
+        std::panic::catch_unwind(|| gltf::Gltf::from_slice_without_validation(bytes))
+            .map_err(failed)?
+            .map_err(err)?;
     precheck(document.as_json(), name)?;
-    // The checks cover every panic we know of in the gltf crates; a panic we do not know of
-    // still becomes an error for this file instead of ending the program.
     let imported = std::panic::catch_unwind(move || {
         let document = gltf::Document::from_json(document.into_json()).map_err(err)?;
         check_accessors(&document, name)?;
@@ -201,7 +205,7 @@ fn read_gltf(bytes: &[u8], name: &Path, base: Option<&Path>) -> Result<Mesh, Mes
         let images = gltf::import_images(&document, base, &buffers).map_err(err)?;
         Ok::<_, MeshError>((document, buffers, images))
     })
-    .map_err(|_| parse_error(name, "the glTF library failed on this file"))?;
+    .map_err(failed)?;
     let (doc, buffers, images) = imported?;
     convert(name, &doc, &buffers, &images)
 }
@@ -314,6 +318,24 @@ fn check_accessors(doc: &gltf::Document, name: &Path) -> Result<(), MeshError> {
                 return Err(wrong("the index", &a));
             }
         }
+    }
+    Ok(())
+}
+
+/// Refuses a binary glTF (GLB) whose header gives a total length shorter than the 12-byte
+/// header itself, which gltf 1.4 subtracts unchecked (a panic where overflow checks are on).
+/// Found by the `mesh_import` fuzz target.
+fn check_glb_header(bytes: &[u8], name: &Path) -> Result<(), MeshError> {
+    if let Some(length) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+        && length < 12
+    {
+        return Err(parse_error(
+            name,
+            format!("GLB header: total length {length} is shorter than the 12-byte header"),
+        ));
     }
     Ok(())
 }
