@@ -681,7 +681,6 @@ fn with_and_without_prepass(
             b.depth[i]
         );
     }
-    assert!(a.stats.primary_steps <= b.stats.primary_steps, "{what}");
     (a, b)
 }
 
@@ -793,6 +792,7 @@ fn primary_prepass_changes_nothing_on_random_views() {
     let mut rng = common::rng(0x9E7A55);
     let mut ran = 0;
     let mut views = 0;
+    let mut steps = [0u64; 2];
     for depth in [3u8, 5, 7] {
         let n = 1u32 << depth;
         // Clusters of cells, so boxes at every level are partly empty.
@@ -897,14 +897,20 @@ fn primary_prepass_changes_nothing_on_random_views() {
                     let (a, b) = with_and_without_prepass(tree, mode, &cam, &what);
                     views += 1;
                     ran += usize::from(a.stats.primary_steps < b.stats.primary_steps);
+                    steps[0] += a.stats.primary_steps;
+                    steps[1] += b.stats.primary_steps;
                 }
             }
         }
     }
-    // The prepass decides most rays (those that touch a cell go to the traversal).
+    // The prepass decides most rays (those that touch a cell go to the traversal) and saves
+    // steps in all. Not on every view: its steps count the plane tests of every leaf whose
+    // rectangle holds an open pixel, also leaves the ray then does not enter.
     assert!(
-        ran * 2 > views,
-        "the prepass saved steps on {ran} of {views} views"
+        ran * 2 > views && steps[0] < steps[1],
+        "the prepass saved steps on {ran} of {views} views, {} against {} in all",
+        steps[0],
+        steps[1]
     );
 }
 
