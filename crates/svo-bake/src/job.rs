@@ -141,7 +141,8 @@ pub struct BakeJob {
     /// Bake in parts within this many bytes of memory (an `.svo` output only): the parts
     /// are baked one after another into files beside the output and merged into it, the
     /// same bytes as the bake in memory. `None`: in memory, unless `options.max_memory` is
-    /// set and the estimate exceeds it, in which case the bake goes into parts within that.
+    /// set and the bake could need more than that, in which case the bake goes into parts
+    /// within that.
     pub memory: Option<u64>,
 }
 

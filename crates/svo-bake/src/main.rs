@@ -71,11 +71,11 @@ struct Args {
     solid: Option<SolidMode>,
     /// Bake within this much memory (e.g. 8GiB, 512MiB): in parts baked one after another
     /// into files beside the output, then merged into it; the same file as a bake in
-    /// memory. Without it, a bake whose estimate exceeds the available memory does this
-    /// by itself within that memory.
+    /// memory. Without it, a bake that could need more than the available memory (for the
+    /// most leaves it can make) does this by itself within that memory.
     #[arg(long, value_parser = parse_size, value_name = "SIZE")]
     memory: Option<u64>,
-    /// Bake in memory even when the memory estimate exceeds the available memory.
+    /// Bake in memory even when it could need more than the available memory.
     #[arg(long)]
     force: bool,
 }

@@ -1,6 +1,6 @@
 //! Baking: a mesh to an octree with its attributes and contours ([`bake_mesh`]), checked
-//! first (valid mesh, depth, a memory estimate against a limit, a closed mesh for a closed
-//! solid bake), with timings and statistics ([`BakeStats`]); the voxelization alone
+//! first (valid mesh, depth, the memory the bake could need against a limit, a closed mesh
+//! for a closed solid bake), with timings and statistics ([`BakeStats`]); the voxelization alone
 //! ([`voxelize_mesh`]: the leaf cells and the triangles touching each); and, with the `io`
 //! feature, the bake in parts ([`parts`]: plan, parts on any machine, streamed merge, or all
 //! of it within a memory budget).
