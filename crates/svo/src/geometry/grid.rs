@@ -34,6 +34,12 @@ pub struct RootCube {
 }
 
 impl RootCube {
+    /// Whether the cube is one the format allows (check 8 of `docs/format.md`): its origin,
+    /// its side and its far corner `origin + side` finite, its side positive.
+    pub(crate) fn is_valid(&self) -> bool {
+        self.side.is_finite() && self.side > 0.0 && (self.origin + self.side).is_finite()
+    }
+
     /// The thesis's root: origin at the bounds' minimum, side the largest extent. `pad`
     /// leaves an empty margin of that many cells (at `depth`) on every side. A flat or
     /// point-like mesh gets a side of 1 scene unit times its magnitude so the grid is valid.

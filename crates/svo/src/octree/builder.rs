@@ -135,8 +135,7 @@ fn check(root: &RootCube, depth: u8) -> Result<(), OctreeError> {
     if !(1..=crate::MAX_DEPTH).contains(&depth) {
         return Err(OctreeError::Depth(depth));
     }
-    let far_corner = root.origin + root.side;
-    if !(root.side.is_finite() && root.side > 0.0 && far_corner.is_finite()) {
+    if !root.is_valid() {
         return Err(OctreeError::BadRoot);
     }
     Ok(())

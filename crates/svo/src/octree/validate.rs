@@ -9,6 +9,7 @@
 //! counters of where the next block and the next leaf belong rules out cycles, sharing,
 //! orphans and out-of-range references at once, and needs no memory per node or leaf.
 
+use crate::geometry::grid::RootCube;
 use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
@@ -56,7 +57,7 @@ pub(crate) fn check_root_and_counts(
             format!("depth {depth} is outside 1..={}", crate::MAX_DEPTH),
         ));
     }
-    if !(side.is_finite() && side > 0.0 && origin.is_finite() && (origin + side).is_finite()) {
+    if !(RootCube { origin, side }).is_valid() {
         return Err((
             Check::RootCube,
             "root cube is not finite and positive (its origin, side and far corner)".into(),
