@@ -59,12 +59,12 @@ pub(crate) fn triangle_cells_bound(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// Estimates the leaves and peak memory of baking `mesh` at `depth` in `root`.
 pub(crate) fn estimate(mesh: &Mesh, root: &RootCube, depth: u8) -> Estimate {
     let scale = (1u64 << depth) as f64 / root.side;
-    let position = |i: u32| mesh.positions.get(i as usize).copied().unwrap_or_default();
+    // Coordinates relative to the root, which round least.
     let cells = |t: &[u32; 3]| {
-        let [a, b, c] = t.map(|i| position(i) * scale);
-        // The bound from coordinates relative to the root, which round least.
-        let [ra, rb, rc] = t.map(|i| (position(i) - root.origin) * scale);
-        (triangle_cells(a, b, c), triangle_cells_bound(ra, rb, rc))
+        let [a, b, c] = t.map(|i| {
+            (mesh.positions.get(i as usize).copied().unwrap_or_default() - root.origin) * scale
+        });
+        (triangle_cells(a, b, c), triangle_cells_bound(a, b, c))
     };
     // Fixed chunks summed in order: the same sums whatever the thread count.
     const CHUNK: usize = 8192;
