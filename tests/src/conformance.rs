@@ -532,6 +532,11 @@ fn put(bytes: &mut [u8], at: usize, v: &[u8]) {
     bytes[at..at + v.len()].copy_from_slice(v);
 }
 
+/// The little-endian `u64` at `at`.
+fn u64_at(bytes: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"))
+}
+
 fn header_len(bytes: &[u8]) -> usize {
     u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize
 }
@@ -1032,7 +1037,7 @@ fn layout(t: &Trees, invalid: &mut Invalid<'_>) {
                 } else {
                     at::FIRST_CHANNEL + 5 + (r - 1) * 21
                 };
-                let old = u64::from_le_bytes(b[field..field + 8].try_into().expect("8 bytes"));
+                let old = u64_at(b, field);
                 put(b, field, &(old + 8).to_le_bytes());
             }
         }),
@@ -1093,8 +1098,7 @@ fn layout(t: &Trees, invalid: &mut Invalid<'_>) {
         "a padding byte after the reflectivity array is 1",
         {
             let refl = at::FIRST_CHANNEL + 5 + 3 * 21;
-            let off =
-                u64::from_le_bytes(base[refl..refl + 8].try_into().expect("8 bytes")) as usize;
+            let off = u64_at(base, refl) as usize;
             sealed(&|b| b[off + 12] = 1)
         },
     );
@@ -1253,12 +1257,7 @@ fn version_3_header(t: &Trees, invalid: &mut Invalid<'_>) {
         ..
     } = t;
     // Version 3 (section 10): its header, chunk table and chunks.
-    let chunk_sealed = |p: &Parts, f: &dyn Fn(&mut Vec<u8>)| {
-        let mut b = p.encode();
-        f(&mut b);
-        reseal(&mut b);
-        b
-    };
+    let chunk_sealed = |p: &Parts, f: &dyn Fn(&mut Vec<u8>)| sealed(&p.encode(), f);
     invalid(
         7,
         "chunk-level-depth",
@@ -1282,11 +1281,7 @@ fn version_3_header(t: &Trees, invalid: &mut Invalid<'_>) {
         "chunk-table-length",
         "version 3: the chunk table's length is not 24 times the chunk count",
         chunk_sealed(chunked, &|b| {
-            let len = u64::from_le_bytes(
-                b[at3::CHUNKS_LEN..at3::CHUNKS_LEN + 8]
-                    .try_into()
-                    .expect("8 bytes"),
-            );
+            let len = u64_at(b, at3::CHUNKS_LEN);
             put(b, at3::CHUNKS_LEN, &(len - 8).to_le_bytes());
         }),
     );
@@ -1429,28 +1424,18 @@ fn edge_rules(t: &Trees, invalid: &mut Invalid<'_>) {
         12,
         "chunk-empty-misplaced",
         "version 3: the empty tree's chunk table, of length 0, 8 bytes after where the layout puts it",
-        {
-            let mut b = empty.chunked(1).encode();
-            let off = u64::from_le_bytes(
-                b[at3::CHUNKS_OFFSET..at3::CHUNKS_OFFSET + 8]
-                    .try_into()
-                    .expect("8 bytes"),
-            );
-            put(&mut b, at3::CHUNKS_OFFSET, &(off + 8).to_le_bytes());
-            reseal(&mut b);
-            b
-        },
+        sealed(&empty.chunked(1).encode(), &|b| {
+            let off = u64_at(b, at3::CHUNKS_OFFSET);
+            put(b, at3::CHUNKS_OFFSET, &(off + 8).to_le_bytes());
+        }),
     );
     invalid(
         12,
         "chunk-node-length-overflow",
         "version 3: a node count of 2^61 + 1, whose node array's length 8 * node_count passes 2^64",
-        {
-            let mut b = chunked.encode();
-            put(&mut b, at3::NODE_COUNT, &((1u64 << 61) + 1).to_le_bytes());
-            reseal(&mut b);
-            b
-        },
+        sealed(&chunked.encode(), &|b| {
+            put(b, at3::NODE_COUNT, &((1u64 << 61) + 1).to_le_bytes())
+        }),
     );
     // Version 3's order: check 14 on the whole node array, then 15 and 16 on every chunk,
     // then 17 on every chunk.
