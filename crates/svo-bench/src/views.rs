@@ -127,6 +127,7 @@ pub fn water(mesh: &Mesh) -> Mesh {
         reflectivity: 0.1,
         refractivity: 0.85,
         ior: 1.33,
+        alpha_blend: false,
     }];
     m.triangle_materials.clear();
     m.textures.clear();

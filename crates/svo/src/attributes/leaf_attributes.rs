@@ -4,7 +4,9 @@
 //! cell (sliced by [`crate::geometry::grid_slice`] at the bottom levels, clipped by [`crate::geometry::clip`]
 //! elsewhere), whose area is the triangle's weight. The leaf's normal is the area-weighted mean of the triangles' unit normals; colour
 //! (material colour times texture, sampled at the clipped polygon's centre, averaged in linear
-//! space), reflectivity, refractivity and IOR are area-weighted means too. Where all contacts
+//! space), reflectivity, refractivity and IOR are area-weighted means too (a blended
+//! material's reflectivity and refractivity at the alpha sampled there,
+//! [`crate::mesh::Material::optics_at`]). Where all contacts
 //! have zero area (a triangle only touching the cell, or degenerate triangles) every triangle
 //! weighs the same. The contour is then fitted to the clipped polygons against the *encoded*
 //! normal ([`crate::octree::contour`]).
@@ -99,10 +101,12 @@ impl<'a> AttributeInputs<'a> {
         let varies = |f: &dyn Fn(&Material) -> u32| mats.iter().any(|m| f(m) != f(mats[0]));
         let per_leaf_colour =
             select.has(ChannelKind::Colour) && (textured || varies(&|m| encode_colour(m.colour)));
-        let per_leaf_refl =
-            select.has(ChannelKind::Reflectivity) && varies(&|m| u32::from(unorm8(m.reflectivity)));
-        let per_leaf_refr =
-            select.has(ChannelKind::Refractivity) && varies(&|m| u32::from(unorm8(m.refractivity)));
+        // A blended material's optics follow its texture's alpha.
+        let blend_textured = textured && mats.iter().any(|m| m.alpha_blend && m.texture.is_some());
+        let per_leaf_refl = select.has(ChannelKind::Reflectivity)
+            && (blend_textured || varies(&|m| u32::from(unorm8(plain_optics(m).0))));
+        let per_leaf_refr = select.has(ChannelKind::Refractivity)
+            && (blend_textured || varies(&|m| u32::from(unorm8(plain_optics(m).1))));
         let per_leaf_ior =
             select.has(ChannelKind::Ior) && varies(&|m| u32::from(ior_encode(m.ior)));
         let mut inputs = Self {
@@ -228,24 +232,28 @@ impl<'a> AttributeInputs<'a> {
                 });
             }
         }
+        // The colour of contact `c`'s triangle at the centre of its part in the cell.
+        let colour = |c: &Contact| {
+            let p = out_points(pts, c);
+            let centre = if p.is_empty() {
+                DVec3::splat(0.5)
+            } else {
+                (p.iter().sum::<Vec3>() / p.len() as f32).as_dvec3()
+            };
+            let ti = c.tri as usize;
+            triangle_colour(
+                self.mesh,
+                self.order[ti] as usize,
+                &self.tris[ti],
+                centre + cell,
+            )
+        };
         if self.per_leaf_colour {
             let mut acc = [0.0f64; 4];
             let mut ws = 0.0;
             for c in contacts {
                 let w = weight(c);
-                let p = out_points(pts, c);
-                let centre = if p.is_empty() {
-                    DVec3::splat(0.5)
-                } else {
-                    (p.iter().sum::<Vec3>() / p.len() as f32).as_dvec3()
-                };
-                let ti = c.tri as usize;
-                let col = triangle_colour(
-                    self.mesh,
-                    self.order[ti] as usize,
-                    &self.tris[ti],
-                    centre + cell,
-                );
+                let col = colour(c);
                 for (a, v) in acc.iter_mut().zip(col) {
                     *a += w * f64::from(v);
                 }
@@ -254,23 +262,31 @@ impl<'a> AttributeInputs<'a> {
             let ws = if ws > 0.0 { ws } else { 1.0 };
             out.colour.push(encode_colour(acc.map(|v| (v / ws) as f32)));
         }
-        let avg = |f: &dyn Fn(&Material) -> f32| -> f32 {
+        let avg = |f: &dyn Fn(&Contact, &Material) -> f32| -> f32 {
             let (mut a, mut ws) = (0.0f64, 0.0);
             for c in contacts {
                 let w = weight(c);
-                a += w * f64::from(f(material(c.tri)));
+                a += w * f64::from(f(c, material(c.tri)));
                 ws += w;
             }
             if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
         };
+        // Reflectivity and refractivity at a contact (a blended material's at its alpha).
+        let optics = |c: &Contact, m: &Material| {
+            if m.alpha_blend && m.texture.is_some() {
+                m.optics_at(colour(c)[3])
+            } else {
+                plain_optics(m)
+            }
+        };
         if self.per_leaf_refl {
-            out.reflectivity.push(unorm8(avg(&|m| m.reflectivity)));
+            out.reflectivity.push(unorm8(avg(&|c, m| optics(c, m).0)));
         }
         if self.per_leaf_refr {
-            out.refractivity.push(unorm8(avg(&|m| m.refractivity)));
+            out.refractivity.push(unorm8(avg(&|c, m| optics(c, m).1)));
         }
         if self.per_leaf_ior {
-            out.ior.push(ior_encode(avg(&|m| m.ior)));
+            out.ior.push(ior_encode(avg(&|_, m| m.ior)));
         }
     }
 
@@ -321,14 +337,14 @@ impl<'a> AttributeInputs<'a> {
             attrs.reflectivity = if self.per_leaf_refl {
                 Channel::PerLeaf(std::mem::take(&mut v.reflectivity))
             } else {
-                Channel::Constant(unorm8(m0.reflectivity))
+                Channel::Constant(unorm8(plain_optics(m0).0))
             };
         }
         if select.has(ChannelKind::Refractivity) {
             attrs.refractivity = if self.per_leaf_refr {
                 Channel::PerLeaf(std::mem::take(&mut v.refractivity))
             } else {
-                Channel::Constant(unorm8(m0.refractivity))
+                Channel::Constant(unorm8(plain_optics(m0).1))
             };
         }
         if select.has(ChannelKind::Ior) {
@@ -369,6 +385,12 @@ fn materials(mesh: &Mesh) -> Vec<&Material> {
     } else {
         mesh.materials.iter().collect()
     }
+}
+
+/// A material's reflectivity and refractivity where its texture is not sampled: a blended
+/// one's at its colour's alpha.
+fn plain_optics(m: &Material) -> (f32, f32) {
+    m.optics_at(m.colour[3])
 }
 
 /// The points of contact `c` in `pts`.

@@ -3,8 +3,11 @@
 //!
 //! Material mapping: colour = `baseColorFactor` times `baseColorTexture`; reflectivity =
 //! `metallic * (1 - roughness)` (factors); refractivity = `KHR_materials_transmission`'s
-//! factor; IOR = `KHR_materials_ior` (1.5 when absent). Primitive modes other than
-//! triangles, strips and fans are skipped.
+//! factor; IOR = `KHR_materials_ior` (1.5 when absent; 1 for a `BLEND` material without
+//! transmission). `alphaMode: MASK` cuts the texels under `alphaCutoff` (0.5 when absent)
+//! out of the mesh ([`Mesh::cut_alpha_masks`]); `BLEND` makes the colour's alpha a coverage
+//! ([`Material::alpha_blend`]). Primitive modes other than triangles, strips and fans are
+//! skipped.
 //!
 //! Lights (`KHR_lights_punctual`: point and spot lights, as point lights) and perspective
 //! cameras on the scene's nodes go into [`Mesh::scene`], placed by their nodes' transforms.
@@ -52,6 +55,8 @@ struct Loader<'a> {
     images: &'a [gltf::image::Data],
     tex_of_image: HashMap<usize, Option<usize>>,
     mat_index: HashMap<Option<usize>, (u32, u32)>,
+    /// Our alpha-masked materials and their cutoffs.
+    masks: Vec<(u32, f32)>,
     mesh: Mesh,
 }
 
@@ -81,15 +86,27 @@ impl Loader<'_> {
             None => (None, 0),
         };
         let refractivity = m.transmission().map_or(0.0, |t| t.transmission_factor());
+        let alpha_blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
+        // What passes through a blended surface without transmission goes straight on.
+        let ior = match m.ior() {
+            Some(ior) => ior,
+            None if alpha_blend && refractivity == 0.0 => 1.0,
+            None => 1.5,
+        };
         self.mesh.materials.push(Material {
             name: m.name().unwrap_or("unnamed").to_string(),
             colour: pbr.base_color_factor(),
             texture,
             reflectivity: (pbr.metallic_factor() * (1.0 - pbr.roughness_factor())).clamp(0.0, 1.0),
             refractivity: refractivity.clamp(0.0, 1.0),
-            ior: m.ior().unwrap_or(1.5),
+            ior,
+            alpha_blend,
         });
-        let r = ((self.mesh.materials.len() - 1) as u32, set);
+        let index = (self.mesh.materials.len() - 1) as u32;
+        if m.alpha_mode() == gltf::material::AlphaMode::Mask {
+            self.masks.push((index, m.alpha_cutoff().unwrap_or(0.5)));
+        }
+        let r = (index, set);
         self.mat_index.insert(m.index(), r);
         r
     }
@@ -477,6 +494,7 @@ fn convert(
         images,
         tex_of_image: HashMap::new(),
         mat_index: HashMap::new(),
+        masks: Vec::new(),
         mesh: Mesh::default(),
     };
     match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -510,6 +528,10 @@ fn convert(
         }
     }
     let mut mesh = l.mesh;
+    if !l.masks.is_empty() {
+        mesh.validate()?;
+        mesh.cut_alpha_masks(&l.masks)?;
+    }
     if mesh.textures.is_empty() {
         mesh.uvs.clear();
         mesh.triangle_uvs.clear();

@@ -310,6 +310,7 @@ fn map_material(m: &tobj::Material, texture: Option<usize>) -> Material {
         },
         refractivity: (1.0 - finite(d, 1.0).clamp(0.0, 1.0)) as f32,
         ior: m.optical_density.map_or(1.5, |n| finite(n, 1.5)) as f32,
+        alpha_blend: false,
     }
 }
 

@@ -8,6 +8,7 @@
 //!
 //! Depends on nothing else in the crate; every other folder may depend on it.
 
+mod alpha_cut;
 pub(crate) mod closed;
 pub(crate) mod format;
 pub(crate) mod presets;

@@ -57,6 +57,7 @@ impl Preset {
             reflectivity,
             refractivity,
             ior,
+            alpha_blend: false,
         };
         const WHITE: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
         match self {

@@ -83,6 +83,10 @@ pub enum MeshError {
     /// a direction, a name too long).
     #[error("{0}")]
     Scene(String),
+    /// An alpha cut-out ([`Mesh::cut_alpha_masks`]) would make too many triangles or visit
+    /// too many texels (texture coordinates repeating a texture millions of times).
+    #[error("alpha cut-out: {0}")]
+    AlphaCut(String),
 }
 
 /// An RGBA8 texture in sRGB, sampled with nearest filtering and repeat wrapping.
@@ -160,6 +164,29 @@ pub struct Material {
     pub refractivity: f32,
     /// Index of refraction.
     pub ior: f32,
+    /// Whether the colour's alpha (times the texture's) is coverage, as glTF's
+    /// `alphaMode: BLEND`: a share `1 - alpha` of the light passes through the surface
+    /// unchanged, and the rest meets the material ([`Material::optics_at`]).
+    pub alpha_blend: bool,
+}
+
+impl Material {
+    /// The reflectivity and refractivity at a point whose colour alpha (material colour
+    /// times texture) is `alpha`: the material's own for an opaque one; for an
+    /// [`alpha_blend`](Self::alpha_blend) one, the share `1 - alpha` passes through and the
+    /// rest reflects and refracts as the material does: `(alpha * reflectivity,
+    /// 1 - alpha * (1 - refractivity))`.
+    pub fn optics_at(&self, alpha: f32) -> (f32, f32) {
+        if !self.alpha_blend {
+            return (self.reflectivity, self.refractivity);
+        }
+        let a = if alpha.is_finite() {
+            alpha.clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        (a * self.reflectivity, 1.0 - a * (1.0 - self.refractivity))
+    }
 }
 
 impl Default for Material {
@@ -171,6 +198,7 @@ impl Default for Material {
             reflectivity: 0.0,
             refractivity: 0.0,
             ior: 1.5,
+            alpha_blend: false,
         }
     }
 }

@@ -55,10 +55,11 @@ impl MeshSurfaces {
         let materials = (0..tris.len())
             .map(|i| {
                 let m = mesh.material_of(i);
+                let (reflectivity, refractivity) = m.optics_at(m.colour[3]);
                 SurfaceMaterial {
                     albedo: Vec3::new(m.colour[0], m.colour[1], m.colour[2]),
-                    reflectivity: m.reflectivity,
-                    refractivity: m.refractivity,
+                    reflectivity,
+                    refractivity,
                     ior: m.ior,
                 }
             })

@@ -488,10 +488,10 @@ pub(crate) fn merge_interior(surface: &Octree, mesh: &Mesh, interior: &[(UVec3, 
             encode_colour(material(m).colour)
         }),
         reflectivity: gather(&a.reflectivity, &sources, single_material, |m| {
-            unorm8(material(m).reflectivity)
+            unorm8(material(m).optics_at(material(m).colour[3]).0)
         }),
         refractivity: gather(&a.refractivity, &sources, single_material, |m| {
-            unorm8(material(m).refractivity)
+            unorm8(material(m).optics_at(material(m).colour[3]).1)
         }),
         ior: gather(&a.ior, &sources, single_material, |m| {
             ior_encode(material(m).ior)

@@ -4,6 +4,7 @@
 //! Seeded tests draw their seeds through `svo_tests::seeds`, so `SVO_TEST_SEED` moves them
 //! all to new random cases for a soak.
 
+mod alpha_cut;
 mod attributes;
 mod bake_sliced;
 mod deep_precision;

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 const BIN_MAGIC: [u8; 8] = *b"\x89SVOBIN\n";
-const BIN_VERSION: u32 = 1;
+const BIN_VERSION: u32 = 2;
 /// Magic, version, plan hash, index, body length.
 const BIN_PREAMBLE: usize = 32;
 
@@ -40,6 +40,7 @@ struct BinMaterial {
     reflectivity: f32,
     refractivity: f32,
     ior: f32,
+    alpha_blend: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -101,6 +102,7 @@ fn subset(mesh: &Mesh, tris: &[u32]) -> BinMesh {
                 reflectivity: m.reflectivity,
                 refractivity: m.refractivity,
                 ior: m.ior,
+                alpha_blend: m.alpha_blend,
             })
             .collect(),
         textures: Vec::new(),
@@ -196,6 +198,7 @@ fn to_mesh(b: BinMesh) -> Mesh {
                 reflectivity: m.reflectivity,
                 refractivity: m.refractivity,
                 ior: m.ior,
+                alpha_blend: m.alpha_blend,
             })
             .collect(),
         textures: b

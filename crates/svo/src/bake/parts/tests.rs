@@ -130,6 +130,21 @@ fn parts_merge_into_the_bytes_of_the_whole_bake() {
             }
         }
     }
+    // Alpha-masked and blended textured materials (cut by the importer, per-leaf optics).
+    if let Some(vase) = svo_tests::model("gltf/GlassVaseFlowers.glb") {
+        let opts = BakeOptions {
+            depth: 6,
+            ..BakeOptions::default()
+        };
+        let whole = in_memory(&vase, &opts, dir.path());
+        for parts in [1u32, 3] {
+            let plan = plan_and_bake(&vase, &opts, parts, dir.path());
+            assert!(
+                merged(&plan, dir.path()).unwrap() == whole,
+                "vase, {parts} parts"
+            );
+        }
+    }
     assert!(checked >= 15);
 }
 
