@@ -7,8 +7,10 @@
 //! the texel's alpha, and it is kept where that reaches the cutoff. The kept surface is the
 //! union of the closed pieces `triangle ∩ texel square` of positive area over kept texels:
 //! a cell touching a kept piece, even only along the texel edge, is a leaf, and a triangle
-//! part that meets a kept texel only along a line or at a point is dropped. Runs of kept
-//! texels along a row are cut as one piece, each a convex polygon split into a fan.
+//! part that meets a kept texel only along a line or at a point is dropped. A run of kept
+//! texels along a row is cut as one piece, and so is the same run over a band of rows that
+//! keep the same runs within the triangle's columns; each piece is a convex polygon, split
+//! into a fan.
 //!
 //! A triangle whose texels are all kept stays as it is (same vertices and index), one whose
 //! texels are all cut goes; only triangles over both are split, into new vertices whose
@@ -207,6 +209,7 @@ struct Cutter {
     tmp: Vec<Vertex>,
     piece: Vec<Vertex>,
     runs: Vec<(i64, i64)>,
+    next_runs: Vec<(i64, i64)>,
     /// The pieces' vertices, and where each piece ends.
     pieces: Vec<Vertex>,
     ends: Vec<usize>,
@@ -254,59 +257,102 @@ impl Cutter {
                 uv: uv[2],
             },
         ];
-        for j in ja..=jb {
-            // The triangle's part in the closed row strip `j <= v <= j + 1`.
-            self.strip.clear();
-            self.strip.extend_from_slice(&tri);
-            if j > ja {
-                clip(&self.strip, 1, j as f64, true, &mut self.tmp);
-                std::mem::swap(&mut self.strip, &mut self.tmp);
-            }
-            if j < jb {
-                clip(&self.strip, 1, (j + 1) as f64, false, &mut self.tmp);
-                std::mem::swap(&mut self.strip, &mut self.tmp);
-            }
-            if self.strip.len() < 3 {
-                continue;
-            }
-            let (u_lo, u_hi) = self
-                .strip
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-                    (l.min(v.uv.x), h.max(v.uv.x))
-                });
-            let (sa, sb) = texel_range(u_lo, u_hi, constant[0]);
-            let mut runs = std::mem::take(&mut self.runs);
-            runs.clear();
-            cover.runs(j, sa, sb, |s, e| runs.push((s, e)));
-            for &(s, e) in &runs {
-                self.piece.clear();
-                self.piece.extend_from_slice(&self.strip);
-                if !constant[0] && s > sa {
-                    clip(&self.piece, 0, s as f64, true, &mut self.tmp);
-                    std::mem::swap(&mut self.piece, &mut self.tmp);
+        // Bands of rows whose kept runs over the triangle's columns are the same: one
+        // piece per run and band.
+        let mut runs = std::mem::take(&mut self.runs);
+        let mut next = std::mem::take(&mut self.next_runs);
+        kept_runs(cover, ja, a, b, &mut runs);
+        let mut j = ja;
+        while j <= jb {
+            let mut last = j;
+            while last < jb {
+                kept_runs(cover, last + 1, a, b, &mut next);
+                if next != runs {
+                    break;
                 }
-                if !constant[0] && e < sb {
-                    clip(&self.piece, 0, (e + 1) as f64, false, &mut self.tmp);
-                    std::mem::swap(&mut self.piece, &mut self.tmp);
-                }
-                self.piece.dedup();
-                if self.piece.len() > 1 && self.piece.first() == self.piece.last() {
-                    self.piece.pop();
-                }
-                if self.piece.len() >= 3 {
-                    self.pieces.extend_from_slice(&self.piece);
-                    self.ends.push(self.pieces.len());
-                }
+                last += 1;
             }
-            self.runs = runs;
+            if !runs.is_empty() {
+                self.cut_band(&tri, (j, last), (ja, jb), &runs, constant[0]);
+            }
+            std::mem::swap(&mut runs, &mut next);
+            j = last + 1;
         }
+        (self.runs, self.next_runs) = (runs, next);
         if self.ends.is_empty() {
             Fate::Drop
         } else {
             Fate::Split
         }
     }
+}
+
+impl Cutter {
+    /// Adds the pieces of triangle `tri` in the closed band of rows `rows.0 <= v <=
+    /// rows.1 + 1` (of the triangle's rows `span`) over the kept column runs `runs`.
+    fn cut_band(
+        &mut self,
+        tri: &[Vertex; 3],
+        rows: (i64, i64),
+        span: (i64, i64),
+        runs: &[(i64, i64)],
+        u_constant: bool,
+    ) {
+        self.strip.clear();
+        self.strip.extend_from_slice(tri);
+        if rows.0 > span.0 {
+            clip(&self.strip, 1, rows.0 as f64, true, &mut self.tmp);
+            std::mem::swap(&mut self.strip, &mut self.tmp);
+        }
+        if rows.1 < span.1 {
+            clip(&self.strip, 1, (rows.1 + 1) as f64, false, &mut self.tmp);
+            std::mem::swap(&mut self.strip, &mut self.tmp);
+        }
+        if self.strip.len() < 3 {
+            return;
+        }
+        let (u_lo, u_hi) = self
+            .strip
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v.uv.x), h.max(v.uv.x))
+            });
+        let (sa, sb) = texel_range(u_lo, u_hi, u_constant);
+        for &(s, e) in runs {
+            let (s, e) = (s.max(sa), e.min(sb));
+            if s > e {
+                continue;
+            }
+            self.piece.clear();
+            self.piece.extend_from_slice(&self.strip);
+            if !u_constant && s > sa {
+                clip(&self.piece, 0, s as f64, true, &mut self.tmp);
+                std::mem::swap(&mut self.piece, &mut self.tmp);
+            }
+            if !u_constant && e < sb {
+                clip(&self.piece, 0, (e + 1) as f64, false, &mut self.tmp);
+                std::mem::swap(&mut self.piece, &mut self.tmp);
+            }
+            self.piece.dedup();
+            if self.piece.len() > 1 && self.piece.first() == self.piece.last() {
+                self.piece.pop();
+            }
+            if self.piece.len() >= 3 {
+                self.pieces.extend_from_slice(&self.piece);
+                self.ends.push(self.pieces.len());
+            }
+        }
+    }
+}
+
+/// The runs of kept texels of row `j` over the columns `a..=b` (unwrapped), runs that meet
+/// across the texture's edge joined, into `out`.
+fn kept_runs(cover: &Coverage, j: i64, a: i64, b: i64, out: &mut Vec<(i64, i64)>) {
+    out.clear();
+    cover.runs(j, a, b, |s, e| match out.last_mut() {
+        Some(last) if last.1 + 1 == s => last.1 = e,
+        _ => out.push((s, e)),
+    });
 }
 
 impl Mesh {

@@ -107,9 +107,14 @@ fn checker_quad_has_holes_where_its_texels_are_cut() {
 #[test]
 fn cut_quads_voxelize_as_their_kept_texels() {
     let mut next = svo_tests::seeds::xorshift(0xa1fa);
-    for case in 0..6 {
+    for case in 0..7 {
         let (w, h) = ([8, 4, 16][case % 3], [8, 16, 2][case % 3]);
-        let bits: Vec<bool> = (0..w * h).map(|_| !next().is_multiple_of(3)).collect();
+        let bits: Vec<bool> = if case == 6 {
+            // Stripes: every row keeps the same runs, so each is one piece a triangle.
+            (0..w * h).map(|i| i % w % 3 != 0).collect()
+        } else {
+            (0..w * h).map(|_| !next().is_multiple_of(3)).collect()
+        };
         let kept = |x: u32, y: u32| bits[(y * w + x) as usize];
         let mut cut = textured_quad(mask_texture(w, h, kept));
         cut.cut_alpha_masks(&[(0, 0.5)]).unwrap();
@@ -137,6 +142,14 @@ fn cut_quads_voxelize_as_their_kept_texels() {
             continue;
         }
         assert!((area(&cut) - area(&by_hand)).abs() < 1e-12, "case {case}");
+        if case == 6 {
+            // Three stripes, each at most a pentagon (three triangles) in each triangle.
+            assert!(
+                cut.triangles.len() <= 18,
+                "{} triangles",
+                cut.triangles.len()
+            );
+        }
         for depth in [4, 6] {
             assert_eq!(
                 leaf_cells(&cut, depth),
