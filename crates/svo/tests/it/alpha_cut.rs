@@ -377,6 +377,24 @@ fn gltf_alpha_modes_import_as_holes_coverage_or_nothing() {
     let masked = load(json!({"alphaMode": "MASK"}));
     assert!((area(&masked) - 0.5).abs() < 1e-9, "{}", area(&masked));
     assert!(!masked.materials[0].alpha_blend);
+    // Baked, the cut quarters have no leaves, the kept ones do.
+    let (tree, _) = svo::bake_mesh(
+        &masked,
+        &BakeOptions {
+            depth: 4,
+            ..BakeOptions::default()
+        },
+    )
+    .unwrap();
+    for (x, y, kept) in [
+        (0.25, 0.25, true),
+        (0.75, 0.75, true),
+        (0.75, 0.25, false),
+        (0.25, 0.75, false),
+    ] {
+        let p = DVec3::new(x, y, 0.0);
+        assert_eq!(tree.leaf_at_point(p).is_some(), kept, "{p}");
+    }
     // A cutoff of 0 keeps every texel.
     let all = load(json!({"alphaMode": "MASK", "alphaCutoff": 0.0}));
     assert!((area(&all) - 1.0).abs() < 1e-9);
