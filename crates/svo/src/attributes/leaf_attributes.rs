@@ -262,31 +262,34 @@ impl<'a> AttributeInputs<'a> {
             let ws = if ws > 0.0 { ws } else { 1.0 };
             out.colour.push(encode_colour(acc.map(|v| (v / ws) as f32)));
         }
-        let avg = |f: &dyn Fn(&Contact, &Material) -> f32| -> f32 {
-            let (mut a, mut ws) = (0.0f64, 0.0);
+        // Area-weighted means of reflectivity, refractivity and IOR, each contact's optics
+        // taken once (a blended material's at the alpha sampled at its part's centre).
+        if self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior {
+            let optics = self.per_leaf_refl || self.per_leaf_refr;
+            let (mut refl, mut refr, mut ior, mut ws) = (0.0f64, 0.0f64, 0.0f64, 0.0);
             for c in contacts {
                 let w = weight(c);
-                a += w * f64::from(f(c, material(c.tri)));
+                let m = material(c.tri);
+                let (kr, kt) = if optics && m.alpha_blend && m.texture.is_some() {
+                    m.optics_at(colour(c)[3])
+                } else {
+                    plain_optics(m)
+                };
+                refl += w * f64::from(kr);
+                refr += w * f64::from(kt);
+                ior += w * f64::from(m.ior);
                 ws += w;
             }
-            if ws > 0.0 { (a / ws) as f32 } else { 0.0 }
-        };
-        // Reflectivity and refractivity at a contact (a blended material's at its alpha).
-        let optics = |c: &Contact, m: &Material| {
-            if m.alpha_blend && m.texture.is_some() {
-                m.optics_at(colour(c)[3])
-            } else {
-                plain_optics(m)
+            let mean = |a: f64| if ws > 0.0 { (a / ws) as f32 } else { 0.0 };
+            if self.per_leaf_refl {
+                out.reflectivity.push(unorm8(mean(refl)));
             }
-        };
-        if self.per_leaf_refl {
-            out.reflectivity.push(unorm8(avg(&|c, m| optics(c, m).0)));
-        }
-        if self.per_leaf_refr {
-            out.refractivity.push(unorm8(avg(&|c, m| optics(c, m).1)));
-        }
-        if self.per_leaf_ior {
-            out.ior.push(ior_encode(avg(&|_, m| m.ior)));
+            if self.per_leaf_refr {
+                out.refractivity.push(unorm8(mean(refr)));
+            }
+            if self.per_leaf_ior {
+                out.ior.push(ior_encode(mean(ior)));
+            }
         }
     }
 

@@ -86,7 +86,8 @@ impl Loader<'_> {
             None => (None, 0),
         };
         let refractivity = m.transmission().map_or(0.0, |t| t.transmission_factor());
-        let alpha_blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
+        let alpha_mode = m.alpha_mode();
+        let alpha_blend = alpha_mode == gltf::material::AlphaMode::Blend;
         // What passes through a blended surface without transmission goes straight on.
         let ior = match m.ior() {
             Some(ior) => ior,
@@ -103,7 +104,7 @@ impl Loader<'_> {
             alpha_blend,
         });
         let index = (self.mesh.materials.len() - 1) as u32;
-        if m.alpha_mode() == gltf::material::AlphaMode::Mask {
+        if alpha_mode == gltf::material::AlphaMode::Mask {
             self.masks.push((index, m.alpha_cutoff().unwrap_or(0.5)));
         }
         let r = (index, set);

@@ -75,9 +75,11 @@ impl Coverage {
         }
     }
 
-    /// Calls `f(s, e)` for each run of kept texels of row `j` (wrapped) meeting the columns
-    /// `a..=b` (unwrapped), clamped to them, in the unwrapped frame.
-    fn runs(&self, j: i64, a: i64, b: i64, mut f: impl FnMut(i64, i64)) {
+    /// The runs of kept texels of row `j` (wrapped) over the columns `a..=b` (unwrapped),
+    /// clamped to them, in the unwrapped frame, runs that meet across the texture's edge
+    /// joined, into `out`.
+    fn kept_runs(&self, j: i64, a: i64, b: i64, out: &mut Vec<(i64, i64)>) {
+        out.clear();
         let row = &self.rows[j.rem_euclid(self.height) as usize];
         if row.is_empty() {
             return;
@@ -91,30 +93,13 @@ impl Coverage {
                 if i64::from(s) > hi {
                     break;
                 }
-                f(base + i64::from(s).max(lo), base + i64::from(e).min(hi));
+                let (s, e) = (base + i64::from(s).max(lo), base + i64::from(e).min(hi));
+                match out.last_mut() {
+                    Some(last) if last.1 + 1 == s => last.1 = e,
+                    _ => out.push((s, e)),
+                }
             }
             base += w;
-        }
-    }
-
-    /// Whether row `j` keeps every column of `a..=b` (`Some(true)`), none (`Some(false)`), or
-    /// some (`None`).
-    fn row_covers(&self, j: i64, a: i64, b: i64) -> Option<bool> {
-        let (mut kept, mut total) = (0i64, b - a + 1);
-        if total >= self.width {
-            // Every column at least once: the row's own share decides.
-            total = self.width;
-            kept = self.rows[j.rem_euclid(self.height) as usize]
-                .iter()
-                .map(|&(s, e)| i64::from(e) - i64::from(s) + 1)
-                .sum();
-        } else {
-            self.runs(j, a, b, |s, e| kept += e - s + 1);
-        }
-        match kept {
-            0 => Some(false),
-            k if k == total => Some(true),
-            _ => None,
         }
     }
 }
@@ -228,11 +213,9 @@ impl Cutter {
         // Every row of the triangle's texels wholly kept, or every one wholly cut: no split.
         let (mut all_kept, mut none_kept) = (true, true);
         for j in ja..=jb {
-            match cover.row_covers(j, a, b) {
-                Some(true) => none_kept = false,
-                Some(false) => all_kept = false,
-                None => (all_kept, none_kept) = (false, false),
-            }
+            cover.kept_runs(j, a, b, &mut self.runs);
+            all_kept &= self.runs == [(a, b)];
+            none_kept &= self.runs.is_empty();
             if !all_kept && !none_kept {
                 break;
             }
@@ -261,12 +244,12 @@ impl Cutter {
         // piece per run and band.
         let mut runs = std::mem::take(&mut self.runs);
         let mut next = std::mem::take(&mut self.next_runs);
-        kept_runs(cover, ja, a, b, &mut runs);
+        cover.kept_runs(ja, a, b, &mut runs);
         let mut j = ja;
         while j <= jb {
             let mut last = j;
             while last < jb {
-                kept_runs(cover, last + 1, a, b, &mut next);
+                cover.kept_runs(last + 1, a, b, &mut next);
                 if next != runs {
                     break;
                 }
@@ -285,9 +268,7 @@ impl Cutter {
             Fate::Split
         }
     }
-}
 
-impl Cutter {
     /// Adds the pieces of triangle `tri` in the closed band of rows `rows.0 <= v <=
     /// rows.1 + 1` (of the triangle's rows `span`) over the kept column runs `runs`.
     fn cut_band(
@@ -343,16 +324,6 @@ impl Cutter {
             }
         }
     }
-}
-
-/// The runs of kept texels of row `j` over the columns `a..=b` (unwrapped), runs that meet
-/// across the texture's edge joined, into `out`.
-fn kept_runs(cover: &Coverage, j: i64, a: i64, b: i64, out: &mut Vec<(i64, i64)>) {
-    out.clear();
-    cover.runs(j, a, b, |s, e| match out.last_mut() {
-        Some(last) if last.1 + 1 == s => last.1 = e,
-        _ => out.push((s, e)),
-    });
 }
 
 impl Mesh {

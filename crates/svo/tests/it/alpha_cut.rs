@@ -6,7 +6,7 @@
 use glam::{DVec2, DVec3, Vec2};
 use std::collections::BTreeSet;
 use svo::mesh::Texture;
-use svo::{BakeOptions, Material, Mesh, MeshError};
+use svo::{BakeOptions, Material, Mesh, MeshError, Octree};
 
 /// A texture of `w x h` texels whose alpha is 255 where `kept(x, y)`, else 0.
 fn mask_texture(w: u32, h: u32, kept: impl Fn(u32, u32) -> bool) -> Texture {
@@ -40,14 +40,21 @@ fn textured_quad(texture: Texture) -> Mesh {
     }
 }
 
-/// The leaves' cells of `mesh` baked at `depth`.
-fn leaf_cells(mesh: &Mesh, depth: u8) -> BTreeSet<[u32; 3]> {
+/// `mesh` baked at `depth`, every channel.
+fn bake(mesh: &Mesh, depth: u8) -> Octree {
     let opts = BakeOptions {
         depth,
         ..BakeOptions::default()
     };
-    let (tree, _) = svo::bake_mesh(mesh, &opts).unwrap();
-    tree.leaves().map(|l| l.cell.to_array()).collect()
+    svo::bake_mesh(mesh, &opts).unwrap().0
+}
+
+/// The leaves' cells of `mesh` baked at `depth`.
+fn leaf_cells(mesh: &Mesh, depth: u8) -> BTreeSet<[u32; 3]> {
+    bake(mesh, depth)
+        .leaves()
+        .map(|l| l.cell.to_array())
+        .collect()
 }
 
 /// The 3D area of `mesh`'s triangles.
@@ -69,11 +76,7 @@ fn checker_quad_has_holes_where_its_texels_are_cut() {
     mesh.cut_alpha_masks(&[(0, 0.5)]).unwrap();
     mesh.validate().unwrap();
     assert!((area(&mesh) - 0.5).abs() < 1e-12, "{}", area(&mesh));
-    let opts = BakeOptions {
-        depth: 4,
-        ..BakeOptions::default()
-    };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
+    let tree = bake(&mesh, 4);
     // Every leaf touches a kept quarter (closed squares)...
     let eps = 1e-12;
     for leaf in tree.leaves() {
@@ -299,7 +302,7 @@ fn texture_repeated_millions_of_times_is_refused_and_the_mesh_kept() {
     assert_eq!((mesh.triangles.clone(), mesh.positions.len()), before);
 }
 
-#[cfg(feature = "gltf")]
+#[cfg(all(feature = "gltf", feature = "io"))]
 /// A GLB of the textured unit quad with a 2 x 2 checker alpha PNG, its material given
 /// `material` (alpha mode and cutoff).
 fn checker_glb(material: serde_json::Value) -> Vec<u8> {
@@ -351,25 +354,10 @@ fn checker_glb(material: serde_json::Value) -> Vec<u8> {
         "scenes": [{"nodes": [0]}],
         "scene": 0
     });
-    let mut text = serde_json::to_vec(&j).unwrap();
-    text.resize(text.len().next_multiple_of(4), b' ');
-    bin.resize(bin.len().next_multiple_of(4), 0);
-    let total = 12 + 8 + text.len() + 8 + bin.len();
-    let u32le = |v: usize| u32::try_from(v).unwrap().to_le_bytes();
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&u32le(total));
-    out.extend_from_slice(&u32le(text.len()));
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&text);
-    out.extend_from_slice(&u32le(bin.len()));
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    out
+    crate::gltf_scene::glb(&j, &bin)
 }
 
-#[cfg(feature = "gltf")]
+#[cfg(all(feature = "gltf", feature = "io"))]
 #[test]
 fn gltf_alpha_modes_import_as_holes_coverage_or_nothing() {
     use serde_json::json;
@@ -378,14 +366,7 @@ fn gltf_alpha_modes_import_as_holes_coverage_or_nothing() {
     assert!((area(&masked) - 0.5).abs() < 1e-9, "{}", area(&masked));
     assert!(!masked.materials[0].alpha_blend);
     // Baked, the cut quarters have no leaves, the kept ones do.
-    let (tree, _) = svo::bake_mesh(
-        &masked,
-        &BakeOptions {
-            depth: 4,
-            ..BakeOptions::default()
-        },
-    )
-    .unwrap();
+    let tree = bake(&masked, 4);
     for (x, y, kept) in [
         (0.25, 0.25, true),
         (0.75, 0.75, true),
@@ -409,14 +390,7 @@ fn gltf_alpha_modes_import_as_holes_coverage_or_nothing() {
     assert_eq!(m.optics_at(1.0), (0.0, 0.0));
     // Baked, the blended quad's leaves refract where the texels are clear: the channel is
     // per leaf, clear over the cut texels and opaque over the kept ones.
-    let (tree, _) = svo::bake_mesh(
-        &blend,
-        &BakeOptions {
-            depth: 3,
-            ..BakeOptions::default()
-        },
-    )
-    .unwrap();
+    let tree = bake(&blend, 3);
     assert!(tree.attributes.refractivity.is_per_leaf());
     for (x, y, clear) in [
         (0.2, 0.2, false),

@@ -58,7 +58,7 @@ fn box_gltf() -> (Value, Vec<u8>) {
 }
 
 /// A binary glTF (GLB) of `json` and its buffer.
-fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
+pub(crate) fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
     let mut text = serde_json::to_vec(json).unwrap();
     text.resize(text.len().next_multiple_of(4), b' ');
     let mut bin = bin.to_vec();
