@@ -81,10 +81,20 @@ pub fn bake_at(mesh: &svo::Mesh, depth: u8) -> (svo::Octree, svo::BakeStats) {
     .unwrap()
 }
 
-/// The area of the part of triangle `tri` inside the unit cube `[0, 1]^3`: the polygon
-/// clipped against the cube's six planes (Sutherland-Hodgman), in `f64`. Written here, apart
-/// from the library's clipping, as a reference.
+/// The area of the part of triangle `tri` inside the unit cube `[0, 1]^3` ([`clipped_polygon`]).
 pub fn clipped_area(tri: [DVec3; 3]) -> f64 {
+    let poly = clipped_polygon(tri);
+    let mut twice = DVec3::ZERO;
+    for i in 1..poly.len().saturating_sub(1) {
+        twice += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
+    }
+    twice.length() / 2.0
+}
+
+/// The part of triangle `tri` inside the unit cube `[0, 1]^3`: the polygon clipped against
+/// the cube's six planes (Sutherland-Hodgman), in `f64`; empty where it misses the cube.
+/// Written here, apart from the library's clipping, as a reference.
+pub fn clipped_polygon(tri: [DVec3; 3]) -> Vec<DVec3> {
     let mut poly: Vec<DVec3> = tri.to_vec();
     for axis in 0..3 {
         for (bound, keep_below) in [(0.0, false), (1.0, true)] {
@@ -110,13 +120,9 @@ pub fn clipped_area(tri: [DVec3; 3]) -> f64 {
             }
             poly = out;
             if poly.is_empty() {
-                return 0.0;
+                return poly;
             }
         }
     }
-    let mut twice = DVec3::ZERO;
-    for i in 1..poly.len().saturating_sub(1) {
-        twice += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
-    }
-    twice.length() / 2.0
+    poly
 }

@@ -1,5 +1,6 @@
-//! The whole bake (voxelize, attributes, contours) per strategy and depth: on the committed
-//! torus fixture always, and on the Stanford bunny when `../shared/models` is present.
+//! The whole bake (voxelize, attributes, contours) per strategy and depth, and at depth 8
+//! with the inner nodes' attributes (`/lod`): on the committed torus fixture always, and on
+//! the Stanford bunny when `../shared/models` is present.
 #![allow(missing_docs)]
 
 mod common;
@@ -25,6 +26,14 @@ fn bench(c: &mut Criterion) {
                 });
             }
         }
+        let opts = BakeOptions {
+            depth: 8,
+            node_attributes: true,
+            ..Default::default()
+        };
+        g.bench_function(format!("{name}/d8/exact/lod"), |b| {
+            b.iter(|| bake_mesh(&mesh, &opts).unwrap())
+        });
     }
     g.finish();
 }

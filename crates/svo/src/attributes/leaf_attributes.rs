@@ -17,6 +17,7 @@
 //! is how the bake summary reports them.
 
 use crate::attributes::ChannelSelection;
+use crate::attributes::surface_sums::{NodeValue, SurfaceSums};
 use crate::geometry::triangle_setup::GridTriangle;
 use crate::mesh::triangle_mesh::{Material, Mesh};
 use crate::octree::contour;
@@ -83,6 +84,7 @@ pub(crate) struct AttributeInputs<'a> {
     per_leaf_refl: bool,
     per_leaf_refr: bool,
     per_leaf_ior: bool,
+    nodes: bool,
 }
 
 impl<'a> AttributeInputs<'a> {
@@ -121,6 +123,7 @@ impl<'a> AttributeInputs<'a> {
             per_leaf_refl,
             per_leaf_refr,
             per_leaf_ior,
+            nodes: false,
         };
         // Unit normals of the grid-space triangles (zero for degenerate ones).
         if inputs.needs_geometry() {
@@ -143,6 +146,12 @@ impl<'a> AttributeInputs<'a> {
             }
         }
         inputs
+    }
+
+    /// Makes inner nodes' values too ([`Self::node_value`]).
+    pub(crate) fn with_nodes(mut self, nodes: bool) -> Self {
+        self.nodes = nodes;
+        self
     }
 
     /// Whether any per-leaf value needs the triangles' parts in the cells (areas, points);
@@ -174,7 +183,8 @@ impl<'a> AttributeInputs<'a> {
 
     /// Computes the attributes of the leaf at grid cell `cell` (its minimum corner) from its
     /// `contacts` (points in `pts`, cell-local) and appends them to `out`. The contour is
-    /// left pending ([`LeafValues::fit_contours`]).
+    /// left pending ([`LeafValues::fit_contours`]). Returns the sums the values are the means
+    /// of, for the leaf's parent ([`SurfaceSums`]).
     pub(crate) fn push_leaf(
         &self,
         out: &mut LeafValues,
@@ -182,46 +192,39 @@ impl<'a> AttributeInputs<'a> {
         contacts: &[Contact],
         contact_start: u32,
         pts: &[Vec3],
-    ) {
+    ) -> SurfaceSums {
         out.count += 1;
         out.pairs += contacts.len() as u64;
+        let mut sums = SurfaceSums::default();
         if !self.needs_geometry() {
-            return;
+            return sums;
         }
-        // The weights' sum and the area-weighted normal sum in one pass (the additions in
-        // the same order as two passes would make them).
-        let (mut wsum, mut s) = (0.0, DVec3::ZERO);
-        if self.want_normal {
-            for c in contacts {
-                wsum += c.area;
-                s += self.normals[c.tri as usize] * c.area;
+        // The area and the area-weighted normal sum in one pass.
+        for c in contacts {
+            sums.area += c.area;
+            if self.want_normal {
+                sums.normal += self.normals[c.tri as usize] * c.area;
             }
-        } else {
-            wsum = contacts.iter().map(|c| c.area).sum();
         }
-        let weight = |c: &Contact| if wsum > 0.0 { c.area } else { 1.0 };
+        let area = sums.area;
+        let weight = |c: &Contact| if area > 0.0 { c.area } else { 1.0 };
         let material = |ti: u32| self.mesh.material_of(self.order[ti as usize] as usize);
         if self.want_normal {
-            if !(wsum > 0.0) {
-                s = DVec3::ZERO;
+            if !(area > 0.0) {
+                sums.normal = DVec3::ZERO;
                 for c in contacts {
-                    s += self.normals[c.tri as usize];
+                    sums.normal += self.normals[c.tri as usize];
                 }
             }
-            // `|s| > floor`, decided without a square root where it clearly holds (a floor
-            // above 1e-150 squares without underflow; twice it absorbs the rounding).
-            let floor = 1e-12 * wsum.max(1e-300);
-            let clear = floor > 1e-150 && s.length_squared() > 4.0 * floor * floor;
-            if !clear && !(s.length() > floor) {
-                // Opposite sheets cancel: take the heaviest triangle's normal.
-                s = contacts
+            let enc = sums.encode_normal(|| {
+                // The heaviest triangle's normal.
+                contacts
                     .iter()
                     .map(|c| (self.normals[c.tri as usize], c.area))
                     .filter(|(n, _)| *n != DVec3::ZERO)
                     .max_by(|a, b| a.1.total_cmp(&b.1))
-                    .map_or(DVec3::Z, |(n, _)| n);
-            }
-            let enc = normal_encoding::encode(s.as_vec3());
+                    .map_or(DVec3::Z, |(n, _)| n)
+            });
             if self.select.has(ChannelKind::Normal) {
                 out.normal.push(enc);
             }
@@ -249,24 +252,23 @@ impl<'a> AttributeInputs<'a> {
             )
         };
         if self.per_leaf_colour {
-            let mut acc = [0.0f64; 4];
             let mut ws = 0.0;
             for c in contacts {
                 let w = weight(c);
                 let col = colour(c);
-                for (a, v) in acc.iter_mut().zip(col) {
+                for (a, v) in sums.colour.iter_mut().zip(col) {
                     *a += w * f64::from(v);
                 }
                 ws += w;
             }
-            let ws = if ws > 0.0 { ws } else { 1.0 };
-            out.colour.push(encode_colour(acc.map(|v| (v / ws) as f32)));
+            sums.weight = ws;
+            out.colour.push(sums.encode_colour());
         }
-        // Area-weighted means of reflectivity, refractivity and IOR, each contact's optics
-        // taken once (a blended material's at the alpha sampled at its part's centre).
+        // Weighted sums of reflectivity, refractivity and IOR, each contact's optics taken
+        // once (a blended material's at the alpha sampled at its part's centre).
         if self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior {
             let optics = self.per_leaf_refl || self.per_leaf_refr;
-            let (mut refl, mut refr, mut ior, mut ws) = (0.0f64, 0.0f64, 0.0f64, 0.0);
+            let mut ws = 0.0;
             for c in contacts {
                 let w = weight(c);
                 let m = material(c.tri);
@@ -275,22 +277,47 @@ impl<'a> AttributeInputs<'a> {
                 } else {
                     plain_optics(m)
                 };
-                refl += w * f64::from(kr);
-                refr += w * f64::from(kt);
-                ior += w * f64::from(m.ior);
+                sums.reflectivity += w * f64::from(kr);
+                sums.refractivity += w * f64::from(kt);
+                sums.ior += w * f64::from(m.ior);
                 ws += w;
             }
-            let mean = |a: f64| if ws > 0.0 { (a / ws) as f32 } else { 0.0 };
+            sums.weight = ws;
+            let (refl, refr, ior) = sums.encode_optics();
             if self.per_leaf_refl {
-                out.reflectivity.push(unorm8(mean(refl)));
+                out.reflectivity.push(refl);
             }
             if self.per_leaf_refr {
-                out.refractivity.push(unorm8(mean(refr)));
+                out.refractivity.push(refr);
             }
             if self.per_leaf_ior {
-                out.ior.push(ior_encode(mean(ior)));
+                out.ior.push(ior);
             }
         }
+        if sums.weight == 0.0 {
+            sums.weight = contacts.iter().map(weight).sum();
+        }
+        sums
+    }
+
+    /// The encoded attributes of an inner node from its `sums` (its children's, added):
+    /// the channels that are per leaf, the others left zero.
+    pub(crate) fn node_value(&self, sums: &mut SurfaceSums) -> NodeValue {
+        let mut v = NodeValue::default();
+        if !self.nodes {
+            return v;
+        }
+        if self.want_normal {
+            let heaviest = sums.heaviest;
+            v.normal = sums.encode_normal(|| heaviest);
+        }
+        if self.per_leaf_colour {
+            v.colour = sums.encode_colour();
+        }
+        if self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior {
+            (v.reflectivity, v.refractivity, v.ior) = sums.encode_optics();
+        }
+        v
     }
 
     /// The leaf attributes from the voxelizer's values, with constants for the channels that

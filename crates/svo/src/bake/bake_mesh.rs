@@ -3,11 +3,12 @@
 
 use crate::attributes::ChannelSelection;
 use crate::attributes::leaf_attributes::{AttributeInputs, ContourStats};
+use crate::attributes::node_attributes::node_attributes;
 use crate::bake::estimate::{Estimate, estimate};
 use crate::geometry::grid::RootCube;
 use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::mesh::triangle_mesh::{Mesh, MeshError};
-use crate::octree::tree::{ChannelKind, ChannelStorage, Octree};
+use crate::octree::tree::{ChannelKind, ChannelStorage, LeafAttributes, Octree};
 use crate::solid::mode::SolidMode;
 use crate::voxelize::build::{self as octree_build, LeafTriangles};
 use crate::voxelize::strategy::Strategy;
@@ -85,6 +86,10 @@ pub struct BakeOptions {
     /// Fill the inside of the mesh with interior leaves (the `solid` feature), deciding the
     /// inside as the [`SolidMode`] says.
     pub solid: Option<SolidMode>,
+    /// Give the inner nodes the attributes of the surface inside their cells
+    /// ([`Octree::node_attributes`]): the level of detail a renderer stops at. Not made for
+    /// solid bakes; `.svo` files do not store them yet.
+    pub node_attributes: bool,
 }
 
 impl Default for BakeOptions {
@@ -96,6 +101,7 @@ impl Default for BakeOptions {
             pad: 0,
             max_memory: None,
             solid: None,
+            node_attributes: false,
         }
     }
 }
@@ -159,6 +165,9 @@ pub struct BakeStats {
     pub attributes_s: f64,
     /// Seconds spent on contours.
     pub contours_s: f64,
+    /// Seconds spent on the inner nodes' contours and channels after the build (their other
+    /// values are made during it, within `voxelize_s` and `attributes_s`).
+    pub node_attributes_s: f64,
     /// The solid mode, when the inside was filled.
     pub solid: Option<String>,
     /// Interior leaves added by the solid fill (included in `leaves`).
@@ -315,8 +324,9 @@ pub(crate) fn bake_for_file(
     let t0 = Instant::now();
     let order = spatial_order(mesh, &root);
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
-    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
-    let (nodes, values, tests) =
+    let with_nodes = opts.node_attributes && opts.solid.is_none();
+    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels).with_nodes(with_nodes);
+    let (nodes, node_values, values, tests) =
         octree_build::voxelize_with_attributes(&inputs, opts.depth, opts.strategy, &|f| {
             progress(Phase::Voxelize, f)
         });
@@ -338,12 +348,21 @@ pub(crate) fn bake_for_file(
         .saturating_sub(rep.attributes)
         .saturating_sub(rep.contours)
         .as_secs_f64();
+    let t_nodes = Instant::now();
+    let node_attributes = if with_nodes {
+        node_attributes(&nodes, &node_values, &attributes)
+    } else {
+        LeafAttributes::default()
+    };
+    drop(node_values);
+    let node_attributes_s = t_nodes.elapsed().as_secs_f64();
     let mut tree = Octree {
         root,
         depth: opts.depth,
         nodes,
         leaf_count: leaf_count as u32,
         attributes,
+        node_attributes,
     };
     let (mut interior_leaves, mut solid_s) = (0, 0.0);
     if let Some(mode) = opts.solid {
@@ -381,6 +400,7 @@ pub(crate) fn bake_for_file(
         voxelize_s,
         attributes_s: rep.attributes.as_secs_f64(),
         contours_s: rep.contours.as_secs_f64(),
+        node_attributes_s,
         solid: opts.solid.map(|m| m.name().to_string()),
         interior_leaves,
         solid_s,

@@ -204,6 +204,7 @@ impl ChunkedFile {
             leaf_count: rec.leaves as u32,
             nodes: a.nodes,
             attributes: a.attributes,
+            node_attributes: Default::default(),
         };
         check_values(&tree, self.read.preamble.version).map_err(corrupt)?;
         tree.refresh_checked_bounds();

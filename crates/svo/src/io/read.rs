@@ -368,6 +368,7 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         leaf_count: h.leaf_count as u32,
         nodes,
         attributes,
+        node_attributes: Default::default(),
     };
     Ok(Raw { tree, table })
 }

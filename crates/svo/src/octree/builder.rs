@@ -114,6 +114,8 @@ impl<T> Default for LeafVec<T> {
 }
 
 impl<T: Send> LeafStore for LeafVec<T> {
+    type Sums = ();
+    type NodeValue = ();
     fn len(&self) -> usize {
         self.0.len()
     }
@@ -179,7 +181,7 @@ pub(crate) fn layout_sorted<T: Copy + Send>(
 ) -> (Vec<crate::octree::tree::Node>, Vec<T>) {
     let mut chunk = Chunk::<LeafVec<T>>::new();
     let rec = build_sorted(cells, depth, 0, &mut chunk);
-    let (nodes, LeafVec(values)) = chunk.finish(rec);
+    let (nodes, _, LeafVec(values)) = chunk.finish(rec.map(|r| (r, (), ())));
     (nodes, values)
 }
 
@@ -210,11 +212,11 @@ fn build_sorted<T: Copy + Send>(
         let end = start + cells[start..].partition_point(|&(k, _)| child(k) == i);
         if let Some(r) = build_sorted(&cells[start..end], depth, level + 1, chunk) {
             mask |= 1 << i;
-            records.push(r);
+            records.push((r, (), ()));
         }
         start = end;
     }
-    Some(chunk.push_children(mask, &records))
+    Some(chunk.push_children(mask, &records).0)
 }
 
 /// See [`Octree::from_fn`].
@@ -260,10 +262,10 @@ fn build_fn(
         let o = UVec3::from_array(child_offset(i)) * half;
         if let Some(r) = build_fn(may, f, depth, level + 1, min + o, chunk) {
             mask |= 1 << i;
-            records.push(r);
+            records.push((r, (), ()));
         }
     }
-    (mask != 0).then(|| chunk.push_children(mask, &records))
+    (mask != 0).then(|| chunk.push_children(mask, &records).0)
 }
 
 fn finish(
@@ -272,7 +274,7 @@ fn finish(
     chunk: Chunk<Voxels>,
     rec: Option<crate::octree::tree::Node>,
 ) -> Octree {
-    let (nodes, LeafVec(vox)) = chunk.finish(rec);
+    let (nodes, _, LeafVec(vox)) = chunk.finish(rec.map(|r| (r, (), ())));
     let mut attributes = LeafAttributes {
         colour: Channel::PerLeaf(vox.iter().map(|v| encode_colour(v.colour)).collect()),
         reflectivity: Channel::PerLeaf(vox.iter().map(|v| unorm8(v.reflectivity)).collect()),
@@ -296,6 +298,7 @@ fn finish(
         nodes,
         leaf_count: vox.len() as u32,
         attributes,
+        node_attributes: Default::default(),
     };
     tree.refresh_bounds();
     tree

@@ -12,20 +12,44 @@
 //! order); [`Chunk::finish`] reverses the array once, which puts the root first, every block
 //! in child order and every pointer forward. Independent subtrees (built in parallel) are
 //! copied into place with their pointers moved by [`Chunk::relocate`].
+//!
+//! Each node may carry a value beside its record (its encoded attributes), which moves with
+//! the record; a node's value is made with its record, from the sums its children's records
+//! carried up ([`Sums`]).
 
 use crate::octree::tree::Node;
 
-/// Leaf data that travels with a chunk of nodes.
+/// What a node's record carries up the build for its parent's value.
+pub(crate) trait Sums: Copy + Default + Send + Sync + std::fmt::Debug {
+    /// Adds a child's sums (called in child order).
+    fn add(&mut self, child: &Self);
+}
+
+impl Sums for () {
+    fn add(&mut self, _: &Self) {}
+}
+
+/// Leaf data that travels with a chunk of nodes, and what its nodes carry.
 pub(crate) trait LeafStore: Default + Send {
+    /// The sums a record carries to its parent.
+    type Sums: Sums;
+    /// What a node stores beside its record.
+    type NodeValue: Copy + Default + Send + Sync + std::fmt::Debug;
     /// How many leaves.
     fn len(&self) -> usize;
 }
 
-/// A part of an octree under construction: nodes in post-order and their leaves.
+/// A node's record with its sums and value, before it is placed in its parent's block.
+pub(crate) type Record<L> = (Node, <L as LeafStore>::Sums, <L as LeafStore>::NodeValue);
+
+/// A part of an octree under construction: nodes in post-order, their values and their
+/// leaves.
 #[derive(Debug, Default)]
-pub(crate) struct Chunk<L> {
+pub(crate) struct Chunk<L: LeafStore> {
     /// Nodes, in post-order until [`Chunk::finish`].
     pub nodes: Vec<Node>,
+    /// Each node's value, at its node's index.
+    pub values: Vec<L::NodeValue>,
     /// The leaves that the chunk's nodes refer to.
     pub leaves: L,
 }
@@ -35,6 +59,7 @@ impl<L: LeafStore> Chunk<L> {
     pub(crate) fn new() -> Self {
         Self {
             nodes: Vec::new(),
+            values: Vec::new(),
             leaves: L::default(),
         }
     }
@@ -47,16 +72,22 @@ impl<L: LeafStore> Chunk<L> {
         }
     }
 
-    /// Appends a children block holding `records` (the existing children's records, in
-    /// child-index order) and returns the parent's record.
-    pub(crate) fn push_children(&mut self, mask: u8, records: &[Node]) -> Node {
+    /// Appends a children block holding `records` (the existing children's, in child-index
+    /// order) and returns the parent's record and the sum of the children's sums.
+    pub(crate) fn push_children(&mut self, mask: u8, records: &[Record<L>]) -> (Node, L::Sums) {
         debug_assert_eq!(mask.count_ones() as usize, records.len());
         let start = self.nodes.len();
-        self.nodes.extend(records.iter().rev());
-        Node {
+        let mut sums = L::Sums::default();
+        for r in records {
+            sums.add(&r.1);
+        }
+        self.nodes.extend(records.iter().rev().map(|r| r.0));
+        self.values.extend(records.iter().rev().map(|r| r.2));
+        let node = Node {
             info: u32::from(mask),
             first: start as u32,
-        }
+        };
+        (node, sums)
     }
 
     /// Relocates a record of a chunk whose nodes move by `node_off` and leaves by `leaf_off`.
@@ -75,18 +106,21 @@ impl<L: LeafStore> Chunk<L> {
     }
 
     /// Appends the root record, reverses the post-order into the final layout and returns
-    /// the nodes (root at index 0) and the leaves. `root = None` gives the empty tree: one
-    /// root node with no children.
-    pub(crate) fn finish(mut self, root: Option<Node>) -> (Vec<Node>, L) {
-        self.nodes.push(root.unwrap_or_default());
+    /// the nodes (root at index 0), their values and the leaves. `root = None` gives the
+    /// empty tree: one root node with no children.
+    pub(crate) fn finish(mut self, root: Option<Record<L>>) -> (Vec<Node>, Vec<L::NodeValue>, L) {
+        let (node, value) = root.map_or_else(Default::default, |r| (r.0, r.2));
+        self.nodes.push(node);
+        self.values.push(value);
         let n = self.nodes.len() as u32;
         self.nodes.reverse();
+        self.values.reverse();
         for node in &mut self.nodes {
             if !node.is_leaf_parent() && node.child_mask() != 0 {
                 let k = node.child_mask().count_ones();
                 node.first = n - node.first - k;
             }
         }
-        (self.nodes, self.leaves)
+        (self.nodes, self.values, self.leaves)
     }
 }

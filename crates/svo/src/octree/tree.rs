@@ -382,6 +382,11 @@ pub struct Octree {
     pub leaf_count: u32,
     /// Leaf attribute channels.
     pub attributes: LeafAttributes,
+    /// The same channels for the nodes, indexed by node (one value per node where the
+    /// leaves' channel has one per leaf): the surface inside each node's cell, which a
+    /// renderer may draw in place of the node's subtree. All absent where the tree has no
+    /// level of detail ([`crate::BakeOptions::node_attributes`]).
+    pub node_attributes: LeafAttributes,
 }
 
 impl Octree {
@@ -537,9 +542,10 @@ impl Octree {
         (lo, hi)
     }
 
-    /// Bytes of the node array plus the per-leaf arrays.
+    /// Bytes of the node array plus the per-leaf and per-node arrays.
     pub fn payload_bytes(&self) -> usize {
-        self.nodes.len() * 8 + self.leaf_count as usize * self.attributes.per_leaf_bytes()
+        self.nodes.len() * (8 + self.node_attributes.per_leaf_bytes())
+            + self.leaf_count as usize * self.attributes.per_leaf_bytes()
     }
 }
 

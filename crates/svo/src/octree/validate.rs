@@ -103,6 +103,7 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
             );
         }
     }
+    check_node_channels(t)?;
     if bits == InfoBits::Zero {
         check_node_words(&t.nodes)?;
     }
@@ -128,6 +129,49 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
         check_leaf_order(&t.nodes, leaves)?;
     }
     check_values(t, version)
+}
+
+/// The inner nodes' channels of a tree in memory ([`Octree::node_attributes`]): a value per
+/// node where they have one per node, a contour only beside a normal, and the normal and
+/// contour words as check 18 has them for leaves (no interior-leaf word).
+fn check_node_channels(t: &Octree) -> Result<(), Failure> {
+    let a = &t.node_attributes;
+    if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
+        return Err((
+            Check::Channels,
+            "a node contour channel without a node normal channel".into(),
+        ));
+    }
+    for (kind, storage) in a.storage() {
+        if let ChannelStorage::PerLeaf(len) = storage
+            && len != t.nodes.len()
+        {
+            return Err((
+                Check::ArrayLayout,
+                format!(
+                    "node channel {} has {len} values for {} nodes",
+                    kind.name(),
+                    t.nodes.len()
+                ),
+            ));
+        }
+    }
+    let bad_normal = |w: u32| (w & 0xFFFF) == 0x8000 || (w >> 16) == 0x8000;
+    if let Some((at, w)) = first_bad(&a.normal, bad_normal) {
+        return Err((
+            Check::Values,
+            format!("node channel, {at}: normal word {w:#010x} has a half 0x8000"),
+        ));
+    }
+    if let Some((at, c)) = first_bad(&a.contour, |c| (c & 0xFFFF) > (c >> 16)) {
+        return Err((
+            Check::Values,
+            format!(
+                "node channel, {at}: contour {c:#010x} has its near plane beyond its far plane"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Check 14: bits 8-31 of every node's `info` are zero, as files store them.

@@ -503,5 +503,6 @@ pub(crate) fn merge_interior(surface: &Octree, mesh: &Mesh, interior: &[(UVec3, 
         nodes,
         leaf_count: sources.len() as u32,
         attributes,
+        node_attributes: Default::default(),
     }
 }

@@ -17,13 +17,14 @@
 //! `docs/algorithms.md`).
 
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
+use crate::attributes::surface_sums::{NodeValue, SurfaceSums};
 use crate::geometry::child_classify::{child_cell, child_offset, classify_children};
 use crate::geometry::grid::closed_cells;
 use crate::geometry::overlap::{
     decide, edges_overlap, plane_tolerance, triangle_box_overlap, verdict,
 };
 use crate::geometry::triangle_setup::GridTriangle;
-use crate::octree::layout::{Chunk, LeafStore};
+use crate::octree::layout::{Chunk, LeafStore, Record, Sums};
 use crate::octree::tree::Node;
 use crate::voxelize::scatter::{
     SCATTER_LEVELS, ScatterScratch, clip_contacts, scatter_pairs, scatter_sliced,
@@ -65,12 +66,16 @@ impl LeafTriangles {
 }
 
 impl LeafStore for LeafTriangles {
+    type Sums = ();
+    type NodeValue = ();
     fn len(&self) -> usize {
         self.cells.len()
     }
 }
 
 impl LeafStore for LeafValues {
+    type Sums = SurfaceSums;
+    type NodeValue = NodeValue;
     fn len(&self) -> usize {
         LeafValues::len(self)
     }
@@ -79,8 +84,16 @@ impl LeafStore for LeafValues {
 /// What the voxelizer makes of leaves: how a leaf is stored from a triangle list (the
 /// recursion's last level), how the bottom levels are scattered, and how parts are joined.
 trait LeafSink: LeafStore + Sized {
-    /// Appends the leaf at `cell` touched by the triangles of `list`.
-    fn push_list(&mut self, ctx: &Ctx<'_>, cell: [u32; 3], list: &[u32], scratch: &mut Scratch);
+    /// Appends the leaf at `cell` touched by the triangles of `list`; returns its sums.
+    fn push_list(
+        &mut self,
+        ctx: &Ctx<'_>,
+        cell: [u32; 3],
+        list: &[u32],
+        scratch: &mut Scratch,
+    ) -> Self::Sums;
+    /// The value of a node whose children's sums added up to `sums` (which it completes).
+    fn node_value(ctx: &Ctx<'_>, sums: &mut Self::Sums) -> Self::NodeValue;
     /// Builds the subtree of a node of the bottom levels ([`crate::voxelize::scatter`]).
     fn scatter(
         ctx: &Ctx<'_>,
@@ -90,7 +103,7 @@ trait LeafSink: LeafStore + Sized {
         chunk: &mut Chunk<Self>,
         scratch: &mut ScatterScratch,
         tests: &mut u64,
-    ) -> Option<Node>;
+    ) -> Option<Record<Self>>;
     /// The leaves of `parts`, one after the other (each array reserved once at its full
     /// length, so no element is copied twice).
     fn concat(parts: Vec<Self>) -> Self;
@@ -103,6 +116,8 @@ impl LeafSink for LeafTriangles {
         self.ends.push(self.tris.len() as u64);
     }
 
+    fn node_value(_: &Ctx<'_>, _: &mut ()) {}
+
     fn scatter(
         ctx: &Ctx<'_>,
         level: u8,
@@ -111,7 +126,7 @@ impl LeafSink for LeafTriangles {
         chunk: &mut Chunk<Self>,
         scratch: &mut ScatterScratch,
         tests: &mut u64,
-    ) -> Option<Node> {
+    ) -> Option<Record<Self>> {
         scatter_pairs(ctx, level, cell, list, chunk, scratch, tests)
     }
 
@@ -134,7 +149,13 @@ impl LeafSink for LeafTriangles {
 }
 
 impl LeafSink for LeafValues {
-    fn push_list(&mut self, ctx: &Ctx<'_>, cell: [u32; 3], list: &[u32], scratch: &mut Scratch) {
+    fn push_list(
+        &mut self,
+        ctx: &Ctx<'_>,
+        cell: [u32; 3],
+        list: &[u32],
+        scratch: &mut Scratch,
+    ) -> SurfaceSums {
         let t0 = Instant::now();
         let inputs = ctx
             .attributes
@@ -149,13 +170,20 @@ impl LeafSink for LeafValues {
         }
         let (contacts, pts) = scratch.scatter.contact_buffers();
         clip_contacts(ctx.tris, cell, list, contacts, pts);
-        inputs.push_leaf(self, m, contacts, 0, pts);
+        let sums = inputs.push_leaf(self, m, contacts, 0, pts);
         let t1 = Instant::now();
         if inputs.wants_contour() {
             self.fit_contours(contacts, pts);
         }
         self.t_attributes += t1 - t0;
         self.t_contours += t1.elapsed();
+        sums
+    }
+
+    fn node_value(ctx: &Ctx<'_>, sums: &mut SurfaceSums) -> NodeValue {
+        ctx.attributes
+            .expect("the bake's voxelizer has attribute inputs")
+            .node_value(sums)
     }
 
     fn scatter(
@@ -166,7 +194,7 @@ impl LeafSink for LeafValues {
         chunk: &mut Chunk<Self>,
         scratch: &mut ScatterScratch,
         tests: &mut u64,
-    ) -> Option<Node> {
+    ) -> Option<Record<Self>> {
         scatter_sliced(ctx, level, cell, list, chunk, scratch, tests)
     }
 
@@ -409,7 +437,7 @@ fn build_seq<L: LeafSink>(
     chunk: &mut Chunk<L>,
     scratch: &mut Scratch,
     tests: &mut u64,
-) -> Option<Node> {
+) -> Option<Record<L>> {
     if ctx.strategy == Strategy::Exact && ctx.depth - level <= SCATTER_LEVELS {
         return L::scatter(ctx, level, cell, list, chunk, &mut scratch.scatter, tests);
     }
@@ -423,18 +451,23 @@ fn build_seq<L: LeafSink>(
     let record;
     if level + 1 == ctx.depth {
         let base = chunk.leaves.len();
+        let mut sums = L::Sums::default();
         for (i, l) in lists.iter().enumerate() {
             if l.is_empty() {
                 continue;
             }
             mask |= 1 << i;
-            chunk
+            let leaf = chunk
                 .leaves
                 .push_list(ctx, child_cell(cell, i as u8, 1), l, scratch);
+            sums.add(&leaf);
         }
-        record = (mask != 0).then(|| Chunk::<L>::leaf_parent(mask, base));
+        record = (mask != 0).then(|| {
+            let value = L::node_value(ctx, &mut sums);
+            (Chunk::<L>::leaf_parent(mask, base), sums, value)
+        });
     } else {
-        let mut records = [Node::default(); 8];
+        let mut records: [Record<L>; 8] = Default::default();
         let mut k = 0;
         for (i, l) in lists.iter().enumerate() {
             let cu = ctx.units(level + 1);
@@ -451,7 +484,11 @@ fn build_seq<L: LeafSink>(
                 k += 1;
             }
         }
-        record = (mask != 0).then(|| chunk.push_children(mask, &records[..k]));
+        record = (mask != 0).then(|| {
+            let (node, mut sums) = chunk.push_children(mask, &records[..k]);
+            let value = L::node_value(ctx, &mut sums);
+            (node, sums, value)
+        });
     }
     scratch.lists[usize::from(level)] = lists;
     if level == ctx.progress_level {
@@ -463,21 +500,23 @@ fn build_seq<L: LeafSink>(
 /// A subtree built by parallel tasks: a sequential chunk, or a node of the top levels
 /// whose children were built independently. Assembled once at the end ([`assemble`]), so
 /// the output is copied once, not once per parallel level.
-enum Part<L> {
-    Seq(Chunk<L>, Option<Node>),
+enum Part<L: LeafStore> {
+    Seq(Chunk<L>, Option<Record<L>>),
     Par(Vec<(u8, Part<L>)>),
 }
 
 /// One piece of the final node array: a sequential chunk's nodes with the offsets of its
 /// nodes and leaves, or the children block of a node of the parallel levels.
-enum Job {
+enum Job<V> {
     Chunk {
         nodes: Vec<Node>,
+        values: Vec<V>,
         node_off: usize,
         leaf_off: usize,
     },
     Block {
         records: Vec<Node>,
+        values: Vec<V>,
     },
 }
 
@@ -485,15 +524,16 @@ enum Job {
 /// that order), its node jobs with their final offsets to `jobs`, and returns its root
 /// record relocated there. `off` and `leaf_off` count the nodes and leaves placed so far.
 fn plan<L: LeafSink>(
+    ctx: &Ctx<'_>,
     part: Part<L>,
-    jobs: &mut Vec<Job>,
+    jobs: &mut Vec<Job<L::NodeValue>>,
     off: &mut usize,
     leaf_off: &mut usize,
     leaves: &mut Vec<L>,
-) -> Option<Node> {
+) -> Option<Record<L>> {
     match part {
         Part::Seq(chunk, rec) => {
-            let rec = rec?;
+            let (rec, sums, value) = rec?;
             let node_off = *off;
             let first_leaf = *leaf_off;
             *off += chunk.nodes.len();
@@ -501,16 +541,18 @@ fn plan<L: LeafSink>(
             leaves.push(chunk.leaves);
             jobs.push(Job::Chunk {
                 nodes: chunk.nodes,
+                values: chunk.values,
                 node_off,
                 leaf_off: first_leaf,
             });
-            Some(Chunk::<L>::relocate(rec, node_off as u32, first_leaf))
+            let rec = Chunk::<L>::relocate(rec, node_off as u32, first_leaf);
+            Some((rec, sums, value))
         }
         Part::Par(children) => {
             let mut records = Vec::with_capacity(8);
             let mut mask = 0u8;
             for (i, p) in children {
-                if let Some(r) = plan(p, jobs, off, leaf_off, leaves) {
+                if let Some(r) = plan(ctx, p, jobs, off, leaf_off, leaves) {
                     mask |= 1 << i;
                     records.push(r);
                 }
@@ -518,15 +560,23 @@ fn plan<L: LeafSink>(
             if mask == 0 {
                 return None;
             }
+            let mut sums = L::Sums::default();
+            for r in &records {
+                sums.add(&r.1);
+            }
+            let value = L::node_value(ctx, &mut sums);
             // Children blocks hold their records in reverse until the final reversal.
             let start = *off;
             *off += records.len();
-            records.reverse();
-            jobs.push(Job::Block { records });
-            Some(Node {
+            jobs.push(Job::Block {
+                records: records.iter().rev().map(|r| r.0).collect(),
+                values: records.iter().rev().map(|r| r.2).collect(),
+            });
+            let node = Node {
                 info: u32::from(mask),
                 first: start as u32,
-            })
+            };
+            Some((node, sums, value))
         }
     }
 }
@@ -537,35 +587,43 @@ fn plan<L: LeafSink>(
 /// before the node array is allocated, not beside its copy: side by side that measured within
 /// the noise of this order, and it held both at once (12 MiB more at the peak of the bunny at
 /// depth 10).
-fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
+fn assemble<L: LeafSink>(ctx: &Ctx<'_>, part: Part<L>) -> (Chunk<L>, Option<Record<L>>) {
     let mut jobs = Vec::new();
     let (mut off, mut leaf_off) = (0, 0);
     let mut parts = Vec::new();
-    let root = plan(part, &mut jobs, &mut off, &mut leaf_off, &mut parts);
+    let root = plan(ctx, part, &mut jobs, &mut off, &mut leaf_off, &mut parts);
     let leaves = L::concat(parts);
     let mut nodes = vec![Node::default(); off];
-    let mut rest = &mut nodes[..];
+    let mut values = vec![L::NodeValue::default(); off];
+    let (mut rest, mut rest_values) = (&mut nodes[..], &mut values[..]);
     let mut tasks = Vec::with_capacity(jobs.len());
     for job in jobs {
         let n = match &job {
             Job::Chunk { nodes, .. } => nodes.len(),
-            Job::Block { records } => records.len(),
+            Job::Block { records, .. } => records.len(),
         };
         let (dst, r) = std::mem::take(&mut rest).split_at_mut(n);
-        rest = r;
-        tasks.push((job, dst));
+        let (dst_values, rv) = std::mem::take(&mut rest_values).split_at_mut(n);
+        (rest, rest_values) = (r, rv);
+        tasks.push((job, dst, dst_values));
     }
-    let copy = |(job, dst): (Job, &mut [Node])| match job {
+    type Task<'a, V> = (Job<V>, &'a mut [Node], &'a mut [V]);
+    let copy = |(job, dst, dst_values): Task<'_, L::NodeValue>| match job {
         Job::Chunk {
             nodes,
+            values,
             node_off,
             leaf_off,
         } => {
             for (d, s) in dst.iter_mut().zip(&nodes) {
                 *d = Chunk::<L>::relocate(*s, node_off as u32, leaf_off);
             }
+            dst_values.copy_from_slice(&values);
         }
-        Job::Block { records } => dst.copy_from_slice(&records),
+        Job::Block { records, values } => {
+            dst.copy_from_slice(&records);
+            dst_values.copy_from_slice(&values);
+        }
     };
     #[cfg(feature = "parallel")]
     {
@@ -574,7 +632,14 @@ fn assemble<L: LeafSink>(part: Part<L>) -> (Chunk<L>, Option<Node>) {
     }
     #[cfg(not(feature = "parallel"))]
     tasks.into_iter().for_each(copy);
-    (Chunk { nodes, leaves }, root)
+    (
+        Chunk {
+            nodes,
+            values,
+            leaves,
+        },
+        root,
+    )
 }
 
 /// Builds the subtree of a node, in parallel over children at the top levels.
@@ -685,22 +750,23 @@ fn context<'a>(
     (ctx, all)
 }
 
-/// Runs the voxelizer with leaves of type `L`.
+/// Runs the voxelizer with leaves of type `L`: the nodes, their values, the leaves and the
+/// number of tests.
 fn build<L: LeafSink>(
     tris: &[GridTriangle],
     depth: u8,
     strategy: Strategy,
     attributes: Option<&AttributeInputs<'_>>,
     progress: &(dyn Fn(f64) + Sync),
-) -> (Vec<Node>, L, u64) {
+) -> (Vec<Node>, Vec<L::NodeValue>, L, u64) {
     let (ctx, all) = context(tris, depth, strategy, attributes, progress);
     let (part, tests) = build_node::<L>(&ctx, 0, [0, 0, 0], &all);
     let (chunk, root) = match part {
         Part::Seq(chunk, root) => (chunk, root),
-        par => assemble(par),
+        par => assemble(&ctx, par),
     };
-    let (nodes, leaves) = chunk.finish(root);
-    (nodes, leaves, tests)
+    let (nodes, values, leaves) = chunk.finish(root);
+    (nodes, values, leaves, tests)
 }
 
 #[cfg(feature = "io")]
@@ -753,10 +819,10 @@ pub(crate) fn voxelize_subtrees(
         drop(list);
         let (chunk, root) = match part {
             Part::Seq(chunk, root) => (chunk, root),
-            par => assemble(par),
+            par => assemble(&ctx, par),
         };
         let root = root?;
-        let (nodes, leaves) = chunk.finish(Some(root));
+        let (nodes, _, leaves) = chunk.finish(Some(root));
         Some((
             Subtree {
                 code,
@@ -839,18 +905,19 @@ pub(crate) fn voxelize(
     strategy: Strategy,
     progress: &(dyn Fn(f64) + Sync),
 ) -> LeafTriangles {
-    build::<LeafTriangles>(tris, depth, strategy, None, progress).1
+    build::<LeafTriangles>(tris, depth, strategy, None, progress).2
 }
 
 /// Voxelizes like [`voxelize`] and computes each leaf's attributes as it is made (the
 /// bake's path): no list of triangles per leaf is kept. The triangles are `inputs`'s.
-/// Returns the nodes, the leaves' values and the number of overlap tests run.
+/// Returns the nodes, their encoded attributes, the leaves' values and the number of overlap
+/// tests run.
 pub(crate) fn voxelize_with_attributes(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,
     progress: &(dyn Fn(f64) + Sync),
-) -> (Vec<Node>, LeafValues, u64) {
+) -> (Vec<Node>, Vec<NodeValue>, LeafValues, u64) {
     build::<LeafValues>(inputs.triangles(), depth, strategy, Some(inputs), progress)
 }
 

@@ -28,8 +28,7 @@ use crate::geometry::overlap::{
     edge_axis_verdict, edge_interval, plane_tolerance, verdict, vertex_inside,
 };
 use crate::geometry::triangle_setup::{GridTriangle, spread3};
-use crate::octree::layout::{Chunk, LeafStore};
-use crate::octree::tree::Node;
+use crate::octree::layout::{Chunk, LeafStore, Record, Sums};
 use crate::voxelize::build::{Ctx, LeafTriangles};
 use glam::{DVec3, Vec3};
 use std::time::Instant;
@@ -241,7 +240,7 @@ pub(crate) fn scatter_pairs(
     chunk: &mut Chunk<LeafTriangles>,
     scratch: &mut ScatterScratch,
     tests: &mut u64,
-) -> Option<Node> {
+) -> Option<Record<LeafTriangles>> {
     let (n, k, base) = block(ctx, level, cell);
     let pairs = &mut scratch.pairs;
     pairs.clear();
@@ -265,6 +264,7 @@ pub(crate) fn scatter_pairs(
             leaves.tris.extend(run.iter().map(|p| p.1));
             leaves.ends.push(leaves.tris.len() as u64);
         },
+        &|_| (),
     )
 }
 
@@ -295,7 +295,7 @@ pub(crate) fn scatter_sliced(
     chunk: &mut Chunk<LeafValues>,
     scratch: &mut ScatterScratch,
     tests: &mut u64,
-) -> Option<Node> {
+) -> Option<Record<LeafValues>> {
     let inputs = ctx
         .attributes
         .expect("the bake's voxelizer has attribute inputs");
@@ -349,8 +349,9 @@ pub(crate) fn scatter_sliced(
         chunk,
         &mut |leaves: &mut LeafValues, c, run: &[Contact], start| {
             let cell = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-            inputs.push_leaf(leaves, cell, run, start as u32, pts);
+            inputs.push_leaf(leaves, cell, run, start as u32, pts)
         },
+        &|sums| inputs.node_value(sums),
     );
     let t2 = Instant::now();
     if inputs.wants_contour() {
@@ -633,7 +634,9 @@ fn morton_local(x: u32, y: u32, z: u32, k: u8) -> u16 {
 
 /// Emits the subtree of `items` sorted by their Morton `key`, for a node `k` levels above
 /// the leaves (`k - done` at this call) with min corner `cell`. `leaf` appends one leaf
-/// from its cell, its run of items and the run's start in the whole slice.
+/// from its cell, its run of items and the run's start in the whole slice, and returns its
+/// sums; `value` makes a node's value from its children's sums.
+#[allow(clippy::too_many_arguments)]
 fn emit_sorted<T, L: LeafStore>(
     items: &[T],
     key: impl Fn(&T) -> u16 + Copy,
@@ -641,9 +644,10 @@ fn emit_sorted<T, L: LeafStore>(
     done: u8,
     cell: [u32; 3],
     chunk: &mut Chunk<L>,
-    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize),
-) -> Option<Node> {
-    emit_at(items, 0, key, k, done, cell, chunk, leaf)
+    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize) -> L::Sums,
+    value: &impl Fn(&mut L::Sums) -> L::NodeValue,
+) -> Option<Record<L>> {
+    emit_at(items, 0, key, k, done, cell, chunk, leaf, value)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -655,8 +659,9 @@ fn emit_at<T, L: LeafStore>(
     done: u8,
     cell: [u32; 3],
     chunk: &mut Chunk<L>,
-    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize),
-) -> Option<Node> {
+    leaf: &mut impl FnMut(&mut L, [u32; 3], &[T], usize) -> L::Sums,
+    value: &impl Fn(&mut L::Sums) -> L::NodeValue,
+) -> Option<Record<L>> {
     if items.is_empty() {
         return None;
     }
@@ -667,6 +672,7 @@ fn emit_at<T, L: LeafStore>(
     let mut mask = 0u8;
     if below == 1 {
         let base = chunk.leaves.len();
+        let mut sums = L::Sums::default();
         let mut start = 0;
         while start < items.len() {
             let m = key(&items[start]);
@@ -677,17 +683,19 @@ fn emit_at<T, L: LeafStore>(
             }
             let i = child(m);
             mask |= 1 << i;
-            leaf(
+            let s = leaf(
                 &mut chunk.leaves,
                 child_cell(cell, i, 1),
                 &items[start..end],
                 offset + start,
             );
+            sums.add(&s);
             start = end;
         }
-        return Some(Chunk::<L>::leaf_parent(mask, base));
+        let v = value(&mut sums);
+        return Some((Chunk::<L>::leaf_parent(mask, base), sums, v));
     }
-    let mut records = [Node::default(); 8];
+    let mut records: [Record<L>; 8] = Default::default();
     let mut count = 0;
     let mut start = 0;
     while start < items.len() {
@@ -703,6 +711,7 @@ fn emit_at<T, L: LeafStore>(
             c,
             chunk,
             leaf,
+            value,
         ) {
             mask |= 1 << i;
             records[count] = r;
@@ -710,7 +719,11 @@ fn emit_at<T, L: LeafStore>(
         }
         start = end;
     }
-    (mask != 0).then(|| chunk.push_children(mask, &records[..count]))
+    (mask != 0).then(|| {
+        let (node, mut sums) = chunk.push_children(mask, &records[..count]);
+        let v = value(&mut sums);
+        (node, sums, v)
+    })
 }
 
 #[cfg(test)]

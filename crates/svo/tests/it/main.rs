@@ -14,6 +14,7 @@ mod format_roundtrip;
 mod fuzz_regressions;
 mod gltf_scene;
 mod golden_images;
+mod node_attributes;
 mod octree_bruteforce;
 mod overlap_exact;
 mod render;

@@ -206,6 +206,7 @@ impl BakePlan {
             pad: self.pad,
             max_memory: None,
             solid: None,
+            node_attributes: false,
         })
     }
 
