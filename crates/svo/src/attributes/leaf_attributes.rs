@@ -154,6 +154,11 @@ impl<'a> AttributeInputs<'a> {
         self
     }
 
+    /// Whether inner nodes' values are made.
+    pub(crate) fn makes_nodes(&self) -> bool {
+        self.nodes
+    }
+
     /// Whether any per-leaf value needs the triangles' parts in the cells (areas, points);
     /// without it the voxelizer need not clip.
     pub(crate) fn needs_geometry(&self) -> bool {

@@ -54,44 +54,88 @@ pub(crate) fn node_attributes(
     out
 }
 
-/// Each node's contour from its children's (see the module docs), children before parents
-/// (every child's index is above its parent's).
+/// Each node's contour from its children's (see the module docs): level by level from the
+/// deepest, the nodes of a level in parallel.
 fn node_contours(nodes: &[Node], normals: &[u32], leaves: &LeafAttributes) -> Vec<u32> {
     let mut out = vec![contour::FULL; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        let node = nodes[i];
-        let mask = node.child_mask();
-        if mask == 0 {
-            continue;
+    for level in by_level(nodes).iter().rev() {
+        let one = |&i: &u32| {
+            node_contour(
+                nodes[i as usize],
+                normals,
+                leaves,
+                &out,
+                normals[i as usize],
+            )
+        };
+        #[cfg(feature = "parallel")]
+        let values: Vec<u32> = {
+            use rayon::prelude::*;
+            level.par_iter().with_min_len(4096).map(one).collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let values: Vec<u32> = level.iter().map(one).collect();
+        for (&i, v) in level.iter().zip(values) {
+            out[i as usize] = v;
         }
-        let n = normal_encoding::decode(normals[i]);
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for c in 0..8u8 {
-            let Some(rank) = node.child_rank(c) else {
-                continue;
-            };
-            let slab = match node.leaf_base() {
-                Some(base) => {
-                    let leaf = (base + rank) as usize;
-                    let word = leaves.normal.get(leaf).filter(|&w| w != NO_NORMAL);
-                    word.zip(leaves.contour.get(leaf)).map(|(w, c)| {
-                        let nc = normal_encoding::decode(w);
-                        (nc, contour::offsets(c, nc))
-                    })
-                }
-                None => {
-                    let k = (node.first + rank) as usize;
-                    let nc = normal_encoding::decode(normals[k]);
-                    Some((nc, contour::offsets(out[k], nc)))
-                }
-            };
-            let (a, b) = child_extent(c, slab, n);
-            lo = lo.min(a);
-            hi = hi.max(b);
-        }
-        out[i] = contour::pack(lo, hi, n);
     }
     out
+}
+
+/// The indices of the nodes with children, level by level from the root.
+fn by_level(nodes: &[Node]) -> Vec<Vec<u32>> {
+    let mut levels: Vec<Vec<u32>> = Vec::new();
+    let mut level = vec![0u32];
+    while !level.is_empty() {
+        level.retain(|&i| nodes[i as usize].child_mask() != 0);
+        let mut next = Vec::new();
+        for &i in &level {
+            let n = nodes[i as usize];
+            if n.leaf_base().is_none() {
+                next.extend(n.first..n.first + n.child_mask().count_ones());
+            }
+        }
+        levels.push(level);
+        level = next;
+    }
+    levels
+}
+
+/// The contour of `node` (normal word `word`) from its children's: the leaves' channels, or
+/// the nodes' `normals` and their contours in `out`.
+fn node_contour(
+    node: Node,
+    normals: &[u32],
+    leaves: &LeafAttributes,
+    out: &[u32],
+    word: u32,
+) -> u32 {
+    let n = normal_encoding::decode(word);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for c in 0..8u8 {
+        let Some(rank) = node.child_rank(c) else {
+            continue;
+        };
+        let slab = match node.leaf_base() {
+            Some(base) => {
+                let leaf = (base + rank) as usize;
+                let word = leaves.normal.get(leaf).filter(|&w| w != NO_NORMAL);
+                word.zip(leaves.contour.get(leaf)).map(|(w, c)| {
+                    let nc = normal_encoding::decode(w);
+                    (nc, contour::offsets(c, nc))
+                })
+            }
+            None => {
+                let k = (node.first + rank) as usize;
+                let nc = normal_encoding::decode(normals[k]);
+                Some((nc, contour::offsets(out[k], nc)))
+            }
+        };
+        let (a, b) = child_extent(c, slab, n);
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    contour::pack(lo, hi, n)
 }
 
 /// The extreme offsets along `n`, from the centre of a node of side 1, of the part of child

@@ -14,6 +14,7 @@
 //! The sums are added in child order, as the records come up the build, so they are the
 //! same whatever the thread count and however the tree was cut into parts.
 
+use crate::attributes::leaf_attributes::AttributeInputs;
 use crate::octree::encoding::{encode_colour, ior_encode, unorm8};
 use crate::octree::layout;
 use crate::octree::normal_encoding;
@@ -116,6 +117,33 @@ impl layout::Sums for SurfaceSums {
         } else if !(self.area > 0.0) {
             self.add_all(c);
         }
+    }
+}
+
+/// What a bake carries up its build: [`SurfaceSums`] and each node's [`NodeValue`] where the
+/// inner nodes' attributes are made, nothing (`()`, at no cost) where they are not.
+pub(crate) trait BakeSums: layout::Sums {
+    /// What a node stores beside its record.
+    type Value: Copy + Default + Send + Sync + std::fmt::Debug;
+    /// The sums of a leaf.
+    fn of_leaf(s: SurfaceSums) -> Self;
+    /// A node's value from its children's sums (which it completes).
+    fn value(inputs: &AttributeInputs<'_>, s: &mut Self) -> Self::Value;
+}
+
+impl BakeSums for () {
+    type Value = ();
+    fn of_leaf(_: SurfaceSums) {}
+    fn value(_: &AttributeInputs<'_>, _: &mut ()) {}
+}
+
+impl BakeSums for SurfaceSums {
+    type Value = NodeValue;
+    fn of_leaf(s: SurfaceSums) -> Self {
+        s
+    }
+    fn value(inputs: &AttributeInputs<'_>, s: &mut Self) -> NodeValue {
+        inputs.node_value(s)
     }
 }
 

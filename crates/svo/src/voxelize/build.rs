@@ -17,7 +17,7 @@
 //! `docs/algorithms.md`).
 
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
-use crate::attributes::surface_sums::{NodeValue, SurfaceSums};
+use crate::attributes::surface_sums::{BakeSums, NodeValue, SurfaceSums};
 use crate::geometry::child_classify::{child_cell, child_offset, classify_children};
 use crate::geometry::grid::closed_cells;
 use crate::geometry::overlap::{
@@ -73,11 +73,20 @@ impl LeafStore for LeafTriangles {
     }
 }
 
-impl LeafStore for LeafValues {
-    type Sums = SurfaceSums;
-    type NodeValue = NodeValue;
+/// The bake's leaves: their values, and with `S = SurfaceSums` the sums and values of the
+/// inner nodes too (`S = ()`: none, and nothing spent on them).
+#[derive(Debug, Default)]
+pub(crate) struct Baked<S> {
+    /// The leaves' values.
+    pub values: LeafValues,
+    sums: std::marker::PhantomData<S>,
+}
+
+impl<S: BakeSums> LeafStore for Baked<S> {
+    type Sums = S;
+    type NodeValue = S::Value;
     fn len(&self) -> usize {
-        LeafValues::len(self)
+        self.values.len()
     }
 }
 
@@ -148,15 +157,16 @@ impl LeafSink for LeafTriangles {
     }
 }
 
-impl LeafSink for LeafValues {
+impl<S: BakeSums> LeafSink for Baked<S> {
     fn push_list(
         &mut self,
         ctx: &Ctx<'_>,
         cell: [u32; 3],
         list: &[u32],
         scratch: &mut Scratch,
-    ) -> SurfaceSums {
+    ) -> S {
         let t0 = Instant::now();
+        let values = &mut self.values;
         let inputs = ctx
             .attributes
             .expect("the bake's voxelizer has attribute inputs");
@@ -166,24 +176,25 @@ impl LeafSink for LeafValues {
                 .iter()
                 .any(|&t| triangle_box_overlap(&ctx.tris[t as usize], m, 1.0))
         {
-            self.false_positives += 1;
+            values.false_positives += 1;
         }
         let (contacts, pts) = scratch.scatter.contact_buffers();
         clip_contacts(ctx.tris, cell, list, contacts, pts);
-        let sums = inputs.push_leaf(self, m, contacts, 0, pts);
+        let sums = inputs.push_leaf(values, m, contacts, 0, pts);
         let t1 = Instant::now();
         if inputs.wants_contour() {
-            self.fit_contours(contacts, pts);
+            values.fit_contours(contacts, pts);
         }
-        self.t_attributes += t1 - t0;
-        self.t_contours += t1.elapsed();
-        sums
+        values.t_attributes += t1 - t0;
+        values.t_contours += t1.elapsed();
+        S::of_leaf(sums)
     }
 
-    fn node_value(ctx: &Ctx<'_>, sums: &mut SurfaceSums) -> NodeValue {
-        ctx.attributes
-            .expect("the bake's voxelizer has attribute inputs")
-            .node_value(sums)
+    fn node_value(ctx: &Ctx<'_>, sums: &mut S) -> S::Value {
+        let inputs = ctx
+            .attributes
+            .expect("the bake's voxelizer has attribute inputs");
+        S::value(inputs, sums)
     }
 
     fn scatter(
@@ -199,7 +210,10 @@ impl LeafSink for LeafValues {
     }
 
     fn concat(parts: Vec<Self>) -> Self {
-        LeafValues::concat(parts)
+        Self {
+            values: LeafValues::concat(parts.into_iter().map(|p| p.values).collect()),
+            sums: std::marker::PhantomData,
+        }
     }
 }
 
@@ -815,14 +829,14 @@ pub(crate) fn voxelize_subtrees(
     // counted: a subtree's count is the same however its part was baked.
     lists_at(&ctx, 0, [0, 0, 0], 0, all, level, &codes, &mut lists);
     let build = |(code, cell, list): (u64, [u32; 3], Vec<u32>)| {
-        let (part, tests) = build_node::<LeafValues>(&ctx, level, cell, &list);
+        let (part, tests) = build_node::<Baked<()>>(&ctx, level, cell, &list);
         drop(list);
         let (chunk, root) = match part {
             Part::Seq(chunk, root) => (chunk, root),
             par => assemble(&ctx, par),
         };
         let root = root?;
-        let (nodes, _, leaves) = chunk.finish(Some(root));
+        let (nodes, _, Baked { values: leaves, .. }) = chunk.finish(Some(root));
         Some((
             Subtree {
                 code,
@@ -910,15 +924,24 @@ pub(crate) fn voxelize(
 
 /// Voxelizes like [`voxelize`] and computes each leaf's attributes as it is made (the
 /// bake's path): no list of triangles per leaf is kept. The triangles are `inputs`'s.
-/// Returns the nodes, their encoded attributes, the leaves' values and the number of overlap
-/// tests run.
+/// Returns the nodes, their encoded attributes (none unless `inputs` makes them), the leaves'
+/// values and the number of overlap tests run.
 pub(crate) fn voxelize_with_attributes(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Vec<Node>, Vec<NodeValue>, LeafValues, u64) {
-    build::<LeafValues>(inputs.triangles(), depth, strategy, Some(inputs), progress)
+    let tris = inputs.triangles();
+    if inputs.makes_nodes() {
+        let (nodes, values, leaves, tests) =
+            build::<Baked<SurfaceSums>>(tris, depth, strategy, Some(inputs), progress);
+        (nodes, values, leaves.values, tests)
+    } else {
+        let (nodes, _, leaves, tests) =
+            build::<Baked<()>>(tris, depth, strategy, Some(inputs), progress);
+        (nodes, Vec::new(), leaves.values, tests)
+    }
 }
 
 #[cfg(test)]

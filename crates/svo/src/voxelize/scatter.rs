@@ -18,7 +18,8 @@
 //!   [`CellTest`], so the cells are those of [`scatter_pairs`] (tested against the brute
 //!   force and against [`scatter_pairs`] on random, grid-aligned and real meshes).
 
-use crate::attributes::leaf_attributes::{Contact, LeafValues};
+use crate::attributes::leaf_attributes::Contact;
+use crate::attributes::surface_sums::BakeSums;
 use crate::geometry::child_classify::child_cell;
 use crate::geometry::clip::clip_to_unit_cube;
 use crate::geometry::exact_contact::{PLANE_AXIS, touches_exactly};
@@ -29,7 +30,7 @@ use crate::geometry::overlap::{
 };
 use crate::geometry::triangle_setup::{GridTriangle, spread3};
 use crate::octree::layout::{Chunk, LeafStore, Record, Sums};
-use crate::voxelize::build::{Ctx, LeafTriangles};
+use crate::voxelize::build::{Baked, Ctx, LeafTriangles};
 use glam::{DVec3, Vec3};
 use std::time::Instant;
 
@@ -287,15 +288,15 @@ impl Block {
 
 /// The bake's bottom levels: the same cells as [`scatter_pairs`], each leaf emitted with its
 /// attributes computed from the triangles' parts in it (see the module docs).
-pub(crate) fn scatter_sliced(
+pub(crate) fn scatter_sliced<S: BakeSums>(
     ctx: &Ctx<'_>,
     level: u8,
     cell: [u32; 3],
     list: &[u32],
-    chunk: &mut Chunk<LeafValues>,
+    chunk: &mut Chunk<Baked<S>>,
     scratch: &mut ScatterScratch,
     tests: &mut u64,
-) -> Option<Record<LeafValues>> {
+) -> Option<Record<Baked<S>>> {
     let inputs = ctx
         .attributes
         .expect("the bake's voxelizer has attribute inputs");
@@ -347,20 +348,21 @@ pub(crate) fn scatter_sliced(
         0,
         cell,
         chunk,
-        &mut |leaves: &mut LeafValues, c, run: &[Contact], start| {
+        &mut |leaves: &mut Baked<S>, c, run: &[Contact], start| {
             let cell = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-            inputs.push_leaf(leaves, cell, run, start as u32, pts)
+            S::of_leaf(inputs.push_leaf(&mut leaves.values, cell, run, start as u32, pts))
         },
-        &|sums| inputs.node_value(sums),
+        &|sums| S::value(inputs, sums),
     );
     let t2 = Instant::now();
+    let values = &mut chunk.leaves.values;
     if inputs.wants_contour() {
-        chunk.leaves.fit_contours(contacts, pts);
+        values.fit_contours(contacts, pts);
     }
     let t3 = Instant::now();
-    chunk.leaves.t_voxelize += t1 - t0;
-    chunk.leaves.t_attributes += t2 - t1;
-    chunk.leaves.t_contours += t3 - t2;
+    values.t_voxelize += t1 - t0;
+    values.t_attributes += t2 - t1;
+    values.t_contours += t3 - t2;
     node
 }
 

@@ -19,7 +19,7 @@ use crate::io::atomic_write::write_atomic;
 use crate::mesh::triangle_mesh::Mesh;
 use crate::octree::layout::Chunk;
 use crate::octree::tree::{LeafAttributes, Node, StoredChannel};
-use crate::voxelize::build::voxelize_subtrees;
+use crate::voxelize::build::{Baked, voxelize_subtrees};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -350,7 +350,7 @@ fn bake_one(
         for &n in &s.nodes[1..] {
             // Inner pointers from the subtree's first node below its root (index 1).
             let n = if n.is_leaf_parent() {
-                Chunk::<LeafValues>::relocate(n, 0, off)
+                Chunk::<Baked<()>>::relocate(n, 0, off)
             } else if n.child_mask() != 0 {
                 Node {
                     info: n.info,
