@@ -7,6 +7,7 @@
 use crate::common::{clipped_polygon, rng};
 use glam::{DVec3, UVec3};
 use rand::Rng;
+use svo::octree::Channel;
 use svo::{BakeOptions, Material, Mesh, Octree, bake_mesh, with_threads};
 
 /// `n` random triangles of about `size` in the unit cube, in two materials (red and blue)
@@ -234,15 +235,15 @@ fn node_attributes_do_not_depend_on_the_thread_count_nor_change_the_leaves() {
         svo::octree::LeafAttributes::default()
     );
     assert!(one.node_attributes.normal.is_per_leaf() && one.node_attributes.colour.is_per_leaf());
-    let per_node = |c: &svo::octree::Channel<u32>| match c {
-        svo::octree::Channel::PerLeaf(v) => v.len(),
+    let per_node = |c: &Channel<u32>| match c {
+        Channel::PerLeaf(v) => v.len(),
         _ => 0,
     };
     assert_eq!(per_node(&one.node_attributes.contour), one.nodes.len());
     // The tree checks out; a node channel one value short does not.
     one.validate().unwrap();
     let mut short = one.clone();
-    if let svo::octree::Channel::PerLeaf(v) = &mut short.node_attributes.normal {
+    if let Channel::PerLeaf(v) = &mut short.node_attributes.normal {
         v.pop();
     }
     let err = short.validate().unwrap_err().to_string();
@@ -250,4 +251,46 @@ fn node_attributes_do_not_depend_on_the_thread_count_nor_change_the_leaves() {
     // The root's colour lies between the two materials'.
     let root = one.node_attributes.get(0).colour.unwrap();
     assert!(root[0] > 40 && root[2] > 40, "{root:?}");
+}
+
+#[test]
+fn node_channels_follow_the_leaves_storage() {
+    // One material: the leaves' colour and optics are constants, and so are the nodes'.
+    let sphere = Mesh::sphere(DVec3::splat(0.5), 0.4, 24);
+    let tree = bake(&sphere, 5);
+    let (leaves, nodes) = (&tree.attributes, &tree.node_attributes);
+    assert!(matches!(leaves.colour, Channel::Constant(_)));
+    assert_eq!(nodes.colour, leaves.colour);
+    assert_eq!(nodes.ior, leaves.ior);
+    assert!(nodes.normal.is_per_leaf() && nodes.contour.is_per_leaf());
+    // Without normals (and so contours), the nodes have none either.
+    let opts = BakeOptions {
+        depth: 5,
+        node_attributes: true,
+        channels: svo::ChannelSelection::ALL
+            .without(svo::octree::ChannelKind::Normal)
+            .without(svo::octree::ChannelKind::Contour),
+        ..Default::default()
+    };
+    let tree = bake_mesh(&sphere, &opts).unwrap().0;
+    assert_eq!(tree.node_attributes.normal, Channel::Absent);
+    assert_eq!(tree.node_attributes.contour, Channel::Absent);
+    assert_eq!(tree.node_attributes.colour, tree.attributes.colour);
+}
+
+/// Solid bakes add interior leaves after the build, so they make no node channels.
+#[cfg(feature = "solid")]
+#[test]
+fn solid_bakes_make_no_node_channels() {
+    let opts = BakeOptions {
+        depth: 5,
+        node_attributes: true,
+        solid: Some(svo::SolidMode::Closed),
+        ..Default::default()
+    };
+    let tree = bake_mesh(&Mesh::sphere(DVec3::splat(0.5), 0.4, 24), &opts)
+        .unwrap()
+        .0;
+    assert!(tree.attributes.has_interior());
+    assert_eq!(tree.node_attributes, svo::octree::LeafAttributes::default());
 }
