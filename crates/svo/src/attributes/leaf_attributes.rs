@@ -148,7 +148,8 @@ impl<'a> AttributeInputs<'a> {
         inputs
     }
 
-    /// Makes inner nodes' values too ([`Self::node_value`]).
+    /// Makes the inner nodes' values too: the voxelizer then carries [`SurfaceSums`] up the
+    /// build and calls [`Self::node_value`] for each node.
     pub(crate) fn with_nodes(mut self, nodes: bool) -> Self {
         self.nodes = nodes;
         self
@@ -309,9 +310,6 @@ impl<'a> AttributeInputs<'a> {
     /// the channels that are per leaf, the others left zero.
     pub(crate) fn node_value(&self, sums: &mut SurfaceSums) -> NodeValue {
         let mut v = NodeValue::default();
-        if !self.nodes {
-            return v;
-        }
         if self.want_normal {
             let heaviest = sums.heaviest;
             v.normal = sums.encode_normal(|| heaviest);
