@@ -84,7 +84,6 @@ pub(crate) struct AttributeInputs<'a> {
     per_leaf_refl: bool,
     per_leaf_refr: bool,
     per_leaf_ior: bool,
-    nodes: bool,
 }
 
 impl<'a> AttributeInputs<'a> {
@@ -123,7 +122,6 @@ impl<'a> AttributeInputs<'a> {
             per_leaf_refl,
             per_leaf_refr,
             per_leaf_ior,
-            nodes: false,
         };
         // Unit normals of the grid-space triangles (zero for degenerate ones).
         if inputs.needs_geometry() {
@@ -146,18 +144,6 @@ impl<'a> AttributeInputs<'a> {
             }
         }
         inputs
-    }
-
-    /// Makes the inner nodes' values too: the voxelizer then carries [`SurfaceSums`] up the
-    /// build and calls [`Self::node_value`] for each node.
-    pub(crate) fn with_nodes(mut self, nodes: bool) -> Self {
-        self.nodes = nodes;
-        self
-    }
-
-    /// Whether inner nodes' values are made.
-    pub(crate) fn makes_nodes(&self) -> bool {
-        self.nodes
     }
 
     /// Whether any per-leaf value needs the triangles' parts in the cells (areas, points);
@@ -214,6 +200,12 @@ impl<'a> AttributeInputs<'a> {
         }
         let area = sums.area;
         let weight = |c: &Contact| if area > 0.0 { c.area } else { 1.0 };
+        // The weights' sum: the area (added in the same order), or one per contact.
+        sums.weight = if area > 0.0 {
+            area
+        } else {
+            contacts.len() as f64
+        };
         let material = |ti: u32| self.mesh.material_of(self.order[ti as usize] as usize);
         if self.want_normal {
             if !(area > 0.0) {
@@ -258,23 +250,19 @@ impl<'a> AttributeInputs<'a> {
             )
         };
         if self.per_leaf_colour {
-            let mut ws = 0.0;
             for c in contacts {
                 let w = weight(c);
                 let col = colour(c);
                 for (a, v) in sums.colour.iter_mut().zip(col) {
                     *a += w * f64::from(v);
                 }
-                ws += w;
             }
-            sums.weight = ws;
             out.colour.push(sums.encode_colour());
         }
         // Weighted sums of reflectivity, refractivity and IOR, each contact's optics taken
         // once (a blended material's at the alpha sampled at its part's centre).
         if self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior {
             let optics = self.per_leaf_refl || self.per_leaf_refr;
-            let mut ws = 0.0;
             for c in contacts {
                 let w = weight(c);
                 let m = material(c.tri);
@@ -286,9 +274,7 @@ impl<'a> AttributeInputs<'a> {
                 sums.reflectivity += w * f64::from(kr);
                 sums.refractivity += w * f64::from(kt);
                 sums.ior += w * f64::from(m.ior);
-                ws += w;
             }
-            sums.weight = ws;
             let (refl, refr, ior) = sums.encode_optics();
             if self.per_leaf_refl {
                 out.reflectivity.push(refl);
@@ -299,9 +285,6 @@ impl<'a> AttributeInputs<'a> {
             if self.per_leaf_ior {
                 out.ior.push(ior);
             }
-        }
-        if sums.weight == 0.0 {
-            sums.weight = contacts.iter().map(weight).sum();
         }
         sums
     }

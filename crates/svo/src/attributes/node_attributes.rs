@@ -14,10 +14,11 @@
 //! child's surface crosses its cell, and looser where a child holds only a corner of a sheet.
 
 use crate::attributes::surface_sums::NodeValue;
+use crate::geometry::child_classify::child_offset;
 use crate::octree::contour;
 use crate::octree::normal_encoding;
 use crate::octree::tree::{Channel, LeafAttributes, NO_NORMAL, Node};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 
 /// The inner nodes' channels of a finished tree (`nodes`, with the leaves' channels
 /// `leaves`) from the build's per-node `values`: see the module docs. A tree without leaves
@@ -47,27 +48,19 @@ pub(crate) fn node_attributes(
     out.reflectivity = like(&leaves.reflectivity, values, |v| v.reflectivity);
     out.refractivity = like(&leaves.refractivity, values, |v| v.refractivity);
     out.ior = like(&leaves.ior, values, |v| v.ior);
-    if !matches!(leaves.contour, Channel::Absent) {
-        let normals: Vec<u32> = values.iter().map(|v| v.normal).collect();
-        out.contour = Channel::PerLeaf(node_contours(nodes, &normals, leaves));
+    // Fitted against the normals as stored (a constant where the leaves' is one).
+    if !matches!(leaves.contour, Channel::Absent) && !matches!(out.normal, Channel::Absent) {
+        out.contour = Channel::PerLeaf(node_contours(nodes, &out.normal, leaves));
     }
     out
 }
 
 /// Each node's contour from its children's (see the module docs): level by level from the
-/// deepest, the nodes of a level in parallel.
-fn node_contours(nodes: &[Node], normals: &[u32], leaves: &LeafAttributes) -> Vec<u32> {
+/// deepest, the nodes of a level in parallel. `normals` is the nodes' normal channel.
+fn node_contours(nodes: &[Node], normals: &Channel<u32>, leaves: &LeafAttributes) -> Vec<u32> {
     let mut out = vec![contour::FULL; nodes.len()];
     for level in by_level(nodes).iter().rev() {
-        let one = |&i: &u32| {
-            node_contour(
-                nodes[i as usize],
-                normals,
-                leaves,
-                &out,
-                normals[i as usize],
-            )
-        };
+        let one = |&i: &u32| node_contour(nodes, i as usize, normals, leaves, &out);
         #[cfg(feature = "parallel")]
         let values: Vec<u32> = {
             use rayon::prelude::*;
@@ -101,16 +94,18 @@ fn by_level(nodes: &[Node]) -> Vec<Vec<u32>> {
     levels
 }
 
-/// The contour of `node` (normal word `word`) from its children's: the leaves' channels, or
-/// the nodes' `normals` and their contours in `out`.
+/// The contour of node `i` from its children's: the leaves' channels, or the nodes'
+/// `normals` and their contours in `out`.
 fn node_contour(
-    node: Node,
-    normals: &[u32],
+    nodes: &[Node],
+    i: usize,
+    normals: &Channel<u32>,
     leaves: &LeafAttributes,
     out: &[u32],
-    word: u32,
 ) -> u32 {
-    let n = normal_encoding::decode(word);
+    let node = nodes[i];
+    let normal = |k: usize| normal_encoding::decode(normals.get(k).unwrap_or_default());
+    let n = normal(i);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for c in 0..8u8 {
         let Some(rank) = node.child_rank(c) else {
@@ -127,7 +122,7 @@ fn node_contour(
             }
             None => {
                 let k = (node.first + rank) as usize;
-                let nc = normal_encoding::decode(normals[k]);
+                let nc = normal(k);
                 Some((nc, contour::offsets(out[k], nc)))
             }
         };
@@ -142,11 +137,7 @@ fn node_contour(
 /// `c`'s cell between the child's contour planes (`slab`: its normal and their offsets from
 /// its centre, in its cells), or of its whole cell without one.
 fn child_extent(c: u8, slab: Option<(Vec3, (f32, f32))>, n: Vec3) -> (f64, f64) {
-    let o = DVec3::new(
-        f64::from(c >> 2 & 1),
-        f64::from(c >> 1 & 1),
-        f64::from(c & 1),
-    );
+    let o = UVec3::from_array(child_offset(c)).as_dvec3();
     let n = n.as_dvec3();
     // From the node's centre to the child's, in node units.
     let centre = n.dot(o * 0.5 - DVec3::splat(0.25));
@@ -172,11 +163,7 @@ fn child_extent(c: u8, slab: Option<(Vec3, (f32, f32))>, n: Vec3) -> (f64, f64) 
 /// [`child_extent`] exactly: the extremes over the vertices of the region.
 #[cfg(test)]
 fn child_extent_exact(c: u8, slab: Option<(Vec3, (f32, f32))>, n: Vec3) -> (f64, f64) {
-    let o = DVec3::new(
-        f64::from(c >> 2 & 1),
-        f64::from(c >> 1 & 1),
-        f64::from(c & 1),
-    );
+    let o = UVec3::from_array(child_offset(c)).as_dvec3();
     // Along the node's normal from its centre, the corners of the child's cell (corner `k`
     // at child-local `(k >> 2 & 1, k >> 1 & 1, k & 1)`), and so by interpolation any point
     // of its edges.

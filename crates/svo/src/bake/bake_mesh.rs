@@ -325,11 +325,14 @@ pub(crate) fn bake_for_file(
     let order = spatial_order(mesh, &root);
     let tris = setup_triangles_in_order(mesh, &root, opts.depth, &order);
     let with_nodes = opts.node_attributes && opts.solid.is_none();
-    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels).with_nodes(with_nodes);
-    let (nodes, node_values, values, tests) =
-        octree_build::voxelize_with_attributes(&inputs, opts.depth, opts.strategy, &|f| {
-            progress(Phase::Voxelize, f)
-        });
+    let inputs = AttributeInputs::new(mesh, &tris, &order, opts.channels);
+    let (nodes, node_values, values, tests) = octree_build::voxelize_with_attributes(
+        &inputs,
+        opts.depth,
+        opts.strategy,
+        with_nodes,
+        &|f| progress(Phase::Voxelize, f),
+    );
     let wall = t0.elapsed();
     let (pairs, false_positives) = (values.pairs, values.false_positives as usize);
     let leaf_count = values.len();

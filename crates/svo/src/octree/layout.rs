@@ -42,6 +42,15 @@ pub(crate) trait LeafStore: Default + Send {
 /// A node's record with its sums and value, before it is placed in its parent's block.
 pub(crate) type Record<L> = (Node, <L as LeafStore>::Sums, <L as LeafStore>::NodeValue);
 
+/// The sums of a node whose children's records are `records` (in child order).
+pub(crate) fn children_sums<L: LeafStore>(records: &[Record<L>]) -> L::Sums {
+    let mut sums = L::Sums::default();
+    for r in records {
+        sums.add(&r.1);
+    }
+    sums
+}
+
 /// A part of an octree under construction: nodes in post-order, their values and their
 /// leaves.
 #[derive(Debug, Default)]
@@ -77,10 +86,7 @@ impl<L: LeafStore> Chunk<L> {
     pub(crate) fn push_children(&mut self, mask: u8, records: &[Record<L>]) -> (Node, L::Sums) {
         debug_assert_eq!(mask.count_ones() as usize, records.len());
         let start = self.nodes.len();
-        let mut sums = L::Sums::default();
-        for r in records {
-            sums.add(&r.1);
-        }
+        let sums = children_sums::<L>(records);
         self.nodes.extend(records.iter().rev().map(|r| r.0));
         self.values.extend(records.iter().rev().map(|r| r.2));
         let node = Node {

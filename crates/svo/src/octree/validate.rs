@@ -13,7 +13,7 @@ use crate::geometry::grid::RootCube;
 use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, ChannelStorage, NO_NORMAL, Node, Octree};
+use crate::octree::tree::{Channel, ChannelStorage, LeafAttributes, NO_NORMAL, Node, Octree};
 use glam::DVec3;
 
 /// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
@@ -83,26 +83,7 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
     let fail = |c: Check, m: String| Err((c, m));
     let (n, leaves) = (t.nodes.len(), u64::from(t.leaf_count));
     check_root_and_counts(t.depth, t.root.origin, t.root.side, n as u64, leaves)?;
-    let a = &t.attributes;
-    if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
-        return fail(
-            Check::Channels,
-            "a contour channel without a normal channel".into(),
-        );
-    }
-    for (kind, storage) in a.storage() {
-        if let ChannelStorage::PerLeaf(len) = storage
-            && len as u64 != leaves
-        {
-            return fail(
-                Check::ArrayLayout,
-                format!(
-                    "channel {} has {len} values for {leaves} leaves",
-                    kind.name()
-                ),
-            );
-        }
-    }
+    check_channel_layout(&t.attributes, leaves, "", "leaves")?;
     check_node_channels(t)?;
     if bits == InfoBits::Zero {
         check_node_words(&t.nodes)?;
@@ -131,31 +112,43 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
     check_values(t, version)
 }
 
+/// Checks 10 and 12 on the channels of leaves or of nodes (`prefix` "" or "node ", `what`
+/// "leaves" or "nodes", `count` of them): a contour channel comes with a normal channel, and
+/// every array holds one value for each.
+fn check_channel_layout(
+    a: &LeafAttributes,
+    count: u64,
+    prefix: &str,
+    what: &str,
+) -> Result<(), Failure> {
+    if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
+        return Err((
+            Check::Channels,
+            format!("a {prefix}contour channel without a {prefix}normal channel"),
+        ));
+    }
+    for (kind, storage) in a.storage() {
+        if let ChannelStorage::PerLeaf(len) = storage
+            && len as u64 != count
+        {
+            return Err((
+                Check::ArrayLayout,
+                format!(
+                    "{prefix}channel {} has {len} values for {count} {what}",
+                    kind.name()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The inner nodes' channels of a tree in memory ([`Octree::node_attributes`]): a value per
 /// node where they have one per node, a contour only beside a normal, and the normal and
 /// contour words as check 18 has them for leaves (no interior-leaf word).
 fn check_node_channels(t: &Octree) -> Result<(), Failure> {
     let a = &t.node_attributes;
-    if !matches!(a.contour, Channel::Absent) && matches!(a.normal, Channel::Absent) {
-        return Err((
-            Check::Channels,
-            "a node contour channel without a node normal channel".into(),
-        ));
-    }
-    for (kind, storage) in a.storage() {
-        if let ChannelStorage::PerLeaf(len) = storage
-            && len != t.nodes.len()
-        {
-            return Err((
-                Check::ArrayLayout,
-                format!(
-                    "node channel {} has {len} values for {} nodes",
-                    kind.name(),
-                    t.nodes.len()
-                ),
-            ));
-        }
-    }
+    check_channel_layout(a, t.nodes.len() as u64, "node ", "nodes")?;
     let bad_normal = |w: u32| (w & 0xFFFF) == 0x8000 || (w >> 16) == 0x8000;
     if let Some((at, w)) = first_bad(&a.normal, bad_normal) {
         return Err((

@@ -24,7 +24,7 @@ use crate::geometry::overlap::{
     decide, edges_overlap, plane_tolerance, triangle_box_overlap, verdict,
 };
 use crate::geometry::triangle_setup::GridTriangle;
-use crate::octree::layout::{Chunk, LeafStore, Record, Sums};
+use crate::octree::layout::{Chunk, LeafStore, Record, Sums, children_sums};
 use crate::octree::tree::Node;
 use crate::voxelize::scatter::{
     SCATTER_LEVELS, ScatterScratch, clip_contacts, scatter_pairs, scatter_sliced,
@@ -574,10 +574,7 @@ fn plan<L: LeafSink>(
             if mask == 0 {
                 return None;
             }
-            let mut sums = L::Sums::default();
-            for r in &records {
-                sums.add(&r.1);
-            }
+            let mut sums = children_sums::<L>(&records);
             let value = L::node_value(ctx, &mut sums);
             // Children blocks hold their records in reverse until the final reversal.
             let start = *off;
@@ -924,16 +921,18 @@ pub(crate) fn voxelize(
 
 /// Voxelizes like [`voxelize`] and computes each leaf's attributes as it is made (the
 /// bake's path): no list of triangles per leaf is kept. The triangles are `inputs`'s.
-/// Returns the nodes, their encoded attributes (none unless `inputs` makes them), the leaves'
-/// values and the number of overlap tests run.
+/// With `nodes`, each record carries its subtree's [`SurfaceSums`] up the build and every
+/// node gets its encoded attributes. Returns the nodes, their encoded attributes (none without
+/// `nodes`), the leaves' values and the number of overlap tests run.
 pub(crate) fn voxelize_with_attributes(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,
+    nodes: bool,
     progress: &(dyn Fn(f64) + Sync),
 ) -> (Vec<Node>, Vec<NodeValue>, LeafValues, u64) {
     let tris = inputs.triangles();
-    if inputs.makes_nodes() {
+    if nodes {
         let (nodes, values, leaves, tests) =
             build::<Baked<SurfaceSums>>(tris, depth, strategy, Some(inputs), progress);
         (nodes, values, leaves.values, tests)
