@@ -53,6 +53,14 @@ pub struct Parts {
     pub source_triangles: u64,
     /// Lights and cameras (version 2).
     pub scene: SceneInfo,
+    /// Version 4: the inner nodes' channels by kind, a per-node array holding one value for
+    /// every node in the (canonical) order of `nodes`; only levels `0 .. depth - 2` are stored.
+    pub node_channels: Vec<(u8, Stored)>,
+    /// Version 4: the `layout` byte.
+    pub layout: u8,
+    /// Version 4: whether the nodes are put in level order (else stored in `nodes`' order,
+    /// which makes a file that breaks it).
+    pub level_order: bool,
 }
 
 fn channel_bytes<T: Copy>(
@@ -121,7 +129,184 @@ impl Parts {
             strategy: build.strategy.clone(),
             source_triangles: build.source_triangles,
             scene: build.scene.clone(),
+            node_channels: Vec::new(),
+            layout: 0,
+            level_order: true,
         }
+    }
+
+    /// The parts of a tree with its inner nodes' channels, as a version-4 file stores them.
+    pub fn levels_of(tree: &Octree, build: &BuildInfo) -> Self {
+        let mut p = Self::of(tree, build);
+        let a = &tree.node_attributes;
+        let mut channels = Vec::new();
+        let le4 = |v: u32| v.to_le_bytes().to_vec();
+        channel_bytes(0, &a.normal, le4, &mut channels);
+        channel_bytes(1, &a.contour, le4, &mut channels);
+        channel_bytes(2, &a.colour, le4, &mut channels);
+        channel_bytes(3, &a.reflectivity, |v: u8| vec![v], &mut channels);
+        channel_bytes(4, &a.refractivity, |v: u8| vec![v], &mut channels);
+        channel_bytes(5, &a.ior, |v: u16| v.to_le_bytes().to_vec(), &mut channels);
+        p.version = 4;
+        p.node_channels = channels;
+        p
+    }
+
+    /// Section 11: the nodes' indices in `nodes` in level order (each level's children blocks
+    /// in the order of their parents), and the nodes on each level.
+    fn levels(&self) -> (Vec<usize>, Vec<u64>) {
+        let mut order = vec![0usize];
+        let mut counts = vec![0u64; usize::from(self.depth)];
+        let (mut level, mut level_end) = (0usize, 1usize);
+        let mut i = 0;
+        while i < order.len() {
+            if i == level_end {
+                level += 1;
+                level_end = order.len();
+            }
+            counts[level] += 1;
+            let [info, first] = self.nodes[order[i]];
+            if (first as i32) >= 0 && info & 0xFF != 0 {
+                let k = (info & 0xFF).count_ones() as usize;
+                order.extend(first as usize..first as usize + k);
+            }
+            i += 1;
+        }
+        (order, counts)
+    }
+
+    /// Version 4's blocks: for each level, its records then (levels `0 .. depth - 2`) each
+    /// per-node channel's values.
+    fn blocks(&self) -> (Vec<Vec<Vec<u8>>>, Vec<u64>) {
+        let (order, counts) = self.levels();
+        let mut at_of = vec![0u32; self.nodes.len()];
+        for (new, &old) in order.iter().enumerate() {
+            at_of[old] = new as u32;
+        }
+        let mut blocks = Vec::new();
+        let mut start = 0usize;
+        for (l, &n) in counts.iter().enumerate() {
+            let range = start..start + n as usize;
+            let mut records = Vec::new();
+            for new in range.clone() {
+                let old = if self.level_order { order[new] } else { new };
+                let [info, first] = self.nodes[old];
+                let first = if self.level_order && (first as i32) >= 0 && info & 0xFF != 0 {
+                    at_of[first as usize]
+                } else {
+                    first
+                };
+                records.extend(info.to_le_bytes());
+                records.extend(first.to_le_bytes());
+            }
+            let mut block = vec![records];
+            if l + 2 <= usize::from(self.depth) {
+                for (kind, s) in &self.node_channels {
+                    if let Stored::PerLeaf(values) = s {
+                        let size = [4usize, 4, 4, 1, 1, 2][usize::from(*kind)];
+                        let mut v = Vec::new();
+                        for new in range.clone() {
+                            let old = order[new];
+                            v.extend(&values[old * size..(old + 1) * size]);
+                        }
+                        block.push(v);
+                    }
+                }
+            }
+            blocks.push(block);
+            start = range.end;
+        }
+        (blocks, counts)
+    }
+
+    /// The version-4 header with the levels at `levels` (`nodes`, `offset`, `len`, `hash`)
+    /// and the per-leaf arrays at `refs`.
+    fn header_v4(&self, levels: &[[u64; 4]], refs: &[(u64, u64)]) -> Vec<u8> {
+        let mut h = Vec::new();
+        let u64s = |h: &mut Vec<u8>, v: u64| h.extend(v.to_le_bytes());
+        self.origin
+            .iter()
+            .chain([&self.side])
+            .for_each(|x| h.extend(x.to_le_bytes()));
+        h.push(self.depth);
+        h.push(self.layout);
+        u64s(&mut h, self.node_count);
+        u64s(&mut h, self.leaf_count);
+        u64s(&mut h, levels.len() as u64);
+        for e in levels {
+            e.iter().for_each(|&x| u64s(&mut h, x));
+        }
+        u64s(&mut h, self.node_channels.len() as u64);
+        for (kind, s) in &self.node_channels {
+            h.push(*kind);
+            match s {
+                Stored::Constant(v) => {
+                    h.extend(0u32.to_le_bytes());
+                    h.extend(v.to_le_bytes());
+                }
+                Stored::PerLeaf(_) => h.extend(1u32.to_le_bytes()),
+            }
+        }
+        self.channels_and_tail(&mut h, refs, 0);
+        h
+    }
+
+    /// Version 4's file (section 11).
+    fn encode_v4(&self) -> Vec<u8> {
+        let (blocks, counts) = self.blocks();
+        let leaf_arrays: Vec<Vec<u8>> = self
+            .channels
+            .iter()
+            .filter_map(|(_, s)| match s {
+                Stored::PerLeaf(b) => Some(b.clone()),
+                Stored::Constant(_) => None,
+            })
+            .collect();
+        let hlen = self
+            .header_v4(
+                &vec![[0; 4]; counts.len()],
+                &vec![(0, 0); leaf_arrays.len()],
+            )
+            .len();
+        let mut at = pad8(16 + hlen + 8);
+        let mut levels = Vec::new();
+        for (block, &n) in blocks.iter().zip(&counts) {
+            let offset = at;
+            let mut hasher = xxhash_rust::xxh3::Xxh3::new();
+            let mut end = at;
+            for (i, a) in block.iter().enumerate() {
+                if i > 0 {
+                    hasher.update(&vec![0u8; at - end]);
+                }
+                hasher.update(a);
+                end = at + a.len();
+                at = pad8(end);
+            }
+            levels.push([n, offset as u64, (end - offset) as u64, hasher.digest()]);
+        }
+        let refs: Vec<(u64, u64)> = leaf_arrays
+            .iter()
+            .map(|a| {
+                let r = (at as u64, a.len() as u64);
+                at = pad8(at + a.len());
+                r
+            })
+            .collect();
+        let header = self.header_v4(&levels, &refs);
+        let mut out = Vec::new();
+        out.extend(MAGIC);
+        out.extend(self.version.to_le_bytes());
+        out.extend((header.len() as u32).to_le_bytes());
+        out.extend(&header);
+        let sum = xxhash_rust::xxh3::xxh3_64(&out);
+        out.extend(sum.to_le_bytes());
+        for a in blocks.iter().flatten().chain(&leaf_arrays) {
+            out.resize(pad8(out.len()), 0);
+            out.extend(a);
+        }
+        out.resize(pad8(out.len()), 0);
+        seal(&mut out);
+        out
     }
 
     /// The same tree as version 3 with its chunks at `level` (section 10): each subtree under a
@@ -189,10 +374,6 @@ impl Parts {
         let mut h = Vec::new();
         let u64s = |h: &mut Vec<u8>, v: u64| h.extend(v.to_le_bytes());
         let f64s = |h: &mut Vec<u8>, v: &[f64]| v.iter().for_each(|x| h.extend(x.to_le_bytes()));
-        let string = |h: &mut Vec<u8>, s: &str| {
-            h.extend((s.len() as u64).to_le_bytes());
-            h.extend(s.as_bytes());
-        };
         f64s(&mut h, &self.origin);
         f64s(&mut h, &[self.side]);
         h.push(self.depth);
@@ -210,8 +391,19 @@ impl Parts {
         }
         u64s(&mut h, refs[next].0);
         u64s(&mut h, refs[next].1);
-        u64s(&mut h, self.channels.len() as u64);
-        next += 1;
+        self.channels_and_tail(&mut h, refs, next + 1);
+        h
+    }
+
+    /// The header from `channels` to `cameras`, the per-leaf arrays at `refs[next..]`.
+    fn channels_and_tail(&self, h: &mut Vec<u8>, refs: &[(u64, u64)], mut next: usize) {
+        let u64s = |h: &mut Vec<u8>, v: u64| h.extend(v.to_le_bytes());
+        let f64s = |h: &mut Vec<u8>, v: &[f64]| v.iter().for_each(|x| h.extend(x.to_le_bytes()));
+        let string = |h: &mut Vec<u8>, s: &str| {
+            h.extend((s.len() as u64).to_le_bytes());
+            h.extend(s.as_bytes());
+        };
+        u64s(h, self.channels.len() as u64);
         for (kind, s) in &self.channels {
             h.push(*kind);
             match s {
@@ -221,38 +413,40 @@ impl Parts {
                 }
                 Stored::PerLeaf(_) => {
                     h.extend(1u32.to_le_bytes());
-                    u64s(&mut h, refs[next].0);
-                    u64s(&mut h, refs[next].1);
+                    u64s(h, refs[next].0);
+                    u64s(h, refs[next].1);
                     next += 1;
                 }
             }
         }
-        string(&mut h, &self.generator);
-        string(&mut h, &self.strategy);
-        u64s(&mut h, self.source_triangles);
+        string(h, &self.generator);
+        string(h, &self.strategy);
+        u64s(h, self.source_triangles);
         if self.version >= 2 {
-            u64s(&mut h, self.scene.lights.len() as u64);
+            u64s(h, self.scene.lights.len() as u64);
             for l in &self.scene.lights {
-                f64s(&mut h, &l.position);
+                f64s(h, &l.position);
                 l.colour.iter().for_each(|c| h.extend(c.to_le_bytes()));
                 h.extend(l.intensity.to_le_bytes());
             }
-            u64s(&mut h, self.scene.cameras.len() as u64);
+            u64s(h, self.scene.cameras.len() as u64);
             for c in &self.scene.cameras {
-                string(&mut h, &c.name);
-                f64s(&mut h, &c.eye);
-                f64s(&mut h, &c.target);
-                f64s(&mut h, &c.up);
-                f64s(&mut h, &[c.fov_deg]);
+                string(h, &c.name);
+                f64s(h, &c.eye);
+                f64s(h, &c.target);
+                f64s(h, &c.up);
+                f64s(h, &[c.fov_deg]);
             }
         }
-        h
     }
 
     /// The canonical file: preamble, header, zero padding to 8, each array at the next
     /// multiple of 8 with zero padding after it, and the XXH3-64 checksum of everything
     /// before it.
     pub fn encode(&self) -> Vec<u8> {
+        if self.version == 4 {
+            return self.encode_v4();
+        }
         let arrays = self.arrays();
         // The header's length does not depend on the offsets in it (fixed-width integers).
         let hlen = self.header(&vec![(0, 0); arrays.len()]).len();
@@ -288,6 +482,14 @@ pub const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
 pub fn seal(bytes: &mut Vec<u8>) {
     let sum = xxhash_rust::xxh3::xxh3_64(bytes);
     bytes.extend(sum.to_le_bytes());
+}
+
+/// Version 4: recomputes the header checksum after the header, then the file's checksum.
+pub fn reseal_v4(bytes: &mut Vec<u8>) {
+    let h = header_len(bytes);
+    let sum = xxhash_rust::xxh3::xxh3_64(&bytes[..16 + h]);
+    bytes[16 + h..16 + h + 8].copy_from_slice(&sum.to_le_bytes());
+    reseal(bytes);
 }
 
 /// Replaces the last 8 bytes with the checksum of the bytes before them.
@@ -571,6 +773,10 @@ struct Trees {
     deepest_chunked: Parts,
     /// `varied`'s bytes, the file most invalid ones break.
     base: Vec<u8>,
+    /// `varied` as version 4, with made-up values for every inner-node channel per node.
+    levels: Parts,
+    /// The torus baked with its inner nodes' attributes, version 4.
+    levels_bake: Parts,
 }
 
 impl Trees {
@@ -613,6 +819,18 @@ impl Trees {
         let leafy = varied.chunked(2);
         let deepest_chunked = deepest.chunked(21);
         let base = varied.encode();
+        let mut levels = varied.clone();
+        levels.version = 4;
+        levels.node_channels = node_values(&varied);
+        let levels_bake = {
+            let opts = BakeOptions {
+                depth: 4,
+                node_attributes: true,
+                ..BakeOptions::default()
+            };
+            let (tree, _) = bake_mesh(&closed_torus(), &opts).expect("the torus bakes");
+            Parts::levels_of(&tree, &baked(false).1)
+        };
         Self {
             varied,
             constant,
@@ -628,8 +846,35 @@ impl Trees {
             leafy,
             deepest_chunked,
             base,
+            levels,
+            levels_bake,
         }
     }
+}
+
+/// Made-up inner-node values of every channel for each of `p`'s nodes (valid words: no
+/// `0x8000` half, the near plane before the far one).
+fn node_values(p: &Parts) -> Vec<(u8, Stored)> {
+    let n = p.nodes.len() as u32;
+    let words = |f: &dyn Fn(u32) -> Vec<u8>| Stored::PerLeaf((0..n).flat_map(f).collect());
+    vec![
+        (
+            0,
+            words(&|i| {
+                ((i * 1000) | ((30_000 - i * 700) << 16))
+                    .to_le_bytes()
+                    .to_vec()
+            }),
+        ),
+        (
+            1,
+            words(&|i| ((i * 100) | ((60_000 - i) << 16)).to_le_bytes().to_vec()),
+        ),
+        (2, words(&|i| (i * 0x0102_0304).to_le_bytes().to_vec())),
+        (3, words(&|i| vec![(i * 7) as u8])),
+        (4, words(&|i| vec![255 - (i * 5) as u8])),
+        (5, words(&|i| ((i * 300) as u16).to_le_bytes().to_vec())),
+    ]
 }
 
 /// The corpus, in manifest order.
@@ -653,6 +898,7 @@ pub fn corpus() -> Vec<Entry> {
     version_3_header(&t, &mut invalid);
     version_3_chunks(&t, &mut invalid);
     edge_rules(&t, &mut invalid);
+    version_4(&t, &mut invalid);
     out
 }
 
@@ -699,6 +945,8 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         chunked,
         leafy,
         deepest_chunked,
+        levels,
+        levels_bake,
         ..
     } = t;
     valid(
@@ -781,6 +1029,61 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         "version 3: the depth-30 tree in chunks at level 21, the deepest chunk level",
         deepest_chunked,
     );
+    let v4 = |p: &Parts| {
+        let mut p = p.clone();
+        p.version = 4;
+        p
+    };
+    valid(
+        "levels",
+        "version 4: the per-leaf tree level by level, every inner-node channel per node (levels 0 and 1)",
+        levels,
+    );
+    valid(
+        "levels-bake",
+        "version 4: the torus baked with its inner nodes' attributes: per-node normals and contours, constant colour and materials",
+        levels_bake,
+    );
+    valid(
+        "levels-constant",
+        "version 4: every channel a constant, for the leaves and the inner nodes",
+        &{
+            let mut p = v4(constant);
+            p.node_channels = p.channels.clone();
+            p
+        },
+    );
+    valid(
+        "levels-no-node-channels",
+        "version 4: the per-leaf tree level by level, no inner-node channels",
+        &v4(varied),
+    );
+    valid(
+        "levels-empty",
+        "version 4: the empty tree, levels 1 and 2 without nodes",
+        &v4(empty),
+    );
+    valid(
+        "levels-single-leaf",
+        "version 4: depth 1 with per-node channels: level 0 is the leaf parents', which keep no values",
+        &{
+            let mut p = v4(single);
+            p.node_channels = p
+                .channels
+                .iter()
+                .map(|(kind, _)| {
+                    let size = [4, 4, 4, 1, 1, 2][usize::from(*kind)];
+                    (*kind, Stored::PerLeaf(vec![0; size]))
+                })
+                .collect();
+            p
+        },
+    );
+    valid(
+        "levels-depth-30",
+        "version 4: the depth-30 tree, 30 levels",
+        &v4(deepest),
+    );
 
     out
 }
@@ -811,8 +1114,8 @@ fn preamble(t: &Trees, invalid: &mut Invalid<'_>) {
     invalid(
         3,
         "version-newer",
-        "version 4",
-        sealed(&|b| put(b, 8, &4u32.to_le_bytes())),
+        "version 5",
+        sealed(&|b| put(b, 8, &5u32.to_le_bytes())),
     );
     invalid(
         3,
@@ -1535,4 +1838,127 @@ pub fn manifest(corpus: &[Entry]) -> String {
         ));
     }
     s
+}
+
+/// Offsets in a version-4 file of `levels`' header (depth 3): the layout byte and level `l`'s
+/// entry.
+mod at4 {
+    /// `layout`: after the root cube (32 bytes) and the depth.
+    pub const LAYOUT: usize = 16 + 33;
+    /// Level `l`'s entry: after `node_count`, `leaf_count` and the list's length.
+    pub const fn level(l: usize) -> usize {
+        16 + 34 + 16 + 8 + 32 * l
+    }
+}
+
+/// The invalid version-4 files: checks 20 to 22, and the others where version 4 differs.
+fn version_4(t: &Trees, invalid: &mut Invalid<'_>) {
+    let base = t.levels.encode();
+    let resealed = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = base.clone();
+        f(&mut b);
+        reseal_v4(&mut b);
+        b
+    };
+    invalid(
+        20,
+        "header-checksum",
+        "version 4: one bit of the header checksum flipped (the file's checksum right)",
+        sealed(&base, &|b| {
+            let h = header_len(b);
+            b[16 + h] ^= 1;
+        }),
+    );
+    invalid(
+        21,
+        "layout",
+        "version 4: layout 1, which is reserved",
+        resealed(&|b| b[at4::LAYOUT] = 1),
+    );
+    invalid(
+        21,
+        "level-0",
+        "version 4: 2 nodes on level 0",
+        resealed(&|b| put(b, at4::level(0), &2u64.to_le_bytes())),
+    );
+    invalid(
+        21,
+        "level-growth",
+        "version 4: 9 nodes on level 1 under a root",
+        resealed(&|b| put(b, at4::level(1), &9u64.to_le_bytes())),
+    );
+    invalid(
+        21,
+        "level-sum",
+        "version 4: one node more on level 2 than the header's node count allows",
+        resealed(&|b| {
+            let n = u64_at(b, at4::level(2)) + 1;
+            put(b, at4::level(2), &n.to_le_bytes());
+        }),
+    );
+    invalid(
+        12,
+        "level-block",
+        "version 4: level 1's block said to start 8 bytes later",
+        resealed(&|b| {
+            let o = u64_at(b, at4::level(1) + 8) + 8;
+            put(b, at4::level(1) + 8, &o.to_le_bytes());
+        }),
+    );
+    invalid(
+        22,
+        "level-checksum",
+        "version 4: one bit of level 1's checksum flipped",
+        resealed(&|b| b[at4::level(1) + 24] ^= 1),
+    );
+    invalid(
+        22,
+        "level-data",
+        "version 4: one bit of level 1's normals flipped (the header and file checksums right)",
+        resealed(&|b| {
+            let o = u64_at(b, at4::level(1) + 8) as usize;
+            let n = u64_at(b, at4::level(1)) as usize;
+            b[pad8(o + 8 * n)] ^= 1;
+        }),
+    );
+    invalid(
+        16,
+        "level-order",
+        "version 4: the nodes in the canonical depth-first order instead of level order",
+        from(&t.levels, &|p| p.level_order = false),
+    );
+    invalid(
+        10,
+        "node-channel-kinds",
+        "version 4: inner-node channels without the IOR the leaves have",
+        from(&t.levels, &|p| {
+            p.node_channels.pop();
+        }),
+    );
+    invalid(
+        10,
+        "node-constant",
+        "version 4: an inner-node reflectivity constant of 256",
+        from(&t.levels, &|p| p.node_channels[3].1 = Stored::Constant(256)),
+    );
+    invalid(
+        18,
+        "node-contour",
+        "version 4: the root's contour has its near plane beyond its far plane",
+        from(&t.levels, &|p| {
+            if let Stored::PerLeaf(v) = &mut p.node_channels[1].1 {
+                v[..4].copy_from_slice(&0x1000_2000u32.to_le_bytes());
+            }
+        }),
+    );
+    invalid(
+        18,
+        "node-interior-word",
+        "version 4: a level-1 node's normal is the interior-leaf word 0x80008000",
+        from(&t.levels, &|p| {
+            if let Stored::PerLeaf(v) = &mut p.node_channels[0].1 {
+                v[4..8].copy_from_slice(&0x8000_8000u32.to_le_bytes());
+            }
+        }),
+    );
 }

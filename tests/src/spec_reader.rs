@@ -1,5 +1,5 @@
 //! A `.svo` reader written from `docs/format.md` alone, sharing no code with svo (only the
-//! xxHash crate for the checksum): it applies the document's 19 checks in order and returns
+//! xxHash crate for the checksums): it applies the document's 22 checks in order and returns
 //! the number of the first one a file fails. The conformance test requires it to agree with
 //! the corpus's manifest, which shows that the document says enough to write a reader.
 
@@ -66,7 +66,14 @@ struct Header {
     channels: Vec<(u8, Storage)>,
     lights: Vec<([f64; 3], [f32; 3], f32)>,
     cameras: Vec<Camera>,
+    /// Version 4 (section 11): the layout byte, the level table (`nodes`, `offset`, `len`,
+    /// `hash`) and the inner-node channels (`None`: per node).
+    levels: Option<Levels>,
 }
+
+/// Version 4's layout byte, level table (`nodes`, `offset`, `len`, `hash`) and inner-node
+/// channels (`None`: per node).
+type Levels = (u8, Vec<[u64; 4]>, Vec<(u8, Option<u32>)>);
 
 /// Section 3: the header in `raw` (exactly), by the version's layout.
 fn decode(raw: &[u8], version: u32) -> Option<Header> {
@@ -77,12 +84,35 @@ fn decode(raw: &[u8], version: u32) -> Option<Header> {
     } else {
         None
     };
+    let layout = if version == 4 { Some(c.u8()?) } else { None };
     let (node_count, leaf_count) = (c.u64()?, c.u64()?);
+    let mut levels = None;
+    if let Some(layout) = layout {
+        let mut table = Vec::new();
+        for _ in 0..c.u64()? {
+            table.push([c.u64()?, c.u64()?, c.u64()?, c.u64()?]);
+        }
+        let mut node_channels = Vec::new();
+        for _ in 0..c.u64()? {
+            let kind = c.u8()?;
+            let storage = match c.u32()? {
+                0 => Some(c.u32()?),
+                1 => None,
+                _ => return None,
+            };
+            node_channels.push((kind, storage));
+        }
+        levels = Some((layout, table, node_channels));
+    }
     let chunks = match level_count {
         Some((level, count)) => Some((level, count, (c.u64()?, c.u64()?))),
         None => None,
     };
-    let nodes = (c.u64()?, c.u64()?);
+    let nodes = if levels.is_some() {
+        (0, 0)
+    } else {
+        (c.u64()?, c.u64()?)
+    };
     let mut channels = Vec::new();
     for _ in 0..c.u64()? {
         let kind = c.u8()?;
@@ -124,6 +154,7 @@ fn decode(raw: &[u8], version: u32) -> Option<Header> {
         channels,
         lights,
         cameras,
+        levels,
     })
 }
 
@@ -176,6 +207,9 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     let (version, hl) = preamble(b)?;
     let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
     header_values(&h)?;
+    if h.levels.is_some() {
+        return check_levels(b, &h, hl);
+    }
     layout(b, &h, hl)?;
     let trees = chunk_table(b, &h)?;
     let nodes = Nodes {
@@ -215,16 +249,23 @@ fn preamble(b: &[u8]) -> Result<(u32, usize), u8> {
         return Err(2);
     }
     let version = u32at(b, 8);
-    if !(1..=3).contains(&version) {
+    if !(1..=4).contains(&version) {
         return Err(3);
     }
     let hl = u32at(b, 12) as usize;
-    if hl > 65_536 || 16 + hl > l - 8 {
+    let e = 16 + hl + if version == 4 { 8 } else { 0 };
+    if hl > 65_536 || e > l - 8 {
         return Err(4);
     }
     if u64::from_le_bytes(b[l - 8..].try_into().unwrap()) != xxhash_rust::xxh3::xxh3_64(&b[..l - 8])
     {
         return Err(5);
+    }
+    if version == 4
+        && u64::from_le_bytes(b[16 + hl..e].try_into().unwrap())
+            != xxhash_rust::xxh3::xxh3_64(&b[..16 + hl])
+    {
+        return Err(20);
     }
     Ok((version, hl))
 }
@@ -267,8 +308,33 @@ fn header_values(h: &Header) -> Result<(), u8> {
     if has(1) && !has(0) {
         return Err(10);
     }
+    if let Some((_, _, node_channels)) = &h.levels
+        && !node_channels.is_empty()
+    {
+        let kinds: Vec<u8> = h.channels.iter().map(|c| c.0).collect();
+        let node_kinds: Vec<u8> = node_channels.iter().map(|c| c.0).collect();
+        let too_wide = node_channels
+            .iter()
+            .any(|(k, v)| v.is_some_and(|v| size(*k) < 4 && u64::from(v) >> (8 * size(*k)) != 0));
+        if kinds != node_kinds || too_wide {
+            return Err(10);
+        }
+    }
     if !scene_ok(h) {
         return Err(11);
+    }
+    if let Some((layout, table, _)) = &h.levels {
+        let mut sum = 0u64;
+        for (l, e) in table.iter().enumerate() {
+            let grows = l > 0 && e[0] > table[l - 1][0].saturating_mul(8);
+            if grows || (l == 0 && e[0] != 1) {
+                return Err(21);
+            }
+            sum = sum.saturating_add(e[0]);
+        }
+        if *layout != 0 || table.len() != usize::from(h.depth) || sum != h.node_count {
+            return Err(21);
+        }
     }
     Ok(())
 }
@@ -477,6 +543,170 @@ fn values(b: &[u8], h: &Header, version: u32) -> Result<(), u8> {
             || (nw == Some(0x8000_8000) && cw.is_some_and(|c| c != 0xFFFF_0000))
         {
             return Err(18);
+        }
+    }
+    Ok(())
+}
+
+/// A version-4 file after check 21 (section 11): checks 12, 13, 22, 14, 15 to 17 in level
+/// order, and 18 on the leaves' and the inner nodes' values.
+fn check_levels(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
+    let Some((_, table, node_channels)) = &h.levels else {
+        return Ok(());
+    };
+    let depth = usize::from(h.depth);
+    let data_end = (b.len() - 8) as u64;
+    let e = 16 + hl as u64 + 8;
+    let mut at = pad8(e);
+    let mut gaps = vec![(e, at)];
+    // 12: each level's block, then the per-leaf arrays.
+    let per_node: Vec<u8> = node_channels
+        .iter()
+        .filter(|c| c.1.is_none())
+        .map(|c| c.0)
+        .collect();
+    let mut blocks = Vec::new();
+    for (l, entry) in table.iter().enumerate() {
+        let n = entry[0];
+        let mut lens = vec![n.checked_mul(8).ok_or(12u8)?];
+        if l + 2 <= depth {
+            for k in &per_node {
+                lens.push(n.checked_mul(size(*k)).ok_or(12u8)?);
+            }
+        }
+        let offset = at;
+        let mut arrays = Vec::new();
+        let mut end = at;
+        for len in lens {
+            end = at.checked_add(len).ok_or(12u8)?;
+            arrays.push((at, len));
+            at = pad8(end);
+        }
+        if entry[1] != offset || entry[2] != end - offset {
+            return Err(12);
+        }
+        for &(o, len) in &arrays {
+            if o + len > data_end {
+                return Err(12);
+            }
+            gaps.push((o + len, pad8(o + len)));
+        }
+        blocks.push((offset, end - offset, arrays));
+    }
+    for (kind, s) in &h.channels {
+        if let Storage::PerLeaf(o, n) = s {
+            if *n != h.leaf_count * size(*kind) || *o != at || o + n > data_end {
+                return Err(12);
+            }
+            gaps.push((o + n, pad8(o + n)));
+            at = pad8(o + n);
+        }
+    }
+    if at != data_end {
+        return Err(12);
+    }
+    // 13: the padding.
+    if gaps
+        .iter()
+        .any(|&(a, z)| b[a as usize..z as usize].iter().any(|&x| x != 0))
+    {
+        return Err(13);
+    }
+    // 22: the levels' checksums.
+    for ((o, len, _), entry) in blocks.iter().zip(table) {
+        if xxhash_rust::xxh3::xxh3_64(&b[*o as usize..(o + len) as usize]) != entry[3] {
+            return Err(22);
+        }
+    }
+    // 14: the node words, level after level.
+    let node = |i: u64| -> (u32, u32) {
+        let mut i = i;
+        for (l, entry) in table.iter().enumerate() {
+            if i < entry[0] {
+                let at = blocks[l].0 as usize + 8 * i as usize;
+                return (u32at(b, at), u32at(b, at + 4));
+            }
+            i -= entry[0];
+        }
+        (0, 0)
+    };
+    if (0..h.node_count).any(|i| node(i).0 >> 8 != 0) {
+        return Err(14);
+    }
+    // 15 and 16: level by level.
+    let (mut start, mut next) = (0u64, 1u64);
+    for l in 0..depth {
+        let end = start + table[l][0];
+        let below = end + table.get(l + 1).map_or(0, |e| e[0]);
+        for i in start..end {
+            let (info, first) = node(i);
+            let k = u64::from((info & 0xFF).count_ones());
+            if k == 0 {
+                if i != 0 {
+                    return Err(15);
+                }
+                if first != 0 {
+                    return Err(16);
+                }
+                continue;
+            }
+            let leafy = l + 1 == depth;
+            if leafy != ((first as i32) < 0) {
+                return Err(15);
+            }
+            if leafy {
+                continue;
+            }
+            if u64::from(first) != next || next + k > below {
+                return Err(16);
+            }
+            next += k;
+        }
+        if l + 1 < depth && next != below {
+            return Err(16);
+        }
+        start = end;
+    }
+    // 17: the leaf parents, level depth - 1 in order.
+    let mut seen = 0u64;
+    for i in start - table[depth - 1][0]..start {
+        let (info, first) = node(i);
+        if (first as i32) < 0 {
+            if (-i64::from(first as i32) - 1) as u64 != seen {
+                return Err(17);
+            }
+            seen += u64::from((info & 0xFF).count_ones());
+        }
+    }
+    if seen != h.leaf_count {
+        return Err(17);
+    }
+    // 18: the leaves' values as in every version, then the inner nodes'.
+    values(b, h, 4)?;
+    let normal_ok = |w: u32| !(w & 0xFFFF == 0x8000 || w >> 16 == 0x8000);
+    let contour_ok = |c: u32| c & 0xFFFF <= c >> 16;
+    let mut array = 0;
+    for (kind, storage) in node_channels {
+        let ok = |w: u32| match kind {
+            0 => normal_ok(w),
+            1 => contour_ok(w),
+            _ => true,
+        };
+        match storage {
+            Some(v) if !ok(*v) => return Err(18),
+            Some(_) => {}
+            None => {
+                array += 1;
+                for (l, (_, _, arrays)) in blocks.iter().enumerate() {
+                    if l + 2 > depth || *kind > 1 {
+                        continue;
+                    }
+                    let (o, len) = arrays[array];
+                    if (0..len / 4).any(|j| !ok(u32at(b, o as usize + 4 * j as usize))) {
+                        return Err(18);
+                    }
+                }
+            }
         }
     }
     Ok(())

@@ -58,7 +58,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
     let dir = corpus_dir();
     let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
     let mut per_check = BTreeMap::new();
-    let (mut valid, mut chunked) = (0, 0);
+    let (mut valid, mut chunked, mut levels) = (0, 0, 0);
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split('\t').collect();
         let bytes = std::fs::read(dir.join(f[0])).expect("a corpus file");
@@ -81,6 +81,15 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
                         "{}: written differently",
                         f[0]
                     );
+                }
+                // Version 4, which svo writes for a tree with inner-node attributes.
+                if bytes[8] == 4 && tree.node_attributes != Default::default() {
+                    assert!(
+                        to_bytes(&tree, &build) == bytes,
+                        "{}: written differently",
+                        f[0]
+                    );
+                    levels += 1;
                 }
                 if bytes[8] == 3 {
                     // The chunk level follows the depth (docs/format.md, section 3).
@@ -110,13 +119,13 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
             (o, _) => panic!("{}: unknown outcome {o}", f[0]),
         }
     }
-    assert_eq!((valid, chunked), (16, 5));
+    assert_eq!((valid, chunked, levels), (23, 5, 4));
     // Every check has at least one file that fails it.
     let numbers: Vec<u8> = per_check.keys().copied().collect();
-    assert_eq!(numbers, (1..=19).collect::<Vec<u8>>());
+    assert_eq!(numbers, (1..=22).collect::<Vec<u8>>());
 }
 
-fn the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins() {
+fn the_version_1_3_and_4_files_hold_the_same_trees_as_their_version_2_twins() {
     let dir = corpus_dir();
     let read = |name: &str| {
         from_bytes(&std::fs::read(dir.join(name)).expect("a corpus file")).expect("valid")
@@ -131,6 +140,25 @@ fn the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins() {
         read("valid-chunked-depth-30.svo"),
         read("valid-depth-30.svo")
     );
+    assert_eq!(read("valid-levels-no-node-channels.svo"), v2);
+    assert_eq!(read("valid-levels-empty.svo"), read("valid-empty.svo"));
+    assert_eq!(
+        read("valid-levels-depth-30.svo"),
+        read("valid-depth-30.svo")
+    );
+    // With inner-node channels: the same nodes and leaves.
+    let (levels, _) = read("valid-levels.svo");
+    assert_eq!(
+        (&levels.nodes, &levels.attributes),
+        (&v2.0.nodes, &v2.0.attributes)
+    );
+    assert!(levels.node_attributes.normal.is_per_leaf());
+    let (bake, _) = read("valid-levels-bake.svo");
+    let plain = read("valid-bake.svo").0;
+    assert_eq!(
+        (&bake.nodes, &bake.attributes),
+        (&plain.nodes, &plain.attributes)
+    );
 }
 
 /// This module's tests, with what each needs of the machine.
@@ -138,6 +166,6 @@ pub(crate) fn trials() -> Vec<Test> {
     vec![
         trial!(committed_corpus_is_what_the_generator_makes),
         trial!(the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check),
-        trial!(the_version_1_and_3_files_hold_the_same_trees_as_their_version_2_twins),
+        trial!(the_version_1_3_and_4_files_hold_the_same_trees_as_their_version_2_twins),
     ]
 }

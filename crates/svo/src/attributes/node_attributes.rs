@@ -12,6 +12,10 @@
 //! holds the node's surface; it is made from the stored contours alone, so the nodes above a
 //! cut of the tree into parts come out the same from the parts' roots. It is tight where each
 //! child's surface crosses its cell, and looser where a child holds only a corner of a sheet.
+//!
+//! The leaf parents keep no values (they are 0): a leaf parent is two leaves wide, so drawing
+//! it instead of its leaves saves little, and its values would cost as much as the tree's
+//! node records.
 
 use crate::attributes::surface_sums::NodeValue;
 use crate::geometry::child_classify::child_offset;
@@ -52,6 +56,23 @@ pub(crate) fn node_attributes(
     if !matches!(leaves.contour, Channel::Absent) && !matches!(out.normal, Channel::Absent) {
         out.contour = Channel::PerLeaf(node_contours(nodes, &out.normal, leaves));
     }
+    // The leaf parents' values served their parents' contours; they are not kept (a leaf
+    // parent's cell is two leaves wide, and its values would add a fifth to a file).
+    fn clear<T: Default>(c: &mut Channel<T>, nodes: &[Node]) {
+        if let Channel::PerLeaf(v) = c {
+            for (x, n) in v.iter_mut().zip(nodes) {
+                if n.is_leaf_parent() {
+                    *x = T::default();
+                }
+            }
+        }
+    }
+    clear(&mut out.normal, nodes);
+    clear(&mut out.contour, nodes);
+    clear(&mut out.colour, nodes);
+    clear(&mut out.reflectivity, nodes);
+    clear(&mut out.refractivity, nodes);
+    clear(&mut out.ior, nodes);
     out
 }
 

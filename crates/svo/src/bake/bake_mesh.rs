@@ -87,8 +87,8 @@ pub struct BakeOptions {
     /// inside as the [`SolidMode`] says.
     pub solid: Option<SolidMode>,
     /// Give the inner nodes the attributes of the surface inside their cells
-    /// ([`Octree::node_attributes`]): the level of detail a renderer stops at. Not made for
-    /// solid bakes; `.svo` files do not store them yet.
+    /// above the leaf parents ([`Octree::node_attributes`]): the level of detail a renderer
+    /// stops at, stored by format version 4. Not made for solid bakes.
     pub node_attributes: bool,
 }
 

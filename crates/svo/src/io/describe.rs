@@ -2,7 +2,7 @@
 //! header holds (version, lengths, where each array is, the checksum), the tree's counts per
 //! level and its channels.
 
-use crate::io::header::{PREAMBLE_LEN, Storage};
+use crate::io::header::{NodeStorage, PREAMBLE_LEN, Storage};
 use crate::io::read::{ChunksRead, Preamble, check_chunks_file, read_file_with_header};
 use crate::io::write::FormatError;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
@@ -95,11 +95,47 @@ fn describe_header(p: &Preamble, checksum: u64) -> String {
             c.count, c.level, c.table.offset, c.table.len
         );
     }
-    let _ = writeln!(
-        out,
-        "arrays         nodes at {} ({} bytes)",
-        header.nodes.offset, header.nodes.len
-    );
+    match &header.levels {
+        None => {
+            let _ = writeln!(
+                out,
+                "arrays         nodes at {} ({} bytes)",
+                header.nodes.offset, header.nodes.len
+            );
+        }
+        Some(levels) => {
+            for (l, e) in levels.table.iter().enumerate() {
+                let _ = writeln!(
+                    out,
+                    "level {l:<8} {} nodes, block at {} ({} bytes), checksum {:#018x}",
+                    e.nodes, e.block.offset, e.block.len, e.hash
+                );
+            }
+            let kinds: Vec<String> = levels
+                .node_channels
+                .iter()
+                .map(|e| {
+                    let name = ChannelKind::ALL
+                        .get(usize::from(e.kind))
+                        .map_or("?", |k| k.name());
+                    match e.storage {
+                        NodeStorage::Constant(v) => format!("{name} constant {v:#x}"),
+                        NodeStorage::PerNode => format!("{name} per node"),
+                    }
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "inner nodes    {} (levels 0 to depth - 2)",
+                if kinds.is_empty() {
+                    "no channels".to_string()
+                } else {
+                    kinds.join(", ")
+                }
+            );
+            let _ = writeln!(out, "arrays");
+        }
+    }
     for e in &header.channels {
         let name = ChannelKind::ALL
             .get(usize::from(e.kind))

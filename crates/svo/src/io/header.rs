@@ -1,5 +1,6 @@
-//! The `.svo` file header (format version 2, and version 3 for a tree stored in chunks;
-//! version 1 is still read); `docs/format.md` gives every byte.
+//! The `.svo` file header (format version 2, version 3 for a tree stored in chunks, version 4
+//! for nodes stored level by level with the inner nodes' channels; version 1 is still read);
+//! `docs/format.md` gives every byte.
 //!
 //! ```text
 //! offset  size  field
@@ -7,6 +8,7 @@
 //! 8       4     format version, u32 LE (2)
 //! 12      4     header length H, u32 LE (at most 65536)
 //! 16      H     header: bincode 2, standard config with fixed-width little-endian integers
+//! 16+H    8     version 4: xxh3-64 of bytes 0..16+H (the header checksum)
 //! ...           zero padding to a multiple of 8
 //! ...           arrays, each at the 8-aligned offset the header names, zero-padded to 8
 //! end-8   8     xxh3-64 of every byte before it, u64 LE
@@ -17,9 +19,9 @@ use serde::{Deserialize, Serialize};
 
 /// The file's first 8 bytes.
 pub(crate) const MAGIC: [u8; 8] = *b"\x89SVO\r\n\x1a\n";
-/// The newest format version this library reads and writes. It also reads versions 1 and 2,
-/// and writes version 2 for a tree that one node array holds and version 3 (chunks) past that
-/// or when asked.
+/// The newest format version this library reads and writes. It also reads versions 1 to 3,
+/// and writes version 4 for a tree with inner-node attributes, version 2 for another tree that
+/// one node array holds, and version 3 (chunks) past that or when asked.
 pub const VERSION: u32 = crate::octree::format_check::CURRENT_VERSION;
 /// The largest header accepted.
 pub(crate) const MAX_HEADER_LEN: usize = 1 << 16;
@@ -126,6 +128,7 @@ impl From<HeaderV1> for Header {
                 scene: SceneInfo::default(),
             },
             chunks: None,
+            levels: None,
         }
     }
 }
@@ -176,6 +179,117 @@ pub(crate) struct Header {
     /// Version 3: the chunk level and table (`None` in versions 1 and 2).
     #[serde(skip)]
     pub chunks: Option<Chunking>,
+    /// Version 4: the level table and the inner nodes' channels (`None` before; `nodes` is
+    /// then unused: the nodes lie in the levels' blocks).
+    #[serde(skip)]
+    pub levels: Option<Levels>,
+}
+
+/// What a version-4 header adds: the nodes' layout, one entry a level, and the inner nodes'
+/// channels.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Levels {
+    /// 0: the tree (an info byte and a child pointer a node); other values are reserved.
+    pub layout: u8,
+    /// Levels 0 to `depth - 1`, root first.
+    pub table: Vec<LevelEntry>,
+    /// The inner nodes' channels: none, or one for each kind of `channels`, in the same order.
+    pub node_channels: Vec<NodeChannelEntry>,
+}
+
+/// One level of a version-4 file: its nodes and where their block lies (the nodes' records,
+/// then, on levels above `depth - 1`, one array for each per-node channel, each padded to 8).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub(crate) struct LevelEntry {
+    /// Nodes on the level.
+    pub nodes: u64,
+    /// The block: from its nodes' records to the end of its last array (without the padding
+    /// after it).
+    pub block: ArrayRef,
+    /// XXH3-64 (seed 0) of the block's bytes.
+    pub hash: u64,
+}
+
+/// How an inner-node channel is stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub(crate) enum NodeStorage {
+    /// One value for every inner node above the leaf parents.
+    Constant(u32),
+    /// One value per node, in each level's block (levels 0 to `depth - 2`).
+    PerNode,
+}
+
+/// One stored inner-node channel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub(crate) struct NodeChannelEntry {
+    /// Channel code, as [`ChannelEntry::kind`].
+    pub kind: u8,
+    /// Constant or per node.
+    pub storage: NodeStorage,
+}
+
+/// [`Header`] as version 4 stores it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub(crate) struct HeaderV4 {
+    /// See [`Header::root_origin`].
+    pub root_origin: [f64; 3],
+    /// See [`Header::root_side`].
+    pub root_side: f64,
+    /// See [`Header::depth`].
+    pub depth: u8,
+    /// See [`Levels::layout`].
+    pub layout: u8,
+    /// See [`Header::node_count`].
+    pub node_count: u64,
+    /// See [`Header::leaf_count`].
+    pub leaf_count: u64,
+    /// See [`Levels::table`].
+    pub levels: Vec<LevelEntry>,
+    /// See [`Levels::node_channels`].
+    pub node_channels: Vec<NodeChannelEntry>,
+    /// See [`Header::channels`].
+    pub channels: Vec<ChannelEntry>,
+    /// See [`Header::build`].
+    pub build: BuildInfo,
+}
+
+impl From<HeaderV4> for Header {
+    fn from(h: HeaderV4) -> Self {
+        Self {
+            root_origin: h.root_origin,
+            root_side: h.root_side,
+            depth: h.depth,
+            node_count: h.node_count,
+            leaf_count: h.leaf_count,
+            nodes: ArrayRef::default(),
+            channels: h.channels,
+            build: h.build,
+            chunks: None,
+            levels: Some(Levels {
+                layout: h.layout,
+                table: h.levels,
+                node_channels: h.node_channels,
+            }),
+        }
+    }
+}
+
+impl HeaderV4 {
+    /// The version-4 form of a header with levels (`l`).
+    pub(crate) fn of(h: &Header, l: &Levels) -> Self {
+        Self {
+            root_origin: h.root_origin,
+            root_side: h.root_side,
+            depth: h.depth,
+            layout: l.layout,
+            node_count: h.node_count,
+            leaf_count: h.leaf_count,
+            levels: l.table.clone(),
+            node_channels: l.node_channels.clone(),
+            channels: h.channels.clone(),
+            build: h.build.clone(),
+        }
+    }
 }
 
 /// [`Header`] as version 3 stores it: the chunk level, count and table after the depth.
@@ -221,6 +335,7 @@ impl From<HeaderV3> for Header {
                 count: h.chunk_count,
                 table: h.chunks,
             }),
+            levels: None,
         }
     }
 }

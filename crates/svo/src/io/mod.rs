@@ -27,6 +27,7 @@ pub(crate) mod describe;
 pub(crate) mod header;
 #[cfg(test)]
 mod hostile_tests;
+pub(crate) mod levels;
 pub(crate) mod read;
 #[cfg(feature = "vox")]
 pub(crate) mod vox;
@@ -37,7 +38,7 @@ pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
 pub use chunked::ChunkedFile;
 pub use describe::describe_file;
 pub use header::{BuildInfo, VERSION};
-pub use read::{from_bytes, read_file, read_from};
+pub use read::{from_bytes, read_file, read_file_to_depth, read_from};
 #[cfg(feature = "vox")]
 pub use vox::write_vox;
 pub use write::{FormatError, to_bytes, write_chunked_to, write_file, write_to};

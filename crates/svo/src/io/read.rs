@@ -6,11 +6,13 @@
 
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
-    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, MAGIC,
-    MAX_HEADER_LEN, PREAMBLE_LEN, Storage, VERSION, bincode_config,
+    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
+    MAGIC, MAX_HEADER_LEN, NodeStorage, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
+use crate::io::levels::{check_level_order, depth_first};
 pub(crate) use crate::io::write::FormatError;
-use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL};
+use crate::io::write::block_hash;
+use crate::octree::format_check::{Check, LEVELS_VERSION, MAX_CHUNK_LEVEL};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
@@ -47,6 +49,37 @@ pub(crate) struct Preamble {
     pub header: Header,
 }
 
+impl Preamble {
+    /// Where the header ends: with its checksum in version 4.
+    pub(crate) fn header_end(&self) -> u64 {
+        header_end(self.version, self.header_len)
+    }
+}
+
+/// Where a header of `hlen` bytes ends in a file of `version`, its checksum (version 4)
+/// included.
+fn header_end(version: u32, hlen: usize) -> u64 {
+    (PREAMBLE_LEN + hlen) as u64 + if version >= LEVELS_VERSION { 8 } else { 0 }
+}
+
+/// Check 20 (version 4): the header checksum after the header of `bytes` (the preamble and
+/// the header with its checksum, at least).
+fn check_header_checksum(bytes: &[u8], version: u32, hlen: usize) -> Result<(), FormatError> {
+    if version < LEVELS_VERSION {
+        return Ok(());
+    }
+    let end = PREAMBLE_LEN + hlen;
+    let stored = u64::from_le_bytes(bytes[end..end + 8].try_into().unwrap_or([0; 8]));
+    let computed = xxhash_rust::xxh3::xxh3_64(&bytes[..end]);
+    if stored != computed {
+        return Err(corrupt(
+            Check::HeaderChecksum,
+            format!("the header's checksum is {stored:#018x}, its bytes hash to {computed:#018x}"),
+        ));
+    }
+    Ok(())
+}
+
 /// Checks 1 to 6: the preamble, the checksum and the header's encoding.
 pub(crate) fn read_header(bytes: &[u8]) -> Result<Preamble, FormatError> {
     let (version, hlen) = check_preamble(bytes, bytes.len() as u64)?;
@@ -57,6 +90,7 @@ pub(crate) fn read_header(bytes: &[u8]) -> Result<Preamble, FormatError> {
     if stored != computed {
         return Err(FormatError::Checksum { stored, computed });
     }
+    check_header_checksum(bytes, version, hlen)?;
     decode_header(&bytes[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)
 }
 
@@ -102,7 +136,7 @@ fn check_preamble(bytes: &[u8], total: u64) -> Result<(u32, usize), FormatError>
             format!("header length {hlen} exceeds {MAX_HEADER_LEN}"),
         ));
     }
-    if (PREAMBLE_LEN + hlen + 8) as u64 > total {
+    if header_end(version, hlen) + 8 > total {
         return Err(truncated(
             Check::HeaderLength,
             format!(
@@ -120,6 +154,8 @@ fn decode_header(raw: &[u8], version: u32) -> Result<Preamble, FormatError> {
         1 => bincode::serde::decode_from_slice::<HeaderV1, _>(raw, bincode_config())
             .map(|(h, n)| (h.into(), n)),
         3 => bincode::serde::decode_from_slice::<HeaderV3, _>(raw, bincode_config())
+            .map(|(h, n)| (h.into(), n)),
+        4 => bincode::serde::decode_from_slice::<HeaderV4, _>(raw, bincode_config())
             .map(|(h, n)| (h.into(), n)),
         _ => bincode::serde::decode_from_slice(raw, bincode_config()),
     }
@@ -196,11 +232,19 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
             "a contour channel without a normal channel",
         ));
     }
+    // Version 4: the inner nodes' channels, none or the leaves' kinds.
+    if let Some(l) = &h.levels {
+        check_node_channel_list(h, l)?;
+    }
     // 11. The scene.
     h.build
         .scene
         .validate()
         .map_err(|e| corrupt(Check::Scene, format!("scene: {e}")))?;
+    // 21. The level table.
+    if let Some(l) = &h.levels {
+        check_level_table(h, l)?;
+    }
     // 12. The arrays where the canonical layout puts them: the nodes, then the per-leaf
     // channels by kind, each at the next multiple of 8, and the checksum after the last.
     let node_bytes = h
@@ -218,7 +262,9 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
             .ok_or_else(|| overflows("chunk table's size"))?;
         refs.push((c.table, table));
     }
-    refs.push((h.nodes, node_bytes));
+    if h.levels.is_none() {
+        refs.push((h.nodes, node_bytes));
+    }
     for e in &h.channels {
         if let Storage::PerLeaf(r) = e.storage {
             let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
@@ -232,6 +278,44 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
     let pad8 = |x: u64| x.div_ceil(8) * 8;
     let mut at = pad8(header_end);
     let mut gaps = vec![(header_end, at)];
+    // Version 4: the levels' blocks first, each its arrays one after another.
+    if let Some(levels) = &h.levels {
+        for (l, entry) in levels.table.iter().enumerate() {
+            let lens = level_lens(h, l).ok_or_else(|| overflows("level block's size"))?;
+            let (mut end, mut next) = (at, at);
+            for &len in &lens {
+                end = next.saturating_add(len);
+                next = pad8(end);
+            }
+            let want = ArrayRef {
+                offset: at,
+                len: end - at,
+            };
+            if entry.block != want {
+                return Err(corrupt(
+                    Check::ArrayLayout,
+                    format!(
+                        "level {l}'s block at {} of {} bytes, where the layout needs one at {} \
+                         of {}",
+                        entry.block.offset, entry.block.len, want.offset, want.len
+                    ),
+                ));
+            }
+            for &len in &lens {
+                let end = at.saturating_add(len);
+                if end > data_end {
+                    return Err(truncated(
+                        Check::ArrayLayout,
+                        format!(
+                            "level {l}'s block at {at}..{end} runs past the data end {data_end}"
+                        ),
+                    ));
+                }
+                at = pad8(end);
+                gaps.push((end, at));
+            }
+        }
+    }
     for (r, want) in &refs {
         if r.len != *want || r.offset != at {
             return Err(corrupt(
@@ -269,6 +353,96 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
         });
     }
     Ok(gaps)
+}
+
+/// The lengths of the arrays of level `l`'s block in a version-4 file of header `h`: the nodes'
+/// records, then on levels above `depth - 1` one array for each per-node channel (`None` if
+/// one overflows).
+pub(crate) fn level_lens(h: &Header, l: usize) -> Option<Vec<u64>> {
+    let levels = h.levels.as_ref()?;
+    let nodes = levels.table.get(l)?.nodes;
+    let mut lens = vec![nodes.checked_mul(8)?];
+    if l + 2 <= usize::from(h.depth) {
+        for e in &levels.node_channels {
+            if e.storage == NodeStorage::PerNode {
+                let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
+                lens.push(nodes.checked_mul(size)?);
+            }
+        }
+    }
+    Some(lens)
+}
+
+/// Check 10 on a version-4 header's inner-node channels: none, or one for each of the leaves'
+/// channels, of the same kinds in the same order, each constant fitting its element.
+fn check_node_channel_list(h: &Header, l: &crate::io::header::Levels) -> Result<(), FormatError> {
+    if l.node_channels.is_empty() {
+        return Ok(());
+    }
+    let kinds: Vec<u8> = h.channels.iter().map(|e| e.kind).collect();
+    let node_kinds: Vec<u8> = l.node_channels.iter().map(|e| e.kind).collect();
+    if kinds != node_kinds {
+        return Err(corrupt(
+            Check::Channels,
+            format!("inner-node channels {node_kinds:?}, where the leaves have {kinds:?}"),
+        ));
+    }
+    for e in &l.node_channels {
+        let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
+        if let NodeStorage::Constant(v) = e.storage
+            && size < 4
+            && v >> (8 * size) != 0
+        {
+            return Err(corrupt(
+                Check::Channels,
+                format!(
+                    "the inner-node constant {v} of channel {} does not fit {size} byte(s)",
+                    e.kind
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Check 21: the layout is the tree (0), and the level table has an entry for each level, one
+/// node (the root) on level 0, at most 8 nodes for each node of the level above, and
+/// `node_count` nodes in all.
+fn check_level_table(h: &Header, l: &crate::io::header::Levels) -> Result<(), FormatError> {
+    let fail = |m: String| Err(corrupt(Check::Levels, m));
+    if l.layout != 0 {
+        return fail(format!(
+            "layout {} (only 0, the tree, is defined)",
+            l.layout
+        ));
+    }
+    if l.table.len() != usize::from(h.depth) {
+        return fail(format!(
+            "{} levels in the table for a tree of depth {}",
+            l.table.len(),
+            h.depth
+        ));
+    }
+    if l.table[0].nodes != 1 {
+        return fail(format!("{} nodes on level 0, not 1", l.table[0].nodes));
+    }
+    let mut sum = 1u64;
+    for i in 1..l.table.len() {
+        let (above, n) = (l.table[i - 1].nodes, l.table[i].nodes);
+        if n > above.saturating_mul(8) {
+            return fail(format!(
+                "{n} nodes on level {i}, more than 8 for each of the {above} above"
+            ));
+        }
+        sum = sum.saturating_add(n);
+    }
+    if sum != h.node_count {
+        return fail(format!(
+            "the levels hold {sum} nodes, the header says {}",
+            h.node_count
+        ));
+    }
+    Ok(())
 }
 
 /// Checks 7 to 9 of a version-3 header: the depth, the chunk level below it, the root cube,
@@ -322,7 +496,7 @@ fn check_fits(h: &Header) -> Result<(), FormatError> {
 pub(crate) fn read_with_header(bytes: &[u8]) -> Result<(Octree, Preamble), FormatError> {
     let p = read_header(bytes)?;
     let h = &p.header;
-    let gaps = check_layout(h, (PREAMBLE_LEN + p.header_len) as u64, bytes.len() as u64)?;
+    let gaps = check_layout(h, p.header_end(), bytes.len() as u64)?;
     // 13. Zero padding.
     if let Some(&(from, to)) = gaps
         .iter()
@@ -356,7 +530,25 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         None => None,
     };
     check_fits(h)?;
-    let nodes: Vec<Node> = array(h.nodes, fetch)?;
+    let mut blocks = Vec::new();
+    let nodes: Vec<Node> = match &h.levels {
+        None => array(h.nodes, fetch)?,
+        Some(levels) => {
+            // Each level's arrays where check 12 found them.
+            for (l, entry) in levels.table.iter().enumerate() {
+                let mut at = entry.block.offset;
+                let mut block = Vec::new();
+                for len in level_lens(h, l).unwrap_or_default() {
+                    let mut v = vec![0u8; len as usize];
+                    fetch(ArrayRef { offset: at, len }, &mut v)?;
+                    at = (at + len).div_ceil(8) * 8;
+                    block.push(v);
+                }
+                blocks.push(block);
+            }
+            Vec::new()
+        }
+    };
     let attributes = read_channels(&h.channels, fetch)?;
     let tree = Octree {
         root: RootCube {
@@ -370,7 +562,11 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         attributes,
         node_attributes: Default::default(),
     };
-    Ok(Raw { tree, table })
+    Ok(Raw {
+        tree,
+        table,
+        blocks,
+    })
 }
 
 /// The channels `channels` lists, their per-leaf arrays filled by `fetch(r, dst)` in their
@@ -409,24 +605,178 @@ pub(crate) fn read_channels(
 struct Raw {
     tree: Octree,
     table: Option<Vec<ChunkRecord>>,
+    /// Version 4: each level's arrays, as read (the tree's nodes are then empty).
+    blocks: Vec<Vec<Vec<u8>>>,
 }
 
 /// Checks 14 to 18 (the node words, the tree's shape, the node and leaf order, the values;
 /// for version 3 first check 19, the chunk table, and 15 to 17 on each chunk, whose nodes
 /// are then stitched into one tree), then the nodes' bounds.
 fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
-    let Raw { mut tree, table } = raw;
-    match (table, p.header.chunks) {
-        (Some(table), Some(c)) => {
+    let Raw {
+        mut tree,
+        table,
+        blocks,
+    } = raw;
+    match (table, p.header.chunks, &p.header.levels) {
+        (Some(table), Some(c), _) => {
             tree.nodes = unchunk(&tree, &table, c.level, &p.header)
                 .map_err(|(check, detail)| corrupt(check, detail))?;
             check_values(&tree, p.version)
+        }
+        (_, _, Some(levels)) => {
+            check_level_hashes(levels, &blocks)?;
+            let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+            let top = from_levels(
+                tree.depth,
+                &counts,
+                &levels.node_channels,
+                u64::from(tree.leaf_count),
+                &blocks,
+                counts.len(),
+            )?;
+            tree.nodes = top.nodes;
+            tree.node_attributes = top.node_attributes;
+            check_tree(&tree, p.version, InfoBits::Zero)
         }
         _ => check_tree(&tree, p.version, InfoBits::Zero),
     }
     .map_err(|(check, detail)| corrupt(check, detail))?;
     tree.refresh_checked_bounds();
     Ok((tree, p))
+}
+
+/// Check 22: each of `blocks` (the first levels' arrays, as read) hashes to its level's entry.
+fn check_level_hashes(
+    levels: &crate::io::header::Levels,
+    blocks: &[Vec<Vec<u8>>],
+) -> Result<(), FormatError> {
+    for (l, (block, entry)) in blocks.iter().zip(&levels.table).enumerate() {
+        let computed = block_hash(block);
+        if computed != entry.hash {
+            return Err(corrupt(
+                Check::LevelChecksums,
+                format!(
+                    "level {l}'s block hashes to {computed:#018x}, its entry says {:#018x}",
+                    entry.hash
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The top of a tree stored level by level.
+pub(crate) struct TopLevels {
+    /// The nodes of the levels walked, in the canonical depth-first order.
+    pub nodes: Vec<Node>,
+    /// The inner nodes' channels (a leaf parent's values, which files do not store, are 0).
+    pub node_attributes: LeafAttributes,
+    /// Where the levels walked stop short of the tree's depth: the leaves' channels of the
+    /// coarser tree, the next level's node channels (none where that level keeps none).
+    pub leaf_attributes: LeafAttributes,
+}
+
+/// Checks 14 and 15 to 17 on the first `walked` levels' blocks of a tree of `depth` levels
+/// stored level by level (`counts` nodes a level, inner-node channels `node_channels`), and
+/// returns them as a tree in the canonical order. Where `walked < depth`, `blocks` also holds
+/// level `walked`, whose nodes become the leaves of a tree of `walked` levels: each node of
+/// level `walked - 1` then refers to its children as leaves, which take their node channels.
+pub(crate) fn from_levels(
+    depth: u8,
+    counts: &[u64],
+    node_channels: &[crate::io::header::NodeChannelEntry],
+    leaf_count: u64,
+    blocks: &[Vec<Vec<u8>>],
+    walked: usize,
+) -> Result<TopLevels, FormatError> {
+    let fail = |(c, d): (Check, String)| corrupt(c, d);
+    let mut bfs: Vec<Node> = Vec::new();
+    for block in &blocks[..walked] {
+        bfs.extend(bytemuck::pod_collect_to_vec::<u8, Node>(&block[0]));
+    }
+    // 14. The node words; 15 to 17, level by level.
+    check_node_words(&bfs).map_err(fail)?;
+    check_level_order(&bfs, counts, walked, depth, leaf_count).map_err(fail)?;
+    let short = walked < usize::from(depth);
+    if short {
+        // The last level walked points to the next level's nodes: they become leaves.
+        let above: u64 = counts[..walked - 1].iter().sum();
+        let start = above + counts[walked - 1];
+        for n in &mut bfs[above as usize..] {
+            if n.child_mask() != 0 {
+                n.first = (-((i64::from(n.first) - start as i64) + 1)) as i32 as u32;
+            }
+        }
+    }
+    let (nodes, at) = depth_first(&bfs);
+    // A level's values, put where depth-first order has them (the leaf parents' stay 0), or
+    // the next level's as leaves'.
+    let mut node_attributes = LeafAttributes::default();
+    let mut leaf_attributes = LeafAttributes::default();
+    let keeps = |l: usize| l + 2 <= usize::from(depth);
+    let mut array = 1;
+    for e in node_channels {
+        let (node_one, leaf_one) = match e.storage {
+            NodeStorage::Constant(v) => {
+                let c = [ChannelEntry {
+                    kind: e.kind,
+                    storage: Storage::Constant(v),
+                }];
+                let one = read_channels(&c, &mut |_, _| Ok(()))?;
+                (one.clone(), one)
+            }
+            NodeStorage::PerNode => {
+                let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
+                let mut all = vec![0u8; nodes.len() * size];
+                let mut i = 0usize;
+                for (l, block) in blocks[..walked].iter().enumerate() {
+                    let n = block[0].len() / 8;
+                    if keeps(l) && l + 1 < walked {
+                        for (j, v) in block[array].chunks_exact(size).enumerate() {
+                            let d = at[i + j] as usize * size;
+                            all[d..d + size].copy_from_slice(v);
+                        }
+                    }
+                    i += n;
+                }
+                let leaves: &[u8] = match blocks.get(walked) {
+                    Some(b) if short && keeps(walked) => &b[array],
+                    _ => &[],
+                };
+                array += 1;
+                (values(e.kind, &all)?, values(e.kind, leaves)?)
+            }
+        };
+        take_channel(&mut node_attributes, node_one, e.kind);
+        take_channel(&mut leaf_attributes, leaf_one, e.kind);
+    }
+    if short && !keeps(walked) {
+        // The next level is the leaf parents', which keep no values: a coarser tree of cubes.
+        node_attributes = LeafAttributes::default();
+        leaf_attributes = LeafAttributes::default();
+    }
+    Ok(TopLevels {
+        nodes,
+        node_attributes,
+        leaf_attributes,
+    })
+}
+
+/// Channel `kind` with the values `bytes` holds, one per node or leaf.
+fn values(kind: u8, bytes: &[u8]) -> Result<LeafAttributes, FormatError> {
+    let r = ArrayRef {
+        offset: 0,
+        len: bytes.len() as u64,
+    };
+    let entry = [ChannelEntry {
+        kind,
+        storage: Storage::PerLeaf(r),
+    }];
+    read_channels(&entry, &mut |_, dst| {
+        dst.copy_from_slice(bytes);
+        Ok(())
+    })
 }
 
 /// A failed check of chunk `i`, its message naming the chunk.
@@ -598,6 +948,170 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
         checksum,
         len,
     })
+}
+
+/// Reads the top `max_depth` levels of a `.svo` file as a valid tree of that depth (at least
+/// 1): the nodes on level `max_depth` become its leaves, with their inner-node channels as the
+/// leaves' (none where the file has none, or where that level is the leaf parents', which
+/// keep none). A file of `max_depth` levels or fewer is read whole, as [`read_file`] does.
+///
+/// A version-4 file is read as a prefix: the preamble and header, then the blocks of levels 0
+/// to `max_depth` and nothing after them, in time and memory proportional to those levels.
+/// What is read is checked (checks 1 to 4, 20, 6 to 12 and 21 from the header and the file's
+/// length, then 13, 22 and 14 to 18 on the levels read); the whole-file checksum (check 5) is
+/// not, since it needs every byte. A file of an older version is read whole and cut in memory.
+///
+/// ```
+/// use glam::{DVec3, UVec3};
+/// use svo::io::{read_file_to_depth, write_file, BuildInfo};
+/// use svo::{BakeOptions, Mesh, bake_mesh};
+/// let sphere = Mesh::sphere(DVec3::splat(0.5), 0.4, 16);
+/// let opts = BakeOptions { depth: 6, node_attributes: true, ..Default::default() };
+/// let tree = bake_mesh(&sphere, &opts)?.0;
+/// let path = std::env::temp_dir().join("svo-doc-read-to-depth.svo");
+/// write_file(&tree, &BuildInfo::new(), &path)?; // version 4: levels first
+/// let (top, _) = read_file_to_depth(&path, 3)?;
+/// assert_eq!(top.depth, 3);
+/// assert!(top.attributes.normal.is_per_leaf()); // the level-3 nodes' normals
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn read_file_to_depth(
+    path: impl AsRef<Path>,
+    max_depth: u8,
+) -> Result<(Octree, BuildInfo), FormatError> {
+    use std::io::Read;
+    let path = path.as_ref();
+    let io = |cause| FormatError::Io {
+        path: path.display().to_string(),
+        cause,
+    };
+    let max_depth = max_depth.max(1);
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let len = f.metadata().map_err(io)?.len();
+    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
+    f.read_exact(&mut prefix).map_err(io)?;
+    let (version, hlen) = check_preamble(&prefix, len)?;
+    if version < LEVELS_VERSION {
+        let (tree, build) = read_file(path)?;
+        return Ok((cut_to_depth(&tree, max_depth)?, build));
+    }
+    check_header_checksum(&prefix, version, hlen)?;
+    let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+    let h = &p.header;
+    let gaps = check_layout(h, p.header_end(), len)?;
+    let Some(levels) = &h.levels else {
+        return Err(corrupt(Check::Header, "a version-4 header without levels"));
+    };
+    if max_depth >= h.depth {
+        return read_file(path);
+    }
+    // Everything up to the end of level `max_depth`'s block.
+    let k = usize::from(max_depth);
+    let last = levels.table[k].block;
+    let end = last.offset + last.len;
+    let mut bytes = prefix;
+    if (bytes.len() as u64) < end {
+        let have = bytes.len();
+        bytes.resize(end as usize, 0);
+        f.read_exact(&mut bytes[have..]).map_err(io)?;
+    }
+    bytes.truncate(end as usize);
+    // 13. The padding read.
+    if let Some(&gap) = gaps
+        .iter()
+        .filter(|g| g.1 <= end)
+        .find(|&&(from, to)| bytes[from as usize..to as usize].iter().any(|&b| b != 0))
+    {
+        return Err(padding_error(gap));
+    }
+    let blocks: Vec<Vec<Vec<u8>>> = (0..=k)
+        .map(|l| {
+            let mut at = levels.table[l].block.offset;
+            let mut block = Vec::new();
+            for len in level_lens(h, l).unwrap_or_default() {
+                block.push(bytes[at as usize..(at + len) as usize].to_vec());
+                at = (at + len).div_ceil(8) * 8;
+            }
+            block
+        })
+        .collect();
+    drop(bytes);
+    check_level_hashes(levels, &blocks)?;
+    let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+    let top = from_levels(
+        h.depth,
+        &counts,
+        &levels.node_channels,
+        h.leaf_count,
+        &blocks,
+        k,
+    )?;
+    let tree = top_tree(h, top, max_depth, counts[k]);
+    let (tree, p) = finish_top(tree, p)?;
+    Ok((tree, p.header.build))
+}
+
+/// The tree of `top` (a tree's first `depth` levels, with `leaves` leaves).
+fn top_tree(h: &Header, top: TopLevels, depth: u8, leaves: u64) -> Octree {
+    Octree {
+        root: RootCube {
+            origin: DVec3::from_array(h.root_origin),
+            side: h.root_side,
+        },
+        depth,
+        nodes: top.nodes,
+        // At most 8 a node of the level above, so within 2^31 with the file's node count.
+        leaf_count: leaves as u32,
+        attributes: top.leaf_attributes,
+        node_attributes: top.node_attributes,
+    }
+}
+
+/// Checks 14 to 18 on a tree made from a file's top levels, then its bounds.
+fn finish_top(mut tree: Octree, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
+    check_tree(&tree, p.version, InfoBits::Zero).map_err(|(c, d)| corrupt(c, d))?;
+    tree.refresh_checked_bounds();
+    Ok((tree, p))
+}
+
+/// The top `depth` levels of a tree in memory, as [`read_file_to_depth`] reads them from a
+/// version-4 file.
+fn cut_to_depth(tree: &Octree, depth: u8) -> Result<Octree, FormatError> {
+    if depth >= tree.depth {
+        return Ok(tree.clone());
+    }
+    let (plan, blocks) = crate::io::write::level_blocks(tree);
+    let node_channels: Vec<crate::io::header::NodeChannelEntry> = plan
+        .node_channels
+        .iter()
+        .map(|&(kind, storage)| crate::io::header::NodeChannelEntry { kind, storage })
+        .collect();
+    let k = usize::from(depth);
+    let top = from_levels(
+        tree.depth,
+        &plan.counts,
+        &node_channels,
+        u64::from(tree.leaf_count),
+        &blocks[..=k],
+        k,
+    )?;
+    let h = Header {
+        root_origin: tree.root.origin.to_array(),
+        root_side: tree.root.side,
+        depth,
+        node_count: 0,
+        leaf_count: 0,
+        nodes: ArrayRef::default(),
+        channels: Vec::new(),
+        build: BuildInfo::default(),
+        chunks: None,
+        levels: None,
+    };
+    let mut out = top_tree(&h, top, depth, plan.counts[k]);
+    check_tree(&out, LEVELS_VERSION, InfoBits::Zero).map_err(|(c, d)| corrupt(c, d))?;
+    out.refresh_checked_bounds();
+    Ok(out)
 }
 
 /// What [`check_chunks_file`] read of a version-3 file without loading its tree.
@@ -782,11 +1296,12 @@ fn open_stream<R: std::io::Read>(
         at: 0,
         body: len - 8,
     };
-    let mut header = vec![0u8; PREAMBLE_LEN + hlen];
+    let end = header_end(version, hlen);
+    let mut header = vec![0u8; end as usize];
     src.read_exact(&mut header).map_err(io)?;
-    let parsed = decode_header(&header[PREAMBLE_LEN..], version).and_then(|p| {
-        check_layout(&p.header, (PREAMBLE_LEN + hlen) as u64, len).map(|gaps| (p, gaps))
-    });
+    let parsed = check_header_checksum(&header, version, hlen)
+        .and_then(|()| decode_header(&header[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version))
+        .and_then(|p| check_layout(&p.header, end, len).map(|gaps| (p, gaps)));
     match parsed {
         Ok((p, gaps)) => Ok((src, p, gaps)),
         // A file that fails both the checksum and a later check fails at the checksum.
@@ -872,6 +1387,12 @@ impl Octree {
     /// it).
     pub fn load(path: impl AsRef<Path>) -> Result<Octree, FormatError> {
         read_file(path).map(|(tree, _)| tree)
+    }
+
+    /// Reads the top `max_depth` levels of a `.svo` file as a coarser tree: see
+    /// [`read_file_to_depth`] (which also returns the [`BuildInfo`]).
+    pub fn load_to_depth(path: impl AsRef<Path>, max_depth: u8) -> Result<Octree, FormatError> {
+        read_file_to_depth(path, max_depth).map(|(tree, _)| tree)
     }
 }
 

@@ -2,12 +2,16 @@
 
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::{
-    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV3, MAGIC,
-    PREAMBLE_LEN, Storage, bincode_config,
+    ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV3, HeaderV4,
+    LevelEntry, Levels, MAGIC, NodeChannelEntry, NodeStorage, PREAMBLE_LEN, Storage,
+    bincode_config,
 };
-use crate::octree::format_check::{Check, MAX_CHUNK_LEVEL, PLAIN_VERSION};
+use crate::io::levels::level_order;
+use crate::octree::format_check::{
+    CHUNKED_VERSION, Check, LEVELS_VERSION, MAX_CHUNK_LEVEL, PLAIN_VERSION,
+};
 use crate::octree::stitch;
-use crate::octree::tree::{Node, Octree, StoredChannel};
+use crate::octree::tree::{ChannelKind, Node, Octree, StoredChannel};
 use crate::octree::validate::{InfoBits, check_tree};
 use std::io::Write;
 use std::path::Path;
@@ -115,12 +119,14 @@ impl Write for Hashing<'_> {
 }
 
 /// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
-/// not copied into a buffer first) and returns the number of bytes written.
+/// not copied into a buffer first, but for a tree with inner-node attributes, whose nodes are
+/// renumbered level by level) and returns the number of bytes written: version 4 for a tree
+/// with [`Octree::node_attributes`], version 2 for another.
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
     // A tree a reader would refuse is not written (trees that svo builds pass). Bits 8-31
     // of the nodes are written as zeros whatever they hold.
     let (channels, arrays) = checked_channels(tree)?;
-    let layout = Layout {
+    let mut layout = Layout {
         root_origin: tree.root.origin.to_array(),
         root_side: tree.root.side,
         depth: tree.depth,
@@ -129,14 +135,93 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
         channels,
         build,
         chunks: None,
+        levels: None,
     };
-    write_layout(&layout, w, &mut |i, out| {
-        if i == 0 {
-            write_nodes(&tree.nodes, out)
-        } else {
-            out.write_all(arrays[i - 1])
+    if tree.node_attributes.stored().is_empty() {
+        return write_layout(&layout, w, &mut |i, out| {
+            if i == 0 {
+                write_nodes(&tree.nodes, out)
+            } else {
+                out.write_all(arrays[i - 1])
+            }
+        });
+    }
+    let (plan, blocks) = level_blocks(tree);
+    layout.levels = Some(plan);
+    let all: Vec<&[u8]> = blocks
+        .iter()
+        .flatten()
+        .map(Vec::as_slice)
+        .chain(arrays)
+        .collect();
+    write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
+}
+
+/// A tree's nodes level by level, as version 4 stores them: for each level its block's arrays
+/// (the nodes' records, then on levels above the leaf parents each per-node channel's values),
+/// and the plan [`write_layout`] places them by.
+pub(crate) fn level_blocks(tree: &Octree) -> (LevelPlan, Vec<Vec<Vec<u8>>>) {
+    let order = level_order(&tree.nodes, tree.depth);
+    let stored = tree.node_attributes.stored();
+    let mut blocks = Vec::with_capacity(order.counts.len());
+    let mut start = 0usize;
+    for (l, &count) in order.counts.iter().enumerate() {
+        let range = start..start + count as usize;
+        let mut block =
+            vec![bytemuck::cast_slice::<Node, u8>(&order.nodes[range.clone()]).to_vec()];
+        if l + 2 <= usize::from(tree.depth) {
+            for (_, c) in &stored {
+                if let StoredChannel::PerLeaf { bytes, size } = c {
+                    let mut v = Vec::with_capacity(count as usize * size);
+                    for &f in &order.from[range.clone()] {
+                        let at = f as usize * size;
+                        v.extend_from_slice(&bytes[at..at + size]);
+                    }
+                    block.push(v);
+                }
+            }
         }
-    })
+        blocks.push(block);
+        start = range.end;
+    }
+    let plan = LevelPlan {
+        counts: order.counts,
+        hashes: blocks.iter().map(|b| block_hash(b)).collect(),
+        node_channels: stored
+            .iter()
+            .map(|(kind, c)| {
+                let storage = match c {
+                    StoredChannel::Constant(v) => NodeStorage::Constant(*v),
+                    StoredChannel::PerLeaf { .. } => NodeStorage::PerNode,
+                };
+                (*kind, storage)
+            })
+            .collect(),
+    };
+    (plan, blocks)
+}
+
+/// XXH3-64 of a level's block: its arrays with the zero padding between them (not after the
+/// last).
+pub(crate) fn block_hash(arrays: &[Vec<u8>]) -> u64 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for (i, a) in arrays.iter().enumerate() {
+        if i > 0 {
+            h.update(&[0u8; 8][..(8 - arrays[i - 1].len() % 8) % 8]);
+        }
+        h.update(a);
+    }
+    h.digest()
+}
+
+/// What a version-4 file's levels hold, before their offsets are known.
+pub(crate) struct LevelPlan {
+    /// Nodes on each level, the root's first.
+    pub counts: Vec<u64>,
+    /// Each level's block hash.
+    pub hashes: Vec<u64>,
+    /// The inner nodes' channels, in increasing kind.
+    pub node_channels: Vec<(u8, NodeStorage)>,
 }
 
 /// Streams an octree to `w` as a version-3 file, its subtrees under the nodes at `level`
@@ -191,6 +276,7 @@ pub fn write_chunked_to(
         channels,
         build,
         chunks: Some((level, table.len() as u64)),
+        levels: None,
     };
     write_layout(&layout, w, &mut |i, out| match i {
         0 => out.write_all(bytemuck::cast_slice(&table)),
@@ -261,8 +347,10 @@ pub(crate) struct Layout<'a> {
     pub channels: Vec<(u8, Stored)>,
     pub build: &'a BuildInfo,
     /// Version 3: the chunk level and the number of chunks (`node_count` is then the chunks'
-    /// nodes); `None` writes version 2.
+    /// nodes); `None` writes version 2 or 4.
     pub chunks: Option<(u8, u64)>,
+    /// Version 4: the levels (`None` writes version 2 or 3).
+    pub levels: Option<LevelPlan>,
 }
 
 /// Writes a file of `layout` to `w` and returns the bytes written: the preamble and header,
@@ -283,7 +371,28 @@ pub(crate) fn write_layout(
     if let Some((_, count)) = layout.chunks {
         lens.push(count.saturating_mul(size_of::<ChunkRecord>() as u64));
     }
-    lens.push(layout.node_count.saturating_mul(8));
+    // Version 4: each level's arrays (how many a level has, to find its block's ends).
+    let mut level_arrays = Vec::new();
+    match &layout.levels {
+        None => lens.push(layout.node_count.saturating_mul(8)),
+        Some(plan) => {
+            let per_node: Vec<u64> = plan
+                .node_channels
+                .iter()
+                .filter(|(_, s)| *s == NodeStorage::PerNode)
+                .map(|(kind, _)| ChannelKind::ALL[usize::from(*kind)].element_size() as u64)
+                .collect();
+            for (l, &count) in plan.counts.iter().enumerate() {
+                lens.push(count.saturating_mul(8));
+                let mut k = 1;
+                if l + 2 <= usize::from(layout.depth) {
+                    lens.extend(per_node.iter().map(|&size| count.saturating_mul(size)));
+                    k += per_node.len();
+                }
+                level_arrays.push(k);
+            }
+        }
+    }
     let mut header = Header {
         root_origin: layout.root_origin,
         root_side: layout.root_side,
@@ -311,18 +420,39 @@ pub(crate) fn write_layout(
             count,
             table: ArrayRef::default(),
         }),
+        levels: layout.levels.as_ref().map(|plan| Levels {
+            layout: 0,
+            table: plan
+                .counts
+                .iter()
+                .zip(&plan.hashes)
+                .map(|(&nodes, &hash)| LevelEntry {
+                    nodes,
+                    block: ArrayRef::default(),
+                    hash,
+                })
+                .collect(),
+            node_channels: plan
+                .node_channels
+                .iter()
+                .map(|&(kind, storage)| NodeChannelEntry { kind, storage })
+                .collect(),
+        }),
     };
     let encode = |h: &Header| {
-        match h.chunks {
-            None => bincode::serde::encode_to_vec(h, bincode_config()),
-            Some(c) => bincode::serde::encode_to_vec(HeaderV3::of(h, c), bincode_config()),
+        match (h.chunks, &h.levels) {
+            (Some(c), _) => bincode::serde::encode_to_vec(HeaderV3::of(h, c), bincode_config()),
+            (None, Some(l)) => bincode::serde::encode_to_vec(HeaderV4::of(h, l), bincode_config()),
+            (None, None) => bincode::serde::encode_to_vec(h, bincode_config()),
         }
         .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
     };
     // Fixed-width integers: the header's size does not depend on the offsets in it.
     let hlen = encode(&header)?.len();
+    // Version 4: the header's checksum follows it.
+    let header_end = (PREAMBLE_LEN + hlen + if layout.levels.is_some() { 8 } else { 0 }) as u64;
     let pad8 = |x: u64| x.div_ceil(8) * 8;
-    let mut offset = pad8((PREAMBLE_LEN + hlen) as u64);
+    let mut offset = pad8(header_end);
     let mut refs = lens.iter().map(|&len| {
         let r = ArrayRef { offset, len };
         offset = pad8(offset + len);
@@ -331,7 +461,19 @@ pub(crate) fn write_layout(
     if let Some(c) = &mut header.chunks {
         c.table = refs.next().unwrap_or_default();
     }
-    header.nodes = refs.next().unwrap_or_default();
+    match &mut header.levels {
+        None => header.nodes = refs.next().unwrap_or_default(),
+        Some(levels) => {
+            for (entry, &k) in levels.table.iter_mut().zip(&level_arrays) {
+                let parts: Vec<ArrayRef> = refs.by_ref().take(k).collect();
+                let (first, last) = (parts[0], parts[k - 1]);
+                entry.block = ArrayRef {
+                    offset: first.offset,
+                    len: last.offset + last.len - first.offset,
+                };
+            }
+        }
+    }
     for e in &mut header.channels {
         if let Storage::PerLeaf(r) = &mut e.storage {
             *r = refs.next().unwrap_or_default();
@@ -345,14 +487,22 @@ pub(crate) fn write_layout(
         len: 0,
     };
     out.write_all(&MAGIC)?;
-    let version = if header.chunks.is_some() {
-        crate::octree::format_check::CURRENT_VERSION
-    } else {
-        PLAIN_VERSION
+    let version = match (&header.chunks, &header.levels) {
+        (Some(_), _) => CHUNKED_VERSION,
+        (None, Some(_)) => LEVELS_VERSION,
+        (None, None) => PLAIN_VERSION,
     };
     out.write_all(&version.to_le_bytes())?;
     out.write_all(&(hbytes.len() as u32).to_le_bytes())?;
     out.write_all(&hbytes)?;
+    if header.levels.is_some() {
+        let mut start = Vec::with_capacity(PREAMBLE_LEN + hlen);
+        start.extend_from_slice(&MAGIC);
+        start.extend_from_slice(&version.to_le_bytes());
+        start.extend_from_slice(&(hbytes.len() as u32).to_le_bytes());
+        start.extend_from_slice(&hbytes);
+        out.write_all(&xxhash_rust::xxh3::xxh3_64(&start).to_le_bytes())?;
+    }
     let zeros = [0u8; 8];
     let pad = |out: &mut Hashing<'_>| -> std::io::Result<()> {
         let n = pad8(out.len) - out.len;

@@ -1,14 +1,25 @@
 //! The numbered checks of a `.svo` file (`docs/format.md`, "What a reader checks"), applied
 //! in the order of their numbers except check 19 (version 3's chunk table), which comes
-//! between 13 and 14. Every [`crate::io::FormatError`] about a file's
+//! between 13 and 14, and checks 20 to 22 (version 4's header checksum, level table and level
+//! checksums), which come after 5, after 11 and after 13. Every [`crate::io::FormatError`] about a file's
 //! contents names the check that failed; the tree checks (14 to 18) are also what
 //! [`crate::Octree::validate`] runs on a tree in memory.
 
 use std::fmt;
 
-/// The newest format version this library reads and writes: version 3 (a tree stored in
-/// chunks) is written when a tree needs it or when asked, version 2 otherwise.
-pub(crate) const CURRENT_VERSION: u32 = 3;
+/// The newest format version this library reads and writes: version 4 (nodes level by level,
+/// with the inner nodes' channels) for a tree with inner-node attributes, version 3 (a tree
+/// stored in chunks) when a tree needs it or when asked, version 2 otherwise.
+pub(crate) const CURRENT_VERSION: u32 = 4;
+
+/// The version that stores a tree in chunks.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) const CHUNKED_VERSION: u32 = 3;
+
+/// The version that stores the nodes level by level, each level's inner-node channels beside
+/// its nodes.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) const LEVELS_VERSION: u32 = 4;
 
 /// The version of a file that holds one tree in one node array: what the writer makes of a
 /// tree unless chunks are asked for.
@@ -27,7 +38,7 @@ pub enum Check {
     Magic,
     /// 2: the file holds at least the preamble and the checksum (24 bytes).
     Size,
-    /// 3: the version is 1, 2 or 3 (a newer one is reported as such).
+    /// 3: the version is 1 to 4 (a newer one is reported as such).
     Version,
     /// 4: the header length is at most 65,536 and the header ends before the checksum.
     HeaderLength,
@@ -67,11 +78,19 @@ pub enum Check {
     /// lie on the grid of the chunk level; each chunk's node and leaf counts are possible and
     /// they add up to the header's.
     Chunks,
+    /// 20 (version 4, applied after 5): the header checksum after the header.
+    HeaderChecksum,
+    /// 21 (version 4, applied after 11): the layout is the tree, and the level table has one
+    /// entry a level, the root alone on level 0, at most 8 nodes a node of the level above,
+    /// and the header's node count in all.
+    Levels,
+    /// 22 (version 4, applied after 13): each level's block has the checksum its entry holds.
+    LevelChecksums,
 }
 
 impl Check {
     /// Every check, by number.
-    pub const ALL: [Check; 19] = [
+    pub const ALL: [Check; 22] = [
         Self::Magic,
         Self::Size,
         Self::Version,
@@ -91,9 +110,12 @@ impl Check {
         Self::LeafOrder,
         Self::Values,
         Self::Chunks,
+        Self::HeaderChecksum,
+        Self::Levels,
+        Self::LevelChecksums,
     ];
 
-    /// The check's number in `docs/format.md` (1 to 19).
+    /// The check's number in `docs/format.md` (1 to 22).
     pub fn number(self) -> u8 {
         Self::ALL
             .iter()
@@ -123,6 +145,9 @@ impl Check {
             Self::LeafOrder => "leaf order",
             Self::Values => "values",
             Self::Chunks => "chunks",
+            Self::HeaderChecksum => "header checksum",
+            Self::Levels => "levels",
+            Self::LevelChecksums => "level checksums",
         }
     }
 
@@ -150,7 +175,7 @@ mod tests {
             assert_eq!(Check::from_number(c.number()), Some(*c));
         }
         assert_eq!(Check::from_number(0), None);
-        assert_eq!(Check::from_number(20), None);
+        assert_eq!(Check::from_number(23), None);
         assert_eq!(Check::Checksum.to_string(), "check 5 (checksum)");
         let names: std::collections::BTreeSet<_> = Check::ALL.iter().map(|c| c.name()).collect();
         assert_eq!(names.len(), Check::ALL.len());

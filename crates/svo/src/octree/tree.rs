@@ -384,7 +384,8 @@ pub struct Octree {
     pub attributes: LeafAttributes,
     /// The same channels for the nodes, indexed by node (one value per node where the
     /// leaves' channel has one per leaf): the surface inside each node's cell, which a
-    /// renderer may draw in place of the node's subtree. All absent where the tree has no
+    /// renderer may draw in place of the node's subtree. The leaf parents keep none (their
+    /// values are 0), and the channels are the leaves' kinds. All absent where the tree has no
     /// level of detail ([`crate::BakeOptions::node_attributes`]).
     pub node_attributes: LeafAttributes,
 }

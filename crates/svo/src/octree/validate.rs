@@ -13,7 +13,9 @@ use crate::geometry::grid::RootCube;
 use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
-use crate::octree::tree::{Channel, ChannelStorage, LeafAttributes, NO_NORMAL, Node, Octree};
+use crate::octree::tree::{
+    Channel, ChannelKind, ChannelStorage, LeafAttributes, NO_NORMAL, Node, Octree, StoredChannel,
+};
 use glam::DVec3;
 
 /// The most leaves a tree may have: leaf references are `-(leaf_base + 1)` as an `i32`.
@@ -149,6 +151,31 @@ fn check_channel_layout(
 fn check_node_channels(t: &Octree) -> Result<(), Failure> {
     let a = &t.node_attributes;
     check_channel_layout(a, t.nodes.len() as u64, "node ", "nodes")?;
+    let present = |a: &LeafAttributes| a.storage().map(|(_, s)| s != ChannelStorage::Absent);
+    if present(a).contains(&true) && present(a) != present(&t.attributes) {
+        return Err((
+            Check::Channels,
+            "the nodes' channels are not the leaves' kinds".into(),
+        ));
+    }
+    // A leaf parent's values are not stored (a file's level `depth - 1` has no node arrays).
+    let leaf_level = |i: usize| t.nodes[i].is_leaf_parent() || (t.depth == 1 && i == 0);
+    for (kind, bytes, size) in a.stored().into_iter().filter_map(|(k, c)| match c {
+        StoredChannel::PerLeaf { bytes, size } => Some((k, bytes, size)),
+        StoredChannel::Constant(_) => None,
+    }) {
+        if let Some(i) = (0..t.nodes.len())
+            .find(|&i| leaf_level(i) && bytes[i * size..(i + 1) * size].iter().any(|&b| b != 0))
+        {
+            return Err((
+                Check::Values,
+                format!(
+                    "node {i}, a leaf parent, has a value in node channel {}: leaf parents' are 0",
+                    ChannelKind::ALL[usize::from(kind)].name()
+                ),
+            ));
+        }
+    }
     let bad_normal = |w: u32| (w & 0xFFFF) == 0x8000 || (w >> 16) == 0x8000;
     if let Some((at, w)) = first_bad(&a.normal, bad_normal) {
         return Err((

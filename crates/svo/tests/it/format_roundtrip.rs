@@ -149,14 +149,14 @@ fn bit_flips_are_detected() {
 #[test]
 fn newer_version_and_bad_magic_are_named() {
     let mut b = to_bytes(&small_tree(), &info());
-    b[8..12].copy_from_slice(&4u32.to_le_bytes());
+    b[8..12].copy_from_slice(&5u32.to_le_bytes());
     let e = from_bytes(&b).unwrap_err();
     assert!(
         matches!(
             e,
             FormatError::NewerVersion {
-                found: 4,
-                supported: 3
+                found: 5,
+                supported: 4
             }
         ),
         "{e}"

@@ -54,7 +54,8 @@ fn bake(mesh: &Mesh, depth: u8) -> Octree {
     bake_mesh(mesh, &opts).unwrap().0
 }
 
-/// Every inner node with its minimum cell and side, in cells of the tree's depth.
+/// Every inner node above the leaf parents (which keep no values) with its minimum cell and
+/// side, in cells of the tree's depth.
 fn inner_nodes(tree: &Octree) -> Vec<(usize, UVec3, u32)> {
     let mut out = Vec::new();
     let mut stack = vec![(0usize, 0u8, UVec3::ZERO)];
@@ -64,10 +65,10 @@ fn inner_nodes(tree: &Octree) -> Vec<(usize, UVec3, u32)> {
             continue;
         }
         let side = 1u32 << (tree.depth - level);
-        out.push((i, min, side));
         if node.leaf_base().is_some() {
             continue;
         }
+        out.push((i, min, side));
         for c in 0..8u8 {
             if let Some(rank) = node.child_rank(c) {
                 let o = UVec3::new(
@@ -248,6 +249,16 @@ fn node_attributes_do_not_depend_on_the_thread_count_nor_change_the_leaves() {
     }
     let err = short.validate().unwrap_err().to_string();
     assert!(err.contains("node channel normal"), "{err}");
+    // The leaf parents keep no values, and one that has one is refused.
+    let leaf_parent = one.nodes.iter().position(|n| n.is_leaf_parent()).unwrap();
+    assert_eq!(one.node_attributes.normal.get(leaf_parent), Some(0));
+    assert_eq!(one.node_attributes.contour.get(leaf_parent), Some(0));
+    let mut stray = one.clone();
+    if let Channel::PerLeaf(v) = &mut stray.node_attributes.contour {
+        v[leaf_parent] = 0xFFFF_0000;
+    }
+    let err = stray.validate().unwrap_err().to_string();
+    assert!(err.contains("a leaf parent"), "{err}");
     // The root's colour lies between the two materials'.
     let root = one.node_attributes.get(0).colour.unwrap();
     assert!(root[0] > 40 && root[2] > 40, "{root:?}");

@@ -121,6 +121,7 @@ pub(crate) fn merge_with(
         channels,
         build: &plan.build,
         chunks: chunked.then_some((plan.level, subs.len() as u64)),
+        levels: None,
     };
     let merged = Merged {
         headers: &headers,
