@@ -99,6 +99,21 @@ struct Settings {
     /// At least this many empty cells on every side of the mesh (its bounds then sit mid-cell).
     #[arg(long, default_value_t = 0)]
     pad: u32,
+    /// Level of detail: `filtered` gives the inner nodes (above the leaf parents) the filtered
+    /// surface of their cells, written as format version 4 (levels first, so a file's top
+    /// levels read alone); `none` writes no inner-node channels. Bakes in parts (`--memory`,
+    /// `plan`) make none yet.
+    #[arg(long, default_value = "none", value_name = "MODE")]
+    lod: Lod,
+}
+
+/// What `--lod` asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Lod {
+    /// No inner-node channels.
+    None,
+    /// The inner nodes' filtered surface (normal, contour, colour, materials).
+    Filtered,
 }
 
 impl Settings {
@@ -112,6 +127,7 @@ impl Settings {
             strategy: self.strategy,
             channels,
             pad: self.pad,
+            node_attributes: self.lod == Lod::Filtered,
             ..BakeOptions::default()
         })
     }

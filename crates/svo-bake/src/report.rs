@@ -146,11 +146,16 @@ impl BakeReport {
         )?;
         writeln!(
             f,
-            "  time        load {}, voxelize {}, attributes {}, contours {}{}, write {}, total {}",
+            "  time        load {}, voxelize {}, attributes {}, contours {}{}{}, write {}, total {}",
             ms(self.load_s),
             ms(b.voxelize_s),
             ms(b.attributes_s),
             ms(b.contours_s),
+            if b.node_attributes_s > 0.0 {
+                format!(", inner nodes {}", ms(b.node_attributes_s))
+            } else {
+                String::new()
+            },
             if b.solid.is_some() {
                 format!(", solid fill {}", ms(b.solid_s))
             } else {

@@ -113,6 +113,8 @@ pub struct RenderJob {
     pub mesh: Option<PathBuf>,
     /// A folder with a cube-map sky: `px, nx, py, ny, pz, nz` as `.png` or `.jpg`.
     pub sky_cube_map: Option<PathBuf>,
+    /// Read only the file's top this many levels ([`svo::io::read_file_to_depth`]).
+    pub max_depth: Option<u8>,
 }
 
 impl Default for RenderJob {
@@ -138,6 +140,7 @@ impl Default for RenderJob {
             compare: false,
             mesh: None,
             sky_cube_map: None,
+            max_depth: None,
         }
     }
 }
@@ -160,6 +163,7 @@ impl RenderJob {
                 .map(load_cube_map)
                 .transpose()?
                 .map(Arc::new),
+            max_depth: self.max_depth,
         })
     }
 

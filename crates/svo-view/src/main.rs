@@ -78,6 +78,10 @@ struct Args {
     /// the file's first view, unless --eye is given.
     #[arg(long, conflicts_with_all = ["eye", "target", "up"])]
     view: Option<String>,
+    /// Read only the file's top K levels, as a coarser tree whose leaves are the nodes of
+    /// level K (a version-4 file is read as a prefix; older ones whole, then cut).
+    #[arg(long, value_name = "K")]
+    max_depth: Option<u8>,
     /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
     /// --mesh or --reference).
     #[arg(long, default_value = "contour")]
@@ -224,6 +228,7 @@ fn real_main() -> anyhow::Result<()> {
         compare: args.compare,
         mesh: args.mesh.clone(),
         sky_cube_map: args.sky.clone(),
+        max_depth: args.max_depth,
     };
     if args.cast && !args.cpu {
         anyhow::bail!("--cast times the CPU tracer's primary rays: it goes with --cpu --bench");

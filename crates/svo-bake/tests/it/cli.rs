@@ -252,6 +252,76 @@ fn output_is_identical_for_1_2_and_8_threads_and_json_and_quiet_work() {
     assert_eq!(v["bake"]["channels"].as_array().unwrap().len(), 1);
 }
 
+fn lod_filtered_writes_version_4_with_the_same_leaves_and_parts_refuse_it() {
+    let d = tmp();
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let plain = d.path().join("plain.svo");
+    let lod = d.path().join("lod.svo");
+    ok(&[s(&torus), "--depth", "7", "-q", "-o", s(&plain)]);
+    let text = ok(&[
+        s(&torus),
+        "--depth",
+        "7",
+        "--lod",
+        "filtered",
+        "-o",
+        s(&lod),
+    ]);
+    assert!(text.contains("inner nodes "), "{text}");
+    let version =
+        |p: &Path| u32::from_le_bytes(std::fs::read(p).unwrap()[8..12].try_into().unwrap());
+    assert_eq!((version(&plain), version(&lod)), (2, 4));
+    let (a, b) = (read_tree(&plain), read_tree(&lod));
+    assert_eq!((&a.nodes, &a.attributes), (&b.nodes, &b.attributes));
+    assert!(b.node_attributes.normal.is_per_leaf() && b.node_attributes.contour.is_per_leaf());
+    // `--lod none` is the default.
+    let none = d.path().join("none.svo");
+    ok(&[
+        s(&torus),
+        "--depth",
+        "7",
+        "--lod",
+        "none",
+        "-q",
+        "-o",
+        s(&none),
+    ]);
+    assert!(std::fs::read(&none).unwrap() == std::fs::read(&plain).unwrap());
+    // Bakes in parts do not make them yet: one clear line, no output.
+    let parts = d.path().join("parts.svo");
+    fails(
+        &[
+            s(&torus),
+            "--depth",
+            "7",
+            "--lod",
+            "filtered",
+            "--memory",
+            "8MiB",
+            "-o",
+            s(&parts),
+        ],
+        "inner nodes' attributes",
+    );
+    assert!(!parts.exists());
+    let plan = d.path().join("job.svoplan");
+    fails(
+        &[
+            "plan",
+            s(&torus),
+            "--depth",
+            "7",
+            "--lod",
+            "filtered",
+            "--parts",
+            "2",
+            "-o",
+            s(&plan),
+        ],
+        "inner nodes' attributes",
+    );
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -1001,6 +1071,7 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line),
         trial!(scene_meshes_are_found_beside_in_svo_models_or_in_models),
         trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
+        trial!(lod_filtered_writes_version_4_with_the_same_leaves_and_parts_refuse_it),
         #[cfg(unix)]
         trial!(interrupted_bakes_clean_up_and_killed_ones_resume),
     ]

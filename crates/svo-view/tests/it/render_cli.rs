@@ -512,6 +512,51 @@ fn path_bounce_limit_on_the_command_line() {
 }
 
 /// This module's tests, with what each needs of the machine.
+/// `--max-depth K` renders the file's top K levels: a version-4 file with its inner nodes'
+/// values (the leaves of the coarser tree drawn with them), and a version-2 file cut (cubes).
+fn max_depth_renders_the_top_levels() {
+    let d = tempfile::tempdir().unwrap();
+    let mesh = svo::Mesh::load(torus_obj()).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 7,
+        node_attributes: true,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
+    let lod = d.path().join("lod.svo");
+    svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &lod).unwrap();
+    let plain = common::torus_svo_at(d.path(), 7);
+    for (file, hit) in [(&lod, "contour"), (&plain, "cube")] {
+        let png = d.path().join("top.png");
+        let out = ok(&view(&[
+            file.to_str().unwrap(),
+            "--cpu",
+            "--max-depth",
+            "4",
+            "--hit",
+            hit,
+            "-o",
+            png.to_str().unwrap(),
+            "--size",
+            "64x48",
+        ]));
+        assert!(out.contains("64x48 depth 4"), "{out}");
+        let img = image::open(&png).unwrap().to_rgb8();
+        let corner = *img.get_pixel(0, 0);
+        assert!((0..48).any(|y| *img.get_pixel(32, y) != corner));
+    }
+    // A limit past the depth reads the whole tree.
+    let out = ok(&view(&[
+        lod.to_str().unwrap(),
+        "--cpu",
+        "--max-depth",
+        "20",
+        "--size",
+        "16x12",
+    ]));
+    assert!(out.contains("16x12 depth 7"), "{out}");
+}
+
 pub(crate) fn trials() -> Vec<Test> {
     vec![
         trial!(renders_colour_and_aovs),
@@ -521,5 +566,6 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(stored_views_and_lights_are_used_unless_overridden),
         trial!(a_scene_file_is_a_triangle_reference),
         trial!(path_bounce_limit_on_the_command_line),
+        trial!(max_depth_renders_the_top_levels),
     ]
 }

@@ -127,8 +127,11 @@ pub(crate) fn polygon_area(p: &[DVec3]) -> f64 {
 
 /// Cuts `src` by the plane `p[axis] = c` into its closed lower and upper sides. A vertex
 /// within `eps` of the plane counts as on it: it goes to both sides, moved onto the plane;
-/// each edge that crosses from more than `eps` below to more than `eps` above adds its
-/// intersection, with the coordinate on `axis` set to exactly `c`, to both.
+/// each edge whose ends lie strictly on opposite sides of the plane adds its intersection,
+/// with the coordinate on `axis` set to exactly `c`, to both. (Also where one end is within
+/// `eps`: an edge nearly along the plane crosses it far from that end, and the side that
+/// end is truly on reaches that far along the other axes; moving the end onto the plane
+/// alone would lose that reach, and with it a cell the triangle touches.)
 ///
 /// Each side gets at most one point per vertex and one per edge, so no push is checked
 /// against the capacity (`2 * CAP`); a side longer than `CAP` is cut back and flagged as
@@ -157,7 +160,7 @@ fn cut<const AXIS: usize>(src: &Poly, c: f64, eps: f64, lo: &mut Poly, hi: &mut 
             nl += 1;
             nh += 1;
         }
-        if (dp < -eps && dq > eps) || (dp > eps && dq < -eps) {
+        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
             let q = v[j];
             let mut x = p + (q - p) * (dp / (dp - dq));
             x[axis] = c;
@@ -499,9 +502,9 @@ mod tests {
 
     /// The cut's rule at its boundaries, vertex by vertex: a vertex within `eps` of the plane
     /// (`|dp| <= eps`, exactly `eps` included) goes to both sides moved onto the plane; an edge
-    /// adds its crossing only when it runs from more than `eps` below to more than `eps` above,
-    /// or back. Polygons with vertices exactly `eps` and `-eps` from the plane, in every order
-    /// around the polygon, against the rule written out here.
+    /// adds its crossing when its ends lie strictly on opposite sides of the plane, within
+    /// `eps` or not. Polygons with vertices exactly `eps` and `-eps` from the plane, in every
+    /// order around the polygon, against the rule written out here.
     #[test]
     fn cut_decides_vertices_exactly_eps_from_the_plane() {
         let (c, eps) = (2.0, 2f64.powi(-10));
@@ -519,8 +522,7 @@ mod tests {
                 } else {
                     hi.push(p);
                 }
-                let (below, above) = (|d: f64| d < -eps, |d: f64| d > eps);
-                if (below(dp) && above(dq)) || (above(dp) && below(dq)) {
+                if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
                     let mut x = p + (q - p) * (dp / (dp - dq));
                     x.x = c;
                     lo.push(x);
@@ -552,6 +554,28 @@ mod tests {
             }
         }
         assert_eq!(checked, 216);
+    }
+
+    /// A triangle that grazes a cell near its corner `(1, 1, 1)`: slicing at `x = 1` leaves a
+    /// vertex `1e-11` above `y = 1` whose edge runs nearly along that plane and reaches
+    /// `z = 1` only `2.7e-9` further on. Moving the vertex onto the plane alone lost that
+    /// reach, and the cell `(0, 1, 1)` (which the exact test says the triangle touches) got
+    /// no part; the edge's crossing keeps it. (A fuzzed bake, `fixtures/fuzz/bake`.)
+    #[test]
+    fn an_edge_nearly_along_a_plane_keeps_its_reach_past_a_vertex_within_eps() {
+        let f = f64::from_bits;
+        let v = [
+            DVec3::new(0.021763392794279454, 0.0, f(0x401f_ffff_ff0e_c986)),
+            DVec3::ZERO,
+            DVec3::new(f(0x401f_ffff_fffe_eb87), 8.0, f(0x401f_ffff_ff0e_c986)),
+        ];
+        let mut cells = std::collections::BTreeSet::new();
+        assert!(Slicer::default().slice(v, 8, 8e-10, &mut |c, _| {
+            cells.insert(c);
+        }));
+        for c in [[0, 1, 1], [1, 2, 2], [3, 4, 4], [6, 7, 7]] {
+            assert!(cells.contains(&c), "{c:?}");
+        }
     }
 
     /// Closed slabs: a triangle whose lowest vertex lies exactly on a cutting plane (after

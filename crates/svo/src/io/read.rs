@@ -16,8 +16,8 @@ use crate::octree::format_check::{Check, LEVELS_VERSION, MAX_CHUNK_LEVEL};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
-    InfoBits, MAX_LEAVES, check_chunk, check_leaf_order, check_node_words, check_root_and_counts,
-    check_shape_and_node_order, check_tree, check_values,
+    InfoBits, MAX_LEAVES, check_chunk, check_leaf_order, check_node_words, check_renumbered,
+    check_root_and_counts, check_shape_and_node_order, check_tree, check_values,
 };
 use glam::DVec3;
 use std::path::Path;
@@ -637,7 +637,7 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
             )?;
             tree.nodes = top.nodes;
             tree.node_attributes = top.node_attributes;
-            check_tree(&tree, p.version, InfoBits::Zero)
+            check_renumbered(&tree, p.version)
         }
         _ => check_tree(&tree, p.version, InfoBits::Zero),
     }
@@ -1070,7 +1070,7 @@ fn top_tree(h: &Header, top: TopLevels, depth: u8, leaves: u64) -> Octree {
 
 /// Checks 14 to 18 on a tree made from a file's top levels, then its bounds.
 fn finish_top(mut tree: Octree, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
-    check_tree(&tree, p.version, InfoBits::Zero).map_err(|(c, d)| corrupt(c, d))?;
+    check_renumbered(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
     tree.refresh_checked_bounds();
     Ok((tree, p))
 }
@@ -1109,7 +1109,7 @@ fn cut_to_depth(tree: &Octree, depth: u8) -> Result<Octree, FormatError> {
         levels: None,
     };
     let mut out = top_tree(&h, top, depth, plan.counts[k]);
-    check_tree(&out, LEVELS_VERSION, InfoBits::Zero).map_err(|(c, d)| corrupt(c, d))?;
+    check_renumbered(&out, LEVELS_VERSION).map_err(|(c, d)| corrupt(c, d))?;
     out.refresh_checked_bounds();
     Ok(out)
 }

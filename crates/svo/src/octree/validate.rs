@@ -114,6 +114,24 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
     check_values(t, version)
 }
 
+/// The checks of a tree read from a version-4 file once its nodes passed checks 14 to 17 in
+/// level order and were put in the canonical order (so they hold there by construction): the
+/// counts, the channels' lengths and the values.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) fn check_renumbered(t: &Octree, version: u32) -> Result<(), Failure> {
+    let leaves = u64::from(t.leaf_count);
+    check_root_and_counts(
+        t.depth,
+        t.root.origin,
+        t.root.side,
+        t.nodes.len() as u64,
+        leaves,
+    )?;
+    check_channel_layout(&t.attributes, leaves, "", "leaves")?;
+    check_node_channels(t)?;
+    check_values(t, version)
+}
+
 /// Checks 10 and 12 on the channels of leaves or of nodes (`prefix` "" or "node ", `what`
 /// "leaves" or "nodes", `count` of them): a contour channel comes with a normal channel, and
 /// every array holds one value for each.

@@ -91,6 +91,10 @@ pub struct SceneSetup {
     pub view: Option<String>,
     /// A cube-map sky; default: the procedural gradient.
     pub cube_map: Option<Arc<CubeMap>>,
+    /// Read only the file's top this many levels, as a coarser tree whose leaves are the
+    /// nodes of that level ([`crate::io::read_file_to_depth`]: a version-4 file's prefix);
+    /// default: every level.
+    pub max_depth: Option<u8>,
 }
 
 impl Default for SceneSetup {
@@ -105,6 +109,7 @@ impl Default for SceneSetup {
             lights: Vec::new(),
             view: None,
             cube_map: None,
+            max_depth: None,
         }
     }
 }
@@ -169,7 +174,10 @@ impl RenderScene {
     /// views stored in it.
     #[cfg(feature = "io")]
     pub fn open(path: &std::path::Path, setup: &SceneSetup) -> Result<Self, SetupError> {
-        let (tree, build) = crate::io::read::read_file(path)?;
+        let (tree, build) = match setup.max_depth {
+            Some(k) => crate::io::read::read_file_to_depth(path, k)?,
+            None => crate::io::read::read_file(path)?,
+        };
         Self::new(tree, &build.scene, setup)
     }
 }

@@ -269,8 +269,9 @@ fn parts_level(depth: u8, parts: u32) -> u8 {
 
 /// Plans the bake of `mesh` (read from `mesh_path`, whose bytes hash to `mesh_hash`) in
 /// `parts` parts: checks the options as the bake does, estimates each subtree's leaves, and
-/// deals the subtrees into ranges of about equal estimates. Solid fills are refused: a
-/// part cannot tell inside from outside alone.
+/// deals the subtrees into ranges of about equal estimates. Solid fills are refused (a part
+/// cannot tell inside from outside alone), and so are the inner nodes' attributes (not made
+/// in parts yet).
 pub(crate) fn plan_bake(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -282,6 +283,13 @@ pub(crate) fn plan_bake(
     if opts.solid.is_some() {
         return Err(PartsError::Unsupported(
             "a solid fill needs the whole tree at once: bake it without parts".into(),
+        ));
+    }
+    if opts.node_attributes {
+        return Err(PartsError::Unsupported(
+            "bakes in parts do not make the inner nodes' attributes (level of detail) yet: \
+             bake in memory, or without them"
+                .into(),
         ));
     }
     if !(1..=MAX_PARTS).contains(&parts) {
