@@ -10,9 +10,12 @@
 //!
 //! The pieces are only approximately the exact intersections (the cut points are rounded,
 //! though their coordinate on the cutting axis is set exactly). So that no touched cell is
-//! lost to rounding, a vertex within `eps` of a cutting plane counts as on it and goes to
-//! both sides: every cell the triangle touches, or misses by at most `eps`, gets a
-//! piece. The caller decides membership from the pieces with care: a piece whose centroid
+//! lost to rounding, a vertex within `eps` of a cutting plane goes to both sides, where it
+//! is (a vertex is never moved: moving one onto a plane bends the polygon's edges, and a
+//! later cut along another axis then finds them further off than `eps`), and each edge
+//! whose ends lie strictly on opposite sides adds its crossing to both: every cell the
+//! triangle touches, or misses by at most `eps`, gets a piece, which may reach `eps` past
+//! the cell. The caller decides membership from the pieces with care: a piece whose centroid
 //! lies well inside its cell proves the contact ([`well_inside`]; the centroid is within
 //! rounding of a point of the triangle); any other piece is decided by the exact overlap
 //! test.
@@ -126,12 +129,11 @@ pub(crate) fn polygon_area(p: &[DVec3]) -> f64 {
 }
 
 /// Cuts `src` by the plane `p[axis] = c` into its closed lower and upper sides. A vertex
-/// within `eps` of the plane counts as on it: it goes to both sides, moved onto the plane;
-/// each edge whose ends lie strictly on opposite sides of the plane adds its intersection,
-/// with the coordinate on `axis` set to exactly `c`, to both. (Also where one end is within
-/// `eps`: an edge nearly along the plane crosses it far from that end, and the side that
-/// end is truly on reaches that far along the other axes; moving the end onto the plane
-/// alone would lose that reach, and with it a cell the triangle touches.)
+/// within `eps` of the plane goes to both sides, unmoved; each edge whose ends lie strictly
+/// on opposite sides of the plane adds its intersection, with the coordinate on `axis` set
+/// to exactly `c`, to both (also where one end is within `eps`: an edge nearly along the
+/// plane crosses it far from that end, and the side that end is truly on reaches that far
+/// along the other axes).
 ///
 /// Each side gets at most one point per vertex and one per edge, so no push is checked
 /// against the capacity (`2 * CAP`); a side longer than `CAP` is cut back and flagged as
@@ -153,10 +155,8 @@ fn cut<const AXIS: usize>(src: &Poly, c: f64, eps: f64, lo: &mut Poly, hi: &mut 
             hi.v[nh] = p;
             nh += 1;
         } else {
-            let mut on = p;
-            on[axis] = c;
-            lo.v[nl] = on;
-            hi.v[nh] = on;
+            lo.v[nl] = p;
+            hi.v[nh] = p;
             nl += 1;
             nh += 1;
         }
@@ -257,8 +257,8 @@ pub(crate) struct Slicer {
 impl Slicer {
     /// Slices the triangle `v` (coordinates local to a block of `n^3` unit cells,
     /// `[0, n]^3`) into its parts per cell, calling `f(cell, part)` for each; a cell the
-    /// triangle only touches, or misses by at most `eps`, gets a part on its boundary (points
-    /// within `eps` of a cutting plane are moved onto it and go to both sides). Returns `false` when the triangle, clipped to the block, is empty (it
+    /// triangle only touches, or misses by at most `eps`, gets a part on or near its boundary
+    /// (points within `eps` of a cutting plane go to both sides, unmoved). Returns `false` when the triangle, clipped to the block, is empty (it
     /// misses the block, or touches it only where rounding lost the contact) or has an area
     /// of at most `eps` (it only grazes the block), or a polygon overflowed; the caller then
     /// falls back to testing cells one by one.
@@ -501,7 +501,7 @@ mod tests {
     }
 
     /// The cut's rule at its boundaries, vertex by vertex: a vertex within `eps` of the plane
-    /// (`|dp| <= eps`, exactly `eps` included) goes to both sides moved onto the plane; an edge
+    /// (`|dp| <= eps`, exactly `eps` included) goes to both sides, unmoved; an edge
     /// adds its crossing when its ends lie strictly on opposite sides of the plane, within
     /// `eps` or not. Polygons with vertices exactly `eps` and `-eps` from the plane, in every
     /// order around the polygon, against the rule written out here.
@@ -514,9 +514,8 @@ mod tests {
                 let q = v[(i + 1) % v.len()];
                 let (dp, dq) = (p.x - c, q.x - c);
                 if dp.abs() <= eps {
-                    let on = DVec3::new(c, p.y, p.z);
-                    lo.push(on);
-                    hi.push(on);
+                    lo.push(p);
+                    hi.push(p);
                 } else if dp < 0.0 {
                     lo.push(p);
                 } else {
@@ -558,9 +557,9 @@ mod tests {
 
     /// A triangle that grazes a cell near its corner `(1, 1, 1)`: slicing at `x = 1` leaves a
     /// vertex `1e-11` above `y = 1` whose edge runs nearly along that plane and reaches
-    /// `z = 1` only `2.7e-9` further on. Moving the vertex onto the plane alone lost that
-    /// reach, and the cell `(0, 1, 1)` (which the exact test says the triangle touches) got
-    /// no part; the edge's crossing keeps it. (A fuzzed bake, `fixtures/fuzz/bake`.)
+    /// `z = 1` only `2.7e-9` further on. Taking the vertex for one on the plane, without the
+    /// edge's crossing, lost that reach, and the cell `(0, 1, 1)` (which the exact test says
+    /// the triangle touches) got no part. (A fuzzed bake, `fixtures/fuzz/bake`.)
     #[test]
     fn an_edge_nearly_along_a_plane_keeps_its_reach_past_a_vertex_within_eps() {
         let f = f64::from_bits;
@@ -576,6 +575,71 @@ mod tests {
         for c in [[0, 1, 1], [1, 2, 2], [3, 4, 4], [6, 7, 7]] {
             assert!(cells.contains(&c), "{c:?}");
         }
+    }
+
+    /// Seeded triangles whose vertices lie on, within `eps` of, or just past the block's grid
+    /// planes, often with edges nearly along a plane: every cell the exact test says a
+    /// triangle touches gets a part, wherever the slicer slices at all (when it does not, the
+    /// caller tests the cells one by one).
+    #[test]
+    fn every_cell_a_triangle_touches_gets_a_part_near_the_planes() {
+        use crate::geometry::overlap::triangle_box_overlap;
+        use crate::geometry::triangle_setup::GridTriangle;
+        let mut rnd = svo_tests::seeds::xorshift(0x511c_e5ed);
+        let mut unit = move || (rnd() >> 11) as f64 / (1u64 << 53) as f64;
+        let n = 4u32;
+        let eps = 1e-10 * f64::from(n);
+        let (mut cases, mut cells) = (0, 0);
+        for case in 0..4000 {
+            // A coordinate: a grid value, moved by nothing, by up to a few eps, or anywhere.
+            let mut coord = |unit: &mut dyn FnMut() -> f64| {
+                let g = (unit() * f64::from(n + 1)).floor();
+                match (unit() * 5.0) as u32 {
+                    0 => g,
+                    1 => g + (unit() - 0.5) * 4.0 * eps,
+                    2 => g + (unit() - 0.5) * 1e-12,
+                    3 => g + (unit() - 0.5) * 1e-7,
+                    _ => unit() * f64::from(n),
+                }
+            };
+            let mut v = [DVec3::ZERO; 3];
+            for p in &mut v {
+                *p = DVec3::new(coord(&mut unit), coord(&mut unit), coord(&mut unit));
+            }
+            if case % 3 == 0 {
+                // An edge nearly along a plane: the second vertex shares the first's
+                // coordinate on one axis up to a few eps.
+                let axis = case / 3 % 3;
+                v[1][axis] = v[0][axis] + (unit() - 0.5) * 4.0 * eps;
+            }
+            let t = GridTriangle::new(v[0], v[1], v[2]);
+            if t.n == DVec3::ZERO {
+                continue;
+            }
+            let mut got = std::collections::BTreeSet::new();
+            if !Slicer::default().slice(v, n, eps, &mut |c, _| {
+                got.insert(c);
+            }) {
+                continue;
+            }
+            cases += 1;
+            for x in 0..n {
+                for y in 0..n {
+                    for z in 0..n {
+                        let m = DVec3::new(f64::from(x), f64::from(y), f64::from(z));
+                        if triangle_box_overlap(&t, m, 1.0) {
+                            cells += 1;
+                            assert!(
+                                got.contains(&[x, y, z]),
+                                "case {case} {v:?}: {:?}",
+                                [x, y, z]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(cases > 2000 && cells > 10_000, "{cases} {cells}");
     }
 
     /// Closed slabs: a triangle whose lowest vertex lies exactly on a cutting plane (after
