@@ -592,7 +592,7 @@ mod tests {
         let (mut cases, mut cells) = (0, 0);
         for case in 0..4000 {
             // A coordinate: a grid value, moved by nothing, by up to a few eps, or anywhere.
-            let mut coord = |unit: &mut dyn FnMut() -> f64| {
+            let coord = |unit: &mut dyn FnMut() -> f64| {
                 let g = (unit() * f64::from(n + 1)).floor();
                 match (unit() * 5.0) as u32 {
                     0 => g,
