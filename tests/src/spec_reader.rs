@@ -353,9 +353,21 @@ fn layout(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
             arrays.push(((*o, *n), h.leaf_count * size(*kind)));
         }
     }
-    let mut at = pad8(16 + hl as u64);
-    let mut gaps = vec![(16 + hl as u64, at)];
-    for ((off, len), want) in &arrays {
+    let e = 16 + hl as u64;
+    place(b, &arrays, pad8(e), vec![(e, pad8(e))], data_end)
+}
+
+/// Checks 12 and 13 on the arrays `arrays` (`(offset, len)` as stored, and the length their
+/// counts give) placed from `at` on, after the padding gaps `gaps` already placed: each at
+/// the next multiple of 8, the last one padded to the checksum, every padding byte zero.
+fn place(
+    b: &[u8],
+    arrays: &[((u64, u64), u64)],
+    mut at: u64,
+    mut gaps: Vec<(u64, u64)>,
+    data_end: u64,
+) -> Result<(), u8> {
+    for ((off, len), want) in arrays {
         if len != want || *off != at || off + len > data_end {
             return Err(12);
         }
@@ -593,25 +605,16 @@ fn check_levels(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         }
         blocks.push((offset, end - offset, arrays));
     }
-    for (kind, s) in &h.channels {
-        if let Storage::PerLeaf(o, n) = s {
-            if *n != h.leaf_count * size(*kind) || *o != at || o + n > data_end {
-                return Err(12);
-            }
-            gaps.push((o + n, pad8(o + n)));
-            at = pad8(o + n);
-        }
-    }
-    if at != data_end {
-        return Err(12);
-    }
-    // 13: the padding.
-    if gaps
+    // 12 and 13: the per-leaf arrays after the blocks, and the padding.
+    let leaf_arrays: Vec<((u64, u64), u64)> = h
+        .channels
         .iter()
-        .any(|&(a, z)| b[a as usize..z as usize].iter().any(|&x| x != 0))
-    {
-        return Err(13);
-    }
+        .filter_map(|(kind, s)| match s {
+            Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
+            Storage::Constant(_) => None,
+        })
+        .collect();
+    place(b, &leaf_arrays, at, gaps, data_end)?;
     // 22: the levels' checksums.
     for ((o, len, _), entry) in blocks.iter().zip(table) {
         if xxhash_rust::xxh3::xxh3_64(&b[*o as usize..(o + len) as usize]) != entry[3] {

@@ -46,29 +46,6 @@ fn bench(c: &mut Criterion) {
                     b.iter(|| rays.iter().filter(|ray| hits(ray, mode)).count())
                 });
             }
-            // The same tree with its nodes in breadth-first order (level by level, as
-            // version-4 files store them), traced the same way: what that order costs a walk.
-            let bfs = breadth_first(&tree);
-            let bfs_hits = |ray: &GridRay| {
-                cast(
-                    &bfs,
-                    ray,
-                    0.0,
-                    f32::INFINITY,
-                    HitMode::Cube,
-                    None,
-                    MAX_STEPS,
-                )
-                .hit
-                .is_some()
-            };
-            assert_eq!(
-                rays.iter().filter(|r| bfs_hits(r)).count(),
-                rays.iter().filter(|r| hits(r, HitMode::Cube)).count()
-            );
-            g.bench_function(format!("{name}/d{depth}/octree-cube-bfs"), |b| {
-                b.iter(|| rays.iter().filter(|ray| bfs_hits(ray)).count())
-            });
             if std::env::var_os("SVO_BENCH_SPLIT").is_some() {
                 // Diagnostics: rays that miss the root (setup cost only), and the hit rays
                 // alone.
@@ -114,32 +91,6 @@ fn bench(c: &mut Criterion) {
         }
     }
     g.finish();
-}
-
-/// `tree` with its nodes renumbered breadth-first (each level's children blocks in the order
-/// of their parents), bounds and leaves unchanged.
-fn breadth_first(tree: &svo::Octree) -> svo::Octree {
-    let old = &tree.nodes;
-    let mut order = vec![0u32];
-    let mut nodes = Vec::with_capacity(old.len());
-    let mut i = 0;
-    while i < order.len() {
-        let n = old[order[i] as usize];
-        let mut first = n.first;
-        if !n.is_leaf_parent() && n.child_mask() != 0 {
-            first = order.len() as u32;
-            order.extend((0..n.child_mask().count_ones()).map(|j| n.first + j));
-        }
-        nodes.push(svo::Node {
-            info: n.info,
-            first,
-        });
-        i += 1;
-    }
-    svo::Octree {
-        nodes,
-        ..tree.clone()
-    }
 }
 
 criterion_group!(benches, bench);

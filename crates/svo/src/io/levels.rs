@@ -7,7 +7,7 @@
 
 use crate::octree::format_check::Check;
 use crate::octree::tree::Node;
-use crate::octree::validate::Failure;
+use crate::octree::validate::{Failure, check_node_shape};
 
 /// A canonical tree's nodes in level order.
 pub(crate) struct LevelOrder {
@@ -109,30 +109,8 @@ pub(crate) fn check_level_order(
         for i in start..end {
             let node = nodes[i as usize];
             let k = u64::from(node.child_mask().count_ones());
-            if k == 0 {
-                if i != 0 {
-                    return Err((Check::TreeShape, format!("node {i} has no children")));
-                }
-                if node.first != 0 {
-                    return Err((
-                        Check::NodeOrder,
-                        format!("the empty root's first is {}, not 0", node.first),
-                    ));
-                }
-                continue;
-            }
-            let leaf_level = l + 1 == depth;
-            if leaf_level != node.is_leaf_parent() {
-                return Err((
-                    Check::TreeShape,
-                    if leaf_level {
-                        format!("node {i} at the level above the leaves does not point to leaves")
-                    } else {
-                        format!("node {i} at level {l} points to leaves above the leaf level")
-                    },
-                ));
-            }
-            if leaf_level {
+            // Not a leaf parent, nor the empty root: its block is on the level below.
+            if check_node_shape(i, node, l as u8, depth as u8, true)? != Some(false) {
                 continue;
             }
             let first = u64::from(node.first);

@@ -212,18 +212,8 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
             ));
         }
         last_kind = i16::from(e.kind);
-        let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
-        if let Storage::Constant(v) = e.storage
-            && size < 4
-            && v >> (8 * size) != 0
-        {
-            return Err(corrupt(
-                Check::Channels,
-                format!(
-                    "the constant {v} of channel {} does not fit {size} byte(s)",
-                    e.kind
-                ),
-            ));
+        if let Storage::Constant(v) = e.storage {
+            constant_fits(e.kind, v, "")?;
         }
     }
     if h.channels.iter().any(|e| e.kind == 1) && !h.channels.iter().any(|e| e.kind == 0) {
@@ -388,19 +378,21 @@ fn check_node_channel_list(h: &Header, l: &crate::io::header::Levels) -> Result<
         ));
     }
     for e in &l.node_channels {
-        let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
-        if let NodeStorage::Constant(v) = e.storage
-            && size < 4
-            && v >> (8 * size) != 0
-        {
-            return Err(corrupt(
-                Check::Channels,
-                format!(
-                    "the inner-node constant {v} of channel {} does not fit {size} byte(s)",
-                    e.kind
-                ),
-            ));
+        if let NodeStorage::Constant(v) = e.storage {
+            constant_fits(e.kind, v, "inner-node ")?;
         }
+    }
+    Ok(())
+}
+
+/// Check 10 on a constant `v` of channel `kind` (known): it fits the channel's element.
+fn constant_fits(kind: u8, v: u32, what: &str) -> Result<(), FormatError> {
+    let size = ChannelKind::ALL[usize::from(kind)].element_size();
+    if size < 4 && v >> (8 * size) != 0 {
+        return Err(corrupt(
+            Check::Channels,
+            format!("the {what}constant {v} of channel {kind} does not fit {size} byte(s)"),
+        ));
     }
     Ok(())
 }
@@ -530,24 +522,9 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         None => None,
     };
     check_fits(h)?;
-    let mut blocks = Vec::new();
-    let nodes: Vec<Node> = match &h.levels {
-        None => array(h.nodes, fetch)?,
-        Some(levels) => {
-            // Each level's arrays where check 12 found them.
-            for (l, entry) in levels.table.iter().enumerate() {
-                let mut at = entry.block.offset;
-                let mut block = Vec::new();
-                for len in level_lens(h, l).unwrap_or_default() {
-                    let mut v = vec![0u8; len as usize];
-                    fetch(ArrayRef { offset: at, len }, &mut v)?;
-                    at = (at + len).div_ceil(8) * 8;
-                    block.push(v);
-                }
-                blocks.push(block);
-            }
-            Vec::new()
-        }
+    let (nodes, blocks): (Vec<Node>, _) = match &h.levels {
+        None => (array(h.nodes, fetch)?, Vec::new()),
+        Some(levels) => (Vec::new(), read_blocks(h, levels.table.len(), fetch)?),
     };
     let attributes = read_channels(&h.channels, fetch)?;
     let tree = Octree {
@@ -567,6 +544,31 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         table,
         blocks,
     })
+}
+
+/// The arrays of the first `count` levels' blocks of a version-4 file of header `h`, where
+/// check 12 found them, filled by `fetch(r, dst)` in the file's order.
+fn read_blocks(
+    h: &Header,
+    count: usize,
+    fetch: &mut Fetch<'_>,
+) -> Result<Vec<Vec<Vec<u8>>>, FormatError> {
+    let Some(levels) = &h.levels else {
+        return Ok(Vec::new());
+    };
+    let mut blocks = Vec::with_capacity(count);
+    for (l, entry) in levels.table.iter().enumerate().take(count) {
+        let mut at = entry.block.offset;
+        let mut block = Vec::new();
+        for len in level_lens(h, l).unwrap_or_default() {
+            let mut v = vec![0u8; len as usize];
+            fetch(ArrayRef { offset: at, len }, &mut v)?;
+            at = (at + len).div_ceil(8) * 8;
+            block.push(v);
+        }
+        blocks.push(block);
+    }
+    Ok(blocks)
 }
 
 /// The channels `channels` lists, their per-leaf arrays filled by `fetch(r, dst)` in their
@@ -1025,17 +1027,10 @@ pub fn read_file_to_depth(
     {
         return Err(padding_error(gap));
     }
-    let blocks: Vec<Vec<Vec<u8>>> = (0..=k)
-        .map(|l| {
-            let mut at = levels.table[l].block.offset;
-            let mut block = Vec::new();
-            for len in level_lens(h, l).unwrap_or_default() {
-                block.push(bytes[at as usize..(at + len) as usize].to_vec());
-                at = (at + len).div_ceil(8) * 8;
-            }
-            block
-        })
-        .collect();
+    let blocks = read_blocks(h, k + 1, &mut |r, dst| {
+        dst.copy_from_slice(&bytes[r.offset as usize..(r.offset + r.len) as usize]);
+        Ok(())
+    })?;
     drop(bytes);
     check_level_hashes(levels, &blocks)?;
     let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
@@ -1047,32 +1042,36 @@ pub fn read_file_to_depth(
         &blocks,
         k,
     )?;
-    let tree = top_tree(h, top, max_depth, counts[k]);
-    let (tree, p) = finish_top(tree, p)?;
+    let root = RootCube {
+        origin: DVec3::from_array(h.root_origin),
+        side: h.root_side,
+    };
+    let tree = top_tree(root, top, max_depth, counts[k], p.version)?;
     Ok((tree, p.header.build))
 }
 
-/// The tree of `top` (a tree's first `depth` levels, with `leaves` leaves).
-fn top_tree(h: &Header, top: TopLevels, depth: u8, leaves: u64) -> Octree {
-    Octree {
-        root: RootCube {
-            origin: DVec3::from_array(h.root_origin),
-            side: h.root_side,
-        },
+/// The tree of `top` (a tree's first `depth` levels in `root`, with `leaves` leaves, read from
+/// a file of `version`), checked (its counts, channels and values: checks 14 to 17 held in
+/// level order) and with its bounds.
+fn top_tree(
+    root: RootCube,
+    top: TopLevels,
+    depth: u8,
+    leaves: u64,
+    version: u32,
+) -> Result<Octree, FormatError> {
+    let mut tree = Octree {
+        root,
         depth,
         nodes: top.nodes,
         // At most 8 a node of the level above, so within 2^31 with the file's node count.
         leaf_count: leaves as u32,
         attributes: top.leaf_attributes,
         node_attributes: top.node_attributes,
-    }
-}
-
-/// Checks 14 to 18 on a tree made from a file's top levels, then its bounds.
-fn finish_top(mut tree: Octree, p: Preamble) -> Result<(Octree, Preamble), FormatError> {
-    check_renumbered(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
+    };
+    check_renumbered(&tree, version).map_err(|(c, d)| corrupt(c, d))?;
     tree.refresh_checked_bounds();
-    Ok((tree, p))
+    Ok(tree)
 }
 
 /// The top `depth` levels of a tree in memory, as [`read_file_to_depth`] reads them from a
@@ -1082,36 +1081,16 @@ fn cut_to_depth(tree: &Octree, depth: u8) -> Result<Octree, FormatError> {
         return Ok(tree.clone());
     }
     let (plan, blocks) = crate::io::write::level_blocks(tree);
-    let node_channels: Vec<crate::io::header::NodeChannelEntry> = plan
-        .node_channels
-        .iter()
-        .map(|&(kind, storage)| crate::io::header::NodeChannelEntry { kind, storage })
-        .collect();
     let k = usize::from(depth);
     let top = from_levels(
         tree.depth,
         &plan.counts,
-        &node_channels,
+        &plan.node_channels,
         u64::from(tree.leaf_count),
         &blocks[..=k],
         k,
     )?;
-    let h = Header {
-        root_origin: tree.root.origin.to_array(),
-        root_side: tree.root.side,
-        depth,
-        node_count: 0,
-        leaf_count: 0,
-        nodes: ArrayRef::default(),
-        channels: Vec::new(),
-        build: BuildInfo::default(),
-        chunks: None,
-        levels: None,
-    };
-    let mut out = top_tree(&h, top, depth, plan.counts[k]);
-    check_renumbered(&out, LEVELS_VERSION).map_err(|(c, d)| corrupt(c, d))?;
-    out.refresh_checked_bounds();
-    Ok(out)
+    top_tree(tree.root, top, depth, plan.counts[k], LEVELS_VERSION)
 }
 
 /// What [`check_chunks_file`] read of a version-3 file without loading its tree.

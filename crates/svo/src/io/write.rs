@@ -189,12 +189,12 @@ pub(crate) fn level_blocks(tree: &Octree) -> (LevelPlan, Vec<Vec<Vec<u8>>>) {
         hashes: blocks.iter().map(|b| block_hash(b)).collect(),
         node_channels: stored
             .iter()
-            .map(|(kind, c)| {
-                let storage = match c {
+            .map(|(kind, c)| NodeChannelEntry {
+                kind: *kind,
+                storage: match c {
                     StoredChannel::Constant(v) => NodeStorage::Constant(*v),
                     StoredChannel::PerLeaf { .. } => NodeStorage::PerNode,
-                };
-                (*kind, storage)
+                },
             })
             .collect(),
     };
@@ -221,7 +221,7 @@ pub(crate) struct LevelPlan {
     /// Each level's block hash.
     pub hashes: Vec<u64>,
     /// The inner nodes' channels, in increasing kind.
-    pub node_channels: Vec<(u8, NodeStorage)>,
+    pub node_channels: Vec<NodeChannelEntry>,
 }
 
 /// Streams an octree to `w` as a version-3 file, its subtrees under the nodes at `level`
@@ -379,8 +379,8 @@ pub(crate) fn write_layout(
             let per_node: Vec<u64> = plan
                 .node_channels
                 .iter()
-                .filter(|(_, s)| *s == NodeStorage::PerNode)
-                .map(|(kind, _)| ChannelKind::ALL[usize::from(*kind)].element_size() as u64)
+                .filter(|e| e.storage == NodeStorage::PerNode)
+                .map(|e| ChannelKind::ALL[usize::from(e.kind)].element_size() as u64)
                 .collect();
             for (l, &count) in plan.counts.iter().enumerate() {
                 lens.push(count.saturating_mul(8));
@@ -432,11 +432,7 @@ pub(crate) fn write_layout(
                     hash,
                 })
                 .collect(),
-            node_channels: plan
-                .node_channels
-                .iter()
-                .map(|&(kind, storage)| NodeChannelEntry { kind, storage })
-                .collect(),
+            node_channels: plan.node_channels.clone(),
         }),
     };
     let encode = |h: &Header| {

@@ -177,13 +177,16 @@ fn check_node_channels(t: &Octree) -> Result<(), Failure> {
         ));
     }
     // A leaf parent's values are not stored (a file's level `depth - 1` has no node arrays).
-    let leaf_level = |i: usize| t.nodes[i].is_leaf_parent() || (t.depth == 1 && i == 0);
+    let leaf_level = |i: usize, n: &Node| n.is_leaf_parent() || (t.depth == 1 && i == 0);
     for (kind, bytes, size) in a.stored().into_iter().filter_map(|(k, c)| match c {
         StoredChannel::PerLeaf { bytes, size } => Some((k, bytes, size)),
         StoredChannel::Constant(_) => None,
     }) {
-        if let Some(i) = (0..t.nodes.len())
-            .find(|&i| leaf_level(i) && bytes[i * size..(i + 1) * size].iter().any(|&b| b != 0))
+        if let Some(i) = bytes
+            .chunks_exact(size)
+            .zip(&t.nodes)
+            .enumerate()
+            .position(|(i, (v, n))| leaf_level(i, n) && v.iter().any(|&b| b != 0))
         {
             return Err((
                 Check::Values,
@@ -256,31 +259,10 @@ pub(crate) fn check_shape_and_node_order(
     stack.push((0, 0));
     while let Some((i, level)) = stack.pop() {
         let node = nodes[i];
-        let mask = node.child_mask();
-        let k = mask.count_ones() as usize;
-        if mask == 0 {
-            if i != 0 || !empty_root {
-                return Err((Check::TreeShape, format!("node {i} has no children")));
-            }
-            if node.first != 0 {
-                return Err((
-                    Check::NodeOrder,
-                    format!("the empty root's first is {}, not 0", node.first),
-                ));
-            }
+        let k = node.child_mask().count_ones() as usize;
+        let Some(leaf_level) = check_node_shape(i as u64, node, level, depth, empty_root)? else {
             continue;
-        }
-        let leaf_level = level + 1 == depth;
-        if leaf_level != node.is_leaf_parent() {
-            return Err((
-                Check::TreeShape,
-                if leaf_level {
-                    format!("node {i} at the level above the leaves does not point to leaves")
-                } else {
-                    format!("node {i} at level {level} points to leaves above the leaf level")
-                },
-            ));
-        }
+        };
         if leaf_level {
             // A leaf parent (just checked): its leaves end where the next one's start.
             let base = u64::from(node.leaf_base().unwrap_or(0));
@@ -310,6 +292,44 @@ pub(crate) fn check_shape_and_node_order(
         ));
     }
     Ok(leaf_order && leaves_end == 0)
+}
+
+/// Checks 15 and 16 on node `i` of a tree of `depth` levels, met on `level` by a walk in
+/// either order (depth-first, or version 4's level order): only the root may have no
+/// children (and only if `empty_root`), and then its `first` is 0; exactly the nodes one
+/// level above the leaves point to leaves. `None` for the empty root, else whether the node
+/// is a leaf parent (the caller checks where an inner node's block lies).
+pub(crate) fn check_node_shape(
+    i: u64,
+    node: Node,
+    level: u8,
+    depth: u8,
+    empty_root: bool,
+) -> Result<Option<bool>, Failure> {
+    if node.child_mask() == 0 {
+        if i != 0 || !empty_root {
+            return Err((Check::TreeShape, format!("node {i} has no children")));
+        }
+        if node.first != 0 {
+            return Err((
+                Check::NodeOrder,
+                format!("the empty root's first is {}, not 0", node.first),
+            ));
+        }
+        return Ok(None);
+    }
+    let leaf_level = level + 1 == depth;
+    if leaf_level != node.is_leaf_parent() {
+        return Err((
+            Check::TreeShape,
+            if leaf_level {
+                format!("node {i} at the level above the leaves does not point to leaves")
+            } else {
+                format!("node {i} at level {level} points to leaves above the leaf level")
+            },
+        ));
+    }
+    Ok(Some(leaf_level))
 }
 
 /// Check 17: the leaf parents, visited depth-first in child order, number their leaves from 0
