@@ -203,6 +203,8 @@ fn render_scene(
             threads,
             cost_scale,
             compare,
+            lod: job.trace.lod,
+            lod_applied: Surfaces::level_of_detail(&OctreeSurfaces::new(tree, job.trace.mode)),
         }),
         gpu: None,
     })
@@ -261,6 +263,8 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
             threads,
             cost_scale,
             compare: None,
+            lod: job.trace.lod,
+            lod_applied: false,
         }),
         gpu: None,
     })

@@ -7,7 +7,8 @@
 //! ## The arena
 //! The node array and the per-leaf channels are copied as they are stored, one after the
 //! other, into one arena of `u32` words, followed by the tree's 64-ary view where
-//! [`GpuLayout::wide_view`] asks for it ([`crate::wide_view`]); the shader finds each array
+//! [`GpuLayout::wide_view`] asks for it ([`crate::wide_view`]), then, where the variant has a
+//! level of detail, the inner nodes' channels it reads per node; the shader finds each array
 //! by its word offset.
 //! The arena is split into up to [`MAX_ARENA_CHUNKS`] bindings of `2^k` words, `2^k` the
 //! largest power of two the adapter's per-binding limit allows (lavapipe: 128 MiB), so a tree
@@ -42,8 +43,8 @@ pub const MAX_ARENA_CHUNKS: usize = 4;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct ArenaLayout {
     /// Word offsets: nodes, then the six channels in `ChannelKind` order, then the 64-ary
-    /// view.
-    at: [u32; 8],
+    /// view, then the inner nodes' six channels (with a level of detail).
+    at: [u32; 14],
     /// Whether the 64-ary view is there ([`GpuLayout::wide_view`], where the tree has one).
     wide: bool,
     /// log2 of the words per chunk.
@@ -62,6 +63,12 @@ impl ArenaLayout {
         p.refractivity_at = self.at[5];
         p.ior_at = self.at[6];
         p.view_at = self.at[7];
+        p.node_normal_at = self.at[8];
+        p.node_contour_at = self.at[9];
+        p.node_colour_at = self.at[10];
+        p.node_reflectivity_at = self.at[11];
+        p.node_refractivity_at = self.at[12];
+        p.node_ior_at = self.at[13];
         p.arena_shift = self.shift;
     }
 }
@@ -83,7 +90,10 @@ fn build_arena(
     } else {
         None
     };
-    let parts: [Vec<u8>; 8] = [
+    let na = &tree.node_attributes;
+    let nodes = tree.nodes.len();
+    let per_node = |k: usize| variant.node_channels[k] == 2;
+    let parts: [Vec<u8>; 14] = [
         bytemuck::cast_slice(&tree.nodes).to_vec(),
         channel_bytes(&a.normal, per_leaf(0), n),
         channel_bytes(&a.contour, per_leaf(1), n),
@@ -94,6 +104,12 @@ fn build_arena(
         view.as_ref()
             .map(|v| bytemuck::cast_slice(v).to_vec())
             .unwrap_or_default(),
+        node_bytes(&na.normal, per_node(0), nodes),
+        node_bytes(&na.contour, per_node(1), nodes),
+        node_bytes(&na.colour, per_node(2), nodes),
+        node_bytes(&na.reflectivity, per_node(3), nodes),
+        node_bytes(&na.refractivity, per_node(4), nodes),
+        node_bytes(&na.ior, per_node(5), nodes),
     ];
     let total: u64 = parts.iter().map(|p| p.len() as u64).sum();
     // Words per chunk: the largest power of two within the limit (at least 256 bytes).
@@ -128,6 +144,16 @@ fn build_arena(
         .map(<[u8]>::to_vec)
         .collect();
     Ok((layout, out))
+}
+
+/// The bytes of an inner-node channel the shader reads per node (`on`), constants expanded;
+/// nothing otherwise.
+fn node_bytes<T: bytemuck::Pod>(c: &Channel<T>, on: bool, nodes: usize) -> Vec<u8> {
+    if on {
+        channel_bytes(c, true, nodes)
+    } else {
+        Vec::new()
+    }
 }
 
 /// The bytes of a channel as the shader reads them: per-leaf arrays as stored, padded to a
@@ -249,6 +275,12 @@ impl GpuRenderer {
             .unwrap_or_else(|| ctx.binding_limit());
         if tree.nodes.is_empty() {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
+        }
+        if variant.lod && gpu_layout.wide_view {
+            return Err(GpuError::Unsupported(
+                "the 64-ary view walks every ray to the leaves: a level of detail needs the octree walk"
+                    .into(),
+            ));
         }
         let (arena, chunks) = build_arena(tree, &variant, chunk_limit, gpu_layout.wide_view)?;
         for c in &chunks {

@@ -8,7 +8,8 @@
 use bytemuck::{Pod, Zeroable};
 use svo::octree::{Channel, Octree};
 use svo::render::{
-    Camera, CameraError, FresnelMode, MAX_BOUNCES, Phong, PointLight, ShadowMode, Sky, TraceOptions,
+    Camera, CameraError, FresnelMode, MAX_BOUNCES, OctreeSurfaces, Phong, PointLight, ShadowMode,
+    Sky, Surfaces, TraceOptions,
 };
 use svo::trace::HitMode;
 
@@ -108,6 +109,23 @@ pub struct GpuParams {
     pub max_path_bounces: u32,
     /// Word offset of the 64-ary view (where the traversal walks it).
     pub view_at: u32,
+    /// Word offset of the inner nodes' normal channel (where the variant has a level of
+    /// detail and reads it per node).
+    pub node_normal_at: u32,
+    /// Word offset of the inner nodes' contour channel.
+    pub node_contour_at: u32,
+    /// Word offset of the inner nodes' colour channel.
+    pub node_colour_at: u32,
+    /// Word offset of the inner nodes' reflectivity channel.
+    pub node_reflectivity_at: u32,
+    /// Word offset of the inner nodes' refractivity channel.
+    pub node_refractivity_at: u32,
+    /// Word offset of the inner nodes' IOR channel.
+    pub node_ior_at: u32,
+    /// The primary rays' cone spread (`Camera::pixel_cone`) under the level of detail.
+    pub lod_spread: f32,
+    /// Padding.
+    pub pad: u32,
 }
 
 /// A point light in grid space (WGSL `Light`).
@@ -203,6 +221,17 @@ fn channel_const<T: Copy + Into<u32>>(c: &Channel<T>) -> u32 {
     }
 }
 
+/// How an inner-node channel reaches the shader, beside the leaves' channel `leaf`: 0
+/// absent, 1 the leaves' constant (read from `Params`), 2 per node (a constant of its own is
+/// uploaded as a per-node array).
+fn node_channel_kind<T: PartialEq>(leaf: &Channel<T>, node: &Channel<T>) -> u32 {
+    match (leaf, node) {
+        (_, Channel::Absent) => 0,
+        (Channel::Constant(a), Channel::Constant(b)) if a == b => 1,
+        _ => 2,
+    }
+}
+
 /// Whether some leaf has a non-zero value in channel `c`.
 fn any_nonzero(c: &Channel<u8>) -> bool {
     match c {
@@ -248,12 +277,20 @@ pub struct ShaderVariant {
     /// Pending rays a pixel can have: the bounce limits (the smaller of their sum and the
     /// path limit) plus two; one without bounces.
     pub ray_stack: u32,
+    /// A level of detail: rays stop at inner nodes as wide as their cones
+    /// ([`TraceOptions::lod`] above 0, on a tree whose inner nodes carry attributes).
+    pub lod: bool,
+    /// Per channel of the inner nodes (with [`Self::lod`]): 0 absent, 1 the leaves' constant,
+    /// 2 per node.
+    pub node_channels: [u32; 6],
 }
 
 impl ShaderVariant {
     /// The variant for `tree` rendered with `opts` and `n_lights` lights.
     pub fn for_scene(tree: &Octree, opts: &TraceOptions, n_lights: usize) -> Self {
         let a = &tree.attributes;
+        let lod = opts.lod > 0.0 && OctreeSurfaces::new(tree, opts.mode).level_of_detail();
+        let na = &tree.node_attributes;
         let reflective = any_nonzero(&a.reflectivity);
         let refractive = any_nonzero(&a.refractivity);
         let bounces = opts.max_path_bounces > 0
@@ -287,6 +324,19 @@ impl ShaderVariant {
                 channel_kind(&a.refractivity),
                 channel_kind(&a.ior),
             ],
+            lod,
+            node_channels: if lod {
+                [
+                    node_channel_kind(&a.normal, &na.normal),
+                    node_channel_kind(&a.contour, &na.contour),
+                    node_channel_kind(&a.colour, &na.colour),
+                    node_channel_kind(&a.reflectivity, &na.reflectivity),
+                    node_channel_kind(&a.refractivity, &na.refractivity),
+                    node_channel_kind(&a.ior, &na.ior),
+                ]
+            } else {
+                [0; 6]
+            },
         }
     }
 
@@ -303,6 +353,7 @@ impl ShaderVariant {
             media: true,
             interior: true,
             channels: self.channels.map(|c| if c == 0 { 0 } else { 2 }),
+            node_channels: self.node_channels.map(|c| if c == 0 { 0 } else { 2 }),
             ..self
         }
     }
@@ -333,6 +384,21 @@ impl ShaderVariant {
                 .zip(self.channels)
                 .map(|(n, v)| (*n, f64::from(v))),
         );
+        c.push(("LOD", b(self.lod)));
+        let node_names = [
+            "NODE_NORMAL_CH",
+            "NODE_CONTOUR_CH",
+            "NODE_COLOUR_CH",
+            "NODE_REFLECTIVITY_CH",
+            "NODE_REFRACTIVITY_CH",
+            "NODE_IOR_CH",
+        ];
+        c.extend(
+            node_names
+                .iter()
+                .zip(self.node_channels)
+                .map(|(n, v)| (*n, f64::from(v))),
+        );
         c
     }
 
@@ -361,6 +427,9 @@ impl ShaderVariant {
         }
         if self.interior {
             parts.push("interior");
+        }
+        if self.lod {
+            parts.push("level of detail");
         }
         parts.join(", ")
     }
@@ -439,6 +508,7 @@ pub fn uniforms(
     p.shininess = phong.shininess;
     p.width = camera.width;
     p.height = camera.height;
+    p.lod_spread = camera.pixel_cone(opts.lod).spread;
     p.n_lights = lights.len().min(MAX_LIGHTS) as u32;
     p.shadow_mode = if lights.is_empty() {
         0

@@ -189,6 +189,11 @@ impl RenderJob {
                     .into(),
             ));
         }
+        if !(self.trace.lod.is_finite() && self.trace.lod >= 0.0) {
+            return Err(JobError::Invalid(
+                "--lod must be a non-negative number of pixels".into(),
+            ));
+        }
         if !(self.trace.bias_cells.is_finite() && self.trace.bias_cells >= 0.0) {
             return Err(JobError::Invalid(
                 "the bias must be a non-negative number".into(),

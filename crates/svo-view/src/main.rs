@@ -82,6 +82,12 @@ struct Args {
     /// level K (a version-4 file is read as a prefix; older ones whole, then cut).
     #[arg(long, value_name = "K")]
     max_depth: Option<u8>,
+    /// Level of detail, in pixels: a ray stops at the first inner node no wider than PIXELS
+    /// times its pixel's footprint there and hits the node's contour with the node's
+    /// attributes (a file baked with --lod filtered; not with --wide-view). 0 walks to the
+    /// leaves.
+    #[arg(long, value_name = "PIXELS", default_value_t = 0.0)]
+    lod: f32,
     /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
     /// --mesh or --reference).
     #[arg(long, default_value = "contour")]
@@ -216,6 +222,7 @@ fn real_main() -> anyhow::Result<()> {
             bias_cells: args.bias,
             prepass: !args.no_prepass,
             packets: !args.no_packets,
+            lod: args.lod,
             ..TraceOptions::default()
         },
         lights: args.light.clone(),

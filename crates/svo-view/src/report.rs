@@ -106,6 +106,24 @@ pub struct CpuRun {
     pub cost_scale: u32,
     /// The comparison with the triangle reference.
     pub compare: Option<CompareReport>,
+    /// The level of detail asked for, in pixels (0: none).
+    pub lod: f32,
+    /// Whether it applied: the tree's inner nodes carry attributes.
+    pub lod_applied: bool,
+}
+
+impl CpuRun {
+    /// The head line's words on the level of detail, if one was asked for.
+    fn lod_words(&self) -> String {
+        match (self.lod > 0.0, self.lod_applied) {
+            (false, _) => String::new(),
+            (true, true) => format!(", lod {} px", self.lod),
+            (true, false) => format!(
+                ", lod {} px not applied (the tree's inner nodes carry no attributes: bake with --lod filtered)",
+                self.lod
+            ),
+        }
+    }
 }
 
 /// What the GPU's run adds to a report.
@@ -172,8 +190,10 @@ impl FrameReport {
             (Some(c), None) => {
                 writeln!(
                     f,
-                    "{w}x{h} depth {d} ({n} leaves), hit {}, {} threads",
-                    self.hit, c.threads
+                    "{w}x{h} depth {d} ({n} leaves), hit {}, {} threads{}",
+                    self.hit,
+                    c.threads,
+                    c.lod_words()
                 )?;
                 let cam = &self.camera;
                 let v = |a: [f64; 3]| format!("{:.6},{:.6},{:.6}", a[0], a[1], a[2]);

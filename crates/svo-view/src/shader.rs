@@ -77,6 +77,7 @@ pub fn constants_module(link: &ShaderLink) -> String {
     let u32s = [
         ("MAX_LIGHTS", MAX_LIGHTS as u32),
         ("NO_LEAF", svo::render::NO_LEAF),
+        ("NODE_ID", svo::render::NODE_ID),
         ("NO_NORMAL_WORD", svo::octree::NO_NORMAL),
         ("WG_X", WORKGROUP[0]),
         ("WG_Y", WORKGROUP[1]),

@@ -122,7 +122,9 @@ fn shared_structs_match_the_wgsl() {
                 n_nodes, const_normal, const_contour, const_colour, const_reflectivity,
                 const_refractivity, const_ior, specular, shininess, infinity, shadow_mode,
                 nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
-                ior_at, arena_shift, max_path_bounces, view_at),
+                ior_at, arena_shift, max_path_bounces, view_at, node_normal_at, node_contour_at,
+                node_colour_at, node_reflectivity_at, node_refractivity_at, node_ior_at,
+                lod_spread, pad),
         ),
         (
             "Light",

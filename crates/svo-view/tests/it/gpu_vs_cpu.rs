@@ -72,6 +72,83 @@ fn torus_with(mtl: Option<&str>, depth: u8, solid: Option<svo::bake::SolidMode>)
     svo::bake_mesh(&mesh, &opts).unwrap().0
 }
 
+/// The torus (with material `mtl`) baked at `depth` with its inner nodes' attributes.
+fn torus_with_levels(mtl: Option<&str>, depth: u8) -> Octree {
+    let plain = torus(mtl, depth);
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    // The same mesh, baked again with the inner nodes' attributes: the leaves are the same.
+    let mesh = match mtl {
+        None => svo::Mesh::load(fixtures.join("torus.obj")).unwrap(),
+        Some(m) => {
+            let dir = tempfile::tempdir().unwrap().keep();
+            let src = std::fs::read_to_string(fixtures.join("torus.obj")).unwrap();
+            std::fs::write(dir.join("torus.obj"), src).unwrap();
+            std::fs::write(dir.join("torus.mtl"), m).unwrap();
+            svo::Mesh::load(dir.join("torus.obj")).unwrap()
+        }
+    };
+    let opts = svo::BakeOptions {
+        depth,
+        node_attributes: true,
+        ..svo::BakeOptions::default()
+    };
+    let tree = svo::bake_mesh(&mesh, &opts).unwrap().0;
+    assert_eq!(tree.nodes, plain.nodes);
+    assert_eq!(tree.attributes, plain.attributes);
+    tree
+}
+
+/// A level of detail (rays stop at inner nodes as wide as their cones; secondary and shadow
+/// rays keep the cone's width) renders the same on the GPU as on the CPU: the copper torus
+/// with contours and shadows at three and six pixels, in cube mode at four, and the glass
+/// torus (refraction through the nodes' IOR) at four. Inner nodes are hit, and fewer steps are
+/// taken than at `--lod 0`.
+fn a_level_of_detail_renders_the_same() {
+    let glass = GLASS_MTL;
+    let exact = same_image(torus_with_levels(None, 7), TraceOptions::default(), 0.5);
+    let Some(exact) = exact else {
+        return;
+    };
+    // A pixel of this view is about one and a half leaves wide.
+    let cases = [
+        (None, 3.0, HitMode::Contour, 0.5),
+        (None, 6.0, HitMode::Contour, 0.5),
+        (None, 4.0, HitMode::Cube, 0.5),
+        (Some(glass), 4.0, HitMode::Contour, 2.0),
+    ];
+    for (mtl, lod, mode, max_rmse) in cases {
+        let tree = torus_with_levels(mtl, 7);
+        let trace = TraceOptions {
+            lod,
+            mode,
+            ..TraceOptions::default()
+        };
+        let v = ShaderVariant::for_scene(&tree, &trace, 1);
+        assert!(v.lod && v.node_channels[0] != 0, "{v:?}");
+        let s = scene(tree.clone());
+        let nodes = cpu_frame(&s, &trace)
+            .leaf
+            .iter()
+            .filter(|&&id| id != NO_LEAF && id & svo::render::NODE_ID != 0)
+            .count();
+        assert!(nodes > 100, "lod {lod}: {nodes} pixels on inner nodes");
+        let st = same_image(tree, trace, max_rmse).unwrap();
+        if mtl.is_none() && mode == HitMode::Contour {
+            assert!(st.primary_steps < exact.primary_steps, "lod {lod}: {st:?}");
+        }
+    }
+    // Without the inner nodes' attributes there is no level of detail to compile.
+    let plain = ShaderVariant::for_scene(
+        &torus(None, 7),
+        &TraceOptions {
+            lod: 2.0,
+            ..TraceOptions::default()
+        },
+        1,
+    );
+    assert!(!plain.lod && plain.node_channels == [0; 6]);
+}
+
 /// The scene of `tree` at 96x72 with the default camera and light.
 fn scene(tree: Octree) -> RenderScene {
     let setup = SceneSetup {
@@ -817,6 +894,7 @@ pub(crate) fn trials() -> Vec<Test> {
             common::gpu_need()
         ),
         trial!(the_wide_view_renders_the_same, common::gpu_need()),
+        trial!(a_level_of_detail_renders_the_same, common::gpu_need()),
         trial!(
             the_thesis_pool_views,
             common::gpu_need(),

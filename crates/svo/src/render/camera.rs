@@ -1,6 +1,7 @@
 //! A pinhole camera: eye, target, up and a vertical field of view, with pixel centres at
 //! half-integer positions; and the default camera that frames a set of bounds.
 
+use crate::trace::cone::Cone;
 use glam::DVec3;
 use thiserror::Error;
 
@@ -139,6 +140,23 @@ impl Camera {
             px_scale: glam::Vec2::new(2.0 / self.width as f32, 2.0 / self.height as f32),
             half_extent: glam::DVec2::new(tan_half * aspect, tan_half).as_vec2(),
         })
+    }
+}
+
+impl Camera {
+    /// The footprint of the primary rays for a level of detail of `lod` pixels: no width at
+    /// the eye, and the angle of a pixel at the image's centre (`2 tan(fov / 2) / height`)
+    /// times `lod` as its spread. [`Cone::EXACT`] when `lod` is not positive.
+    pub fn pixel_cone(&self, lod: f32) -> Cone {
+        if !(lod > 0.0) {
+            return Cone::EXACT;
+        }
+        let tan_half = (self.fov_deg.to_radians() * 0.5).tan();
+        let pixel = 2.0 * tan_half / f64::from(self.height.max(1));
+        Cone {
+            width: 0.0,
+            spread: (pixel * f64::from(lod)) as f32,
+        }
     }
 }
 

@@ -9,6 +9,7 @@ use crate::octree::builder::Voxel;
 use crate::octree::tree::Octree;
 use crate::render::surfaces::{OctreeSurfaces, Query, SurfaceHit, Surfaces, Traced, Walked};
 use crate::render::surfaces_error::SurfacesError;
+use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
 use crate::trace::traverse::traverse;
@@ -187,6 +188,7 @@ impl Surfaces for ChunkedSurfaces<'_> {
         ray: &GridRay,
         tmax: f32,
         skip: Option<u32>,
+        cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {
@@ -196,6 +198,7 @@ impl Surfaces for ChunkedSurfaces<'_> {
                 r,
                 tmax,
                 local(c, skip),
+                cone,
                 max_steps.saturating_sub(steps),
                 &mut |h| visit(&whole(c, h)),
             );

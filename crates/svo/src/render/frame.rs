@@ -11,6 +11,7 @@ use crate::render::camera::{Camera, CameraError, CameraRays};
 use crate::render::primary_prepass::{BAND, PrimaryBand, PrimaryScratch, PrimaryView};
 use crate::render::surfaces::Surfaces;
 use crate::render::whitted::{PrimaryStart, Sample, SampleStats, Tracer};
+use crate::trace::cone::Cone;
 use crate::trace::packet::LANES;
 use glam::Vec3;
 use std::time::{Duration, Instant};
@@ -94,7 +95,8 @@ pub struct Frame {
     pub depth: Vec<f32>,
     /// Primary hit shading normal (zero on a miss).
     pub normal: Vec<Vec3>,
-    /// Primary hit leaf index, [`NO_LEAF`] on a miss.
+    /// Primary hit leaf index, [`NO_LEAF`] on a miss; an inner node hit with a level of
+    /// detail is its index with [`crate::render::NODE_ID`] set.
     pub leaf: Vec<u32>,
     /// Primary ray traversal steps.
     pub cost: Vec<u32>,
@@ -168,6 +170,8 @@ struct Bands<'a, S: Surfaces> {
     eye: Vec3,
     width: u32,
     view: Option<PrimaryView>,
+    /// The primary rays' footprint.
+    cone: Cone,
 }
 
 impl<S: Surfaces> Bands<'_, S> {
@@ -228,8 +232,13 @@ impl<S: Surfaces> Bands<'_, S> {
             } else if n == 0 {
                 break;
             }
-            let samples =
-                tracer.trace_primary4(self.eye, &group.map(|g| g.1), &group.map(|g| g.2), n);
+            let samples = tracer.trace_primary4(
+                self.eye,
+                &group.map(|g| g.1),
+                &group.map(|g| g.2),
+                n,
+                self.cone,
+            );
             for (s, &(i, ..)) in samples.iter().zip(&group).take(n) {
                 out.sample(i, s);
             }
@@ -255,7 +264,10 @@ impl<S: Surfaces> Bands<'_, S> {
                 out.miss(i, self.tracer.miss_colour(dir), tests);
                 continue;
             }
-            out.sample(i, &self.tracer.trace_primary(self.eye, dir, start));
+            out.sample(
+                i,
+                &self.tracer.trace_primary(self.eye, dir, start, self.cone),
+            );
         }
     }
 }
@@ -278,12 +290,14 @@ pub fn render_into<S: Surfaces>(
     f.normal.resize(px, Vec3::ZERO);
     f.leaf.resize(px, NO_LEAF);
     f.cost.resize(px, 0);
+    let cone = tracer.primary_cone(camera);
     let bands = Bands {
         tracer,
         rays: &rays,
         eye: tracer.to_grid(camera.eye),
         width: w,
-        view: PrimaryView::new(tracer, &rays),
+        view: PrimaryView::new(tracer, &rays, cone),
+        cone,
     };
     let band = |scratch: &mut PrimaryScratch,
                 y0: u32,

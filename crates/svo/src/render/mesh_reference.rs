@@ -9,6 +9,7 @@
 use crate::geometry::grid::RootCube;
 use crate::mesh::triangle_mesh::Mesh;
 use crate::render::surfaces::{Query, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked};
+use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use glam::{Vec3, Vec3A};
 use obvhs::bvh2::Bvh2;
@@ -114,6 +115,7 @@ impl MeshSurfaces {
             t,
             t_exit: t,
             id,
+            side: 1,
             normal: self.normals[id as usize],
             material,
             medium: None,
@@ -161,6 +163,7 @@ impl Surfaces for MeshSurfaces {
         ray: &GridRay,
         tmax: f32,
         skip: Option<u32>,
+        _cone: Cone,
         _max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {

@@ -64,7 +64,8 @@ pub use setup::{LightSpec, MAX_TRACE_DEPTH, RenderScene, SceneSetup, SetupError,
 pub use shading::{Phong, PointLight};
 pub use sky::{CubeMap, Sky};
 pub use surfaces::{
-    LeafShape, Medium, OctreeSurfaces, Query, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked,
+    LeafShape, Medium, NODE_ID, OctreeSurfaces, Query, SurfaceHit, SurfaceMaterial, Surfaces,
+    Traced, Walked,
 };
 pub use surfaces_error::SurfacesError;
 pub use whitted::{

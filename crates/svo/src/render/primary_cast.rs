@@ -23,7 +23,8 @@ pub struct Hits {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// The leaf (or triangle) hit, [`NO_LEAF`] on a miss.
+    /// The leaf (or triangle) hit, [`NO_LEAF`] on a miss; an inner node hit with a level of
+    /// detail is its index with [`crate::render::NODE_ID`] set.
     pub leaf: Vec<u32>,
     /// Hit distance in scene units along the unit ray, `+inf` on a miss.
     pub depth: Vec<f32>,
@@ -54,7 +55,8 @@ pub fn cast_primary<S: Surfaces>(
     out.height = h;
     out.leaf.resize(px, NO_LEAF);
     out.depth.resize(px, f32::INFINITY);
-    let view = PrimaryView::new(tracer, &rays);
+    let cone = tracer.primary_cone(camera);
+    let view = PrimaryView::new(tracer, &rays, cone);
     let eye = tracer.to_grid(camera.eye);
     let scale = tracer.scale();
     let max_steps = tracer.options().max_steps;
@@ -83,7 +85,10 @@ pub fn cast_primary<S: Surfaces>(
             };
             if decided.is_none() && tracer.options().packets {
                 // Every ray from the eye: neighbouring pixels in packets.
-                let q = Query::all(max_steps);
+                let q = Query {
+                    cone,
+                    ..Query::all(max_steps)
+                };
                 for i in (0..px).step_by(LANES) {
                     let n = (px - i).min(LANES);
                     let packet = std::array::from_fn(|l| ray_of(i + l.min(n - 1)));
@@ -106,6 +111,7 @@ pub fn cast_primary<S: Surfaces>(
                     };
                     let q = Query {
                         tmin,
+                        cone,
                         ..Query::all(max_steps)
                     };
                     tracer.surfaces().first_hit(&ray_of(i), &q, &start)

@@ -23,6 +23,11 @@
 //! ([`traverse_node`], which hands over the same leaves and entries as the walk from the
 //! root), and a hit there is its first hit for the same reason.
 //!
+//! Where the rays have a footprint ([`crate::trace::Cone`]), the nodes where they stop
+//! depend on the node and the eye alone: such a node is tested as a leaf is (the planes of the
+//! box of its leaves, as the walk has them, its entry, the surfaces' test of the node), and
+//! nothing below it is projected.
+//!
 //! A ray that only touches a cell or a walked node (`enter == exit`: through an edge or a
 //! corner, which the traversal skips except where a ray starts) is left to the ordinary
 //! traversal from the eye ([`PrimaryStart::From`]). Open pixels left when the walk ends hit
@@ -30,10 +35,12 @@
 //! are opened for the whole band.
 
 use crate::geometry::child_classify::child_offset;
+use crate::octree::bounds;
 use crate::octree::tree::Octree;
 use crate::render::camera::CameraRays;
 use crate::render::surfaces::Surfaces;
 use crate::render::whitted::{PrimaryStart, Tracer};
+use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, entry_normal_of, exit_normal_of, safe_inverse};
 use crate::trace::traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
 use glam::{DVec3, UVec3, Vec3, Vec3A};
@@ -68,11 +75,18 @@ pub(crate) struct PrimaryView {
     by: f64,
     width: u32,
     height: u32,
+    /// The primary rays' footprint: the nodes where they stop.
+    cone: Cone,
 }
 
 impl PrimaryView {
-    /// The prepass of `rays` (the tracer's camera), when the tracer's options ask for one.
-    pub(crate) fn new<S: Surfaces>(tracer: &Tracer<S>, rays: &CameraRays) -> Option<Self> {
+    /// The prepass of `rays` (the tracer's camera) whose rays have footprint `cone`, when the
+    /// tracer's options ask for one.
+    pub(crate) fn new<S: Surfaces>(
+        tracer: &Tracer<S>,
+        rays: &CameraRays,
+        cone: Cone,
+    ) -> Option<Self> {
         if !tracer.options().prepass {
             return None;
         }
@@ -114,6 +128,7 @@ impl PrimaryView {
             by: 0.5 * f64::from(h) - 0.5,
             width: w,
             height: h,
+            cone,
         })
     }
 
@@ -432,15 +447,27 @@ impl<'a> PrimaryBand<'a> {
 
     /// Decides the band's rays on `tree`, with `leaf_test(leaf)` the surfaces' hit test of
     /// that leaf's entries (the parameter of the hit, or `None` where the ray goes on through
-    /// the leaf), made once for all the rays tested against the leaf. Unless `reads_normals`,
-    /// the test is given the entries with their face normals zero, and a hit's entry gets
-    /// them before it is kept.
-    pub(crate) fn decide<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
+    /// the leaf), made once for all the rays tested against the leaf, and `node_test(node, side)`
+    /// the same for an inner node of `side` cells where the view's rays have a footprint that
+    /// stops there
+    /// ([`crate::trace::Cone`]: the nodes no wider than the cone at their distance from the
+    /// eye, tested as the walk hands them over, in place of their leaves). Unless
+    /// `reads_normals`, the tests are given the entries with their face normals zero, and a
+    /// hit's entry gets them before it is kept.
+    pub(crate) fn decide<T, N>(
         &mut self,
         tree: &Octree,
         reads_normals: bool,
         leaf_test: impl Fn(u32) -> T,
-    ) {
+        node_test: impl Fn(u32, u32) -> N,
+    ) where
+        T: Fn(&GridRay, &LeafEntry) -> Option<f32>,
+        N: Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    {
+        let tests = Tests {
+            leaf: leaf_test,
+            node: node_test,
+        };
         let depth = tree.depth;
         if !(1..=24).contains(&depth) {
             return;
@@ -477,6 +504,8 @@ impl<'a> PrimaryBand<'a> {
             });
         }
         let eye = self.view.eye;
+        let cone = self.view.cone;
+        let coarse = !cone.is_exact();
         while let Some(p) = stack.pop() {
             let Some(rect) = self.rect(p.origin, p.side) else {
                 continue;
@@ -488,8 +517,20 @@ impl<'a> PrimaryBand<'a> {
             let Some(&node) = tree.nodes.get(p.index as usize) else {
                 continue;
             };
+            if coarse
+                && p.side < n
+                && !node.is_leaf_parent()
+                && cone.stops_at(p.side, node_distance(eye, p.origin, p.side))
+            {
+                // The node stands for its subtree, within the box of its leaves.
+                let planes = bounds::cell_box(node.info >> 8, p.origin, p.side);
+                let cell = (p.index, p.origin, p.side);
+                let test = |node| (tests.node)(node, p.side);
+                self.test_cell(cell, planes, rect, reads_normals, &test);
+                continue;
+            }
             if open <= WALK_PIXELS {
-                self.walk_node(tree, p, rect, &leaf_test);
+                self.walk_node(tree, p, rect, &tests);
                 continue;
             }
             let half = p.side / 2;
@@ -511,7 +552,14 @@ impl<'a> PrimaryBand<'a> {
                     };
                     let cell = child(c);
                     if let Some(r) = self.rect(cell, 1) {
-                        self.test_leaf(base + rank, cell, r, reads_normals, &leaf_test);
+                        let planes = (cell, cell + UVec3::ONE);
+                        self.test_cell(
+                            (base + rank, cell, 1),
+                            planes,
+                            r,
+                            reads_normals,
+                            &tests.leaf,
+                        );
                     }
                 }
             } else if half >= 2 {
@@ -602,13 +650,16 @@ impl<'a> PrimaryBand<'a> {
 
     /// Decides the open pixels of `r` by walking node `p`'s subtree along each one's ray
     /// ([`traverse_node`]: the leaves and entries of the walk from the root, within it).
-    fn walk_node<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
+    fn walk_node<T, N>(
         &mut self,
         tree: &Octree,
         p: Pending,
         r: Rect,
-        leaf_test: &impl Fn(u32) -> T,
-    ) {
+        tests: &Tests<impl Fn(u32) -> T, impl Fn(u32, u32) -> N>,
+    ) where
+        T: Fn(&GridRay, &LeafEntry) -> Option<f32>,
+        N: Fn(&GridRay, &LeafEntry) -> Option<f32>,
+    {
         let start = StartNode {
             index: p.index,
             origin: p.origin,
@@ -623,9 +674,24 @@ impl<'a> PrimaryBand<'a> {
             } else {
                 band.view.ray(x, y)
             };
-            let walk = traverse_node(tree, &ray, start, 0.0, f32::INFINITY, MAX_STEPS, |e| {
-                leaf_test(e.leaf)(&ray, e).map(|t| (*e, t))
-            });
+            let cone = band.view.cone;
+            let walk = traverse_node(
+                tree,
+                &ray,
+                start,
+                cone,
+                0.0,
+                f32::INFINITY,
+                MAX_STEPS,
+                |e| {
+                    let t = if e.side > 1 {
+                        (tests.node)(e.leaf, e.side)(&ray, e)
+                    } else {
+                        (tests.leaf)(e.leaf)(&ray, e)
+                    };
+                    t.map(|t| (*e, t))
+                },
+            );
             let s = &mut *band.s;
             match walk {
                 Some(tr) => {
@@ -642,22 +708,25 @@ impl<'a> PrimaryBand<'a> {
         });
     }
 
-    /// Tests leaf `leaf` at `cell` against the open pixels of `r` (the entries' face normals
-    /// made before the test where it `reads_normals`, else for the hits alone).
-    fn test_leaf<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
+    /// Tests leaf `leaf` at `cell` (`side` 1), or inner node `leaf` standing for its subtree
+    /// (its cube of `side` cells from `cell`), between the planes `(lo, hi)` (the cell's, or the
+    /// box of the node's leaves), against the open pixels of `r` with `make_test(leaf)` (the
+    /// entries' face normals made before the test where it `reads_normals`, else for the hits
+    /// alone).
+    fn test_cell<T: Fn(&GridRay, &LeafEntry) -> Option<f32>>(
         &mut self,
-        leaf: u32,
-        cell: UVec3,
+        (leaf, cell, side): (u32, UVec3, u32),
+        (lo, hi): (UVec3, UVec3),
         r: Rect,
         reads_normals: bool,
-        leaf_test: &impl Fn(u32) -> T,
+        make_test: &impl Fn(u32) -> T,
     ) {
         // The leaf's test, made when the first ray enters the cell.
         let mut test = None;
-        // The cell's planes relative to the eye, as the traversal has them.
+        // The planes relative to the eye, as the traversal has them.
         let eye = Vec3A::from(self.view.eye);
-        let lo = Vec3A::from(cell.as_vec3()) - eye;
-        let hi = Vec3A::from((cell + UVec3::ONE).as_vec3()) - eye;
+        let lo = Vec3A::from(lo.as_vec3()) - eye;
+        let hi = Vec3A::from(hi.as_vec3()) - eye;
         self.each_open(r, |band, at, b, i, x, y| {
             let view = band.view;
             let s = &mut *band.s;
@@ -673,12 +742,12 @@ impl<'a> PrimaryBand<'a> {
                         origin: view.eye,
                         dir: s.rays[i].dir,
                     };
-                    match leaf_entry(t0, t1, leaf, cell) {
+                    match cell_entry(t0, t1, leaf, cell, side) {
                         Some(mut e) => {
                             if reads_normals {
                                 add_normals(&mut e, t0, t1, mask);
                             }
-                            let hit_t = test.get_or_insert_with(|| leaf_test(leaf));
+                            let hit_t = test.get_or_insert_with(|| make_test(leaf));
                             if let Some(t) = hit_t(&ray, &e) {
                                 if !reads_normals {
                                     add_normals(&mut e, t0, t1, mask);
@@ -720,16 +789,18 @@ fn span_mask(k: usize, x0: u32, x1: u32) -> u64 {
 }
 
 /// The traversal's [`LeafEntry`] (from parameter 0, unbounded) of leaf `leaf` at `cell`
-/// for a ray whose parameters at the cell's entry planes are `t0` and at its exit planes
-/// `t1` (the traversal's `(p - o) * (1 / d)`), when the ray passes through the cell with
-/// positive length; its face normals zero until [`add_normals`] makes them.
+/// (or of a node of `side` cells there) for a ray whose parameters at the cell's entry planes
+/// are `t0` and at its exit planes `t1` (the traversal's `(p - o) * (1 / d)`), when the ray
+/// passes through the cell with positive length; its face normals zero until
+/// [`add_normals`] makes them.
 #[inline]
-fn leaf_entry(t0: Vec3A, t1: Vec3A, leaf: u32, cell: UVec3) -> Option<LeafEntry> {
+fn cell_entry(t0: Vec3A, t1: Vec3A, leaf: u32, cell: UVec3, side: u32) -> Option<LeafEntry> {
     let t_enter = max(t0.max_element(), 0.0);
     let t_exit = t1.min_element();
     (t_enter < t_exit).then_some(LeafEntry {
         leaf,
         cell,
+        side,
         t_enter,
         t_exit,
         entry_normal: Vec3::ZERO,
@@ -737,7 +808,14 @@ fn leaf_entry(t0: Vec3A, t1: Vec3A, leaf: u32, cell: UVec3) -> Option<LeafEntry>
     })
 }
 
-/// The face normals of entry `e` ([`leaf_entry`]'s `t0` and `t1`) for a ray whose mirrored
+/// The hit tests the surfaces give a band: per leaf and per inner node standing for its
+/// subtree.
+struct Tests<L, N> {
+    leaf: L,
+    node: N,
+}
+
+/// The face normals of entry `e` ([`cell_entry`]'s `t0` and `t1`) for a ray whose mirrored
 /// axes (negative direction components) are `mask`, as the traversal makes them.
 #[inline]
 fn add_normals(e: &mut LeafEntry, t0: Vec3A, t1: Vec3A, mask: u8) {

@@ -6,13 +6,14 @@
 use crate::geometry::grid::RootCube;
 use crate::mesh::triangle_mesh::srgb_to_linear;
 use crate::octree::encoding::ior_decode;
-use crate::octree::tree::Octree;
+use crate::octree::tree::{LeafAttributes, Octree};
 use crate::render::primary_prepass::PrimaryBand;
 use crate::render::whitted::PrimaryStart;
+use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
 use crate::trace::packet::{LANES, traverse_packet, traverse_packet_with};
-use crate::trace::traverse::{LeafEntry, traverse};
+use crate::trace::traverse::{LeafEntry, traverse_cone};
 use glam::Vec3;
 
 /// The material at a hit.
@@ -47,10 +48,14 @@ pub struct Query {
     pub medium: Option<Medium>,
     /// The traversal step cap.
     pub max_steps: u32,
+    /// The ray's footprint: surfaces with a level of detail (an octree with inner-node
+    /// attributes) may stop at a node as wide as the cone there ([`crate::trace::Cone`]);
+    /// [`Cone::EXACT`] for the exact surfaces.
+    pub cone: Cone,
 }
 
 impl Query {
-    /// The whole ray, nothing skipped, in the open.
+    /// The whole ray, nothing skipped, in the open, exact.
     pub fn all(max_steps: u32) -> Self {
         Self {
             tmin: 0.0,
@@ -58,8 +63,19 @@ impl Query {
             skip: None,
             medium: None,
             max_steps,
+            cone: Cone::EXACT,
         }
     }
+}
+
+/// The bit a [`SurfaceHit::id`] carries when the hit is on an inner node of an octree drawn in
+/// place of its subtree (a walk with a footprint); the bits below it are the node's index.
+pub const NODE_ID: u32 = 1 << 31;
+
+/// The id of a hit on entry `e`: the leaf's index, or the node's with [`NODE_ID`].
+#[inline]
+fn entry_id(e: &LeafEntry) -> u32 {
+    if e.side > 1 { NODE_ID | e.leaf } else { e.leaf }
 }
 
 /// A ray's hit on a surface.
@@ -69,8 +85,12 @@ pub struct SurfaceHit {
     pub t: f32,
     /// Where the ray leaves the primitive's cell (octree) or `t` (triangles).
     pub t_exit: f32,
-    /// Leaf or triangle index.
+    /// Leaf or triangle index; an inner node's index with [`NODE_ID`] set.
     pub id: u32,
+    /// The side of the cell hit, in leaves: 1 for a leaf or a triangle, more for an inner
+    /// node drawn in place of its subtree. Secondary rays start that many times further off
+    /// the surface.
+    pub side: u32,
     /// The unit shading normal, oriented as the surface is (outwards for closed meshes), or
     /// zero if unknown.
     pub normal: Vec3,
@@ -124,7 +144,7 @@ impl FirstHit {
                 capped: false,
             }),
             PrimaryStart::Leaf { entry, t, tests } => Some(Self {
-                hit: Some((entry.leaf, t)),
+                hit: Some((entry_id(&entry), t)),
                 steps: tests,
                 capped: false,
             }),
@@ -206,6 +226,13 @@ pub trait Surfaces: Sync {
         self.closest(&rays[l], &q[l])
     }
 
+    /// Whether a ray's cone ([`Query::cone`]) can stop it before the finest surface: an
+    /// octree whose inner nodes carry attributes. Renders with a level of detail trace the
+    /// rays of others exactly, as they would without one.
+    fn level_of_detail(&self) -> bool {
+        false
+    }
+
     /// Decides the primary rays of a band of image rows at once, where the surfaces know
     /// how (the octree: its primary prepass); others leave the band's starts as they
     /// are (every ray traced from the eye).
@@ -247,12 +274,13 @@ pub trait Surfaces: Sync {
     }
 
     /// Calls `visit` for the hits in `[0, tmax]` front to back (ignoring `skip`) until it
-    /// returns `true`.
+    /// returns `true`; surfaces with a level of detail may stop at nodes as wide as `cone`.
     fn walk(
         &self,
         ray: &GridRay,
         tmax: f32,
         skip: Option<u32>,
+        cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked;
@@ -263,11 +291,13 @@ pub trait Surfaces: Sync {
     /// A hit's `normal` may be zero here (the octree leaves it out where its leaves' test does
     /// not need it).
     #[doc(hidden)]
+    #[allow(clippy::too_many_arguments)]
     fn walks(
         &self,
         rays: &[GridRay; LANES],
         tmax: [f32; LANES],
         skip: [Option<u32>; LANES],
+        cones: [Cone; LANES],
         active: u8,
         max_steps: u32,
         visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
@@ -276,7 +306,9 @@ pub trait Surfaces: Sync {
             if active >> l & 1 == 0 {
                 return Walked::NONE;
             }
-            self.walk(&rays[l], tmax[l], skip[l], max_steps, &mut |h| visit(l, h))
+            self.walk(&rays[l], tmax[l], skip[l], cones[l], max_steps, &mut |h| {
+                visit(l, h)
+            })
         })
     }
 }
@@ -312,6 +344,12 @@ pub trait LeafShape: Sync {
         move |ray, e| self.hit_t(tree, ray, e)
     }
 
+    /// How an inner node drawn in place of its subtree (a walk with a footprint) is hit: its
+    /// contour ([`HitMode::Contour`], the default) or its cube ([`HitMode::Cube`]).
+    fn node_mode(&self) -> HitMode {
+        HitMode::Contour
+    }
+
     /// Whether [`Self::leaf_hit_t`]'s answer depends on the entry's face normals
     /// ([`LeafEntry::entry_normal`], [`LeafEntry::exit_normal`]). Where it does not, the
     /// primary prepass tests its entries with those left zero and works them out for the
@@ -324,12 +362,12 @@ pub trait LeafShape: Sync {
 impl LeafShape for HitMode {
     #[inline]
     fn hit(&self, tree: &Octree, ray: &GridRay, e: &LeafEntry) -> Option<(f32, Vec3)> {
-        let test = LeafTest::new(tree, e.leaf, *self);
+        let test = LeafTest::of_entry(tree, e, *self);
         let h = test.hit(ray, e)?;
         let n = match test {
             // The slab's normal is the stored one, decoded.
             LeafTest::Slab { n, .. } => n,
-            LeafTest::Cube => stored_normal_or(tree, e.leaf, h.normal),
+            LeafTest::Cube => stored_normal_or(tree, e, h.normal),
         };
         Some((h.t, n))
     }
@@ -343,7 +381,7 @@ impl LeafShape for HitMode {
     /// the face the ray entered through: [`Self::hit`]'s normal without the test.
     #[inline]
     fn hit_at(&self, tree: &Octree, _: &GridRay, e: &LeafEntry, t: f32) -> Option<(f32, Vec3)> {
-        Some((t, stored_normal_or(tree, e.leaf, e.entry_normal)))
+        Some((t, stored_normal_or(tree, e, e.entry_normal)))
     }
 
     #[inline]
@@ -356,6 +394,13 @@ impl LeafShape for HitMode {
         move |ray, e| test.hit(ray, e).map(|h| h.t)
     }
 
+    fn node_mode(&self) -> HitMode {
+        match self {
+            Self::Cube => Self::Cube,
+            _ => Self::Contour,
+        }
+    }
+
     /// The cube's and the slab's parameters come from the entry's parameters alone.
     #[inline]
     fn hit_t_reads_normals(&self) -> bool {
@@ -363,12 +408,17 @@ impl LeafShape for HitMode {
     }
 }
 
-/// Leaf `leaf`'s stored normal, decoded, or `geometric` where the tree stores none.
+/// Entry `e`'s stored normal (its leaf's, or its inner node's), decoded, or `geometric`
+/// where the tree stores none.
 #[inline]
-fn stored_normal_or(tree: &Octree, leaf: u32, geometric: Vec3) -> Vec3 {
-    tree.attributes
-        .normal
-        .get(leaf as usize)
+fn stored_normal_or(tree: &Octree, e: &LeafEntry, geometric: Vec3) -> Vec3 {
+    let a = if e.side > 1 {
+        &tree.node_attributes
+    } else {
+        &tree.attributes
+    };
+    a.normal
+        .get(e.leaf as usize)
         .map_or(geometric, crate::octree::normal_encoding::decode)
 }
 
@@ -380,6 +430,8 @@ pub struct OctreeSurfaces<'a, L = HitMode> {
     srgb: [f32; 256],
     /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
     interior: bool,
+    /// Whether the inner nodes carry attributes: only then may a ray's cone stop at them.
+    coarse: bool,
 }
 
 impl<'a> OctreeSurfaces<'a> {
@@ -397,6 +449,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             shape,
             srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
             interior: tree.attributes.has_interior(),
+            coarse: !tree.node_attributes.stored().is_empty(),
         }
     }
 
@@ -409,7 +462,12 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
     /// reflective, opaque, IOR 1.5).
     #[inline]
     pub fn material(&self, i: u32) -> SurfaceMaterial {
-        let a = &self.tree.attributes;
+        self.material_in(&self.tree.attributes, i)
+    }
+
+    /// The material of entry `i` of channels `a` (the leaves' or the inner nodes').
+    #[inline]
+    fn material_in(&self, a: &LeafAttributes, i: u32) -> SurfaceMaterial {
         let i = i as usize;
         let albedo = a.colour.get(i).map_or(Vec3::splat(0.8), |c| {
             let b = c.to_le_bytes();
@@ -434,9 +492,18 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         self.interior && self.tree.attributes.is_interior(i as usize)
     }
 
+    /// The cone a walk with `cone` uses here: none where the inner nodes carry nothing.
+    #[inline]
+    fn cone(&self, cone: Cone) -> Cone {
+        if self.coarse { cone } else { Cone::EXACT }
+    }
+
     /// The surface hit of leaf entry `e`, if the shape is hit.
     #[inline]
     fn surface_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
+        if e.side > 1 {
+            return self.node_hit(ray, e);
+        }
         if self.passes_through(e.leaf) {
             return None;
         }
@@ -447,8 +514,31 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
     /// [`Self::surface_hit`] of an entry the prepass found hit at `t`.
     #[inline]
     fn decided_hit(&self, ray: &GridRay, e: &LeafEntry, t: f32) -> Option<SurfaceHit> {
+        if e.side > 1 {
+            return self.node_hit(ray, e);
+        }
         let (t, normal) = self.shape.hit_at(self.tree, ray, e, t)?;
         Some(self.hit_of(e, t, normal))
+    }
+
+    /// The hit of an inner node's entry `e` (a walk with a footprint): its contour or cube
+    /// ([`LeafShape::node_mode`]) with the node's attributes.
+    fn node_hit(&self, ray: &GridRay, e: &LeafEntry) -> Option<SurfaceHit> {
+        let test = LeafTest::of_entry(self.tree, e, self.shape.node_mode());
+        let h = test.hit(ray, e)?;
+        let normal = match test {
+            LeafTest::Slab { n, .. } => n,
+            LeafTest::Cube => stored_normal_or(self.tree, e, h.normal),
+        };
+        Some(SurfaceHit {
+            t: h.t,
+            t_exit: e.t_exit,
+            id: entry_id(e),
+            side: e.side,
+            normal,
+            material: self.material_in(&self.tree.node_attributes, e.leaf),
+            medium: None,
+        })
     }
 
     /// The hit of entry `e` at `t` with shading normal `normal`: the leaf's material and
@@ -459,6 +549,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             t,
             t_exit: e.t_exit,
             id: e.leaf,
+            side: 1,
             normal,
             material: self.material(e.leaf),
             medium: self.medium_of(e.leaf),
@@ -483,12 +574,12 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
                 // A gap after the medium's cells: the ray left it there.
                 return Some(self.medium_exit(q, x));
             }
-            if self.medium_of(e.leaf) == Some(m) {
+            if e.side == 1 && self.medium_of(e.leaf) == Some(m) {
                 *run = Some((e.t_exit, e.exit_normal, e.leaf));
                 return None;
             }
         }
-        if Some(e.leaf) == q.skip {
+        if Some(entry_id(e)) == q.skip {
             return None;
         }
         self.surface_hit(ray, e)
@@ -500,6 +591,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             t,
             t_exit: t,
             id: leaf,
+            side: 1,
             normal: n,
             material: self.material(leaf),
             medium: q.medium,
@@ -546,12 +638,24 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         (self.tree.root, self.tree.depth)
     }
 
+    fn level_of_detail(&self) -> bool {
+        self.coarse
+    }
+
     fn primary_band(&self, band: &mut PrimaryBand<'_>) {
-        band.decide(self.tree, self.shape.hit_t_reads_normals(), |leaf| {
-            let through = self.passes_through(leaf);
-            let hit_t = self.shape.leaf_hit_t(self.tree, leaf);
-            move |ray: &GridRay, e: &LeafEntry| if through { None } else { hit_t(ray, e) }
-        });
+        band.decide(
+            self.tree,
+            self.shape.hit_t_reads_normals(),
+            |leaf| {
+                let through = self.passes_through(leaf);
+                let hit_t = self.shape.leaf_hit_t(self.tree, leaf);
+                move |ray: &GridRay, e: &LeafEntry| if through { None } else { hit_t(ray, e) }
+            },
+            |node, side| {
+                let test = LeafTest::of_node(self.tree, node, side, self.shape.node_mode());
+                move |ray: &GridRay, e: &LeafEntry| test.hit(ray, e).map(|h| h.t)
+            },
+        );
     }
 
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
@@ -585,7 +689,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
-        if q.medium.is_some() || q.skip.is_some() {
+        if q.medium.is_some() || q.skip.is_some() || !self.cone(q.cone).is_exact() {
             return std::array::from_fn(|l| {
                 if l < n {
                     self.closest(&rays[l], q).into()
@@ -620,7 +724,8 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
         let mut run = None;
-        let r = traverse(self.tree, ray, q.tmin, q.tmax, q.max_steps, |e| {
+        let cone = self.cone(q.cone);
+        let r = traverse_cone(self.tree, ray, cone, q.tmin, q.tmax, q.max_steps, |e| {
             self.closest_at(ray, q, &mut run, e)
         });
         self.closest_of(q, run, r.hit, r.steps, r.capped)
@@ -628,7 +733,10 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
         let max_steps = q.iter().map(|q| q.max_steps).max().unwrap_or(0);
-        if q.iter().any(|x| x.max_steps != max_steps) {
+        // The packet walk is the exact one: lanes with a footprint walk alone.
+        if q.iter()
+            .any(|x| x.max_steps != max_steps || !self.cone(x.cone).is_exact())
+        {
             return std::array::from_fn(|l| self.closest_lane(rays, q, active, l));
         }
         let mut run = [None; LANES];
@@ -649,11 +757,13 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         ray: &GridRay,
         tmax: f32,
         skip: Option<u32>,
+        cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {
-        let r = traverse(self.tree, ray, 0.0, tmax, max_steps, |e| {
-            if Some(e.leaf) == skip {
+        let cone = self.cone(cone);
+        let r = traverse_cone(self.tree, ray, cone, 0.0, tmax, max_steps, |e| {
+            if Some(entry_id(e)) == skip {
                 return None;
             }
             let h = self.surface_hit(ray, e)?;
@@ -671,10 +781,22 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         rays: &[GridRay; LANES],
         tmax: [f32; LANES],
         skip: [Option<u32>; LANES],
+        cones: [Cone; LANES],
         active: u8,
         max_steps: u32,
         visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
     ) -> [Walked; LANES] {
+        // The packet walk is the exact one: lanes with a footprint walk alone.
+        if cones.iter().any(|c| !self.cone(*c).is_exact()) {
+            return std::array::from_fn(|l| {
+                if active >> l & 1 == 0 {
+                    return Walked::NONE;
+                }
+                self.walk(&rays[l], tmax[l], skip[l], cones[l], max_steps, &mut |h| {
+                    visit(l, h)
+                })
+            });
+        }
         // Where the shape's test reads no entry normals, the walk makes none and the hits
         // carry no shading normal (a walk's hits are for visibility).
         let normals = self.shape.hit_t_reads_normals();

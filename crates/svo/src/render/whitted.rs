@@ -39,9 +39,11 @@
 
 use crate::geometry::grid::RootCube;
 use crate::octree::encoding::{ior_decode, ior_encode};
+use crate::render::camera::Camera;
 use crate::render::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::render::sky::Sky;
 use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces, Traced, Walked};
+use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
 use crate::trace::packet::LANES;
@@ -152,6 +154,14 @@ pub struct TraceOptions {
     /// render in which no ray bounces. The image, the hits and the steps are the same either
     /// way.
     pub packets: bool,
+    /// Level of detail, in pixels: a ray may stop at an inner node (of a tree whose inner
+    /// nodes carry attributes) no wider than `lod` times its pixel's cone there, and hit the
+    /// node's contour with the node's attributes. `0` (the default) is the exact walk to the
+    /// leaves. Reflection and refraction rays keep the cone's width at the hit and its
+    /// spread; shadow rays keep that width toward the light; secondary and shadow rays from a
+    /// node start the bias times the node's side off it. The prepass decides primary rays
+    /// with a footprint as the walk would; rays with one walk alone, not in packets.
+    pub lod: f32,
 }
 
 impl Default for TraceOptions {
@@ -167,6 +177,7 @@ impl Default for TraceOptions {
             max_steps: MAX_STEPS,
             prepass: true,
             packets: true,
+            lod: 0.0,
         }
     }
 }
@@ -264,6 +275,8 @@ struct Task {
     /// The IORs of the media the ray is in, as [`ior_encode`] codes: the current one in the
     /// low 16 bits, the one around it in the high 16 (0: air).
     iors: u32,
+    /// The ray's footprint.
+    cone: Cone,
 }
 
 const NO_MEDIUM: u64 = u64::MAX;
@@ -280,6 +293,7 @@ const EMPTY: Task = Task {
     skip: 0,
     medium: 0,
     iors: 0,
+    cone: Cone::EXACT,
 };
 
 /// The normal that faces a ray in direction `dir` at a surface with shading normal `n_s`:
@@ -326,9 +340,10 @@ struct Lit {
     v: Vec3,
     /// The local light's weight (`1 - reflectivity - refractivity`).
     local_w: f32,
-    /// Where its shadow rays start, and the leaf they skip.
+    /// Where its shadow rays start, the leaf they skip and their footprint.
     from: Vec3,
     id: u32,
+    cone: Cone,
 }
 
 /// A shadow ray's walk through the surfaces it meets, front to back, under a shadow mode.
@@ -459,7 +474,17 @@ impl<S: Surfaces> Tracer<S> {
     /// [`Self::trace`] with the primary ray starting at parameter `tmin` (a lower bound of
     /// its first hit, from the render's prepass; secondary rays are not affected).
     pub fn trace_from(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Sample {
-        self.trace_primary(origin, dir, PrimaryStart::from(tmin))
+        self.trace_primary(origin, dir, PrimaryStart::from(tmin), Cone::EXACT)
+    }
+
+    /// The footprint of the primary rays of `camera`'s pixels under the level of detail
+    /// [`TraceOptions::lod`] ([`Camera::pixel_cone`]); [`Cone::EXACT`] where the surfaces have
+    /// no level of detail ([`Surfaces::level_of_detail`]).
+    pub fn primary_cone(&self, camera: &Camera) -> Cone {
+        if !self.surfaces.level_of_detail() {
+            return Cone::EXACT;
+        }
+        camera.pixel_cone(self.opts.lod)
     }
 
     /// [`Self::trace`] with what the render's prepass knows of the primary ray (secondary
@@ -472,14 +497,20 @@ impl<S: Surfaces> Tracer<S> {
             .min(usize::from(self.opts.max_path_bounces))
     }
 
-    pub(crate) fn trace_primary(&self, origin: Vec3, dir: Vec3, start: PrimaryStart) -> Sample {
+    pub(crate) fn trace_primary(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        start: PrimaryStart,
+        cone: Cone,
+    ) -> Sample {
         let bounces = self.bounces();
         if bounces == 0 {
-            self.trace_with::<1>(origin, dir, start)
+            self.trace_with::<1>(origin, dir, start, cone)
         } else if bounces + 2 <= SMALL_STACK {
-            self.trace_with::<SMALL_STACK>(origin, dir, start)
+            self.trace_with::<SMALL_STACK>(origin, dir, start, cone)
         } else {
-            self.trace_with::<STACK>(origin, dir, start)
+            self.trace_with::<STACK>(origin, dir, start, cone)
         }
     }
 
@@ -488,6 +519,7 @@ impl<S: Surfaces> Tracer<S> {
         origin: Vec3,
         dir: Vec3,
         start: PrimaryStart,
+        cone: Cone,
     ) -> Sample {
         let mut sample = Sample {
             colour: Vec3::ZERO,
@@ -506,6 +538,7 @@ impl<S: Surfaces> Tracer<S> {
             skip: NO_SKIP,
             medium: NO_MEDIUM,
             iors: 0,
+            cone,
         };
         let mut len = 1usize;
         let mut first = true;
@@ -527,6 +560,7 @@ impl<S: Surfaces> Tracer<S> {
                 skip: (task.skip != NO_SKIP).then_some(task.skip),
                 medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
                 max_steps: self.opts.max_steps,
+                cone: task.cone,
             };
             let r = if first {
                 self.surfaces.closest_primary(&ray, &q, &start)
@@ -566,12 +600,13 @@ impl<S: Surfaces> Tracer<S> {
             let local_w = (1.0 - kr - kt).max(0.0);
             if local_w > 0.0 {
                 let mut local = m.albedo * self.phong.ambient;
-                let from = p + n_f * bias;
+                let from = p + n_f * (bias * h.side as f32);
+                let shadow_cone = shadow_cone(&task.cone, h.t * self.scale);
                 for (lp, light) in &self.lights {
                     let Some((l, dist_grid)) = toward(p, n_f, *lp) else {
                         continue;
                     };
-                    let vis = self.shadow(from, *lp, h.id, &mut sample.stats);
+                    let vis = self.shadow(from, *lp, h.id, shadow_cone, &mut sample.stats);
                     if vis > 0.0 {
                         local += self.light_term(light, dist_grid, vis, m.albedo, n_f, l, v);
                     }
@@ -601,7 +636,8 @@ impl<S: Surfaces> Tracer<S> {
         let m = h.material;
         let (kr, kt) = (m.reflectivity, m.refractivity);
         let v = -task.dir;
-        let bias = self.opts.bias_cells;
+        let bias = self.opts.bias_cells * h.side as f32;
+        let cone = secondary_cone(&task.cone, h.t * self.scale);
         // Reflection and refraction, while the path has bounces left.
         let path_left =
             u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
@@ -650,6 +686,7 @@ impl<S: Surfaces> Tracer<S> {
                 // A reflection stays on its side of the boundary.
                 medium: task.medium,
                 iors: task.iors,
+                cone,
             };
             *len += 1;
         }
@@ -672,6 +709,7 @@ impl<S: Surfaces> Tracer<S> {
                     _ => NO_MEDIUM,
                 },
                 iors: iors_after,
+                cone,
             };
             *len += 1;
         }
@@ -710,18 +748,28 @@ impl<S: Surfaces> Tracer<S> {
 
     /// The fraction of the light at grid point `light` that reaches grid point `from` (the
     /// shadow ray's vector is only made when shadows are on).
-    fn shadow(&self, from: Vec3, light: Vec3, skip: u32, stats: &mut SampleStats) -> f32 {
+    fn shadow(
+        &self,
+        from: Vec3,
+        light: Vec3,
+        skip: u32,
+        cone: Cone,
+        stats: &mut SampleStats,
+    ) -> f32 {
         if self.opts.shadows == ShadowMode::None {
             return 1.0;
         }
         stats.shadow_rays += 1;
         let (ray, tmax) = self.shadow_ray(from, light);
         let mut w = ShadowWalk::new(self.opts.shadows, 0.5 / self.scale);
-        let r = self
-            .surfaces
-            .walk(&ray, tmax, Some(skip), self.opts.max_steps, &mut |h| {
-                w.visit(h)
-            });
+        let r = self.surfaces.walk(
+            &ray,
+            tmax,
+            Some(skip),
+            cone,
+            self.opts.max_steps,
+            &mut |h| w.visit(h),
+        );
         stats.steps += r.steps;
         stats.capped += u32::from(r.capped);
         w.visibility(r.blocked)
@@ -749,14 +797,15 @@ impl<S: Surfaces> Tracer<S> {
         dirs: &[Vec3; LANES],
         starts: &[PrimaryStart; LANES],
         n: usize,
+        cone: Cone,
     ) -> [Sample; LANES] {
         let bounces = self.bounces();
         if bounces == 0 {
-            self.trace4::<1>(origin, dirs, starts, n)
+            self.trace4::<1>(origin, dirs, starts, n, cone)
         } else if bounces + 2 <= SMALL_STACK {
-            self.trace4::<SMALL_STACK>(origin, dirs, starts, n)
+            self.trace4::<SMALL_STACK>(origin, dirs, starts, n, cone)
         } else {
-            self.trace4::<STACK>(origin, dirs, starts, n)
+            self.trace4::<STACK>(origin, dirs, starts, n, cone)
         }
     }
 
@@ -766,6 +815,7 @@ impl<S: Surfaces> Tracer<S> {
         dirs: &[Vec3; LANES],
         starts: &[PrimaryStart; LANES],
         n: usize,
+        cone: Cone,
     ) -> [Sample; LANES] {
         let mut out = [Sample {
             colour: Vec3::ZERO,
@@ -787,6 +837,7 @@ impl<S: Surfaces> Tracer<S> {
                 skip: NO_SKIP,
                 medium: NO_MEDIUM,
                 iors: 0,
+                cone,
             };
             lens[l] = 1;
             first[l] = true;
@@ -824,6 +875,7 @@ impl<S: Surfaces> Tracer<S> {
                 skip: (tasks[l].skip != NO_SKIP).then_some(tasks[l].skip),
                 medium: (tasks[l].medium != NO_MEDIUM).then_some(Medium(tasks[l].medium)),
                 max_steps: self.opts.max_steps,
+                cone: tasks[l].cone,
             });
             // Primary rays one by one (the prepass decides most), the others together.
             let primary = (0..LANES)
@@ -880,8 +932,9 @@ impl<S: Surfaces> Tracer<S> {
                         n_f,
                         v: -task.dir,
                         local_w,
-                        from: p + n_f * bias,
+                        from: p + n_f * (bias * h.side as f32),
                         id: h.id,
+                        cone: shadow_cone(&task.cone, h.t * self.scale),
                     });
                 }
                 hits[l] = Some((h, p, n_f, entering));
@@ -896,6 +949,7 @@ impl<S: Surfaces> Tracer<S> {
                 let mut shadow_rays = [unused; LANES];
                 let mut tmax = [0.0f32; LANES];
                 let mut skip = [None; LANES];
+                let mut cones = [Cone::EXACT; LANES];
                 let mut walking = 0u8;
                 for l in 0..LANES {
                     let Some(x) = lit[l] else {
@@ -906,6 +960,7 @@ impl<S: Surfaces> Tracer<S> {
                         out[l].stats.shadow_rays += 1;
                         (shadow_rays[l], tmax[l]) = self.shadow_ray(x.from, *lp);
                         skip[l] = Some(x.id);
+                        cones[l] = x.cone;
                         walking |= 1 << l;
                     }
                 }
@@ -917,6 +972,7 @@ impl<S: Surfaces> Tracer<S> {
                         &shadow_rays,
                         tmax,
                         skip,
+                        cones,
                         walking,
                         self.opts.max_steps,
                         &mut |l, h| walks[l].visit(h),
@@ -958,5 +1014,32 @@ impl<S: Surfaces> Tracer<S> {
             }
         }
         out
+    }
+}
+
+/// The footprint of the reflection and refraction rays of a hit `d` grid cells along a ray
+/// with `cone`: the cone's width there and its spread (a flat surface's rule: the ray-cone
+/// rule of Akenine-Möller et al. 2019 without the surface's curvature term).
+#[inline]
+fn secondary_cone(cone: &Cone, d: f32) -> Cone {
+    if cone.is_exact() {
+        return Cone::EXACT;
+    }
+    Cone {
+        width: cone.width_at(d),
+        spread: cone.spread,
+    }
+}
+
+/// The footprint of the shadow rays of a hit `d` grid cells along a ray with `cone`: the
+/// cone's width there, kept toward the light.
+#[inline]
+fn shadow_cone(cone: &Cone, d: f32) -> Cone {
+    if cone.is_exact() {
+        return Cone::EXACT;
+    }
+    Cone {
+        width: cone.width_at(d),
+        spread: 0.0,
     }
 }

@@ -152,6 +152,7 @@ pub fn traverse_dda<T>(
             let e = LeafEntry {
                 leaf,
                 cell: real,
+                side: 1,
                 t_enter,
                 t_exit,
                 entry_normal: r.entry_normal_of(c0, tmin),

@@ -101,7 +101,7 @@ pub(crate) fn slab_hit(
 ) -> Option<LeafHit> {
     // Relative to the cell centre first: `o - c` is small and nearly exact even where the
     // grid coordinates are large, which `o + t d - c` would not be.
-    let centre = e.cell.as_vec3() + Vec3::splat(0.5);
+    let centre = e.cell.as_vec3() + Vec3::splat(0.5 * e.side as f32);
     let sd = n.dot(ray.dir);
     let s = n.dot(ray.origin - centre) + e.t_enter * sd;
     let (t, normal) = if s < near {
@@ -126,10 +126,12 @@ pub(crate) fn slab_hit(
     })
 }
 
-/// The hit of `ray` on leaf entry `e` in `mode`.
+/// The hit of `ray` on leaf entry `e` in `mode`. An inner node's entry (`e.side > 1`, from a
+/// walk with a footprint) is hit on the node's contour slab, scaled to its cube, where the
+/// tree stores one and the mode is not [`HitMode::Cube`]; else on its cube.
 #[inline]
 pub fn leaf_hit(tree: &Octree, ray: &GridRay, e: &LeafEntry, mode: HitMode) -> Option<LeafHit> {
-    LeafTest::new(tree, e.leaf, mode).hit(ray, e)
+    LeafTest::of_entry(tree, e, mode).hit(ray, e)
 }
 
 /// [`leaf_hit`] for one leaf, its stored normal and contour decoded once, for testing many
@@ -160,6 +162,38 @@ impl LeafTest {
                 let (near, far) = contour::offsets(cw, n);
                 Self::Slab { n, near, far }
             }
+        }
+    }
+
+    /// The test of entry `e`: its leaf's ([`Self::new`]) or, for an inner node, the node's
+    /// (its contour in `mode` [`HitMode::Contour`] or [`HitMode::Exact`], else its cube).
+    #[inline]
+    pub(crate) fn of_entry(tree: &Octree, e: &LeafEntry, mode: HitMode) -> Self {
+        if e.side <= 1 {
+            return Self::new(tree, e.leaf, mode);
+        }
+        Self::of_node(tree, e.leaf, e.side, mode)
+    }
+
+    /// The test of inner node `node` of `side` cells standing for its subtree (see
+    /// [`Self::of_entry`]).
+    #[inline]
+    pub(crate) fn of_node(tree: &Octree, node: u32, side: u32, mode: HitMode) -> Self {
+        let a = &tree.node_attributes;
+        let (Some(nw), Some(cw), false) = (
+            channel_word(&a.normal, node),
+            channel_word(&a.contour, node),
+            mode == HitMode::Cube,
+        ) else {
+            return Self::Cube;
+        };
+        let n = normal_encoding::decode(nw);
+        let (near, far) = contour::offsets(cw, n);
+        let s = side as f32;
+        Self::Slab {
+            n,
+            near: near * s,
+            far: far * s,
         }
     }
 
@@ -223,6 +257,7 @@ mod tests {
         (t0 <= t1).then_some(LeafEntry {
             leaf: 0,
             cell: UVec3::ZERO,
+            side: 1,
             t_enter: t0 as f32,
             t_exit: t1 as f32,
             entry_normal: Vec3::X,

@@ -7,6 +7,8 @@
 //! - [`traverse`]: the one traversal (Revelles et al.'s parametric walk, front to back), which
 //!   hands each leaf the ray enters to a callback ([`LeafEntry`]) until it returns a value;
 //! - [`leaf_hit`] and [`cast`]: the cube and contour hits inside a leaf, as callbacks;
+//! - [`Cone`] and [`traverse_cone`]: a ray's footprint, and the walk that stops at an inner
+//!   node as wide as the footprint (level of detail) and hands it over in place of its leaves;
 //! - [`DenseGrid`] and [`traverse_dda`]: a dense grid of the same leaves walked by 3D DDA, the
 //!   baseline the octree is measured against.
 //!
@@ -39,6 +41,7 @@
 //! [`Octree::cast_many`]: crate::Octree::cast_many
 
 pub(crate) mod cast;
+pub(crate) mod cone;
 pub(crate) mod dda;
 pub(crate) mod grid_ray;
 pub(crate) mod leaf_hit;
@@ -46,8 +49,9 @@ pub(crate) mod packet;
 pub(crate) mod traverse;
 
 pub use cast::{Hit, Ray};
+pub use cone::Cone;
 pub use dda::{DdaError, DenseGrid, MAX_DDA_DEPTH, traverse_dda};
 pub use grid_ray::{GridRay, TINY};
 pub use leaf_hit::{HitMode, LeafHit, cast, leaf_hit};
 pub use packet::{LANES, traverse_packet};
-pub use traverse::{LeafEntry, MAX_STEPS, Traversal, traverse};
+pub use traverse::{LeafEntry, MAX_STEPS, Traversal, traverse, traverse_cone};

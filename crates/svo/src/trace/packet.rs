@@ -377,6 +377,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
                 let entry = LeafEntry {
                     leaf: base + rank,
                     cell: ray.unmirror_cell(origin),
+                    side: 1,
                     t_enter: lane(t_enter, l),
                     t_exit: lane(t_exit, l),
                     entry_normal,

@@ -28,6 +28,7 @@
 
 use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
+use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use glam::{UVec3, Vec3, Vec3A};
 
@@ -36,13 +37,17 @@ use glam::{UVec3, Vec3, Vec3A};
 /// (one that declines every leaf of a huge tree) reaches it.
 pub const MAX_STEPS: u32 = 1 << 16;
 
-/// A leaf the ray passes through, as handed to the callback.
+/// A leaf the ray passes through, as handed to the callback; or, in a walk with a footprint
+/// ([`traverse_cone`]), an inner node drawn in place of its subtree.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafEntry {
-    /// Index into the leaf arrays.
+    /// Index into the leaf arrays; for an inner node (`side > 1`), into the node array (and
+    /// the tree's [`Octree::node_attributes`]).
     pub leaf: u32,
-    /// Integer cell coordinates.
+    /// Integer cell coordinates (an inner node's minimum cell).
     pub cell: UVec3,
+    /// The side in cells: 1 for a leaf, a power of two of at least 4 for an inner node.
+    pub side: u32,
     /// Where the ray enters the cell (at least the ray's `tmin`).
     pub t_enter: f32,
     /// Where it leaves (at most the ray's `tmax`).
@@ -138,8 +143,25 @@ pub fn traverse<T>(
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Traversal<T> {
+    traverse_cone(tree, ray, Cone::EXACT, tmin, tmax, max_steps, on_leaf)
+}
+
+/// [`traverse`] with a footprint: an inner node the ray enters that is no wider than `cone`
+/// at the node's distance from the ray's origin (and has values of its own: not a leaf
+/// parent; not one that holds or touches the origin) is handed to the callback as an entry
+/// of its side in place of its leaves; if the callback declines it, the walk goes on past
+/// the node. [`Cone::EXACT`] is [`traverse`] (see [`crate::trace::Cone`]).
+pub fn traverse_cone<T>(
+    tree: &Octree,
+    ray: &GridRay,
+    cone: Cone,
+    tmin: f32,
+    tmax: f32,
+    max_steps: u32,
+    on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+) -> Traversal<T> {
     // Only a walk from a node can be refused.
-    traverse_from(tree, ray, None, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
+    traverse_from(tree, ray, None, cone, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
         hit: None,
         steps: 0,
         capped: false,
@@ -165,16 +187,18 @@ pub(crate) struct StartNode {
 /// at a point (an edge or a corner): a walk from the root crosses such points into the
 /// diagonal neighbour without handing over the cells it touches, except where it starts
 /// (at `tmin`, or where it only touches the root), so only that walk knows.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn traverse_node<T>(
     tree: &Octree,
     ray: &GridRay,
     start: StartNode,
+    cone: Cone,
     tmin: f32,
     tmax: f32,
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Option<Traversal<T>> {
-    traverse_from(tree, ray, Some(start), tmin, tmax, max_steps, on_leaf)
+    traverse_from(tree, ray, Some(start), cone, tmin, tmax, max_steps, on_leaf)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -182,6 +206,7 @@ fn traverse_from<T>(
     tree: &Octree,
     ray: &GridRay,
     start: Option<StartNode>,
+    cone: Cone,
     tmin: f32,
     tmax: f32,
     max_steps: u32,
@@ -191,13 +216,13 @@ fn traverse_from<T>(
     // keeps its initialization (a `memset` per ray) small.
     let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
     if levels <= 2 {
-        traverse_with::<2, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<2, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 4 {
-        traverse_with::<4, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<4, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 12 {
-        traverse_with::<12, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<12, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else {
-        traverse_with::<32, T>(tree, ray, start, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<32, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     }
 }
 
@@ -206,11 +231,21 @@ fn traverse_with<const STACK: usize, T>(
     tree: &Octree,
     ray: &GridRay,
     start: Option<StartNode>,
+    cone: Cone,
     tmin: f32,
     tmax: f32,
     max_steps: u32,
     mut on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Option<Traversal<T>> {
+    let coarse = !cone.is_exact();
+    // At least the distance from the origin to a point at parameter `t` per unit of `t`: a
+    // node entered at `t` is no further than `t * reach`, so one wider than the cone there
+    // is not a stop, without working out its distance.
+    let reach = if coarse {
+        ray.dir.length() * (1.0 + 1e-5)
+    } else {
+        0.0
+    };
     let mut out = Traversal {
         hit: None,
         steps: 0,
@@ -334,6 +369,7 @@ fn traverse_with<const STACK: usize, T>(
             let entry = LeafEntry {
                 leaf: base + rank,
                 cell: r.unmirror_cell(origin),
+                side: 1,
                 t_enter,
                 t_exit,
                 entry_normal: r.entry_normal_of(r.t_planes(origin), tmin),
@@ -358,6 +394,41 @@ fn traverse_with<const STACK: usize, T>(
                 if b1.min_element().min(t_exit) < b0.max_element().max(t_enter) {
                     continue;
                 }
+            }
+            if coarse
+                && !child.is_leaf_parent()
+                && half as f32 <= cone.width_at(t_enter * reach)
+                && cone.stops_at(half, node_distance(ray.origin, r.flip(origin, half), half))
+            {
+                // Wide enough: the node stands for its subtree, within the box of its leaves
+                // (which holds its surface), as the primary prepass tests it.
+                let (b0, b1) = if child.info >> 8 != 0 {
+                    let code = bounds::mirrored(child.info, swap);
+                    let (lo, hi) = bounds::cell_box(code, origin, half);
+                    (r.t_planes(lo), r.t_planes(hi))
+                } else {
+                    (r.t_planes(origin), c1)
+                };
+                let (e0, e1) = (b0.max_element(), b1.min_element());
+                let t_in = if e0 > tmin { e0 } else { tmin };
+                let t_out = if e1 < tmax { e1 } else { tmax };
+                if t_out < t_in {
+                    continue;
+                }
+                let entry = LeafEntry {
+                    leaf: node.first + rank,
+                    cell: r.flip(origin, half),
+                    side: half,
+                    t_enter: t_in,
+                    t_exit: t_out,
+                    entry_normal: r.entry_normal_of(b0, tmin),
+                    exit_normal: r.exit_normal_of(b1),
+                };
+                if let Some(h) = on_leaf(&entry) {
+                    out.hit = Some(h);
+                    return Some(out);
+                }
+                continue;
             }
             stack[len] = Saved {
                 first: node.first,
@@ -399,8 +470,17 @@ mod tests {
         };
         let t = match start {
             None => traverse(tree, ray, 0.0, f32::INFINITY, MAX_STEPS, visit),
-            Some(s) => traverse_node(tree, ray, s, 0.0, f32::INFINITY, MAX_STEPS, visit)
-                .expect("the ray enters the node's cube"),
+            Some(s) => traverse_node(
+                tree,
+                ray,
+                s,
+                Cone::EXACT,
+                0.0,
+                f32::INFINITY,
+                MAX_STEPS,
+                visit,
+            )
+            .expect("the ray enters the node's cube"),
         };
         (cells, t.steps)
     }
@@ -552,10 +632,19 @@ mod tests {
             },
         ] {
             let mut any = false;
-            let t = traverse_node(&tree, &ray, s, 0.0, f32::INFINITY, MAX_STEPS, |_| {
-                any = true;
-                None::<()>
-            });
+            let t = traverse_node(
+                &tree,
+                &ray,
+                s,
+                Cone::EXACT,
+                0.0,
+                f32::INFINITY,
+                MAX_STEPS,
+                |_| {
+                    any = true;
+                    None::<()>
+                },
+            );
             assert!(!any && t.is_none_or(|t| t.steps == 0), "{s:?} was walked");
         }
     }
@@ -646,10 +735,19 @@ mod tests {
             |c: UVec3| c.cmpge(s.origin).all() && c.cmplt(s.origin + UVec3::splat(s.side)).all();
         let want: Vec<LeafEntry> = all.iter().copied().filter(|e| within(e.cell)).collect();
         let mut got: Vec<LeafEntry> = Vec::new();
-        let walked = traverse_node(tree, ray, s, tmin, f32::INFINITY, MAX_STEPS, |e| {
-            got.push(*e);
-            None::<()>
-        });
+        let walked = traverse_node(
+            tree,
+            ray,
+            s,
+            Cone::EXACT,
+            tmin,
+            f32::INFINITY,
+            MAX_STEPS,
+            |e| {
+                got.push(*e);
+                None::<()>
+            },
+        );
         if walked.is_none() {
             // Touched at one parameter: whatever the root walk handed over
             // there it entered and left at once.

@@ -15,6 +15,7 @@ mod format_roundtrip;
 mod fuzz_regressions;
 mod gltf_scene;
 mod golden_images;
+mod level_of_detail;
 mod node_attributes;
 mod octree_bruteforce;
 mod overlap_exact;
