@@ -86,7 +86,12 @@ struct Args {
     /// times its pixel's footprint there and hits the node's contour with the node's
     /// attributes (a file baked with --lod filtered; not with --wide-view). 0 walks to the
     /// leaves.
-    #[arg(long, value_name = "PIXELS", default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "PIXELS",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     lod: f32,
     /// How leaves are hit: cube, contour, or exact (the mesh's triangles in each leaf; needs
     /// --mesh or --reference).

@@ -137,6 +137,24 @@ fn a_level_of_detail_renders_the_same() {
             assert!(st.primary_steps < exact.primary_steps, "lod {lod}: {st:?}");
         }
     }
+    // The 64-ary view has none: a level of detail is refused there, with one line.
+    let ctx = gpu().unwrap();
+    let tree = torus_with_levels(None, 6);
+    let trace = TraceOptions {
+        lod: 2.0,
+        ..TraceOptions::default()
+    };
+    let wide = GpuLayout {
+        wide_view: true,
+        ..GpuLayout::default()
+    };
+    let v = ShaderVariant::for_scene(&tree, &trace, 1);
+    let e = GpuRenderer::with_options(&ctx, &tree, v, 16, 16, &wide).err();
+    assert!(
+        e.is_some_and(|e| e.to_string().contains("level of detail")),
+        "the wide view took a level of detail"
+    );
+    drop(ctx);
     // Without the inner nodes' attributes there is no level of detail to compile.
     let plain = ShaderVariant::for_scene(
         &torus(None, 7),

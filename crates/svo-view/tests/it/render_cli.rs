@@ -511,7 +511,6 @@ fn path_bounce_limit_on_the_command_line() {
     assert!(err.contains("path-bounces"), "{err}");
 }
 
-/// This module's tests, with what each needs of the machine.
 /// `--max-depth K` renders the file's top K levels: a version-4 file with its inner nodes'
 /// values (the leaves of the coarser tree drawn with them), and a version-2 file cut (cubes).
 fn max_depth_renders_the_top_levels() {
@@ -557,6 +556,55 @@ fn max_depth_renders_the_top_levels() {
     assert!(out.contains("16x12 depth 7"), "{out}");
 }
 
+/// `--lod PIXELS` stops rays at inner nodes of a file baked with them: fewer steps per
+/// primary ray, the head line says so; a file without them renders as at `--lod 0` and the
+/// head line says why; a negative or non-numeric level is refused with one line.
+fn lod_stops_rays_at_the_inner_nodes_of_files_that_have_them() {
+    let d = tempfile::tempdir().unwrap();
+    let mesh = svo::Mesh::load(torus_obj()).unwrap();
+    let opts = svo::BakeOptions {
+        depth: 7,
+        node_attributes: true,
+        ..svo::BakeOptions::default()
+    };
+    let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
+    let lod = d.path().join("lod.svo");
+    svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &lod).unwrap();
+    let plain = common::torus_svo_at(d.path(), 7);
+    let steps = |out: &str| -> f64 {
+        let s = out.split(" steps per primary ray").next().unwrap();
+        s.rsplit("; ").next().unwrap().parse().unwrap()
+    };
+    let run = |file: &std::path::Path, lod: &str| {
+        ok(&view(&[
+            file.to_str().unwrap(),
+            "--lod",
+            lod,
+            "--size",
+            "64x48",
+            "--no-prepass",
+        ]))
+    };
+    let exact = run(&lod, "0");
+    let coarse = run(&lod, "4");
+    assert!(coarse.contains("lod 4 px\n"), "{coarse}");
+    assert!(!exact.lines().next().unwrap().contains("lod"), "{exact}");
+    assert!(steps(&coarse) < steps(&exact), "{coarse}\n{exact}");
+    let flat = run(&plain, "4");
+    assert!(
+        flat.contains("lod 4 px not applied (the tree's inner nodes carry no attributes"),
+        "{flat}"
+    );
+    assert_eq!(steps(&flat), steps(&run(&plain, "0")));
+    for bad in ["-1", "nan", "x"] {
+        let o = view(&[lod.to_str().unwrap(), "--lod", bad]);
+        assert!(!o.status.success(), "--lod {bad}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("lod") && err.lines().count() <= 4, "{err}");
+    }
+}
+
+/// This module's tests, with what each needs of the machine.
 pub(crate) fn trials() -> Vec<Test> {
     vec![
         trial!(renders_colour_and_aovs),
@@ -567,5 +615,6 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(a_scene_file_is_a_triangle_reference),
         trial!(path_bounce_limit_on_the_command_line),
         trial!(max_depth_renders_the_top_levels),
+        trial!(lod_stops_rays_at_the_inner_nodes_of_files_that_have_them),
     ]
 }
