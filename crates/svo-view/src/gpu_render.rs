@@ -112,12 +112,10 @@ fn build_arena(
         node_bytes(&na.ior, per_node(5), nodes),
     ];
     let total: u64 = parts.iter().map(|p| p.len() as u64).sum();
-    // Words per chunk: the largest power of two within the limit (at least 256 bytes).
-    let words_limit = (chunk_limit / 4).max(64);
-    let shift = 63 - words_limit.leading_zeros();
+    let shift = chunk_shift(chunk_limit);
     let chunk_bytes = 4u64 << shift;
     let chunks = total.div_ceil(chunk_bytes).max(1);
-    if chunks > MAX_ARENA_CHUNKS as u64 || total / 4 > u64::from(u32::MAX) {
+    if total > arena_capacity(chunk_limit) {
         return Err(GpuError::TooLarge {
             what: format!(
                 "the tree ({} nodes, {} leaves, in {MAX_ARENA_CHUNKS} bindings at most)",
@@ -144,6 +142,51 @@ fn build_arena(
         .map(<[u8]>::to_vec)
         .collect();
     Ok((layout, out))
+}
+
+/// log2 of the words of an arena chunk of at most `chunk_limit` bytes: the largest power of
+/// two within the limit (at least 256 bytes).
+fn chunk_shift(chunk_limit: u64) -> u32 {
+    let words_limit = (chunk_limit / 4).max(64);
+    63 - words_limit.leading_zeros()
+}
+
+/// The most bytes an arena of chunks of at most `chunk_limit` bytes holds: its bindings, and
+/// what 32-bit word offsets reach.
+pub fn arena_capacity(chunk_limit: u64) -> u64 {
+    (MAX_ARENA_CHUNKS as u64 * (4u64 << chunk_shift(chunk_limit))).min(4 * u64::from(u32::MAX))
+}
+
+/// The bytes of the arena of `tree` for `variant`, without the 64-ary view: what
+/// [`GpuRenderer::new`] uploads, worked out without copying anything.
+pub fn arena_bytes(tree: &Octree, variant: &ShaderVariant) -> u64 {
+    fn len<T>(c: &Channel<T>, expand: bool, n: usize) -> u64 {
+        let b = match c {
+            Channel::PerLeaf(v) => size_of_val(v.as_slice()),
+            Channel::Constant(_) if expand => n * size_of::<T>(),
+            _ => 0,
+        };
+        b.next_multiple_of(4) as u64
+    }
+    let (a, na) = (&tree.attributes, &tree.node_attributes);
+    let n = tree.leaf_count as usize;
+    let m = tree.nodes.len();
+    let leaf = |k: usize| variant.channels[k] == 2;
+    let node = |k: usize| variant.node_channels[k] == 2;
+    let node_len = |k: usize, b: u64| if node(k) { b } else { 0 };
+    8 * m as u64
+        + len(&a.normal, leaf(0), n)
+        + len(&a.contour, leaf(1), n)
+        + len(&a.colour, leaf(2), n)
+        + len(&a.reflectivity, leaf(3), n)
+        + len(&a.refractivity, leaf(4), n)
+        + len(&a.ior, leaf(5), n)
+        + node_len(0, len(&na.normal, true, m))
+        + node_len(1, len(&na.contour, true, m))
+        + node_len(2, len(&na.colour, true, m))
+        + node_len(3, len(&na.reflectivity, true, m))
+        + node_len(4, len(&na.refractivity, true, m))
+        + node_len(5, len(&na.ior, true, m))
 }
 
 /// The bytes of an inner-node channel the shader reads per node (`on`), constants expanded;

@@ -2,9 +2,11 @@
 //! camera, lights, sky) is set up by the same [`crate::job::prepare`] as the CPU path, the
 //! frame is traced by [`crate::gpu_render::GpuRenderer`], and the image or AOV is written by
 //! the CPU path's writer, so `--headless` and `--cpu` give the same files and the same
-//! [`FrameReport`]. With `vs_cpu` the CPU reference renders the same frame and the two are
+//! [`FrameReport`]. A tree larger than the adapter is shown from the deepest prefix of its
+//! levels that fits ([`crate::fit`]). With `vs_cpu` the CPU reference renders the same frame and the two are
 //! compared.
 
+use crate::fit::fit_scene;
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::{GpuLayout, GpuRenderer};
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
@@ -142,8 +144,9 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
         .into());
     }
     // Checks the settings (bench frames, bounces, bias, output path) before loading.
-    let scene = prepare(job)?;
+    let mut scene = prepare(job)?;
     let ctx = GpuContext::new()?;
+    let shown = fit_scene(&ctx, &mut scene, &job.trace, &opts.layout)?;
     let r = render_scene(&ctx, &scene, &job.trace, opts, job.bench_frames)?;
     let startup_ms = (start.elapsed().as_secs_f64() - r.times.iter().sum::<f64>()) * 1e3;
     let vs_cpu = if opts.vs_cpu {
@@ -188,6 +191,7 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
             tree_bytes: r.tree_bytes,
             startup_ms,
             vs_cpu,
+            shown,
         }),
     })
 }

@@ -11,6 +11,8 @@
 //!   (pipeline-overridable constants that leave out what a scene does not need);
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
 //! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
+//! - [`fit`]: a tree larger than the adapter shown from the deepest prefix of its levels that
+//!   fits;
 //! - [`shader`]: the tracer's shader, WESL modules linked into WGSL for a walk, with the
 //!   constants it shares with Rust generated from their values;
 //! - [`wide_view`]: the tree's 64-ary view, which the GPU's traversal can walk instead of
@@ -27,6 +29,7 @@
 
 pub mod camera_control;
 pub mod cpu_render;
+pub mod fit;
 pub mod gpu_context;
 pub mod gpu_render;
 pub mod gpu_types;

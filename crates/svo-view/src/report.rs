@@ -141,6 +141,9 @@ pub struct GpuRun {
     pub startup_ms: f64,
     /// The comparison with the CPU reference.
     pub vs_cpu: Option<VsCpu>,
+    /// What of a tree larger than the adapter was shown: the deepest prefix of its levels
+    /// that fits.
+    pub shown: Option<crate::fit::Prefix>,
 }
 
 /// What a render did: the image, the tree, the rays and their time, and what the CPU or the
@@ -181,6 +184,9 @@ impl FrameReport {
         match (&self.cpu, &self.gpu) {
             (_, Some(g)) => {
                 writeln!(f, "adapter: {}", g.adapter)?;
+                if let Some(p) = &g.shown {
+                    writeln!(f, "{p}")?;
+                }
                 writeln!(
                     f,
                     "{w}x{h} depth {d} ({n} leaves, {} bytes on the GPU), hit {}; shader: {}",

@@ -234,6 +234,13 @@ impl App {
         if ctx.is_software() {
             self.settings.render_scale = 2;
         }
+        // A tree larger than the adapter: the deepest prefix of its levels that fits.
+        let layout = crate::gpu_render::GpuLayout::default();
+        if let Some(p) =
+            crate::fit::fit_scene(&ctx, &mut self.scene, &self.settings.trace, &layout)?
+        {
+            eprintln!("svo-view: {p}");
+        }
         let variant = self.variant();
         let s = self.settings.render_scale;
         let renderer = GpuRenderer::new(

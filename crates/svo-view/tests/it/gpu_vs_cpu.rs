@@ -167,6 +167,47 @@ fn a_level_of_detail_renders_the_same() {
     assert!(!plain.lod && plain.node_channels == [0; 6]);
 }
 
+/// A tree larger than the adapter's bindings (here: bindings made small) is shown from the
+/// deepest prefix of its levels that fits, never from the leaf parents' level (which keeps no
+/// values), and that prefix renders on the GPU as on the CPU; a tree that fits is left alone.
+fn a_tree_too_large_for_the_adapter_shows_its_top_levels() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let tree = torus_with_levels(None, 7);
+    let trace = TraceOptions::default();
+    let whole =
+        svo_view::gpu_render::arena_bytes(&tree, &ShaderVariant::for_scene(&tree, &trace, 1));
+    let mut s = scene(tree.clone());
+    assert_eq!(
+        svo_view::fit::fit_scene(&ctx, &mut s, &trace, &GpuLayout::default()).unwrap(),
+        None
+    );
+    // Four bindings of a sixteenth of the tree's bytes each hold a quarter of it.
+    let small = GpuLayout {
+        chunk_limit: Some(whole / 16),
+        ..GpuLayout::default()
+    };
+    let p = svo_view::fit::fit_scene(&ctx, &mut s, &trace, &small)
+        .unwrap()
+        .expect("the tree does not fit");
+    assert!(p.depth < 6 && p.of == 7 && p.needed == whole, "{p:?}");
+    assert!(
+        p.to_string()
+            .starts_with(&format!("showing the top {} of 7 levels", p.depth))
+    );
+    assert_eq!(s.tree.depth, p.depth);
+    assert_eq!(s.tree, tree.top_levels(p.depth).unwrap());
+    let v = ShaderVariant::for_scene(&s.tree, &trace, s.lights.len());
+    assert!(svo_view::gpu_render::arena_bytes(&s.tree, &v) <= p.limit);
+    let r = GpuRenderer::with_options(&ctx, &s.tree, v, 96, 72, &small).unwrap();
+    let g = render_with(&ctx, &s, &trace, &r);
+    let c = cpu_frame(&s, &trace);
+    assert_eq!(g.leaf, c.leaf);
+    assert!(c.stats.primary_hits > 0);
+    assert!(svo::render::compare(&g, &c).unwrap().rmse <= 0.5);
+}
+
 /// The scene of `tree` at 96x72 with the default camera and light.
 fn scene(tree: Octree) -> RenderScene {
     let setup = SceneSetup {
@@ -913,6 +954,10 @@ pub(crate) fn trials() -> Vec<Test> {
         ),
         trial!(the_wide_view_renders_the_same, common::gpu_need()),
         trial!(a_level_of_detail_renders_the_same, common::gpu_need()),
+        trial!(
+            a_tree_too_large_for_the_adapter_shows_its_top_levels,
+            common::gpu_need()
+        ),
         trial!(
             the_thesis_pool_views,
             common::gpu_need(),

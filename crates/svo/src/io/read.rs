@@ -1373,6 +1373,14 @@ impl Octree {
     pub fn load_to_depth(path: impl AsRef<Path>, max_depth: u8) -> Result<Octree, FormatError> {
         read_file_to_depth(path, max_depth).map(|(tree, _)| tree)
     }
+
+    /// The top `depth` levels (at least 1) of this tree as a coarser tree, as
+    /// [`read_file_to_depth`] reads them from a file: the nodes on level `depth` become its
+    /// leaves with their inner-node channels. A copy of the whole tree where `depth` is at
+    /// least its own.
+    pub fn top_levels(&self, depth: u8) -> Result<Octree, FormatError> {
+        cut_to_depth(self, depth.max(1))
+    }
 }
 
 #[cfg(test)]

@@ -492,10 +492,16 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         self.interior && self.tree.attributes.is_interior(i as usize)
     }
 
-    /// The cone a walk with `cone` uses here: none where the inner nodes carry nothing.
+    /// The cone a walk with `cone` uses here: none where the inner nodes carry nothing, or
+    /// where it never reaches the width of the narrowest node that can stop it (4 cells: leaf
+    /// parents keep no values), which walks the same and may go in packets.
     #[inline]
     fn cone(&self, cone: Cone) -> Cone {
-        if self.coarse { cone } else { Cone::EXACT }
+        if self.coarse && !(cone.spread <= 0.0 && cone.width < 4.0) {
+            cone
+        } else {
+            Cone::EXACT
+        }
     }
 
     /// The surface hit of leaf entry `e`, if the shape is hit.

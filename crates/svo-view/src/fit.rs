@@ -1,0 +1,108 @@
+//! A tree larger than the adapter's bindings: instead of refusing it, the GPU paths show the
+//! deepest prefix of its levels whose arrays fit (the nodes of the last level drawn as leaves
+//! with their inner-node attributes, [`svo::Octree::top_levels`]), and say so on one line.
+
+use crate::gpu_context::{GpuContext, GpuError};
+use crate::gpu_render::{GpuLayout, arena_bytes, arena_capacity};
+use crate::gpu_types::ShaderVariant;
+use std::fmt;
+use svo::Octree;
+use svo::render::{OctreeSurfaces, RenderScene, Surfaces, TraceOptions};
+
+/// What of a tree the GPU shows when the whole does not fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Prefix {
+    /// The levels shown.
+    pub depth: u8,
+    /// The tree's levels.
+    pub of: u8,
+    /// The bytes the whole tree needs on the GPU.
+    pub needed: u64,
+    /// The most the adapter's bindings hold.
+    pub limit: u64,
+}
+
+impl fmt::Display for Prefix {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "showing the top {} of {} levels: the whole tree needs {} bytes on the GPU, more than the adapter's {}",
+            self.depth, self.of, self.needed, self.limit
+        )
+    }
+}
+
+/// Makes `scene`'s tree fit the adapter of `ctx` under `layout`: unchanged where it fits
+/// (`None`), else the deepest prefix of its levels that does, with what was cut. The 64-ary
+/// view's size is known only once built, so with `layout.wide_view` the tree is left as it
+/// is (the upload refuses it if it does not fit).
+pub fn fit_scene(
+    ctx: &GpuContext,
+    scene: &mut RenderScene,
+    trace: &TraceOptions,
+    layout: &GpuLayout,
+) -> Result<Option<Prefix>, GpuError> {
+    let lights = scene.lights.len();
+    let limit = arena_capacity(layout.chunk_limit.unwrap_or_else(|| ctx.binding_limit()));
+    let needs = |t: &Octree| arena_bytes(t, &ShaderVariant::for_scene(t, trace, lights));
+    let needed = needs(&scene.tree);
+    let of = scene.tree.depth;
+    if needed <= limit || layout.wide_view || of <= 1 {
+        return Ok(None);
+    }
+    // From the deepest prefix the level counts allow down, until one fits. The leaf parents
+    // keep no values, so where the inner nodes carry attributes a prefix that ends on their
+    // level would draw bare cubes: the level above is shown instead.
+    let levels = OctreeSurfaces::new(&scene.tree, trace.mode).level_of_detail();
+    let usable = |k: usize| !(levels && k + 1 == usize::from(of) && k > 1);
+    let counts = level_counts(&scene.tree);
+    let per_leaf = needed.saturating_sub(8 * scene.tree.nodes.len() as u64)
+        / u64::from(scene.tree.leaf_count.max(1));
+    let estimate = |k: usize| 8 * counts[..k].iter().sum::<u64>() + per_leaf * counts[k];
+    let mut k = (1..usize::from(of))
+        .rev()
+        .find(|&k| usable(k) && estimate(k) <= limit)
+        .unwrap_or(1);
+    loop {
+        if !usable(k) {
+            k -= 1;
+            continue;
+        }
+        let top = scene
+            .tree
+            .top_levels(k as u8)
+            .map_err(|e| GpuError::Unsupported(format!("cutting the tree to fit: {e}")))?;
+        if needs(&top) <= limit || k == 1 {
+            scene.tree = top;
+            return Ok(Some(Prefix {
+                depth: k as u8,
+                of,
+                needed,
+                limit,
+            }));
+        }
+        k -= 1;
+    }
+}
+
+/// The nodes on each level of `tree`, from the root (level 0) to the leaves (level `depth`).
+fn level_counts(tree: &Octree) -> Vec<u64> {
+    let mut counts = vec![0u64; usize::from(tree.depth) + 1];
+    let mut level = vec![0u32];
+    for count in counts.iter_mut().take(usize::from(tree.depth)) {
+        *count = level.len() as u64;
+        let mut next = Vec::new();
+        for &i in &level {
+            let Some(n) = tree.nodes.get(i as usize) else {
+                continue;
+            };
+            if n.is_leaf_parent() {
+                continue;
+            }
+            next.extend(n.first..n.first + n.child_mask().count_ones());
+        }
+        level = next;
+    }
+    counts[usize::from(tree.depth)] = u64::from(tree.leaf_count);
+    counts
+}
