@@ -12,7 +12,7 @@ use crate::render::whitted::PrimaryStart;
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
-use crate::trace::packet::{LANES, traverse_packet, traverse_packet_with};
+use crate::trace::packet::{LANES, traverse_packet_with};
 use crate::trace::traverse::{LeafEntry, traverse_cone};
 use glam::Vec3;
 
@@ -695,7 +695,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
-        if q.medium.is_some() || q.skip.is_some() || !self.cone(q.cone).is_exact() {
+        if q.medium.is_some() || q.skip.is_some() {
             return std::array::from_fn(|l| {
                 if l < n {
                     self.closest(&rays[l], q).into()
@@ -705,14 +705,18 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             });
         }
         let active = ((1u16 << n.min(LANES)) - 1) as u8;
-        let walks = traverse_packet(
+        let walks = traverse_packet_with::<true, _>(
             self.tree,
             rays,
+            [self.cone(q.cone); LANES],
             [q.tmin; LANES],
             [q.tmax; LANES],
             active,
             q.max_steps,
             |l, e| {
+                if e.side > 1 {
+                    return self.node_hit(&rays[l], e).map(|h| (h.id, h.t));
+                }
                 if self.passes_through(e.leaf) {
                     return None;
                 }
@@ -739,16 +743,14 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
         let max_steps = q.iter().map(|q| q.max_steps).max().unwrap_or(0);
-        // The packet walk is the exact one: lanes with a footprint walk alone.
-        if q.iter()
-            .any(|x| x.max_steps != max_steps || !self.cone(x.cone).is_exact())
-        {
+        if q.iter().any(|x| x.max_steps != max_steps) {
             return std::array::from_fn(|l| self.closest_lane(rays, q, active, l));
         }
         let mut run = [None; LANES];
-        let r = traverse_packet(
+        let r = traverse_packet_with::<true, _>(
             self.tree,
             rays,
+            q.map(|q| self.cone(q.cone)),
             q.map(|q| q.tmin),
             q.map(|q| q.tmax),
             active,
@@ -792,25 +794,15 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         max_steps: u32,
         visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
     ) -> [Walked; LANES] {
-        // The packet walk is the exact one: lanes with a footprint walk alone.
-        if cones.iter().any(|c| !self.cone(*c).is_exact()) {
-            return std::array::from_fn(|l| {
-                if active >> l & 1 == 0 {
-                    return Walked::NONE;
-                }
-                self.walk(&rays[l], tmax[l], skip[l], cones[l], max_steps, &mut |h| {
-                    visit(l, h)
-                })
-            });
-        }
         // Where the shape's test reads no entry normals, the walk makes none and the hits
         // carry no shading normal (a walk's hits are for visibility).
         let normals = self.shape.hit_t_reads_normals();
+        let cones = cones.map(|c| self.cone(c));
         let on_leaf = |l: usize, e: &LeafEntry| {
-            if Some(e.leaf) == skip[l] {
+            if Some(entry_id(e)) == skip[l] {
                 return None;
             }
-            let h = if normals {
+            let h = if normals || e.side > 1 {
                 self.surface_hit(&rays[l], e)?
             } else if self.passes_through(e.leaf) {
                 return None;
@@ -821,9 +813,13 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         };
         let (tree, tmin) = (self.tree, [0.0; LANES]);
         let r = if normals {
-            traverse_packet(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+            traverse_packet_with::<true, _>(
+                tree, rays, cones, tmin, tmax, active, max_steps, on_leaf,
+            )
         } else {
-            traverse_packet_with::<false, _>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+            traverse_packet_with::<false, _>(
+                tree, rays, cones, tmin, tmax, active, max_steps, on_leaf,
+            )
         };
         r.map(|w| Walked {
             blocked: w.hit.is_some(),

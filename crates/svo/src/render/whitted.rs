@@ -159,8 +159,9 @@ pub struct TraceOptions {
     /// node's contour with the node's attributes. `0` (the default) is the exact walk to the
     /// leaves. Reflection and refraction rays keep the cone's width at the hit and its
     /// spread; shadow rays keep that width toward the light; secondary and shadow rays from a
-    /// node start the bias times the node's side off it. The prepass decides primary rays
-    /// with a footprint as the walk would; rays with one walk alone, not in packets.
+    /// node start the bias times the node's side off it. The prepass and the packets walk
+    /// rays with a footprint as the single walk does: the image is the same with or without
+    /// them.
     pub lod: f32,
 }
 

@@ -23,8 +23,9 @@
 
 use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
+use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
-use crate::trace::traverse::{LeafEntry, Traversal};
+use crate::trace::traverse::{LeafEntry, Traversal, traverse_cone};
 use glam::{BVec4A, UVec3, Vec3, Vec3A, Vec4};
 
 /// Rays in a packet.
@@ -116,16 +117,21 @@ pub fn traverse_packet<T>(
     max_steps: u32,
     on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
 ) -> [Traversal<T>; LANES] {
-    traverse_packet_with::<true, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+    let exact = [Cone::EXACT; LANES];
+    traverse_packet_with::<true, T>(tree, rays, exact, tmin, tmax, active, max_steps, on_leaf)
 }
 
-/// [`traverse_packet`], with `NORMALS` false for callbacks that read no entry normals: the
-/// entries' `entry_normal` and `exit_normal` are then zero where the lanes walk together
-/// (a packet whose lanes are walked one at a time still gets them). Everything else is
-/// the same bit for bit.
+/// [`traverse_packet`] with lane `l` walked as [`crate::trace::traverse_cone`] walks it with
+/// `cones[l]` (an inner node where the lane's cone stops it handed over in place of its
+/// leaves), and with `NORMALS` false for callbacks that read no entry normals: the entries'
+/// `entry_normal` and `exit_normal` are then zero where the lanes walk together (a packet
+/// whose lanes are walked one at a time still gets them). Everything else is the same bit
+/// for bit.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn traverse_packet_with<const NORMALS: bool, T>(
     tree: &Octree,
     rays: &[GridRay; LANES],
+    cones: [Cone; LANES],
     tmin: [f32; LANES],
     tmax: [f32; LANES],
     active: u8,
@@ -133,11 +139,11 @@ pub(crate) fn traverse_packet_with<const NORMALS: bool, T>(
     on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
 ) -> [Traversal<T>; LANES] {
     if tree.depth <= 4 {
-        walk::<4, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<4, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
     } else if tree.depth <= 12 {
-        walk::<12, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<12, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
     } else {
-        walk::<32, NORMALS, T>(tree, rays, tmin, tmax, active, max_steps, on_leaf)
+        walk::<32, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
     }
 }
 
@@ -197,6 +203,7 @@ fn first_bits(f: &mut Frame, tm: &Planes, t: Vec4) {
 fn walk<const STACK: usize, const NORMALS: bool, T>(
     tree: &Octree,
     rays: &[GridRay; LANES],
+    cones: [Cone; LANES],
     tmin: [f32; LANES],
     tmax: [f32; LANES],
     active: u8,
@@ -245,7 +252,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         // (and so are caps beyond the packet's f32 step counters).
         for (l, o) in out.iter_mut().enumerate() {
             if lanes >> l & 1 != 0 {
-                *o = crate::trace::traverse(tree, &rays[l], tmin[l], tmax[l], max_steps, |e| {
+                *o = traverse_cone(tree, &rays[l], cones[l], tmin[l], tmax[l], max_steps, |e| {
                     on_leaf(l, e)
                 });
             }
@@ -254,6 +261,8 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
     }
     let mask = any.mask;
     let swap = bounds::swap_mask(mask);
+    // The lanes whose cones may stop them at an inner node.
+    let coarse = (0..LANES).fold(0u8, |m, l| m | u8::from(!cones[l].is_exact()) << l) & lanes;
     // Lanes not traced get a harmless ray (the first lane's), masked out of every decision.
     let get = |l: usize| r[l].unwrap_or(any);
     let v =
@@ -409,6 +418,57 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
                 continue;
             }
         }
+        let may_stop = coarse & enters.bitmask() as u8;
+        if may_stop != 0 && !child.is_leaf_parent() {
+            // The single walk's stop at a node as wide as the lane's cone (traverse.rs).
+            let mut stopped = 0u8;
+            for l in 0..LANES {
+                let Some(ray) = r[l].as_ref().filter(|_| may_stop >> l & 1 != 0) else {
+                    continue;
+                };
+                let cell = ray.flip(origin, half);
+                if !cones[l].stops_at(half, node_distance(rays[l].origin, cell, half)) {
+                    continue;
+                }
+                stopped |= 1 << l;
+                let (b0, b1) = if child.info >> 8 != 0 {
+                    let code = bounds::mirrored(child.info, swap);
+                    let (lo, hi) = bounds::cell_box(code, origin, half);
+                    (ray.t_planes(lo), ray.t_planes(hi))
+                } else {
+                    let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
+                    (ray.t_planes(origin), c1)
+                };
+                let (e0, e1) = (b0.max_element(), b1.min_element());
+                let t_in = if e0 > tmin[l] { e0 } else { tmin[l] };
+                let t_out = if e1 < tmax[l] { e1 } else { tmax[l] };
+                if t_out < t_in {
+                    continue;
+                }
+                let (entry_normal, exit_normal) = if NORMALS {
+                    (ray.entry_normal_of(b0, tmin[l]), ray.exit_normal_of(b1))
+                } else {
+                    (Vec3::ZERO, Vec3::ZERO)
+                };
+                let entry = LeafEntry {
+                    leaf: node.first + rank,
+                    cell,
+                    side: half,
+                    t_enter: t_in,
+                    t_exit: t_out,
+                    entry_normal,
+                    exit_normal,
+                };
+                if let Some(h) = on_leaf(l, &entry) {
+                    out[l].hit = Some(h);
+                    alive &= !bits(1 << l);
+                }
+            }
+            enters &= !bits(stopped);
+            if !enters.any() {
+                continue;
+            }
+        }
         half /= 2;
         t1 = c1;
         tm = ls.planes(&any, origin + UVec3::splat(half));
@@ -482,6 +542,7 @@ pub(crate) mod tests {
         let t = traverse_packet_with::<NORMALS, _>(
             tree,
             rays,
+            [Cone::EXACT; LANES],
             tmin,
             tmax,
             active,
@@ -724,6 +785,89 @@ pub(crate) mod tests {
         assert!(
             compared > 8_000 && hits > 500,
             "{compared} lanes, {hits} hits"
+        );
+    }
+
+    /// Lanes with cones (some exact, some wide enough to stop at nodes of 4 to 32 cells)
+    /// see what [`traverse_cone`] alone sees for their ray and cone: the same leaves and
+    /// inner nodes, in the same order, with the same entries, outcomes and steps.
+    #[test]
+    fn lanes_with_cones_see_what_the_single_walk_with_its_cone_sees() {
+        let mut next = svo_tests::seeds::xorshift(0xC0_4E58);
+        let mut unit = svo_tests::seeds::unit_f64(0xC0_4E);
+        let (mut compared, mut nodes) = (0usize, 0usize);
+        for depth in 3..=6u8 {
+            for density in [0.05, 0.3, 0.8] {
+                let Some(tree) = random_tree(depth, density, &mut unit) else {
+                    continue;
+                };
+                for _ in 0..150 {
+                    let p = random_packet(&mut next, &mut unit, depth);
+                    let cones: [Cone; LANES] = std::array::from_fn(|_| match next() % 4 {
+                        0 => Cone::EXACT,
+                        1 => Cone {
+                            width: unit() as f32 * 24.0,
+                            spread: 0.0,
+                        },
+                        _ => Cone {
+                            width: unit() as f32 * 4.0,
+                            spread: unit() as f32 * 0.5,
+                        },
+                    });
+                    let k = next() % 3;
+                    // Some leaves and some nodes stop a lane.
+                    let stop = move |e: &LeafEntry| u64::from(e.leaf) % 3 == k;
+                    let (rays, tmin, tmax) = (&p.rays, p.tmin, p.tmax);
+                    let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
+                    let got = traverse_packet_with::<true, _>(
+                        &tree,
+                        rays,
+                        cones,
+                        tmin,
+                        tmax,
+                        p.active,
+                        p.max_steps,
+                        |l, e| {
+                            seen[l].push(*e);
+                            stop(e).then_some(e.leaf)
+                        },
+                    );
+                    for l in 0..LANES {
+                        let mut want = Vec::new();
+                        let w = if p.active >> l & 1 != 0 {
+                            traverse_cone(
+                                &tree,
+                                &rays[l],
+                                cones[l],
+                                tmin[l],
+                                tmax[l],
+                                p.max_steps,
+                                |e| {
+                                    want.push(*e);
+                                    stop(e).then_some(e.leaf)
+                                },
+                            )
+                        } else {
+                            Traversal {
+                                hit: None,
+                                steps: 0,
+                                capped: false,
+                            }
+                        };
+                        assert_eq!(
+                            (&seen[l], got[l].hit, got[l].steps, got[l].capped),
+                            (&want, w.hit, w.steps, w.capped),
+                            "depth {depth}, lane {l} of {rays:?}, cones {cones:?}"
+                        );
+                        compared += 1;
+                        nodes += want.iter().filter(|e| e.side > 1).count();
+                    }
+                }
+            }
+        }
+        assert!(
+            compared > 5_000 && nodes > 1_000,
+            "{compared} lanes, {nodes} nodes"
         );
     }
 
