@@ -179,6 +179,69 @@ pub fn error_vs_time(rows: &[ImageRow], path: &Path, caption: &str) -> anyhow::R
     })
 }
 
+/// PSNR against ms per frame at each level of detail for one view: against the one-sample
+/// and the 16-sample triangle references, each point labelled with its `--lod`.
+pub fn lod_error_vs_time(
+    rows: &[crate::lod_tables::LodRow],
+    path: &Path,
+    caption: &str,
+) -> anyhow::Result<()> {
+    png(path, (900, 560), |root| {
+        root.fill(&WHITE)?;
+        let cap = |v: f64| v.min(70.0);
+        let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
+        let (lo, hi) = rows
+            .iter()
+            .flat_map(|r| [cap(r.psnr), cap(r.psnr16)])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        let (lo, hi) = if lo.is_finite() {
+            (lo, hi)
+        } else {
+            (0.0, 70.0)
+        };
+        let mut c = ChartBuilder::on(root)
+            .caption(caption, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..max_ms, (lo - 2.0).floor()..(hi + 2.0).ceil())?;
+        c.configure_mesh()
+            .x_desc("ms per frame (median)")
+            .y_desc("PSNR vs triangles, dB (capped at 70)")
+            .draw()?;
+        for (name, colour, sixteen) in [
+            ("against 1 sample a pixel", COLOURS[0], false),
+            ("against 16 samples a pixel", COLOURS[1], true),
+        ] {
+            let pts: Vec<(f64, f64, f32)> = rows
+                .iter()
+                .map(|r| {
+                    let y = if sixteen { r.psnr16 } else { r.psnr };
+                    (r.seconds * 1e3, cap(y), r.lod)
+                })
+                .collect();
+            c.draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)),
+                colour.stroke_width(2),
+            ))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            c.draw_series(pts.iter().map(|&(x, y, l)| {
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 3, colour.filled())
+                    + Text::new(format!("lod {l}"), (5, -12), ("sans-serif", 12))
+            }))?;
+        }
+        c.configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()?;
+        Ok(())
+    })
+}
+
 /// Octree and DDA ms per frame against depth.
 pub fn octree_vs_dda(rows: &[DdaRow], path: &Path) -> anyhow::Result<()> {
     png(path, (900, 480), |root| {
