@@ -56,11 +56,19 @@ pub struct ViewFrames {
     pub reference: Frame,
 }
 
-fn tracer<S: Surfaces>(s: S, light: PointLight, o: TraceOptions) -> Tracer<S> {
+/// The tracer of the report's renders: `s` under one point light, the default sky and Phong
+/// factors, with `o`.
+pub(crate) fn tracer<S: Surfaces>(s: S, light: PointLight, o: TraceOptions) -> Tracer<S> {
     Tracer::new(s, &[light], Sky::default(), Phong::default(), o)
 }
 
-fn timed<S: Surfaces>(t: &Tracer<S>, cam: &Camera, runs: u32) -> anyhow::Result<(Frame, f64)> {
+/// `runs` timed frames of `t` through `cam` after a warm-up: the last frame and the median
+/// seconds.
+pub(crate) fn timed<S: Surfaces>(
+    t: &Tracer<S>,
+    cam: &Camera,
+    runs: u32,
+) -> anyhow::Result<(Frame, f64)> {
     let (f, times) = render_timed(t, cam, Some(runs))?;
     Ok((f, median(&times)))
 }

@@ -4,17 +4,15 @@
 //! with 16 (the same camera at four times the width and height, averaged 4x4 in linear
 //! light), where prefiltering should pay.
 
-use crate::report::median;
 use crate::views::{View, water};
 use glam::{DVec3, Vec3};
 use svo::mesh::Mesh;
 use svo::render::{
-    Camera, Frame, MeshSurfaces, OctreeSurfaces, Phong, PointLight, Sky, Surfaces, TraceOptions,
-    Tracer, compare,
+    Camera, Frame, MeshSurfaces, OctreeSurfaces, PointLight, Surfaces, TraceOptions, Tracer,
+    compare,
 };
 use svo::trace::HitMode;
 use svo::{BakeOptions, Octree, bake_mesh};
-use svo_view::timing::render_timed;
 
 /// The levels measured, in pixels (0: the exact walk).
 pub const LODS: [f32; 5] = [0.0, 0.5, 1.0, 2.0, 4.0];
@@ -66,12 +64,13 @@ fn views(lo: DVec3, hi: DVec3, size: (u32, u32)) -> Vec<(&'static str, View, Cam
     out
 }
 
+/// The report's tracer ([`crate::image_tables::tracer`]) at level of detail `lod`.
 fn tracer<S: Surfaces>(s: S, light: PointLight, lod: f32) -> Tracer<S> {
     let opts = TraceOptions {
         lod,
         ..TraceOptions::default()
     };
-    Tracer::new(s, &[light], Sky::default(), Phong::default(), opts)
+    crate::image_tables::tracer(s, light, opts)
 }
 
 /// The triangles through `cam` with 16 samples a pixel: `cam` at four times its width and
@@ -135,7 +134,7 @@ pub fn measure(mesh: &Mesh, depth: u8, size: (u32, u32), runs: u32) -> anyhow::R
         let sixteen = reference16(m, t, &cam, light, &one)?;
         for lod in LODS {
             let tr = tracer(OctreeSurfaces::new(t, HitMode::Contour), light, lod);
-            let (f, times) = render_timed(&tr, &cam, Some(runs))?;
+            let (f, seconds) = crate::image_tables::timed(&tr, &cam, runs)?;
             let d1 = compare(&f, &one).ok_or_else(|| anyhow::anyhow!("frame sizes differ"))?;
             let d16 = compare(&f, &sixteen).ok_or_else(|| anyhow::anyhow!("frame sizes differ"))?;
             let st = f.stats;
@@ -144,7 +143,7 @@ pub fn measure(mesh: &Mesh, depth: u8, size: (u32, u32), runs: u32) -> anyhow::R
                 view: name,
                 depth,
                 lod,
-                seconds: median(&times),
+                seconds,
                 steps: st.primary_steps as f64 / st.primary_rays.max(1) as f64,
                 other_steps: (st.steps - st.primary_steps) as f64 / others.max(1) as f64,
                 psnr: d1.psnr_db,

@@ -5,6 +5,7 @@
 use crate::bake_tables::BakeTables;
 use crate::image_tables::{DdaRow, ImageRow};
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 use svo::Strategy;
@@ -106,56 +107,87 @@ pub fn bake_time(t: &BakeTables, path: &Path, caption: &str) -> anyhow::Result<(
     })
 }
 
+/// The capped PSNR of the plots (dB): identical images are drawn at 70.
+fn capped(psnr: f64) -> f64 {
+    psnr.min(70.0)
+}
+
+type Chart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A chart of PSNR against ms per frame on `root`, from 0 to `max_ms`, its PSNR axis the span
+/// of the (capped) values `psnr` with `below` dB under it and 2 above (0 to 70 dB without
+/// values), with its mesh drawn; and the span's low end.
+fn psnr_chart<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    caption: &str,
+    max_ms: f64,
+    psnr: impl Iterator<Item = f64>,
+    below: f64,
+) -> anyhow::Result<(Chart<'a, 'b>, f64)> {
+    let (lo, hi) = psnr.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let (lo, hi) = if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 70.0)
+    };
+    let mut c = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(56)
+        .build_cartesian_2d(0.0..max_ms, (lo - below).floor()..(hi + 2.0).ceil())?;
+    c.configure_mesh()
+        .x_desc("ms per frame (median)")
+        .y_desc("PSNR vs triangles, dB (capped at 70)")
+        .draw()?;
+    Ok((c, lo))
+}
+
+/// A curve through `pts` (ms, PSNR, the point's label) in `colour`, named `name` in the
+/// legend, each point marked and labelled.
+fn labelled_curve(
+    c: &mut Chart<'_, '_>,
+    name: &str,
+    colour: RGBColor,
+    pts: &[(f64, f64, String)],
+) -> anyhow::Result<()> {
+    c.draw_series(LineSeries::new(
+        pts.iter().map(|p| (p.0, p.1)),
+        colour.stroke_width(2),
+    ))?
+    .label(name)
+    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    c.draw_series(pts.iter().map(|(x, y, label)| {
+        EmptyElement::at((*x, *y))
+            + Circle::new((0, 0), 3, colour.filled())
+            + Text::new(label.clone(), (5, -12), ("sans-serif", 12))
+    }))?;
+    Ok(())
+}
+
 /// PSNR against ms per frame for one view: one curve per hit mode through the depths, and
 /// the triangle reference's median as a marker.
 pub fn error_vs_time(rows: &[ImageRow], path: &Path, caption: &str) -> anyhow::Result<()> {
     png(path, (900, 560), |root| {
         root.fill(&WHITE)?;
-        let psnr = |r: &ImageRow| r.psnr.min(70.0);
         let shown: Vec<&ImageRow> = rows.iter().filter(|r| r.mode != "triangles").collect();
         let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
-        let (lo, hi) = shown
-            .iter()
-            .map(|r| psnr(r))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
-        let (lo, hi) = if lo.is_finite() {
-            (lo, hi)
-        } else {
-            (0.0, 70.0)
-        };
-        let mut c = ChartBuilder::on(root)
-            .caption(caption, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(56)
-            .build_cartesian_2d(0.0..max_ms, (lo - 3.0).floor()..(hi + 2.0).ceil())?;
-        c.configure_mesh()
-            .x_desc("ms per frame (median)")
-            .y_desc("PSNR vs triangles, dB (capped at 70)")
-            .draw()?;
+        let psnr = shown.iter().map(|r| capped(r.psnr));
+        let (mut c, lo) = psnr_chart(root, caption, max_ms, psnr, 3.0)?;
         for (mode, colour) in [
             ("cube", COLOURS[0]),
             ("contour", COLOURS[1]),
             ("exact", COLOURS[2]),
         ] {
-            let pts: Vec<(f64, f64, u8)> = shown
+            let pts: Vec<(f64, f64, String)> = shown
                 .iter()
                 .filter(|r| r.mode == mode)
-                .map(|r| (r.seconds * 1e3, psnr(r), r.depth))
+                .map(|r| (r.seconds * 1e3, capped(r.psnr), format!("d{}", r.depth)))
                 .collect();
-            c.draw_series(LineSeries::new(
-                pts.iter().map(|p| (p.0, p.1)),
-                colour.stroke_width(2),
-            ))?
-            .label(mode)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-            c.draw_series(pts.iter().map(|&(x, y, d)| {
-                EmptyElement::at((x, y))
-                    + Circle::new((0, 0), 3, colour.filled())
-                    + Text::new(format!("d{d}"), (5, -12), ("sans-serif", 12))
-            }))?;
+            labelled_curve(&mut c, mode, colour, &pts)?;
         }
         let ref_ms: Vec<f64> = rows
             .iter()
@@ -188,51 +220,21 @@ pub fn lod_error_vs_time(
 ) -> anyhow::Result<()> {
     png(path, (900, 560), |root| {
         root.fill(&WHITE)?;
-        let cap = |v: f64| v.min(70.0);
         let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
-        let (lo, hi) = rows
-            .iter()
-            .flat_map(|r| [cap(r.psnr), cap(r.psnr16)])
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
-        let (lo, hi) = if lo.is_finite() {
-            (lo, hi)
-        } else {
-            (0.0, 70.0)
-        };
-        let mut c = ChartBuilder::on(root)
-            .caption(caption, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(56)
-            .build_cartesian_2d(0.0..max_ms, (lo - 2.0).floor()..(hi + 2.0).ceil())?;
-        c.configure_mesh()
-            .x_desc("ms per frame (median)")
-            .y_desc("PSNR vs triangles, dB (capped at 70)")
-            .draw()?;
+        let psnr = rows.iter().flat_map(|r| [capped(r.psnr), capped(r.psnr16)]);
+        let (mut c, _) = psnr_chart(root, caption, max_ms, psnr, 2.0)?;
         for (name, colour, sixteen) in [
             ("against 1 sample a pixel", COLOURS[0], false),
             ("against 16 samples a pixel", COLOURS[1], true),
         ] {
-            let pts: Vec<(f64, f64, f32)> = rows
+            let pts: Vec<(f64, f64, String)> = rows
                 .iter()
                 .map(|r| {
                     let y = if sixteen { r.psnr16 } else { r.psnr };
-                    (r.seconds * 1e3, cap(y), r.lod)
+                    (r.seconds * 1e3, capped(y), format!("lod {}", r.lod))
                 })
                 .collect();
-            c.draw_series(LineSeries::new(
-                pts.iter().map(|p| (p.0, p.1)),
-                colour.stroke_width(2),
-            ))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
-            c.draw_series(pts.iter().map(|&(x, y, l)| {
-                EmptyElement::at((x, y))
-                    + Circle::new((0, 0), 3, colour.filled())
-                    + Text::new(format!("lod {l}"), (5, -12), ("sans-serif", 12))
-            }))?;
+            labelled_curve(&mut c, name, colour, &pts)?;
         }
         c.configure_series_labels()
             .border_style(BLACK)

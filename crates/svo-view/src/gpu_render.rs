@@ -82,16 +82,33 @@ fn build_arena(
     chunk_limit: u64,
     wide: bool,
 ) -> Result<(ArenaLayout, Vec<Vec<u8>>), GpuError> {
-    let a = &tree.attributes;
-    let n = tree.leaf_count as usize;
-    let per_leaf = |k: usize| variant.channels[k] == 2;
     let view = if wide {
         crate::wide_view::build(tree)
     } else {
         None
     };
-    let na = &tree.node_attributes;
-    let nodes = tree.nodes.len();
+    // Checked before anything is copied.
+    let view_bytes = view
+        .as_ref()
+        .map_or(0, |v| size_of_val(v.as_slice()) as u64);
+    let total = arena_bytes(tree, variant) + view_bytes;
+    let shift = chunk_shift(chunk_limit);
+    let chunk_bytes = 4u64 << shift;
+    let chunks = total.div_ceil(chunk_bytes).max(1);
+    if total > arena_capacity(chunk_limit) {
+        return Err(GpuError::TooLarge {
+            what: format!(
+                "the tree ({} nodes, {} leaves, in {MAX_ARENA_CHUNKS} bindings at most)",
+                tree.nodes.len(),
+                tree.leaf_count
+            ),
+            bytes: total,
+            limit: chunk_bytes * MAX_ARENA_CHUNKS as u64,
+        });
+    }
+    let (a, na) = (&tree.attributes, &tree.node_attributes);
+    let (n, nodes) = (tree.leaf_count as usize, tree.nodes.len());
+    let per_leaf = |k: usize| variant.channels[k] == 2;
     let per_node = |k: usize| variant.node_channels[k] == 2;
     let parts: [Vec<u8>; 14] = [
         bytemuck::cast_slice(&tree.nodes).to_vec(),
@@ -111,21 +128,7 @@ fn build_arena(
         node_bytes(&na.refractivity, per_node(4), nodes),
         node_bytes(&na.ior, per_node(5), nodes),
     ];
-    let total: u64 = parts.iter().map(|p| p.len() as u64).sum();
-    let shift = chunk_shift(chunk_limit);
-    let chunk_bytes = 4u64 << shift;
-    let chunks = total.div_ceil(chunk_bytes).max(1);
-    if total > arena_capacity(chunk_limit) {
-        return Err(GpuError::TooLarge {
-            what: format!(
-                "the tree ({} nodes, {} leaves, in {MAX_ARENA_CHUNKS} bindings at most)",
-                tree.nodes.len(),
-                tree.leaf_count
-            ),
-            bytes: total,
-            limit: chunk_bytes * MAX_ARENA_CHUNKS as u64,
-        });
-    }
+    debug_assert_eq!(parts.iter().map(|p| p.len() as u64).sum::<u64>(), total);
     let mut layout = ArenaLayout {
         shift,
         chunks: chunks as u32,
@@ -158,7 +161,8 @@ pub fn arena_capacity(chunk_limit: u64) -> u64 {
 }
 
 /// The bytes of the arena of `tree` for `variant`, without the 64-ary view: what
-/// [`GpuRenderer::new`] uploads, worked out without copying anything.
+/// [`GpuRenderer::new`] uploads (and checks against [`arena_capacity`] before it copies
+/// anything), worked out without copying anything.
 pub fn arena_bytes(tree: &Octree, variant: &ShaderVariant) -> u64 {
     fn len<T>(c: &Channel<T>, expand: bool, n: usize) -> u64 {
         let b = match c {

@@ -51,6 +51,16 @@ fn torus(mtl: Option<&str>, depth: u8) -> Octree {
 }
 
 fn torus_with(mtl: Option<&str>, depth: u8, solid: Option<svo::bake::SolidMode>) -> Octree {
+    let opts = svo::BakeOptions {
+        depth,
+        solid,
+        ..svo::BakeOptions::default()
+    };
+    torus_baked(mtl, &opts)
+}
+
+/// The torus fixture (with material `mtl`) baked with `opts`.
+fn torus_baked(mtl: Option<&str>, opts: &svo::BakeOptions) -> Octree {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
     let obj = match mtl {
         None => fixtures.join("torus.obj"),
@@ -64,35 +74,19 @@ fn torus_with(mtl: Option<&str>, depth: u8, solid: Option<svo::bake::SolidMode>)
         }
     };
     let mesh = svo::Mesh::load(&obj).unwrap();
-    let opts = svo::BakeOptions {
-        depth,
-        solid,
-        ..svo::BakeOptions::default()
-    };
-    svo::bake_mesh(&mesh, &opts).unwrap().0
+    svo::bake_mesh(&mesh, opts).unwrap().0
 }
 
-/// The torus (with material `mtl`) baked at `depth` with its inner nodes' attributes.
+/// The torus (with material `mtl`) baked at `depth` with its inner nodes' attributes: the
+/// same nodes and leaves as without them.
 fn torus_with_levels(mtl: Option<&str>, depth: u8) -> Octree {
-    let plain = torus(mtl, depth);
-    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
-    // The same mesh, baked again with the inner nodes' attributes: the leaves are the same.
-    let mesh = match mtl {
-        None => svo::Mesh::load(fixtures.join("torus.obj")).unwrap(),
-        Some(m) => {
-            let dir = tempfile::tempdir().unwrap().keep();
-            let src = std::fs::read_to_string(fixtures.join("torus.obj")).unwrap();
-            std::fs::write(dir.join("torus.obj"), src).unwrap();
-            std::fs::write(dir.join("torus.mtl"), m).unwrap();
-            svo::Mesh::load(dir.join("torus.obj")).unwrap()
-        }
-    };
     let opts = svo::BakeOptions {
         depth,
         node_attributes: true,
         ..svo::BakeOptions::default()
     };
-    let tree = svo::bake_mesh(&mesh, &opts).unwrap().0;
+    let tree = torus_baked(mtl, &opts);
+    let plain = torus(mtl, depth);
     assert_eq!(tree.nodes, plain.nodes);
     assert_eq!(tree.attributes, plain.attributes);
     tree

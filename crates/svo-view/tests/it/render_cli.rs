@@ -511,10 +511,9 @@ fn path_bounce_limit_on_the_command_line() {
     assert!(err.contains("path-bounces"), "{err}");
 }
 
-/// `--max-depth K` renders the file's top K levels: a version-4 file with its inner nodes'
-/// values (the leaves of the coarser tree drawn with them), and a version-2 file cut (cubes).
-fn max_depth_renders_the_top_levels() {
-    let d = tempfile::tempdir().unwrap();
+/// The torus fixture baked at depth 7 with its inner nodes' attributes, written to `dir` as
+/// `lod.svo` (version 4).
+fn torus_svo_with_levels(dir: &std::path::Path) -> std::path::PathBuf {
     let mesh = svo::Mesh::load(torus_obj()).unwrap();
     let opts = svo::BakeOptions {
         depth: 7,
@@ -522,8 +521,16 @@ fn max_depth_renders_the_top_levels() {
         ..svo::BakeOptions::default()
     };
     let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
-    let lod = d.path().join("lod.svo");
+    let lod = dir.join("lod.svo");
     svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &lod).unwrap();
+    lod
+}
+
+/// `--max-depth K` renders the file's top K levels: a version-4 file with its inner nodes'
+/// values (the leaves of the coarser tree drawn with them), and a version-2 file cut (cubes).
+fn max_depth_renders_the_top_levels() {
+    let d = tempfile::tempdir().unwrap();
+    let lod = torus_svo_with_levels(d.path());
     let plain = common::torus_svo_at(d.path(), 7);
     for (file, hit) in [(&lod, "contour"), (&plain, "cube")] {
         let png = d.path().join("top.png");
@@ -561,15 +568,7 @@ fn max_depth_renders_the_top_levels() {
 /// head line says why; a negative or non-numeric level is refused with one line.
 fn lod_stops_rays_at_the_inner_nodes_of_files_that_have_them() {
     let d = tempfile::tempdir().unwrap();
-    let mesh = svo::Mesh::load(torus_obj()).unwrap();
-    let opts = svo::BakeOptions {
-        depth: 7,
-        node_attributes: true,
-        ..svo::BakeOptions::default()
-    };
-    let (tree, _) = svo::bake_mesh(&mesh, &opts).unwrap();
-    let lod = d.path().join("lod.svo");
-    svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &lod).unwrap();
+    let lod = torus_svo_with_levels(d.path());
     let plain = common::torus_svo_at(d.path(), 7);
     let steps = |out: &str| -> f64 {
         let s = out.split(" steps per primary ray").next().unwrap();

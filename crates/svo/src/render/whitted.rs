@@ -602,7 +602,7 @@ impl<S: Surfaces> Tracer<S> {
             if local_w > 0.0 {
                 let mut local = m.albedo * self.phong.ambient;
                 let from = p + n_f * (bias * h.side as f32);
-                let shadow_cone = shadow_cone(&task.cone, h.t * self.scale);
+                let shadow_cone = cone_from_hit(&task.cone, h.t * self.scale, 0.0);
                 for (lp, light) in &self.lights {
                     let Some((l, dist_grid)) = toward(p, n_f, *lp) else {
                         continue;
@@ -638,7 +638,7 @@ impl<S: Surfaces> Tracer<S> {
         let (kr, kt) = (m.reflectivity, m.refractivity);
         let v = -task.dir;
         let bias = self.opts.bias_cells * h.side as f32;
-        let cone = secondary_cone(&task.cone, h.t * self.scale);
+        let cone = cone_from_hit(&task.cone, h.t * self.scale, task.cone.spread);
         // Reflection and refraction, while the path has bounces left.
         let path_left =
             u16::from(task.refl) + u16::from(task.refr) < u16::from(self.opts.max_path_bounces);
@@ -935,7 +935,7 @@ impl<S: Surfaces> Tracer<S> {
                         local_w,
                         from: p + n_f * (bias * h.side as f32),
                         id: h.id,
-                        cone: shadow_cone(&task.cone, h.t * self.scale),
+                        cone: cone_from_hit(&task.cone, h.t * self.scale, 0.0),
                     });
                 }
                 hits[l] = Some((h, p, n_f, entering));
@@ -1018,29 +1018,17 @@ impl<S: Surfaces> Tracer<S> {
     }
 }
 
-/// The footprint of the reflection and refraction rays of a hit `d` grid cells along a ray
-/// with `cone`: the cone's width there and its spread (a flat surface's rule: the ray-cone
-/// rule of Akenine-Möller et al. 2019 without the surface's curvature term).
+/// The footprint of the rays a hit `d` grid cells along a ray with `cone` spawns: the cone's
+/// width there, spreading by `spread`. Reflection and refraction rays keep the cone's spread
+/// (a flat surface's rule: the ray-cone rule of Akenine-Möller et al. 2019 without the
+/// surface's curvature term); shadow rays keep the width toward the light (spread 0).
 #[inline]
-fn secondary_cone(cone: &Cone, d: f32) -> Cone {
+fn cone_from_hit(cone: &Cone, d: f32, spread: f32) -> Cone {
     if cone.is_exact() {
         return Cone::EXACT;
     }
     Cone {
         width: cone.width_at(d),
-        spread: cone.spread,
-    }
-}
-
-/// The footprint of the shadow rays of a hit `d` grid cells along a ray with `cone`: the
-/// cone's width there, kept toward the light.
-#[inline]
-fn shadow_cone(cone: &Cone, d: f32) -> Cone {
-    if cone.is_exact() {
-        return Cone::EXACT;
-    }
-    Cone {
-        width: cone.width_at(d),
-        spread: 0.0,
+        spread,
     }
 }

@@ -14,7 +14,7 @@
 
 use crate::octree::contour;
 use crate::octree::normal_encoding;
-use crate::octree::tree::{Channel, Octree};
+use crate::octree::tree::{Channel, LeafAttributes, Octree};
 use crate::trace::grid_ray::GridRay;
 use crate::trace::traverse::{LeafEntry, Traversal, traverse};
 use glam::{UVec3, Vec3};
@@ -150,18 +150,7 @@ impl LeafTest {
     pub(crate) fn new(tree: &Octree, leaf: u32, mode: HitMode) -> Self {
         match mode {
             HitMode::Cube | HitMode::Exact => Self::Cube,
-            HitMode::Contour => {
-                let a = &tree.attributes;
-                let (Some(nw), Some(cw)) = (
-                    channel_word(&a.normal, leaf),
-                    channel_word(&a.contour, leaf),
-                ) else {
-                    return Self::Cube;
-                };
-                let n = normal_encoding::decode(nw);
-                let (near, far) = contour::offsets(cw, n);
-                Self::Slab { n, near, far }
-            }
+            HitMode::Contour => Self::slab(&tree.attributes, leaf, 1),
         }
     }
 
@@ -179,16 +168,24 @@ impl LeafTest {
     /// [`Self::of_entry`]).
     #[inline]
     pub(crate) fn of_node(tree: &Octree, node: u32, side: u32, mode: HitMode) -> Self {
-        let a = &tree.node_attributes;
-        let (Some(nw), Some(cw), false) = (
-            channel_word(&a.normal, node),
-            channel_word(&a.contour, node),
-            mode == HitMode::Cube,
-        ) else {
+        if mode == HitMode::Cube {
+            return Self::Cube;
+        }
+        Self::slab(&tree.node_attributes, node, side)
+    }
+
+    /// The slab of entry `i` of channels `a` (the leaves' or the inner nodes') for a cell of
+    /// `side` cells, its offsets scaled to it; the cube where `a` holds no normal or contour.
+    #[inline]
+    fn slab(a: &LeafAttributes, i: u32, side: u32) -> Self {
+        let (Some(nw), Some(cw)) = (channel_word(&a.normal, i), channel_word(&a.contour, i)) else {
             return Self::Cube;
         };
         let n = normal_encoding::decode(nw);
         let (near, far) = contour::offsets(cw, n);
+        if side <= 1 {
+            return Self::Slab { n, near, far };
+        }
         let s = side as f32;
         Self::Slab {
             n,

@@ -408,9 +408,11 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         };
         // The single walk's test of the box of the child's leaves, on every lane.
         let mut enters = enters;
-        if child.info >> 8 != 0 {
+        let leaf_box = (child.info >> 8 != 0).then(|| {
             let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
-            let (b0, b1) = (ls.planes(&any, lo), ls.planes(&any, hi));
+            (ls.planes(&any, lo), ls.planes(&any, hi))
+        });
+        if let Some((b0, b1)) = &leaf_box {
             let first = max4(max4(max4(b0.x, b0.y), b0.z), t_enter);
             let last = min4(min4(min4(b1.x, b1.y), b1.z), t_exit);
             enters &= !last.cmplt(first);
@@ -431,13 +433,10 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
                     continue;
                 }
                 stopped |= 1 << l;
-                let (b0, b1) = if child.info >> 8 != 0 {
-                    let code = bounds::mirrored(child.info, swap);
-                    let (lo, hi) = bounds::cell_box(code, origin, half);
-                    (ray.t_planes(lo), ray.t_planes(hi))
-                } else {
-                    let c1 = Vec3A::new(lane(c1.x, l), lane(c1.y, l), lane(c1.z, l));
-                    (ray.t_planes(origin), c1)
+                let of_lane = |p: &Planes| Vec3A::new(lane(p.x, l), lane(p.y, l), lane(p.z, l));
+                let (b0, b1) = match &leaf_box {
+                    Some((b0, b1)) => (of_lane(b0), of_lane(b1)),
+                    None => (ray.t_planes(origin), of_lane(&c1)),
                 };
                 let (e0, e1) = (b0.max_element(), b1.min_element());
                 let t_in = if e0 > tmin[l] { e0 } else { tmin[l] };

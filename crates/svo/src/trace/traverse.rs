@@ -387,48 +387,44 @@ fn traverse_with<const STACK: usize, T>(
             let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
                 continue;
             };
-            // A ray that passes beside the box of the child's leaves finds none there.
-            if child.info >> 8 != 0 {
+            // The planes of the box of the child's leaves, where it keeps one: a ray that
+            // passes beside it finds none there.
+            let leaf_box = (child.info >> 8 != 0).then(|| {
                 let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
-                let (b0, b1) = (r.t_planes(lo), r.t_planes(hi));
-                if b1.min_element().min(t_exit) < b0.max_element().max(t_enter) {
-                    continue;
-                }
-            }
-            if coarse
-                && !child.is_leaf_parent()
-                && half as f32 <= cone.width_at(t_enter * reach)
-                && cone.stops_at(half, node_distance(ray.origin, r.flip(origin, half), half))
+                (r.t_planes(lo), r.t_planes(hi))
+            });
+            if let Some((b0, b1)) = leaf_box
+                && b1.min_element().min(t_exit) < b0.max_element().max(t_enter)
             {
-                // Wide enough: the node stands for its subtree, within the box of its leaves
-                // (which holds its surface), as the primary prepass tests it.
-                let (b0, b1) = if child.info >> 8 != 0 {
-                    let code = bounds::mirrored(child.info, swap);
-                    let (lo, hi) = bounds::cell_box(code, origin, half);
-                    (r.t_planes(lo), r.t_planes(hi))
-                } else {
-                    (r.t_planes(origin), c1)
-                };
-                let (e0, e1) = (b0.max_element(), b1.min_element());
-                let t_in = if e0 > tmin { e0 } else { tmin };
-                let t_out = if e1 < tmax { e1 } else { tmax };
-                if t_out < t_in {
+                continue;
+            }
+            if coarse && !child.is_leaf_parent() && half as f32 <= cone.width_at(t_enter * reach) {
+                let cell = r.flip(origin, half);
+                if cone.stops_at(half, node_distance(ray.origin, cell, half)) {
+                    // Wide enough: the node stands for its subtree, within the box of its
+                    // leaves (which holds its surface), as the primary prepass tests it.
+                    let (b0, b1) = leaf_box.unwrap_or_else(|| (r.t_planes(origin), c1));
+                    let (e0, e1) = (b0.max_element(), b1.min_element());
+                    let t_in = if e0 > tmin { e0 } else { tmin };
+                    let t_out = if e1 < tmax { e1 } else { tmax };
+                    if t_out < t_in {
+                        continue;
+                    }
+                    let entry = LeafEntry {
+                        leaf: node.first + rank,
+                        cell,
+                        side: half,
+                        t_enter: t_in,
+                        t_exit: t_out,
+                        entry_normal: r.entry_normal_of(b0, tmin),
+                        exit_normal: r.exit_normal_of(b1),
+                    };
+                    if let Some(h) = on_leaf(&entry) {
+                        out.hit = Some(h);
+                        return Some(out);
+                    }
                     continue;
                 }
-                let entry = LeafEntry {
-                    leaf: node.first + rank,
-                    cell: r.flip(origin, half),
-                    side: half,
-                    t_enter: t_in,
-                    t_exit: t_out,
-                    entry_normal: r.entry_normal_of(b0, tmin),
-                    exit_normal: r.exit_normal_of(b1),
-                };
-                if let Some(h) = on_leaf(&entry) {
-                    out.hit = Some(h);
-                    return Some(out);
-                }
-                continue;
             }
             stack[len] = Saved {
                 first: node.first,
