@@ -101,8 +101,7 @@ struct Settings {
     pad: u32,
     /// Level of detail: `filtered` gives the inner nodes (above the leaf parents) the filtered
     /// surface of their cells, written as format version 4 (levels first, so a file's top
-    /// levels read alone); `none` writes no inner-node channels. Bakes in parts (`--memory`,
-    /// `plan`) make none yet.
+    /// levels read alone), in memory or in parts; `none` writes no inner-node channels.
     #[arg(long, default_value = "none", value_name = "MODE")]
     lod: Lod,
 }

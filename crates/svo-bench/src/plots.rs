@@ -221,7 +221,9 @@ pub fn lod_error_vs_time(
     png(path, (900, 560), |root| {
         root.fill(&WHITE)?;
         let max_ms = rows.iter().map(|r| r.seconds * 1e3).fold(1.0, f64::max) * 1.1;
-        let psnr = rows.iter().flat_map(|r| [capped(r.psnr), capped(r.psnr16)]);
+        let psnr = rows
+            .iter()
+            .flat_map(|r| std::iter::once(r.psnr).chain(r.psnr16).map(capped));
         let (mut c, _) = psnr_chart(root, caption, max_ms, psnr, 2.0)?;
         for (name, colour, sixteen) in [
             ("against 1 sample a pixel", COLOURS[0], false),
@@ -229,12 +231,14 @@ pub fn lod_error_vs_time(
         ] {
             let pts: Vec<(f64, f64, String)> = rows
                 .iter()
-                .map(|r| {
-                    let y = if sixteen { r.psnr16 } else { r.psnr };
-                    (r.seconds * 1e3, capped(y), format!("lod {}", r.lod))
+                .filter_map(|r| {
+                    let y = if sixteen { r.psnr16? } else { r.psnr };
+                    Some((r.seconds * 1e3, capped(y), format!("lod {}", r.lod)))
                 })
                 .collect();
-            labelled_curve(&mut c, name, colour, &pts)?;
+            if !pts.is_empty() {
+                labelled_curve(&mut c, name, colour, &pts)?;
+            }
         }
         c.configure_series_labels()
             .border_style(BLACK)

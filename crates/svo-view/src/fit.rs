@@ -1,12 +1,15 @@
 //! A tree larger than the adapter's bindings: instead of refusing it, the GPU paths show the
 //! deepest prefix of its levels whose arrays fit (the nodes of the last level drawn as leaves
-//! with their inner-node attributes, [`svo::Octree::top_levels`]), and say so on one line.
+//! with their inner-node attributes, [`svo::Octree::top_levels`]), and say so on one line. A
+//! version-4 file too large is read only as deep as its header says may fit
+//! ([`prefix_depth`]): the levels below are never read.
 
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::{GpuLayout, arena_bytes, arena_capacity};
 use crate::gpu_types::ShaderVariant;
 use std::fmt;
 use svo::Octree;
+use svo::io::LevelSizes;
 use svo::render::{OctreeSurfaces, RenderScene, Surfaces, TraceOptions};
 
 /// What of a tree the GPU shows when the whole does not fit.
@@ -83,6 +86,40 @@ pub fn fit_scene(
         }
         k -= 1;
     }
+}
+
+/// The deepest `k` whose top-`k`-levels tree of a version-4 file with these level sizes
+/// should fit in `limit` bytes of arena, by the header alone (8 bytes a node, and its
+/// per-node channels where a level of detail (`lod`) reads them; the level-`k` nodes as
+/// leaves with their values),
+/// with the estimate of the whole tree; `None` where the whole tree fits. The leaf parents'
+/// level, which keeps no values, is skipped where the inner nodes have values, as
+/// [`fit_scene`] skips it. An estimate only: [`fit_scene`] then measures the tree read.
+pub fn prefix_depth(sizes: &LevelSizes, limit: u64, lod: bool) -> Option<(u8, u64)> {
+    let c = &sizes.counts;
+    let depth = c.len().checked_sub(1)?;
+    let estimate = |k: usize| {
+        let inner: u64 = c[..k].iter().sum();
+        let per_leaf = if k == depth {
+            sizes.leaf_bytes
+        } else if k + 1 < depth {
+            sizes.node_bytes
+        } else {
+            0
+        };
+        let per_node = if lod { sizes.node_bytes } else { 0 };
+        (8 + per_node) * inner + per_leaf * c[k]
+    };
+    let whole = estimate(depth);
+    if whole <= limit || depth <= 1 {
+        return None;
+    }
+    let usable = |k: usize| !(sizes.node_bytes > 0 && k + 1 == depth && k > 1);
+    let k = (1..depth)
+        .rev()
+        .find(|&k| usable(k) && estimate(k) <= limit)
+        .unwrap_or(1);
+    Some((k as u8, whole))
 }
 
 /// The nodes on each level of `tree`, from the root (level 0) to the leaves (level `depth`).

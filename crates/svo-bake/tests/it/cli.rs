@@ -252,7 +252,7 @@ fn output_is_identical_for_1_2_and_8_threads_and_json_and_quiet_work() {
     assert_eq!(v["bake"]["channels"].as_array().unwrap().len(), 1);
 }
 
-fn lod_filtered_writes_version_4_with_the_same_leaves_and_parts_refuse_it() {
+fn lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts() {
     let d = tmp();
     let torus = svo_tests::repo_root().join("fixtures/torus.obj");
     let plain = d.path().join("plain.svo");
@@ -287,38 +287,44 @@ fn lod_filtered_writes_version_4_with_the_same_leaves_and_parts_refuse_it() {
         s(&none),
     ]);
     assert!(std::fs::read(&none).unwrap() == std::fs::read(&plain).unwrap());
-    // Bakes in parts do not make them yet: one clear line, no output.
+    // Bakes in parts make them too: the same bytes, within a budget and planned.
     let parts = d.path().join("parts.svo");
-    fails(
-        &[
-            s(&torus),
-            "--depth",
-            "7",
-            "--lod",
-            "filtered",
-            "--memory",
-            "8MiB",
-            "-o",
-            s(&parts),
-        ],
-        "inner nodes' attributes",
-    );
-    assert!(!parts.exists());
+    let text = ok(&[
+        s(&torus),
+        "--depth",
+        "7",
+        "--lod",
+        "filtered",
+        "--memory",
+        "8MiB",
+        "-o",
+        s(&parts),
+    ]);
+    assert!(text.contains("parts "), "{text}");
+    assert!(std::fs::read(&parts).unwrap() == std::fs::read(&lod).unwrap());
     let plan = d.path().join("job.svoplan");
+    ok(&[
+        "plan",
+        s(&torus),
+        "--depth",
+        "7",
+        "--lod",
+        "filtered",
+        "--parts",
+        "2",
+        "-o",
+        s(&plan),
+    ]);
+    for i in ["0", "1"] {
+        ok(&["part", s(&plan), i]);
+    }
+    let merged = d.path().join("merged.svo");
+    let text = ok(&["merge", s(&plan), "-o", s(&merged)]);
+    assert!(text.contains("version 4"), "{text}");
+    assert!(std::fs::read(&merged).unwrap() == std::fs::read(&lod).unwrap());
     fails(
-        &[
-            "plan",
-            s(&torus),
-            "--depth",
-            "7",
-            "--lod",
-            "filtered",
-            "--parts",
-            "2",
-            "-o",
-            s(&plan),
-        ],
-        "inner nodes' attributes",
+        &["merge", s(&plan), "--chunked", "-o", s(&merged)],
+        "inner-node attributes",
     );
 }
 
@@ -1071,7 +1077,7 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(scene_files_bake_with_their_defaults_lights_and_views_and_mistakes_are_one_line),
         trial!(scene_meshes_are_found_beside_in_svo_models_or_in_models),
         trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
-        trial!(lod_filtered_writes_version_4_with_the_same_leaves_and_parts_refuse_it),
+        trial!(lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts),
         #[cfg(unix)]
         trial!(interrupted_bakes_clean_up_and_killed_ones_resume),
     ]

@@ -202,6 +202,95 @@ fn a_tree_too_large_for_the_adapter_shows_its_top_levels() {
     assert!(svo::render::compare(&g, &c).unwrap().rmse <= 0.5);
 }
 
+/// A version-4 file's header tells how much of it an adapter holds before any level is read
+/// (what `--headless` reads of a file too large): with and without a level of detail, for a
+/// limit of each prefix's arena the depth chosen is the deepest prefix within it (never the
+/// leaf parents' level, which keeps no values), and the estimate of the whole is its arena;
+/// a version-2 file has no level table. Needs no adapter.
+fn the_header_says_which_prefix_of_a_file_fits() {
+    let tree = torus_with_levels(None, 7);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("levels.svo");
+    svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &path).unwrap();
+    let sizes = svo::io::read_level_sizes(&path).unwrap().unwrap();
+    assert_eq!(sizes.counts.len(), 8);
+    assert_eq!(sizes.counts[7], u64::from(tree.leaf_count));
+    for lod in [0.0, 1.0] {
+        let trace = TraceOptions {
+            lod,
+            ..TraceOptions::default()
+        };
+        let arena = |t: &Octree| {
+            svo_view::gpu_render::arena_bytes(t, &ShaderVariant::for_scene(t, &trace, 1))
+        };
+        let whole = arena(&tree);
+        let fits = |limit| svo_view::fit::prefix_depth(&sizes, limit, lod > 0.0);
+        assert_eq!(fits(whole), None);
+        let tops: Vec<u64> = (1..7u8)
+            .map(|k| arena(&svo::io::read_file_to_depth(&path, k).unwrap().0))
+            .collect();
+        for k in 1..7u8 {
+            let limit = tops[usize::from(k) - 1];
+            let (got, estimate) = fits(limit).unwrap();
+            // The deepest prefix but the leaf parents' whose arena is within the limit.
+            let want = (1..6u8)
+                .rev()
+                .find(|&j| tops[usize::from(j) - 1] <= limit)
+                .unwrap_or(1);
+            assert_eq!(got, want, "lod {lod}, prefix of {k} levels");
+            assert_eq!(estimate, whole, "lod {lod}");
+        }
+    }
+    let plain = dir.path().join("plain.svo");
+    svo::io::write_file(&torus(None, 5), &svo::io::BuildInfo::new(), &plain).unwrap();
+    assert_eq!(svo::io::read_level_sizes(&plain).unwrap(), None);
+}
+
+/// A version-4 file larger than the adapter is read only as deep as its header says fits:
+/// `--headless` renders the top levels it read and says what of the file it shows, the same
+/// image as the CPU's of that prefix.
+fn a_file_too_large_for_the_adapter_is_read_only_as_deep_as_fits() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    drop(ctx);
+    let tree = torus_with_levels(None, 7);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("levels.svo");
+    svo::io::write_file(&tree, &svo::io::BuildInfo::new(), &path).unwrap();
+    let trace = TraceOptions {
+        lod: 1.0,
+        ..TraceOptions::default()
+    };
+    let whole =
+        svo_view::gpu_render::arena_bytes(&tree, &ShaderVariant::for_scene(&tree, &trace, 1));
+    let job = svo_view::job::RenderJob {
+        input: path.clone(),
+        output: Some(dir.path().join("top.png")),
+        width: 96,
+        height: 72,
+        trace,
+        ..Default::default()
+    };
+    let opts = svo_view::headless::HeadlessOptions {
+        vs_cpu: true,
+        layout: GpuLayout {
+            chunk_limit: Some(whole / 16),
+            ..GpuLayout::default()
+        },
+        ..Default::default()
+    };
+    let r = svo_view::headless::run(&job, &opts).unwrap();
+    let gpu = r.gpu.unwrap();
+    let p = gpu.shown.expect("the file does not fit");
+    assert!(p.depth < 6 && p.of == 7 && p.needed == whole, "{p:?}");
+    assert_eq!(r.depth, p.depth);
+    let top = svo::io::read_file_to_depth(&path, p.depth).unwrap().0;
+    assert_eq!(r.leaves, u64::from(top.leaf_count));
+    let v = gpu.vs_cpu.unwrap();
+    assert!(v.diff.rmse <= 0.5 && v.leaf_mismatch == 0.0, "{v:?}");
+}
+
 /// The scene of `tree` at 96x72 with the default camera and light.
 fn scene(tree: Octree) -> RenderScene {
     let setup = SceneSetup {
@@ -950,6 +1039,11 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(a_level_of_detail_renders_the_same, common::gpu_need()),
         trial!(
             a_tree_too_large_for_the_adapter_shows_its_top_levels,
+            common::gpu_need()
+        ),
+        trial!(the_header_says_which_prefix_of_a_file_fits),
+        trial!(
+            a_file_too_large_for_the_adapter_is_read_only_as_deep_as_fits,
             common::gpu_need()
         ),
         trial!(

@@ -17,7 +17,7 @@
 //! is how the bake summary reports them.
 
 use crate::attributes::ChannelSelection;
-use crate::attributes::surface_sums::{NodeValue, SurfaceSums};
+use crate::attributes::surface_sums::{NodeRule, NodeValue, SurfaceSums};
 use crate::geometry::triangle_setup::GridTriangle;
 use crate::mesh::triangle_mesh::{Material, Mesh};
 use crate::octree::contour;
@@ -292,18 +292,16 @@ impl<'a> AttributeInputs<'a> {
     /// The encoded attributes of an inner node from its `sums` (its children's, added):
     /// the channels that are per leaf, the others left zero.
     pub(crate) fn node_value(&self, sums: &mut SurfaceSums) -> NodeValue {
-        let mut v = NodeValue::default();
-        if self.want_normal {
-            let heaviest = sums.heaviest;
-            v.normal = sums.encode_normal(|| heaviest);
+        self.node_rule().value(sums)
+    }
+
+    /// Which values a node's sums are encoded into.
+    pub(crate) fn node_rule(&self) -> NodeRule {
+        NodeRule {
+            normal: self.want_normal,
+            colour: self.per_leaf_colour,
+            optics: self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior,
         }
-        if self.per_leaf_colour {
-            v.colour = sums.encode_colour();
-        }
-        if self.per_leaf_refl || self.per_leaf_refr || self.per_leaf_ior {
-            (v.reflectivity, v.refractivity, v.ior) = sums.encode_optics();
-        }
-        v
     }
 
     /// The leaf attributes from the voxelizer's values, with constants for the channels that

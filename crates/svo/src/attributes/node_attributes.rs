@@ -3,14 +3,17 @@
 //! A node's normal, colour, reflectivity, refractivity and IOR are the area-weighted means
 //! over every triangle part below it, made as the build carries each node's sums up
 //! ([`crate::attributes::surface_sums`]). A channel that is the same for every leaf (a
-//! constant, or absent) is the same for the nodes.
+//! constant, or absent) is the same for the nodes, but for the normal: the nodes' contours are
+//! fitted along their own normals, so the leaves' constant normal is the nodes' only where
+//! every node that keeps values has it (else the nodes store theirs).
 //!
 //! A node's contour is made from its children's, once the tree is finished: the two planes
 //! along the node's (decoded) normal that enclose, for every child, the part of the child's
 //! cell between the child's own contour planes (the child's whole cell where it has no
 //! contour: an interior leaf). That region holds the child's surface, so the node's contour
 //! holds the node's surface; it is made from the stored contours alone, so the nodes above a
-//! cut of the tree into parts come out the same from the parts' roots. It is tight where each
+//! cut of the tree into parts come out the same from the parts' roots
+//! ([`crate::bake::parts`]). It is tight where each
 //! child's surface crosses its cell, and looser where a child holds only a corner of a sheet.
 //!
 //! The leaf parents keep no values (they are 0): a leaf parent is two leaves wide, so drawing
@@ -36,60 +39,141 @@ pub(crate) fn node_attributes(
     if nodes.first().is_none_or(|n| n.child_mask() == 0) || values.len() != nodes.len() {
         return out;
     }
-    fn like<T: Copy>(
+    let kept = |i: usize| !nodes[i].is_leaf_parent();
+    fn like<T: Copy + Default>(
         leaf: &Channel<T>,
         values: &[NodeValue],
         f: fn(&NodeValue) -> T,
+        kept: &dyn Fn(usize) -> bool,
     ) -> Channel<T> {
         match leaf {
             Channel::Absent => Channel::Absent,
             Channel::Constant(v) => Channel::Constant(*v),
-            Channel::PerLeaf(_) => Channel::PerLeaf(values.iter().map(f).collect()),
+            Channel::PerLeaf(_) => Channel::PerLeaf(
+                values
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| if kept(i) { f(v) } else { T::default() })
+                    .collect(),
+            ),
         }
     }
-    out.normal = like(&leaves.normal, values, |v| v.normal);
-    out.colour = like(&leaves.colour, values, |v| v.colour);
-    out.reflectivity = like(&leaves.reflectivity, values, |v| v.reflectivity);
-    out.refractivity = like(&leaves.refractivity, values, |v| v.refractivity);
-    out.ior = like(&leaves.ior, values, |v| v.ior);
-    // Fitted against the normals as stored (a constant where the leaves' is one).
-    if !matches!(leaves.contour, Channel::Absent) && !matches!(out.normal, Channel::Absent) {
-        out.contour = Channel::PerLeaf(node_contours(nodes, &out.normal, leaves));
-    }
-    // The leaf parents' values served their parents' contours; they are not kept (a leaf
-    // parent's cell is two leaves wide, and its values would add a fifth to a file).
-    fn clear<T: Default>(c: &mut Channel<T>, nodes: &[Node]) {
-        if let Channel::PerLeaf(v) = c {
-            for (x, n) in v.iter_mut().zip(nodes) {
-                if n.is_leaf_parent() {
-                    *x = T::default();
-                }
+    let uniform = Uniform::of(
+        values
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| kept(i))
+            .map(|(_, v)| v.normal),
+    );
+    out.normal = match normal_storage(&leaves.normal, uniform) {
+        Some(c) => c,
+        None => like(&Channel::PerLeaf(Vec::new()), values, |v| v.normal, &kept),
+    };
+    out.colour = like(&leaves.colour, values, |v| v.colour, &kept);
+    out.reflectivity = like(&leaves.reflectivity, values, |v| v.reflectivity, &kept);
+    out.refractivity = like(&leaves.refractivity, values, |v| v.refractivity, &kept);
+    out.ior = like(&leaves.ior, values, |v| v.ior, &kept);
+    if has_contours(leaves) {
+        let mut c = node_contours(nodes, values, leaves, 0);
+        for (i, x) in c.iter_mut().enumerate() {
+            if !kept(i) {
+                *x = 0;
             }
         }
+        out.contour = Channel::PerLeaf(c);
     }
-    clear(&mut out.normal, nodes);
-    clear(&mut out.contour, nodes);
-    clear(&mut out.colour, nodes);
-    clear(&mut out.reflectivity, nodes);
-    clear(&mut out.refractivity, nodes);
-    clear(&mut out.ior, nodes);
     out
 }
 
+/// Whether the nodes of a tree whose leaves have these channels get contours: where the
+/// leaves have contours and normals.
+pub(crate) fn has_contours(leaves: &LeafAttributes) -> bool {
+    !matches!(leaves.contour, Channel::Absent) && !matches!(leaves.normal, Channel::Absent)
+}
+
+/// The values one channel takes over a set of nodes: none, all one, or several.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize, serde::Deserialize))]
+pub(crate) enum Uniform {
+    /// No node.
+    Empty,
+    /// Every node holds this value.
+    One(u32),
+    /// Two values differ.
+    Many,
+}
+
+impl Uniform {
+    /// Over `values`.
+    pub(crate) fn of(values: impl IntoIterator<Item = u32>) -> Self {
+        values
+            .into_iter()
+            .fold(Self::Empty, |u, v| u.and(Self::One(v)))
+    }
+
+    /// Over both sets.
+    pub(crate) fn and(self, other: Self) -> Self {
+        match (self, other) {
+            (Self::Empty, x) | (x, Self::Empty) => x,
+            (Self::One(a), Self::One(b)) if a == b => self,
+            _ => Self::Many,
+        }
+    }
+}
+
+/// How the nodes store their normals, for leaves whose normal channel is `leaf` and nodes
+/// keeping values whose normals are `uniform`: absent with the leaves', the leaves' constant
+/// where every such node's normal is that constant, else per node (`None`). The contours are
+/// fitted against each node's own normal, so one stored once must be every node's.
+pub(crate) fn normal_storage(leaf: &Channel<u32>, uniform: Uniform) -> Option<Channel<u32>> {
+    match (leaf, uniform) {
+        (Channel::Absent, _) => Some(Channel::Absent),
+        (Channel::Constant(v), Uniform::Empty) => Some(Channel::Constant(*v)),
+        (Channel::Constant(v), Uniform::One(w)) if *v == w => Some(Channel::Constant(*v)),
+        _ => None,
+    }
+}
+
 /// Each node's contour from its children's (see the module docs): level by level from the
-/// deepest, the nodes of a level in parallel. `normals` is the nodes' normal channel.
-fn node_contours(nodes: &[Node], normals: &Channel<u32>, leaves: &LeafAttributes) -> Vec<u32> {
+/// deepest, the nodes of a level in parallel. The normals are the nodes' `values`; the
+/// leaves' values are `leaves`' from `leaf_off` on (a subtree's leaf bases count from its
+/// first leaf). A leaf parent's contour is made (its parent's needs it) but kept by no file.
+pub(crate) fn node_contours(
+    nodes: &[Node],
+    values: &[NodeValue],
+    leaves: &LeafAttributes,
+    leaf_off: usize,
+) -> Vec<u32> {
     let mut out = vec![contour::FULL; nodes.len()];
     for level in by_level(nodes).iter().rev() {
-        let one = |&i: &u32| node_contour(nodes, i as usize, normals, leaves, &out);
+        let one = |&i: &u32| {
+            let node = nodes[i as usize];
+            let children = (0..8u8).filter_map(|c| {
+                let rank = node.child_rank(c)?;
+                let slab = match node.leaf_base() {
+                    Some(base) => {
+                        let leaf = leaf_off + (base + rank) as usize;
+                        let word = leaves.normal.get(leaf).filter(|&w| w != NO_NORMAL);
+                        word.zip(leaves.contour.get(leaf))
+                            .map(|(w, c)| node_slab(w, c))
+                    }
+                    None => {
+                        let k = (node.first + rank) as usize;
+                        Some(node_slab(values[k].normal, out[k]))
+                    }
+                };
+                Some((c, slab))
+            });
+            contour_of(values[i as usize].normal, children)
+        };
         #[cfg(feature = "parallel")]
-        let values: Vec<u32> = {
+        let level_values: Vec<u32> = {
             use rayon::prelude::*;
             level.par_iter().with_min_len(4096).map(one).collect()
         };
         #[cfg(not(feature = "parallel"))]
-        let values: Vec<u32> = level.iter().map(one).collect();
-        for (&i, v) in level.iter().zip(values) {
+        let level_values: Vec<u32> = level.iter().map(one).collect();
+        for (&i, v) in level.iter().zip(level_values) {
             out[i as usize] = v;
         }
     }
@@ -115,38 +199,22 @@ fn by_level(nodes: &[Node]) -> Vec<Vec<u32>> {
     levels
 }
 
-/// The contour of node `i` from its children's: the leaves' channels, or the nodes'
-/// `normals` and their contours in `out`.
-fn node_contour(
-    nodes: &[Node],
-    i: usize,
-    normals: &Channel<u32>,
-    leaves: &LeafAttributes,
-    out: &[u32],
+/// The slab of a child with normal word `normal` and contour word `contour`: its normal and
+/// the planes' offsets from its centre, in its cells.
+pub(crate) fn node_slab(normal: u32, contour: u32) -> (Vec3, (f32, f32)) {
+    let n = normal_encoding::decode(normal);
+    (n, contour::offsets(contour, n))
+}
+
+/// The contour of a node with normal word `normal` from its `children`: each one's index and
+/// slab ([`node_slab`]; `None` for a child without a contour, which spans its cell).
+pub(crate) fn contour_of(
+    normal: u32,
+    children: impl Iterator<Item = (u8, Option<(Vec3, (f32, f32))>)>,
 ) -> u32 {
-    let node = nodes[i];
-    let normal = |k: usize| normal_encoding::decode(normals.get(k).unwrap_or_default());
-    let n = normal(i);
+    let n = normal_encoding::decode(normal);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for c in 0..8u8 {
-        let Some(rank) = node.child_rank(c) else {
-            continue;
-        };
-        let slab = match node.leaf_base() {
-            Some(base) => {
-                let leaf = (base + rank) as usize;
-                let word = leaves.normal.get(leaf).filter(|&w| w != NO_NORMAL);
-                word.zip(leaves.contour.get(leaf)).map(|(w, c)| {
-                    let nc = normal_encoding::decode(w);
-                    (nc, contour::offsets(c, nc))
-                })
-            }
-            None => {
-                let k = (node.first + rank) as usize;
-                let nc = normal(k);
-                Some((nc, contour::offsets(out[k], nc)))
-            }
-        };
+    for (c, slab) in children {
         let (a, b) = child_extent(c, slab, n);
         lo = lo.min(a);
         hi = hi.max(b);

@@ -147,9 +147,78 @@ impl BakeSums for SurfaceSums {
     }
 }
 
+impl SurfaceSums {
+    /// The sums as 19 numbers (area, weight, normal, direction, colour, reflectivity,
+    /// refractivity, IOR, heaviest, its weight), as a part file carries a subtree's.
+    #[cfg(feature = "io")]
+    pub(crate) fn to_words(self) -> Vec<f64> {
+        let mut v = vec![self.area, self.weight];
+        v.extend(self.normal.to_array());
+        v.extend(self.direction.to_array());
+        v.extend(self.colour);
+        v.extend([self.reflectivity, self.refractivity, self.ior]);
+        v.extend(self.heaviest.to_array());
+        v.push(self.heaviest_weight);
+        v
+    }
+
+    /// The sums of [`Self::to_words`]'s numbers (`None` unless there are 19).
+    #[cfg(feature = "io")]
+    pub(crate) fn from_words(w: &[f64]) -> Option<Self> {
+        let w: &[f64; 19] = w.try_into().ok()?;
+        let v3 = |i: usize| DVec3::new(w[i], w[i + 1], w[i + 2]);
+        Some(Self {
+            area: w[0],
+            weight: w[1],
+            normal: v3(2),
+            direction: v3(5),
+            colour: [w[8], w[9], w[10], w[11]],
+            reflectivity: w[12],
+            refractivity: w[13],
+            ior: w[14],
+            heaviest: v3(15),
+            heaviest_weight: w[18],
+        })
+    }
+}
+
+/// Which values a node's sums are encoded into: the normal where the leaves' normals or
+/// contours are made, and the colour and the materials where they vary over the leaves (else
+/// they are constants, and a node's is the leaves').
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize, serde::Deserialize))]
+pub(crate) struct NodeRule {
+    /// The normal.
+    pub normal: bool,
+    /// The colour.
+    pub colour: bool,
+    /// Reflectivity, refractivity and IOR.
+    pub optics: bool,
+}
+
+impl NodeRule {
+    /// The value of a node whose children's sums added up to `sums` (which it completes: the
+    /// direction its normal was encoded from).
+    pub(crate) fn value(self, sums: &mut SurfaceSums) -> NodeValue {
+        let mut v = NodeValue::default();
+        if self.normal {
+            let heaviest = sums.heaviest;
+            v.normal = sums.encode_normal(|| heaviest);
+        }
+        if self.colour {
+            v.colour = sums.encode_colour();
+        }
+        if self.optics {
+            (v.reflectivity, v.refractivity, v.ior) = sums.encode_optics();
+        }
+        v
+    }
+}
+
 /// A node's encoded attributes, as the build stores them beside its record (the contour
 /// comes later, from the finished tree: [`crate::attributes::node_attributes`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "io", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct NodeValue {
     /// Octahedral normal.
     pub normal: u32,

@@ -38,7 +38,9 @@ pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
 pub use chunked::ChunkedFile;
 pub use describe::describe_file;
 pub use header::{BuildInfo, VERSION};
-pub use read::{from_bytes, read_file, read_file_to_depth, read_from};
+pub use read::{
+    LevelSizes, from_bytes, read_file, read_file_to_depth, read_from, read_level_sizes,
+};
 #[cfg(feature = "vox")]
 pub use vox::write_vox;
 pub use write::{FormatError, to_bytes, write_chunked_to, write_file, write_to};

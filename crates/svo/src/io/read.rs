@@ -1050,6 +1050,68 @@ pub fn read_file_to_depth(
     Ok((tree, p.header.build))
 }
 
+/// What the levels of a version-4 file hold, from its header alone: enough to tell how large
+/// a tree of its top `k` levels is before reading any of it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct LevelSizes {
+    /// Nodes on each level, the root's first (`depth` entries), then the leaves.
+    pub counts: Vec<u64>,
+    /// Bytes of a leaf's per-leaf channels.
+    pub leaf_bytes: u64,
+    /// Bytes of an inner node's per-node channels (on levels `0 .. depth - 2`).
+    pub node_bytes: u64,
+}
+
+/// The level sizes of the version-4 file at `path`, read from its header (checks 1 to 4, 20,
+/// 6 to 12 and 21, as [`read_file_to_depth`] makes them); `None` for a file of an older
+/// version, which has no level table.
+pub fn read_level_sizes(path: impl AsRef<Path>) -> Result<Option<LevelSizes>, FormatError> {
+    use std::io::Read;
+    let path = path.as_ref();
+    let io = |cause| FormatError::Io {
+        path: path.display().to_string(),
+        cause,
+    };
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let len = f.metadata().map_err(io)?.len();
+    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
+    f.read_exact(&mut prefix).map_err(io)?;
+    let (version, hlen) = check_preamble(&prefix, len)?;
+    if version < LEVELS_VERSION {
+        return Ok(None);
+    }
+    check_header_checksum(&prefix, version, hlen)?;
+    let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+    let h = &p.header;
+    check_layout(h, p.header_end(), len)?;
+    let Some(levels) = &h.levels else {
+        return Err(corrupt(Check::Header, "a version-4 header without levels"));
+    };
+    let size = |kind: u8| {
+        ChannelKind::ALL
+            .get(usize::from(kind))
+            .map_or(0, |k| k.element_size() as u64)
+    };
+    let mut counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+    counts.push(h.leaf_count);
+    Ok(Some(LevelSizes {
+        counts,
+        leaf_bytes: h
+            .channels
+            .iter()
+            .filter(|c| matches!(c.storage, Storage::PerLeaf(_)))
+            .map(|c| size(c.kind))
+            .sum(),
+        node_bytes: levels
+            .node_channels
+            .iter()
+            .filter(|c| c.storage == NodeStorage::PerNode)
+            .map(|c| size(c.kind))
+            .sum(),
+    }))
+}
+
 /// The tree of `top` (a tree's first `depth` levels in `root`, with `leaves` leaves, read from
 /// a file of `version`), checked (its counts, channels and values: checks 14 to 17 held in
 /// level order) and with its bounds.

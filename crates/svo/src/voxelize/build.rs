@@ -783,13 +783,17 @@ fn build<L: LeafSink>(
 #[cfg(feature = "io")]
 /// The subtree of one node at the parts' level, as [`voxelize_subtrees`] makes it.
 #[derive(Debug)]
-pub(crate) struct Subtree {
+pub(crate) struct Subtree<S: BakeSums> {
     /// The node's Morton code among the nodes of its level: its child index at each level
     /// from the root, three bits a level, the root's first (the order of the leaves).
     pub code: u64,
     /// The subtree's nodes in the file's order with the node first: the same records, in the
     /// same order, as the whole tree's bake holds below the node, indexed from the node.
     pub nodes: Vec<Node>,
+    /// Each node's value (none with `S = ()`), at its node's index.
+    pub values: Vec<S::Value>,
+    /// The node's sums, as its record carries them to its parent.
+    pub sums: S,
     /// Its leaves' values, in leaf order.
     pub leaves: LeafValues,
 }
@@ -809,13 +813,13 @@ pub(crate) fn deepest_part_level(depth: u8) -> u8 {
 /// whole bake splits it, and it is built by the same code), for `level` at most
 /// [`deepest_part_level`]. Empty subtrees are left out; the others come in code order. Also
 /// returns the number of overlap tests run below `level`.
-pub(crate) fn voxelize_subtrees(
+pub(crate) fn voxelize_subtrees<S: BakeSums>(
     inputs: &AttributeInputs<'_>,
     depth: u8,
     strategy: Strategy,
     level: u8,
     codes: std::ops::Range<u64>,
-) -> (Vec<Subtree>, u64) {
+) -> (Vec<Subtree<S>>, u64) {
     assert!(
         level <= deepest_part_level(depth),
         "parts level {level} too deep for depth {depth}"
@@ -826,18 +830,21 @@ pub(crate) fn voxelize_subtrees(
     // counted: a subtree's count is the same however its part was baked.
     lists_at(&ctx, 0, [0, 0, 0], 0, all, level, &codes, &mut lists);
     let build = |(code, cell, list): (u64, [u32; 3], Vec<u32>)| {
-        let (part, tests) = build_node::<Baked<()>>(&ctx, level, cell, &list);
+        let (part, tests) = build_node::<Baked<S>>(&ctx, level, cell, &list);
         drop(list);
         let (chunk, root) = match part {
             Part::Seq(chunk, root) => (chunk, root),
             par => assemble(&ctx, par),
         };
         let root = root?;
-        let (nodes, _, Baked { values: leaves, .. }) = chunk.finish(Some(root));
+        let sums = root.1;
+        let (nodes, values, Baked { values: leaves, .. }) = chunk.finish(Some(root));
         Some((
             Subtree {
                 code,
                 nodes,
+                values,
+                sums,
                 leaves,
             },
             tests,

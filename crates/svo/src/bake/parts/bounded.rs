@@ -5,7 +5,7 @@
 //! the memory budget, the bake's estimate and the parts' triangle counts.
 
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
-use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE};
+use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE, NODE_BYTES_PER_LEAF};
 use crate::bake::parts::merge::{MergeFormat, MergeReport, merge_with};
 use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
@@ -106,7 +106,14 @@ pub(crate) fn plan_for_budget(
             leaves: est.max_leaves,
         });
     }
-    let mut parts = (est.max_leaves * BYTES_PER_LEAF / room)
+    // The inner nodes' values and their level order, beside the records.
+    let per_leaf = BYTES_PER_LEAF
+        + if opts.node_attributes {
+            NODE_BYTES_PER_LEAF
+        } else {
+            0.0
+        };
+    let mut parts = (est.max_leaves * per_leaf / room)
         .max(least)
         .ceil()
         .max(1.0) as u32;
@@ -124,7 +131,7 @@ pub(crate) fn plan_for_budget(
             .parts
             .iter()
             .zip(touched_counts(mesh, &plan))
-            .map(|(p, t)| p.max_leaves * BYTES_PER_LEAF + t as f64 * BYTES_PER_TRIANGLE)
+            .map(|(p, t)| p.max_leaves * per_leaf + t as f64 * BYTES_PER_TRIANGLE)
             .fold(0.0, f64::max);
         let fits = largest <= room && plan.largest_part_leaves() <= PART_LEAVES;
         if fits || parts >= MAX_PARTS {

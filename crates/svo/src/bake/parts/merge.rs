@@ -11,7 +11,9 @@
 //! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
 //! no file.
 
+use crate::bake::parts::merge_levels::LevelMerge;
 use crate::bake::parts::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
+use crate::bake::parts::part_levels::node_kinds;
 use crate::bake::parts::plan::{BakePlan, PartsError, part_path, read_plan};
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::ChunkRecord;
@@ -29,7 +31,8 @@ use std::time::Instant;
 pub struct MergeReport {
     /// Bytes of the `.svo` file.
     pub bytes: u64,
-    /// Its format version: 2, or 3 when its tree is stored in chunks.
+    /// Its format version: 2, 3 when its tree is stored in chunks, 4 with inner-node
+    /// attributes.
     pub version: u32,
     /// Chunks (version 3), else 0.
     pub chunks: u64,
@@ -74,13 +77,13 @@ pub fn merge_parts(
 }
 
 /// A subtree and where its part is.
-struct Sub {
-    part: u32,
-    s: PartSubtree,
+pub(crate) struct Sub {
+    pub part: u32,
+    pub s: PartSubtree,
 }
 
 /// A part's file and its checked header.
-type Header = (PathBuf, PartHeader);
+pub(crate) type Header = (PathBuf, PartHeader);
 
 /// Merges the parts of `plan` (hash `plan_hash`), part `i` read from `path_of(i)`.
 pub(crate) fn merge_with(
@@ -93,6 +96,31 @@ pub(crate) fn merge_with(
     let t0 = Instant::now();
     let headers = read_headers(plan, plan_hash, path_of)?;
     let (subs, leaf_off, leaves) = subtrees(&headers);
+    let (channels, copied) = channels(&headers, leaves);
+    if plan.node_attributes && leaves > 0 {
+        if format == MergeFormat::Chunked {
+            return Err(PartsError::Unsupported(
+                "version 3 (chunks) stores no inner-node attributes: merge without --chunked, \
+                 or bake without the attributes"
+                    .into(),
+            ));
+        }
+        let (merge, levels) =
+            LevelMerge::new(plan, &headers, &subs, &leaf_off, &channels, &copied, leaves)?;
+        let layout = Layout {
+            root_origin: plan.root_origin,
+            root_side: plan.root_side,
+            depth: plan.depth,
+            node_count: levels.counts.iter().sum(),
+            leaf_count: leaves,
+            channels,
+            build: &plan.build,
+            chunks: None,
+            levels: Some(levels),
+        };
+        let bytes = merge.write(&layout, output)?;
+        return Ok(report(plan, &headers, &layout, bytes, 4, 0, t0));
+    }
     let stubs: Vec<Stub> = subs
         .iter()
         .map(|s| Stub {
@@ -111,7 +139,6 @@ pub(crate) fn merge_with(
     } else {
         whole
     };
-    let (channels, copied) = channels(&headers, leaves);
     let layout = Layout {
         root_origin: plan.root_origin,
         root_side: plan.root_side,
@@ -133,20 +160,65 @@ pub(crate) fn merge_with(
         chunked,
     };
     let bytes = merged.write(&layout, output)?;
+    let (version, chunks) = if chunked {
+        (3, subs.len() as u64)
+    } else {
+        (2, 0)
+    };
+    Ok(report(plan, &headers, &layout, bytes, version, chunks, t0))
+}
+
+/// The report of a merge that wrote `bytes` of `layout` in format `version`.
+fn report(
+    plan: &BakePlan,
+    headers: &[Header],
+    layout: &Layout<'_>,
+    bytes: u64,
+    version: u32,
+    chunks: u64,
+    t0: Instant,
+) -> MergeReport {
     let sum = |f: fn(&PartHeader) -> u64| headers.iter().map(|(_, h)| f(h)).sum();
-    Ok(MergeReport {
+    MergeReport {
         bytes,
-        version: if chunked { 3 } else { 2 },
-        chunks: if chunked { subs.len() as u64 } else { 0 },
-        nodes: node_count,
-        leaves,
+        version,
+        chunks,
+        nodes: layout.node_count,
+        leaves: layout.leaf_count,
         parts: plan.part_count(),
         seconds: t0.elapsed().as_secs_f64(),
         channels: channel_names(&layout.channels),
         overlap_tests: sum(|h| h.stats.overlap_tests),
         leaf_triangle_pairs: sum(|h| h.stats.leaf_triangle_pairs),
         false_positives: sum(|h| h.stats.false_positives),
-    })
+    }
+}
+
+/// Writes the file of `layout` atomically, array `i` from `fill(i, out)`; its bytes. A
+/// part's error comes back as it was.
+pub(crate) fn write_streamed(
+    layout: &Layout<'_>,
+    output: &Path,
+    fill: &mut dyn FnMut(usize, &mut dyn Write) -> Result<(), PartsError>,
+) -> Result<u64, PartsError> {
+    let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
+    let mut bytes = 0;
+    let written = write_atomic(output, |w| {
+        bytes = write_layout(layout, w, &mut |i, out| {
+            fill(i, out).map_err(|e| {
+                let msg = e.to_string();
+                *failure.borrow_mut() = Some(e);
+                std::io::Error::other(msg)
+            })
+        })?;
+        Ok(())
+    });
+    match written {
+        Ok(()) => Ok(bytes),
+        Err(e) => Err(failure
+            .into_inner()
+            .unwrap_or_else(|| PartsError::io(output, e))),
+    }
 }
 
 /// Every part's header, read and checked ([`check_part`]); an error names the part that is
@@ -279,23 +351,20 @@ struct Merged<'a> {
 impl Merged<'_> {
     /// Writes the file of `layout` atomically, its arrays streamed from the parts; its bytes.
     fn write(&self, layout: &Layout<'_>, output: &Path) -> Result<u64, PartsError> {
-        let failure: std::cell::RefCell<Option<PartsError>> = Default::default();
-        let fail = |e: PartsError| {
-            let msg = e.to_string();
-            *failure.borrow_mut() = Some(e);
-            std::io::Error::other(msg)
-        };
-        let mut bytes = 0;
-        let written = write_atomic(output, |w| {
-            bytes = write_layout(layout, w, &mut |i, out| self.array(i, out, &fail))?;
-            Ok(())
-        });
-        match written {
-            Ok(()) => Ok(bytes),
-            Err(e) => Err(failure
-                .into_inner()
-                .unwrap_or_else(|| PartsError::io(output, e))),
-        }
+        write_streamed(layout, output, &mut |i, out| {
+            let failed = std::cell::RefCell::new(None);
+            let fail = |e: PartsError| {
+                let msg = e.to_string();
+                *failed.borrow_mut() = Some(e);
+                std::io::Error::other(msg)
+            };
+            let r = self.array(i, out, &fail);
+            match (r, failed.into_inner()) {
+                (_, Some(e)) => Err(e),
+                (Err(e), None) => Err(PartsError::io(output, e)),
+                (Ok(()), None) => Ok(()),
+            }
+        })
     }
 
     /// Writes array `i` of the layout (version 3: the chunk table, the chunks, the channels;
@@ -354,7 +423,7 @@ impl Merged<'_> {
 }
 
 /// The rank of channel `k` among the part's per-leaf channels (its array is `1 +` that).
-fn per_leaf_rank(h: &PartHeader, k: usize) -> usize {
+pub(crate) fn per_leaf_rank(h: &PartHeader, k: usize) -> usize {
     h.channels[..k]
         .iter()
         .filter(|(_, s)| matches!(s, PartStorage::PerLeaf { .. }))
@@ -407,14 +476,51 @@ fn check_part(
             PartStorage::Constant(_) => None,
         })
         .collect();
-    if h.arrays.len() != 1 + per_leaf.len() {
+    let nodes: u64 = h.subtrees.iter().map(|s| s.nodes).sum();
+    // The node arrays' lengths, in order.
+    let node_lens: Vec<u64> = match (&h.levels, plan.node_attributes) {
+        (None, false) => vec![nodes.saturating_mul(8)],
+        (Some(l), true) => {
+            let below = usize::from(plan.depth - plan.level - 1);
+            let roots_children: u64 = h
+                .subtrees
+                .iter()
+                .map(|s| u64::from(s.mask.count_ones()))
+                .sum();
+            if l.counts.len() != below
+                || l.roots.len() != h.subtrees.len()
+                || l.kinds != node_kinds(&h.channels)
+                || l.counts.iter().sum::<u64>() != nodes
+                || l.counts.first().copied().unwrap_or(0) != roots_children
+            {
+                return bad("its levels do not match its subtrees and channels".into());
+            }
+            let mut lens = Vec::new();
+            for (r, &count) in l.counts.iter().enumerate() {
+                lens.push(count.saturating_mul(8));
+                if r + 1 < below {
+                    lens.extend(l.kinds.iter().map(|&k| {
+                        count.saturating_mul(
+                            crate::octree::ChannelKind::ALL[usize::from(k)].element_size() as u64,
+                        )
+                    }));
+                }
+            }
+            lens
+        }
+        _ => return Err((true, "its inner-node attributes are not the plan's".into())),
+    };
+    if h.arrays.len() != node_lens.len() + per_leaf.len() {
         return bad("its arrays do not match its channels".into());
     }
-    let nodes: u64 = h.subtrees.iter().map(|s| s.nodes).sum();
-    if h.arrays[0].len != nodes.saturating_mul(8)
+    let (node_arrays, leaf_arrays) = h.arrays.split_at(node_lens.len());
+    if node_arrays
+        .iter()
+        .zip(&node_lens)
+        .any(|(a, &len)| a.len != len)
         || per_leaf
             .iter()
-            .zip(&h.arrays[1..])
+            .zip(leaf_arrays)
             .any(|(&size, a)| a.len != h.leaves().saturating_mul(u64::from(size)))
     {
         return bad("an array's length does not match its counts".into());
@@ -429,7 +535,9 @@ fn check_part(
                 })
                 .collect()
         };
-        if kinds(first) != kinds(h) {
+        if kinds(first) != kinds(h)
+            || first.levels.as_ref().map(|l| l.rule) != h.levels.as_ref().map(|l| l.rule)
+        {
             return Err((true, "its channels are not those of part 0".into()));
         }
     }
@@ -613,7 +721,7 @@ fn relocate(rec: Node, n: u64, at: i64, leaf_off: i64) -> Option<Node> {
     inside.then(|| stitch::moved(rec, at, leaf_off))?
 }
 
-fn corrupt(path: &Path, detail: &str) -> PartsError {
+pub(crate) fn corrupt(path: &Path, detail: &str) -> PartsError {
     PartsError::Corrupt {
         path: path.display().to_string(),
         detail: detail.to_string(),
@@ -621,7 +729,7 @@ fn corrupt(path: &Path, detail: &str) -> PartsError {
 }
 
 /// Copies one array of a part file to `out`, checking its hash.
-fn copy_array(
+pub(crate) fn copy_array(
     path: &Path,
     a: crate::bake::parts::part::PartArray,
     out: &mut dyn Write,

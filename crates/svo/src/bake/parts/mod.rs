@@ -14,13 +14,16 @@
 //!
 //! Inside: `plan.rs` (the cut at a level, the plan file), `bins.rs` (each part's triangles
 //! in a file of its own), `part.rs` (a part's subtrees, built by the same recursion as the
-//! whole bake, and the part file), `merge.rs` (the streamed merge, through the writer's
+//! whole bake, and the part file), `part_levels.rs` (a part's nodes level by level, with the
+//! inner nodes' values), `merge.rs` (the streamed merge, through the writer's
 //! layout) and `bounded.rs` (parts one after another within a memory budget).
 
 pub(crate) mod bins;
 pub(crate) mod bounded;
 pub(crate) mod merge;
+pub(crate) mod merge_levels;
 pub(crate) mod part;
+pub(crate) mod part_levels;
 pub(crate) mod plan;
 #[cfg(test)]
 mod tests;

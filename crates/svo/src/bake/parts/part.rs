@@ -8,25 +8,30 @@
 //! the arrays, each at a multiple of 8 bytes: the subtrees' nodes in the order the merged file
 //! places them (the highest code first; pointers counted from the subtree's first node, leaf
 //! bases from the part's first leaf), then each per-leaf channel's values for the part's
-//! leaves in Morton order. The merge checks every array's hash as it copies it.
+//! leaves in Morton order. A part of a bake with inner-node attributes stores its nodes level
+//! by level instead, with their values ([`crate::bake::parts::part_levels`]): for each level
+//! below its subtrees' roots the records, then on the levels that keep values each inner-node
+//! channel's, each an array of its own. The merge checks every array's hash as it copies it.
 
 use crate::attributes::leaf_attributes::{AttributeInputs, LeafValues};
+use crate::attributes::surface_sums::{BakeSums, SurfaceSums};
 use crate::bake::bake_mesh::{BakeError, prepare};
 use crate::bake::parts::bins::{bin_path, read_bin};
+use crate::bake::parts::part_levels::{PartLevels, node_kinds, part_levels};
 use crate::bake::parts::plan::{BakePlan, PartsError, config, hash_file, part_path, read_plan};
 use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::io::atomic_write::write_atomic;
 use crate::mesh::triangle_mesh::Mesh;
 use crate::octree::layout::Chunk;
 use crate::octree::tree::{LeafAttributes, Node, StoredChannel};
-use crate::voxelize::build::{Baked, voxelize_subtrees};
+use crate::voxelize::build::{Baked, Subtree, voxelize_subtrees};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 const PART_MAGIC: [u8; 8] = *b"\x89SVOPRT\n";
-const PART_VERSION: u32 = 1;
+const PART_VERSION: u32 = 2;
 /// Magic, version, header length, header hash.
 pub(crate) const PART_PREAMBLE: u64 = 24;
 
@@ -99,6 +104,9 @@ pub(crate) struct PartHeader {
     pub arrays: Vec<PartArray>,
     /// What the bake measured.
     pub stats: PartStats,
+    /// With inner-node attributes: the levels below the subtrees' roots, whose arrays come
+    /// first (instead of the node array), and the roots' values.
+    pub levels: Option<PartLevels>,
 }
 
 impl PartHeader {
@@ -111,7 +119,10 @@ impl PartHeader {
 /// A part baked in memory, ready to be written.
 pub(crate) struct PartData {
     header: PartHeader,
+    /// The subtrees' nodes in the merged file's order (without inner-node attributes).
     nodes: Vec<Node>,
+    /// The levels' arrays (with inner-node attributes).
+    level_arrays: Vec<Vec<u8>>,
     attributes: LeafAttributes,
 }
 
@@ -319,17 +330,89 @@ fn bake_one(
         )));
     };
     let t0 = Instant::now();
-    let (mut subtrees, tests) = voxelize_subtrees(
-        inputs,
-        opts.depth,
-        opts.strategy,
-        plan.level,
-        range.start..range.end,
-    );
-    // Leaves in code order; nodes in the merged file's order (the highest code first).
+    let codes = range.start..range.end;
+    let mut part = if plan.node_attributes {
+        let (mut subtrees, tests) =
+            voxelize_subtrees::<SurfaceSums>(inputs, opts.depth, opts.strategy, plan.level, codes);
+        let leaf_off = leaf_offsets(&subtrees, index)?;
+        let listed = listed(&subtrees);
+        let (attributes, channels, stats) = leaves_of(inputs, &mut subtrees, tests);
+        let (levels, level_arrays) = part_levels(
+            &subtrees,
+            &leaf_off,
+            &attributes,
+            &node_kinds(&channels),
+            opts.depth - plan.level - 1,
+            inputs.node_rule(),
+        );
+        drop(subtrees);
+        PartData {
+            header: PartHeader {
+                plan_hash,
+                index,
+                subtrees: listed,
+                channels,
+                arrays: Vec::new(),
+                stats,
+                levels: Some(levels),
+            },
+            nodes: Vec::new(),
+            level_arrays,
+            attributes,
+        }
+    } else {
+        let (mut subtrees, tests) =
+            voxelize_subtrees::<()>(inputs, opts.depth, opts.strategy, plan.level, codes);
+        let leaf_off = leaf_offsets(&subtrees, index)?;
+        // Nodes in the merged file's order (the highest code first).
+        let mut nodes = Vec::with_capacity(subtrees.iter().map(|s| s.nodes.len() - 1).sum());
+        for (s, &off) in subtrees.iter().zip(&leaf_off).rev() {
+            for &n in &s.nodes[1..] {
+                // Inner pointers from the subtree's first node below its root (index 1).
+                let n = if n.is_leaf_parent() {
+                    Chunk::<Baked<()>>::relocate(n, 0, off)
+                } else if n.child_mask() != 0 {
+                    Node {
+                        info: n.info,
+                        first: n.first - 1,
+                    }
+                } else {
+                    n
+                };
+                nodes.push(n);
+            }
+        }
+        let listed = listed(&subtrees);
+        let (attributes, channels, stats) = leaves_of(inputs, &mut subtrees, tests);
+        drop(subtrees);
+        PartData {
+            header: PartHeader {
+                plan_hash,
+                index,
+                subtrees: listed,
+                channels,
+                arrays: Vec::new(),
+                stats,
+                levels: None,
+            },
+            nodes,
+            level_arrays: Vec::new(),
+            attributes,
+        }
+    };
+    part.header.stats.bake_s = t0.elapsed().as_secs_f64();
+    Ok(part)
+}
+
+/// Each subtree's first leaf in the part (subtrees in code order), refusing a part of more
+/// leaves than a part holds.
+fn leaf_offsets<S: BakeSums>(
+    subtrees: &[Subtree<S>],
+    index: u32,
+) -> Result<Vec<usize>, PartsError> {
     let mut leaf_off = Vec::with_capacity(subtrees.len());
     let mut total = 0usize;
-    for s in &subtrees {
+    for s in subtrees {
         leaf_off.push(total);
         total += s.leaves.len();
     }
@@ -338,37 +421,36 @@ fn bake_one(
             "part {index} has {total} leaves, more than a part holds (2^31): plan more parts"
         )));
     }
-    let mut listed = Vec::with_capacity(subtrees.len());
-    let mut nodes = Vec::with_capacity(subtrees.iter().map(|s| s.nodes.len() - 1).sum());
-    for (s, &off) in subtrees.iter().zip(&leaf_off).rev() {
-        listed.push(PartSubtree {
+    Ok(leaf_off)
+}
+
+/// The header's list of subtrees (in code order), the highest code first.
+fn listed<S: BakeSums>(subtrees: &[Subtree<S>]) -> Vec<PartSubtree> {
+    subtrees
+        .iter()
+        .rev()
+        .map(|s| PartSubtree {
             code: s.code,
             mask: s.nodes[0].child_mask(),
             nodes: (s.nodes.len() - 1) as u64,
             leaves: s.leaves.len() as u64,
-        });
-        for &n in &s.nodes[1..] {
-            // Inner pointers from the subtree's first node below its root (index 1).
-            let n = if n.is_leaf_parent() {
-                Chunk::<Baked<()>>::relocate(n, 0, off)
-            } else if n.child_mask() != 0 {
-                Node {
-                    info: n.info,
-                    first: n.first - 1,
-                }
-            } else {
-                n
-            };
-            nodes.push(n);
-        }
-    }
+        })
+        .collect()
+}
+
+/// The part's leaf channels (taken from its subtrees, in code order), how it stores each, and
+/// its statistics (`tests` overlap tests).
+fn leaves_of<S: BakeSums>(
+    inputs: &AttributeInputs<'_>,
+    subtrees: &mut [Subtree<S>],
+    tests: u64,
+) -> (LeafAttributes, Vec<(u8, PartStorage)>, PartStats) {
     let values = LeafValues::concat(
         subtrees
             .iter_mut()
             .map(|s| std::mem::take(&mut s.leaves))
             .collect(),
     );
-    drop(subtrees);
     let stats = PartStats {
         bake_s: 0.0,
         overlap_tests: tests,
@@ -399,20 +481,7 @@ fn bake_one(
             }
         })
         .collect();
-    let mut header = PartHeader {
-        plan_hash,
-        index,
-        subtrees: listed,
-        channels,
-        arrays: Vec::new(),
-        stats,
-    };
-    header.stats.bake_s = t0.elapsed().as_secs_f64();
-    Ok(PartData {
-        header,
-        nodes,
-        attributes,
-    })
+    (attributes, channels, stats)
 }
 
 /// What `svo-bake part` did.
@@ -500,10 +569,14 @@ fn part_file_inner(plan_path: &Path, index: u32) -> Result<PartReport, PartsErro
     report.ok_or_else(|| PartsError::Unsupported(format!("part {index} was not baked")))
 }
 
-/// The part's arrays as bytes: the nodes (bits 8-31 of `info` zero), then each per-leaf
-/// channel in kind order.
+/// The part's arrays as bytes: the nodes (bits 8-31 of `info` zero) or the levels' arrays,
+/// then each per-leaf channel in kind order.
 fn arrays(part: &PartData) -> Vec<&[u8]> {
-    let mut out: Vec<&[u8]> = vec![bytemuck::cast_slice(&part.nodes)];
+    let mut out: Vec<&[u8]> = if part.header.levels.is_some() {
+        part.level_arrays.iter().map(Vec::as_slice).collect()
+    } else {
+        vec![bytemuck::cast_slice(&part.nodes)]
+    };
     for (_, c) in part.attributes.stored() {
         if let StoredChannel::PerLeaf { bytes, .. } = c {
             out.push(bytes);

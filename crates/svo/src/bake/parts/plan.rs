@@ -30,7 +30,7 @@ use thiserror::Error;
 /// The first bytes of a plan file.
 const PLAN_MAGIC: [u8; 8] = *b"\x89SVOPLN\n";
 /// The plan file's version.
-const PLAN_VERSION: u32 = 2;
+const PLAN_VERSION: u32 = 3;
 /// The fewest parts for at most `max_leaves` leaves ([`crate::bake::Estimate::max_leaves`]):
 /// a part holds at most 2^31 leaves.
 pub(crate) fn least_parts(max_leaves: f64) -> f64 {
@@ -179,6 +179,9 @@ pub struct BakePlan {
     pub channels: String,
     /// Empty cells around the mesh.
     pub pad: u32,
+    /// Whether the inner nodes get their attributes ([`BakeOptions::node_attributes`]): the
+    /// merge then writes format version 4.
+    pub node_attributes: bool,
     /// The root cube's minimum corner.
     pub root_origin: [f64; 3],
     /// The root cube's side.
@@ -206,7 +209,7 @@ impl BakePlan {
             pad: self.pad,
             max_memory: None,
             solid: None,
-            node_attributes: false,
+            node_attributes: self.node_attributes,
         })
     }
 
@@ -270,8 +273,8 @@ fn parts_level(depth: u8, parts: u32) -> u8 {
 /// Plans the bake of `mesh` (read from `mesh_path`, whose bytes hash to `mesh_hash`) in
 /// `parts` parts: checks the options as the bake does, estimates each subtree's leaves, and
 /// deals the subtrees into ranges of about equal estimates. Solid fills are refused (a part
-/// cannot tell inside from outside alone), and so are the inner nodes' attributes (not made
-/// in parts yet).
+/// cannot tell inside from outside alone), and so are the inner nodes' attributes for trees
+/// estimated past version 4's 2^31 leaves (which those attributes need).
 pub(crate) fn plan_bake(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -283,13 +286,6 @@ pub(crate) fn plan_bake(
     if opts.solid.is_some() {
         return Err(PartsError::Unsupported(
             "a solid fill needs the whole tree at once: bake it without parts".into(),
-        ));
-    }
-    if opts.node_attributes {
-        return Err(PartsError::Unsupported(
-            "bakes in parts do not make the inner nodes' attributes (level of detail) yet: \
-             bake in memory, or without them"
-                .into(),
         ));
     }
     if !(1..=MAX_PARTS).contains(&parts) {
@@ -304,6 +300,13 @@ pub(crate) fn plan_bake(
             ..opts.clone()
         },
     )?;
+    if opts.node_attributes && est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
+        return Err(PartsError::Unsupported(format!(
+            "depth {} makes about {:.3e} leaves, more than format version 4 holds (2^31), and \
+             the inner nodes' attributes need version 4: bake without them",
+            opts.depth, est.leaves
+        )));
+    }
     let least = least_parts(est.max_leaves);
     if f64::from(parts) < least {
         return Err(PartsError::Unsupported(format!(
@@ -321,6 +324,8 @@ pub(crate) fn plan_bake(
         strategy: opts.strategy.name().to_string(),
         channels: channel_names(opts),
         pad: opts.pad,
+        // Without channels the nodes have none either: the bake writes version 2.
+        node_attributes: opts.node_attributes && channel_names(opts) != "none",
         root_origin: root.origin.to_array(),
         root_side: root.side,
         level,

@@ -288,13 +288,19 @@ fn a_part_baked_twice_is_the_same_file() {
 }
 
 /// The merge refuses a missing, foreign, misplaced, truncated or damaged part with an error
-/// that names it, and writes no output.
+/// that names it, and writes no output, with and without the inner nodes' attributes.
 #[test]
 fn the_merge_refuses_bad_parts_and_writes_nothing() {
+    refuses_bad_parts(false);
+    refuses_bad_parts(true);
+}
+
+fn refuses_bad_parts(node_attributes: bool) {
     let dir = tempfile::tempdir().unwrap();
     let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
     let opts = BakeOptions {
         depth: 7,
+        node_attributes,
         ..BakeOptions::default()
     };
     let plan = plan_and_bake(&mesh, &opts, 4, dir.path());
@@ -557,4 +563,100 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
     refused(&std::fs::read(bin(&plan, 1)).unwrap(), "holds part 1");
     std::fs::write(bin(&plan, 2), &good).unwrap();
     bake_part_file(&plan, 2, None).unwrap();
+}
+
+/// With the inner nodes' attributes, the merge writes version 4 with the in-memory bake's
+/// bytes, whatever the number of parts (the levels above the parts' made from their roots),
+/// on the torus, the bunny, a textured mesh with materials (per-node colours and optics), a
+/// flat square (one normal for every leaf: the nodes' normals are then stored once) and a
+/// mesh without channels (version 2); bakes within a small budget and from bins too. The
+/// merge refuses chunks for such a plan.
+#[test]
+fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let square = dir.path().join("square.obj");
+    std::fs::write(
+        &square,
+        "v 0 0 0.3\nv 1 0 0.3\nv 1 1 0.3\nv 0 1 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let mut cases: Vec<(PathBuf, u8, &str)> = Vec::new();
+    for mesh in meshes() {
+        cases.push((mesh.clone(), 7, "all"));
+        cases.push((mesh.clone(), 9, "all"));
+        cases.push((mesh, 6, "normal,colour"));
+    }
+    cases.push((textured_mesh(dir.path()), 7, "all"));
+    cases.push((square, 7, "all"));
+    cases.push((svo_tests::repo_root().join("fixtures/torus.obj"), 6, "none"));
+    let mut versions = std::collections::BTreeSet::new();
+    for (mesh, depth, channels) in &cases {
+        let opts = BakeOptions {
+            depth: *depth,
+            channels: channels.parse().unwrap(),
+            node_attributes: true,
+            ..BakeOptions::default()
+        };
+        let whole = in_memory(mesh, &opts, dir.path());
+        let version = u32::from_le_bytes(whole[8..12].try_into().unwrap());
+        versions.insert(version);
+        for parts in [1u32, 3, 16] {
+            let plan = plan_and_bake(mesh, &opts, parts, dir.path());
+            let got = merged(&plan, dir.path()).unwrap();
+            assert!(
+                got == whole,
+                "{} depth {depth} channels {channels}, {parts} parts: {} bytes against {}",
+                mesh.display(),
+                got.len(),
+                whole.len()
+            );
+            if version == 4 {
+                let e = merged_as(&plan, dir.path(), MergeFormat::Chunked).unwrap_err();
+                assert!(e.to_string().contains("inner-node attributes"), "{e}");
+            }
+        }
+    }
+    assert_eq!(versions, [2, 4].into());
+    // The flat square's nodes store one normal, the torus's one per node.
+    let nodes_normal = |mesh: &Path| {
+        let opts = BakeOptions {
+            depth: 7,
+            node_attributes: true,
+            ..BakeOptions::default()
+        };
+        let m = crate::Mesh::load(mesh).unwrap();
+        let tree = bake_mesh(&m, &opts).unwrap().0;
+        tree.node_attributes.normal.clone()
+    };
+    assert!(matches!(
+        nodes_normal(&cases[cases.len() - 2].0),
+        crate::octree::tree::Channel::Constant(_)
+    ));
+    assert!(matches!(
+        nodes_normal(&cases[0].0),
+        crate::octree::tree::Channel::PerLeaf(_)
+    ));
+    // Within a small budget, in several parts.
+    let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 9,
+        node_attributes: true,
+        ..BakeOptions::default()
+    };
+    let whole = in_memory(&mesh_path, &opts, dir.path());
+    let out = dir.path().join("limited.svo");
+    let mesh = crate::Mesh::load(&mesh_path).unwrap();
+    let report = bake_within(
+        &mesh,
+        &mesh_path,
+        &opts,
+        16 << 20,
+        &build_of(&mesh, &opts),
+        &out,
+        &|_, _| {},
+    )
+    .unwrap();
+    assert!(report.plan.part_count() > 1, "{report:?}");
+    assert_eq!(report.merge.version, 4);
+    assert!(std::fs::read(out).unwrap() == whole);
 }
