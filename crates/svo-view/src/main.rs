@@ -79,7 +79,8 @@ struct Args {
     #[arg(long, conflicts_with_all = ["eye", "target", "up"])]
     view: Option<String>,
     /// Read only the file's top K levels, as a coarser tree whose leaves are the nodes of
-    /// level K (a version-4 file is read as a prefix; older ones whole, then cut).
+    /// level K (a version-4 file is read as a prefix, a version-3 one chunk by chunk, a
+    /// version-2 one whole, then cut).
     #[arg(long, value_name = "K")]
     max_depth: Option<u8>,
     /// Level of detail, in pixels: a ray stops at the first inner node no wider than PIXELS

@@ -12,7 +12,7 @@ use crate::io::header::{
 use crate::io::levels::{check_level_order, depth_first};
 pub(crate) use crate::io::write::FormatError;
 use crate::io::write::block_hash;
-use crate::octree::format_check::{Check, LEVELS_VERSION, MAX_CHUNK_LEVEL};
+use crate::octree::format_check::{CHUNKED_VERSION, Check, LEVELS_VERSION, MAX_CHUNK_LEVEL};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
@@ -961,7 +961,9 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
 /// to `max_depth` and nothing after them, in time and memory proportional to those levels.
 /// What is read is checked (checks 1 to 4, 20, 6 to 12 and 21 from the header and the file's
 /// length, then 13, 22 and 14 to 18 on the levels read); the whole-file checksum (check 5) is
-/// not, since it needs every byte. A file of an older version is read whole and cut in memory.
+/// not, since it needs every byte. A version-3 file (chunks) is read in one pass holding one
+/// chunk's nodes at a time, so a tree past 2^31 leaves opens coarse; a version-2 file is read
+/// whole and cut in memory.
 ///
 /// ```
 /// use glam::{DVec3, UVec3};
@@ -994,6 +996,10 @@ pub fn read_file_to_depth(
     let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
     f.read_exact(&mut prefix).map_err(io)?;
     let (version, hlen) = check_preamble(&prefix, len)?;
+    if version == CHUNKED_VERSION {
+        let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+        return chunked_to_depth(path, &p.header, max_depth);
+    }
     if version < LEVELS_VERSION {
         let (tree, build) = read_file(path)?;
         return Ok((cut_to_depth(&tree, max_depth)?, build));
@@ -1048,6 +1054,88 @@ pub fn read_file_to_depth(
     };
     let tree = top_tree(root, top, max_depth, counts[k], p.version)?;
     Ok((tree, p.header.build))
+}
+
+/// The top `max_depth` levels of the version-3 file at `path`, as [`cut_to_depth`] makes them
+/// of the whole tree (the leaves are the nodes of level `max_depth`, without values: version 3
+/// stores none for inner nodes), in one pass over the file that holds one chunk's nodes at a
+/// time (every check but the values', as [`ChunkedFile::open`](crate::io::ChunkedFile::open)),
+/// and memory for the top levels: a tree past 2^31 leaves opens coarse. At its full depth the
+/// file is read whole.
+fn chunked_to_depth(
+    path: &Path,
+    header: &Header,
+    max_depth: u8,
+) -> Result<(Octree, BuildInfo), FormatError> {
+    let (depth, Some(chunks)) = (header.depth, header.chunks) else {
+        return Err(corrupt(Check::Header, "a version-3 header without chunks"));
+    };
+    if max_depth >= depth {
+        return read_file(path);
+    }
+    let level = chunks.level;
+    // The cells of level `max_depth`, as Morton keys in increasing order.
+    let mut keys: Vec<(u128, ())> = Vec::new();
+    let read = chunks_pass(path, false, &mut |_, rec, nodes| {
+        if max_depth <= level {
+            let key = u128::from(rec.code >> (3 * u32::from(level - max_depth)));
+            if keys.last().map(|k| k.0) != Some(key) {
+                keys.push((key, ()));
+            }
+        } else {
+            cells_below(nodes, 0, u128::from(rec.code), max_depth - level, &mut keys);
+        }
+    })?
+    .0;
+    let h = &read.preamble.header;
+    let (nodes, _) = crate::octree::builder::layout_sorted(&keys, max_depth);
+    let mut tree = Octree {
+        root: RootCube {
+            origin: DVec3::from_array(h.root_origin),
+            side: h.root_side,
+        },
+        depth: max_depth,
+        nodes,
+        // At most the file's leaves' parents (a tree past 2^31 leaves cut at 2^31 cells of a
+        // level is refused by the check below).
+        leaf_count: u32::try_from(keys.len()).unwrap_or(u32::MAX),
+        attributes: LeafAttributes::default(),
+        node_attributes: LeafAttributes::default(),
+    };
+    if keys.len() as u64 > MAX_LEAVES {
+        return Err(corrupt(
+            Check::Counts,
+            format!(
+                "its top {max_depth} levels have {} leaves, more than one tree holds (2^31)",
+                keys.len()
+            ),
+        ));
+    }
+    tree.refresh_checked_bounds();
+    Ok((tree, read.preamble.header.build))
+}
+
+/// Appends the Morton keys of the nodes `levels` below node `i` of a chunk's nodes (key
+/// `key`), in increasing order.
+fn cells_below(nodes: &[Node], i: usize, key: u128, levels: u8, out: &mut Vec<(u128, ())>) {
+    if levels == 0 {
+        out.push((key, ()));
+        return;
+    }
+    let Some(&n) = nodes.get(i) else {
+        return;
+    };
+    for c in 0..8u8 {
+        let Some(rank) = n.child_rank(c) else {
+            continue;
+        };
+        let child = key << 3 | u128::from(c);
+        if levels == 1 {
+            out.push((child, ()));
+        } else if n.leaf_base().is_none() {
+            cells_below(nodes, (n.first + rank) as usize, child, levels - 1, out);
+        }
+    }
 }
 
 /// What the levels of a version-4 file hold, from its header alone: enough to tell how large
@@ -1176,17 +1264,24 @@ pub(crate) struct ChunkArrays {
 /// not read (check 18 is not made). A file that fails the checksum and another check fails at
 /// the checksum; one whose padding fails and a later check fails at the padding.
 pub(crate) fn check_chunks_file(path: &Path) -> Result<ChunksRead, FormatError> {
-    chunks_pass(path, false).map(|(read, _)| read)
+    chunks_pass(path, false, &mut |_, _, _| {}).map(|(read, _)| read)
 }
 
 /// [`check_chunks_file`] keeping every chunk's nodes and reading its stretch of each
 /// channel array in the same pass: the file is read once. The checks of each chunk's nodes
 /// (14 to 17) and values (18) are the caller's, chunk by chunk (they need not run in order).
 pub(crate) fn read_chunks_file(path: &Path) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
-    chunks_pass(path, true)
+    chunks_pass(path, true, &mut |_, _, _| {})
 }
 
-fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
+/// One pass over a version-3 file as [`check_chunks_file`] makes it, keeping each chunk's
+/// arrays (`keep`) or handing each chunk's checked nodes to `visit` (its index, record and
+/// nodes) in turn: a caller's results are good only where the pass returns `Ok`.
+fn chunks_pass(
+    path: &Path,
+    keep: bool,
+    visit: &mut dyn FnMut(usize, &ChunkRecord, &[Node]),
+) -> Result<(ChunksRead, Vec<ChunkArrays>), FormatError> {
     use std::io::Read;
     let io = |cause| FormatError::Io {
         path: path.display().to_string(),
@@ -1246,6 +1341,7 @@ fn chunks_pass(path: &Path, keep: bool) -> Result<(ChunksRead, Vec<ChunkArrays>)
                 failure = Some(corrupt(check, detail));
                 break;
             }
+            visit(i, rec, &nodes);
             scratch = nodes;
         }
     }

@@ -174,7 +174,7 @@ pub(crate) fn from_cells(
 
 /// The packed nodes over cells sorted by strictly increasing Morton key, and their values in
 /// leaf order (which is the key order).
-#[cfg(feature = "solid")]
+#[cfg(any(feature = "solid", feature = "io"))]
 pub(crate) fn layout_sorted<T: Copy + Send>(
     cells: &[(u128, T)],
     depth: u8,

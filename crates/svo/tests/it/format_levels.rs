@@ -140,6 +140,42 @@ fn a_version_4_files_top_levels_are_the_coarser_tree() {
     }
 }
 
+/// A version-3 file (chunks) reads to any depth as its version-2 twin is cut, above, at and
+/// below the chunks' level, in one pass holding one chunk at a time; a damaged chunk is
+/// refused as the whole read refuses it.
+#[test]
+fn a_version_3_files_top_levels_are_the_coarser_tree() {
+    let depth = 7;
+    let plain = bake(&scene(), depth, false);
+    let dir = tempfile::tempdir().unwrap();
+    let plain_path = dir.path().join("plain.svo");
+    write_file(&plain, &BuildInfo::new(), &plain_path).unwrap();
+    for level in [1u8, 2, 4] {
+        let path = dir.path().join(format!("chunks{level}.svo"));
+        let mut bytes = Vec::new();
+        svo::io::write_chunked_to(&plain, &BuildInfo::new(), level, &mut bytes).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        for k in 0..=depth + 1 {
+            let (got, _) = read_file_to_depth(&path, k).unwrap();
+            let (want, _) = read_file_to_depth(&plain_path, k).unwrap();
+            assert_eq!(got, want, "chunks at level {level}, k {k}");
+            got.validate().unwrap();
+        }
+        // A flipped byte in the node array: the same refusal as reading the file whole.
+        let at = bytes.len() / 3;
+        let mut bad = bytes.clone();
+        bad[at] ^= 0x40;
+        std::fs::write(&path, &bad).unwrap();
+        let whole = read_file(&path).unwrap_err().check();
+        assert!(whole.is_some());
+        assert_eq!(
+            read_file_to_depth(&path, 3).unwrap_err().check(),
+            whole,
+            "level {level}"
+        );
+    }
+}
+
 /// What a prefix read checks: the header's and the levels' checksums, not the bytes after.
 #[test]
 fn a_prefix_read_checks_what_it_reads_and_nothing_after() {
