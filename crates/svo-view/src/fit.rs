@@ -7,10 +7,11 @@
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::{GpuLayout, arena_bytes, arena_capacity};
 use crate::gpu_types::ShaderVariant;
+use crate::job::{JobError, RenderJob, prepare};
 use std::fmt;
 use svo::Octree;
 use svo::io::LevelSizes;
-use svo::render::{OctreeSurfaces, RenderScene, Surfaces, TraceOptions};
+use svo::render::{OctreeSurfaces, RenderScene, SetupError, Surfaces, TraceOptions};
 
 /// What of a tree the GPU shows when the whole does not fit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -120,6 +121,57 @@ pub fn prefix_depth(sizes: &LevelSizes, limit: u64, lod: bool) -> Option<(u8, u6
         .find(|&k| usable(k) && estimate(k) <= limit)
         .unwrap_or(1);
     Some((k as u8, whole))
+}
+
+/// The level table of `job`'s file where it has one and the job reads the whole file (no
+/// `max_depth`, no 64-ary view, whose size only its build tells): read before any adapter
+/// is opened, so a file that cannot be read fails first.
+pub fn level_sizes(job: &RenderJob, layout: &GpuLayout) -> Result<Option<LevelSizes>, JobError> {
+    if job.max_depth.is_some() || layout.wide_view {
+        return Ok(None);
+    }
+    svo::io::read_level_sizes(&job.input).map_err(|e| JobError::from(SetupError::from(e)))
+}
+
+/// Sets `job`'s scene up, reading a version-4 file whose level table says `sizes` only down to
+/// the levels an arena of `limit` bytes may hold ([`prefix_depth`]), and what of the file
+/// that leaves out.
+pub fn open_fitting(
+    job: &RenderJob,
+    sizes: Option<LevelSizes>,
+    limit: u64,
+) -> Result<(RenderScene, Option<Prefix>), JobError> {
+    let cut = sizes
+        .as_ref()
+        .and_then(|s| prefix_depth(s, limit, job.trace.lod > 0.0));
+    let (Some((k, needed)), Some(sizes)) = (cut, sizes) else {
+        return Ok((prepare(job)?, None));
+    };
+    let job = RenderJob {
+        max_depth: Some(k),
+        ..job.clone()
+    };
+    let prefix = Prefix {
+        depth: k,
+        of: (sizes.counts.len() - 1) as u8,
+        needed,
+        limit,
+    };
+    Ok((prepare(&job)?, Some(prefix)))
+}
+
+/// What [`fit_scene`] cut (`shown`) of a tree read as the prefix `read` of a file, said of
+/// the file's levels.
+pub fn said_of_file(shown: Option<Prefix>, read: Option<Prefix>) -> Option<Prefix> {
+    match (shown, read) {
+        (Some(p), Some(r)) => Some(Prefix {
+            of: r.of,
+            needed: r.needed,
+            ..p
+        }),
+        (None, r) => r,
+        (p, None) => p,
+    }
 }
 
 /// The nodes on each level of `tree`, from the root (level 0) to the leaves (level `depth`).

@@ -6,14 +6,14 @@
 //! levels that fits ([`crate::fit`]). With `vs_cpu` the CPU reference renders the same frame and the two are
 //! compared.
 
-use crate::fit::{Prefix, fit_scene, prefix_depth};
+use crate::fit::{fit_scene, level_sizes, open_fitting, said_of_file};
 use crate::gpu_context::{GpuContext, GpuError};
 use crate::gpu_render::{GpuLayout, GpuRenderer, arena_capacity};
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
-use crate::job::{JobError, RenderJob, prepare, write_output};
+use crate::job::{JobError, RenderJob, write_output};
 use crate::report::{CameraReport, FrameReport, FrameTiming, GpuRun, VsCpu};
 use crate::timing::render_timed;
-use svo::render::{OctreeSurfaces, RenderScene, SetupError, Tracer, compare};
+use svo::render::{OctreeSurfaces, RenderScene, Tracer, compare};
 use svo::trace::HitMode;
 use thiserror::Error;
 
@@ -132,38 +132,6 @@ pub fn render_scene(
     })
 }
 
-/// Sets `job`'s scene up, reading a version-4 file whose level table says `sizes` only down to
-/// the levels the adapter of `ctx` may hold, and what of the file that leaves out.
-fn open_fitting(
-    ctx: &GpuContext,
-    job: &RenderJob,
-    sizes: Option<svo::io::LevelSizes>,
-    layout: &GpuLayout,
-) -> Result<(RenderScene, Option<Prefix>), HeadlessError> {
-    let limit = arena_capacity(layout.chunk_limit.unwrap_or_else(|| ctx.binding_limit()));
-    let cut = sizes
-        .as_ref()
-        .and_then(|s| prefix_depth(s, limit, job.trace.lod > 0.0));
-    let Some((k, needed)) = cut else {
-        return Ok((prepare(job)?, None));
-    };
-    let of = sizes.map_or(k, |s| (s.counts.len() - 1) as u8);
-    let job = RenderJob {
-        max_depth: Some(k),
-        ..job.clone()
-    };
-    let scene = prepare(&job)?;
-    Ok((
-        scene,
-        Some(Prefix {
-            depth: k,
-            of,
-            needed,
-            limit,
-        }),
-    ))
-}
-
 /// Renders `job` on the GPU (see the module docs).
 pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, HeadlessError> {
     let start = std::time::Instant::now();
@@ -179,24 +147,15 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
     job.setup()?;
     // The file's level table, if it has one, is read before the adapter is opened: a file
     // that cannot be read fails first.
-    let sizes = match job.max_depth {
-        None if !opts.layout.wide_view => svo::io::read_level_sizes(&job.input)
-            .map_err(|e| JobError::from(SetupError::from(e)))?,
-        _ => None,
-    };
+    let sizes = level_sizes(job, &opts.layout)?;
     let ctx = GpuContext::new()?;
-    let (mut scene, read) = open_fitting(&ctx, job, sizes, &opts.layout)?;
-    let shown = fit_scene(&ctx, &mut scene, &job.trace, &opts.layout)?;
-    // What was cut is said of the file's levels, not of the prefix read.
-    let shown = match (shown, read) {
-        (Some(p), Some(r)) => Some(Prefix {
-            of: r.of,
-            needed: r.needed,
-            ..p
-        }),
-        (None, r) => r,
-        (p, None) => p,
-    };
+    let limit = arena_capacity(
+        opts.layout
+            .chunk_limit
+            .unwrap_or_else(|| ctx.binding_limit()),
+    );
+    let (mut scene, read) = open_fitting(job, sizes, limit)?;
+    let shown = said_of_file(fit_scene(&ctx, &mut scene, &job.trace, &opts.layout)?, read);
     let r = render_scene(&ctx, &scene, &job.trace, opts, job.bench_frames)?;
     let startup_ms = (start.elapsed().as_secs_f64() - r.times.iter().sum::<f64>()) * 1e3;
     let vs_cpu = if opts.vs_cpu {

@@ -12,10 +12,10 @@
 
 use crate::camera_control::{CameraControl, CameraMode};
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::{GpuRenderer, read_buffer};
+use crate::gpu_render::{GpuLayout, GpuRenderer, arena_capacity, read_buffer};
 use crate::gpu_types::{ShaderVariant, uniforms};
 use crate::headless::check_gpu_support;
-use crate::job::{JobError, RenderJob, prepare, write_output};
+use crate::job::{JobError, RenderJob, write_output};
 use crate::window_blit::{Blit, BlitParams};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -83,7 +83,19 @@ struct Settings {
 pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, WindowError> {
     let start = Instant::now();
     check_gpu_support(&job.trace, job.sky_cube_map.is_some(), job.lights.len())?;
-    let scene = prepare(job)?;
+    // A version-4 file larger than an adapter's smallest arena: read as deep as this
+    // machine's adapter holds, by its header (the window's adapter may differ: the tree read
+    // is measured again once it is open).
+    let sizes = crate::fit::level_sizes(job, &GpuLayout::default())?;
+    let lod = job.trace.lod > 0.0;
+    let smallest = arena_capacity(128 << 20);
+    let limit = match &sizes {
+        Some(s) if crate::fit::prefix_depth(s, smallest, lod).is_some() => {
+            GpuContext::new().map_or(smallest, |c| arena_capacity(c.binding_limit()))
+        }
+        _ => u64::MAX,
+    };
+    let (scene, read) = crate::fit::open_fitting(job, sizes, limit)?;
     check_gpu_support(&job.trace, false, scene.lights.len())?;
     let event_loop = EventLoop::new().map_err(|e| WindowError::NoWindow(e.to_string()))?;
     let (lo, hi) = scene.tree.occupied_bounds();
@@ -99,6 +111,7 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
         },
         control,
         scene,
+        read,
         view: 0,
         opts: opts.clone(),
         start,
@@ -160,6 +173,8 @@ struct App {
     settings: Settings,
     control: CameraControl,
     scene: RenderScene,
+    /// What of the file was left unread because the adapter would not hold it.
+    read: Option<crate::fit::Prefix>,
     /// Which stored view `V` showed last.
     view: usize,
     opts: WindowOptions,
@@ -235,10 +250,9 @@ impl App {
             self.settings.render_scale = 2;
         }
         // A tree larger than the adapter: the deepest prefix of its levels that fits.
-        let layout = crate::gpu_render::GpuLayout::default();
-        if let Some(p) =
-            crate::fit::fit_scene(&ctx, &mut self.scene, &self.settings.trace, &layout)?
-        {
+        let layout = GpuLayout::default();
+        let cut = crate::fit::fit_scene(&ctx, &mut self.scene, &self.settings.trace, &layout)?;
+        if let Some(p) = crate::fit::said_of_file(cut, self.read.take()) {
             eprintln!("svo-view: {p}");
         }
         let variant = self.variant();
