@@ -53,6 +53,7 @@
 
 mod attributes;
 pub mod bake;
+pub mod dag;
 mod geometry;
 mod import;
 #[cfg(feature = "io")]
