@@ -22,6 +22,7 @@ use glam::DVec3;
 pub(crate) const BYTES_PER_LEAF: f64 = 32.0;
 /// Peak bytes per leaf that the inner nodes' attributes add to a part of a bake in parts (a
 /// node's values and its place in level order, about a node for every three leaves).
+#[cfg(feature = "io")]
 pub(crate) const NODE_BYTES_PER_LEAF: f64 = 8.0;
 /// Peak bytes per input triangle (grid-space setup and attribute inputs).
 pub(crate) const BYTES_PER_TRIANGLE: f64 = 240.0;
