@@ -7,7 +7,7 @@
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
-    MAGIC, MAX_HEADER_LEN, NodeStorage, PREAMBLE_LEN, Storage, VERSION, bincode_config,
+    Levels, MAGIC, MAX_HEADER_LEN, NodeStorage, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
 use crate::io::levels::{check_level_order, depth_first};
 pub(crate) use crate::io::write::FormatError;
@@ -365,7 +365,7 @@ pub(crate) fn level_lens(h: &Header, l: usize) -> Option<Vec<u64>> {
 
 /// Check 10 on a version-4 header's inner-node channels: none, or one for each of the leaves'
 /// channels, of the same kinds in the same order, each constant fitting its element.
-fn check_node_channel_list(h: &Header, l: &crate::io::header::Levels) -> Result<(), FormatError> {
+fn check_node_channel_list(h: &Header, l: &Levels) -> Result<(), FormatError> {
     if l.node_channels.is_empty() {
         return Ok(());
     }
@@ -400,7 +400,7 @@ fn constant_fits(kind: u8, v: u32, what: &str) -> Result<(), FormatError> {
 /// Check 21: the layout is the tree (0), and the level table has an entry for each level, one
 /// node (the root) on level 0, at most 8 nodes for each node of the level above, and
 /// `node_count` nodes in all.
-fn check_level_table(h: &Header, l: &crate::io::header::Levels) -> Result<(), FormatError> {
+fn check_level_table(h: &Header, l: &Levels) -> Result<(), FormatError> {
     let fail = |m: String| Err(corrupt(Check::Levels, m));
     if l.layout != 0 {
         return fail(format!(
@@ -649,10 +649,7 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
 }
 
 /// Check 22: each of `blocks` (the first levels' arrays, as read) hashes to its level's entry.
-fn check_level_hashes(
-    levels: &crate::io::header::Levels,
-    blocks: &[Vec<Vec<u8>>],
-) -> Result<(), FormatError> {
+fn check_level_hashes(levels: &Levels, blocks: &[Vec<Vec<u8>>]) -> Result<(), FormatError> {
     for (l, (block, entry)) in blocks.iter().zip(&levels.table).enumerate() {
         let computed = block_hash(block);
         if computed != entry.hash {
@@ -991,26 +988,18 @@ pub fn read_file_to_depth(
         cause,
     };
     let max_depth = max_depth.max(1);
-    let mut f = std::fs::File::open(path).map_err(io)?;
-    let len = f.metadata().map_err(io)?.len();
-    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
-    f.read_exact(&mut prefix).map_err(io)?;
-    let (version, hlen) = check_preamble(&prefix, len)?;
-    if version == CHUNKED_VERSION {
-        let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+    let mut start = FileStart::open(path)?;
+    if start.version == CHUNKED_VERSION {
+        let p = start.header()?;
         return chunked_to_depth(path, &p.header, max_depth);
     }
-    if version < LEVELS_VERSION {
+    if start.version < LEVELS_VERSION {
         let (tree, build) = read_file(path)?;
         return Ok((cut_to_depth(&tree, max_depth)?, build));
     }
-    check_header_checksum(&prefix, version, hlen)?;
-    let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+    let (p, levels, gaps) = start.levels_header()?;
     let h = &p.header;
-    let gaps = check_layout(h, p.header_end(), len)?;
-    let Some(levels) = &h.levels else {
-        return Err(corrupt(Check::Header, "a version-4 header without levels"));
-    };
+    let levels = &levels;
     if max_depth >= h.depth {
         return read_file(path);
     }
@@ -1018,11 +1007,11 @@ pub fn read_file_to_depth(
     let k = usize::from(max_depth);
     let last = levels.table[k].block;
     let end = last.offset + last.len;
-    let mut bytes = prefix;
+    let mut bytes = std::mem::take(&mut start.prefix);
     if (bytes.len() as u64) < end {
         let have = bytes.len();
         bytes.resize(end as usize, 0);
-        f.read_exact(&mut bytes[have..]).map_err(io)?;
+        start.file.read_exact(&mut bytes[have..]).map_err(io)?;
     }
     bytes.truncate(end as usize);
     // 13. The padding read.
@@ -1054,6 +1043,66 @@ pub fn read_file_to_depth(
     };
     let tree = top_tree(root, top, max_depth, counts[k], p.version)?;
     Ok((tree, p.header.build))
+}
+
+/// The stretches of padding between a file's arrays, `(from, to)` byte offsets.
+type Gaps = Vec<(u64, u64)>;
+
+/// A file's first bytes, as the readers of its top levels and of its level table take them.
+struct FileStart {
+    /// The file, just past `prefix`.
+    file: std::fs::File,
+    /// Its length.
+    len: u64,
+    /// Its preamble and header, and what follows them up to a header's largest length.
+    prefix: Vec<u8>,
+    /// Its version (checks 1 to 4 made).
+    version: u32,
+    /// Its header's length.
+    hlen: usize,
+}
+
+impl FileStart {
+    /// Opens the file at `path` and reads its start (checks 1 to 4).
+    fn open(path: &Path) -> Result<Self, FormatError> {
+        use std::io::Read;
+        let io = |cause| FormatError::Io {
+            path: path.display().to_string(),
+            cause,
+        };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
+        file.read_exact(&mut prefix).map_err(io)?;
+        let (version, hlen) = check_preamble(&prefix, len)?;
+        Ok(Self {
+            file,
+            len,
+            prefix,
+            version,
+            hlen,
+        })
+    }
+
+    /// The header, decoded (check 6).
+    fn header(&self) -> Result<Preamble, FormatError> {
+        decode_header(
+            &self.prefix[PREAMBLE_LEN..PREAMBLE_LEN + self.hlen],
+            self.version,
+        )
+    }
+
+    /// A version-4 header, checked (checks 20, 6 to 12 and 21 from the header and the file's
+    /// length), with its levels and the padding's gaps.
+    fn levels_header(&self) -> Result<(Preamble, Levels, Gaps), FormatError> {
+        check_header_checksum(&self.prefix, self.version, self.hlen)?;
+        let p = self.header()?;
+        let gaps = check_layout(&p.header, p.header_end(), self.len)?;
+        let Some(levels) = p.header.levels.clone() else {
+            return Err(corrupt(Check::Header, "a version-4 header without levels"));
+        };
+        Ok((p, levels, gaps))
+    }
 }
 
 /// The top `max_depth` levels of the version-3 file at `path`, as [`cut_to_depth`] makes them
@@ -1155,27 +1204,12 @@ pub struct LevelSizes {
 /// 6 to 12 and 21, as [`read_file_to_depth`] makes them); `None` for a file of an older
 /// version, which has no level table.
 pub fn read_level_sizes(path: impl AsRef<Path>) -> Result<Option<LevelSizes>, FormatError> {
-    use std::io::Read;
-    let path = path.as_ref();
-    let io = |cause| FormatError::Io {
-        path: path.display().to_string(),
-        cause,
-    };
-    let mut f = std::fs::File::open(path).map_err(io)?;
-    let len = f.metadata().map_err(io)?.len();
-    let mut prefix = vec![0u8; len.min((PREAMBLE_LEN + MAX_HEADER_LEN + 16) as u64) as usize];
-    f.read_exact(&mut prefix).map_err(io)?;
-    let (version, hlen) = check_preamble(&prefix, len)?;
-    if version < LEVELS_VERSION {
+    let start = FileStart::open(path.as_ref())?;
+    if start.version < LEVELS_VERSION {
         return Ok(None);
     }
-    check_header_checksum(&prefix, version, hlen)?;
-    let p = decode_header(&prefix[PREAMBLE_LEN..PREAMBLE_LEN + hlen], version)?;
+    let (p, levels, _) = start.levels_header()?;
     let h = &p.header;
-    check_layout(h, p.header_end(), len)?;
-    let Some(levels) = &h.levels else {
-        return Err(corrupt(Check::Header, "a version-4 header without levels"));
-    };
     let size = |kind: u8| {
         ChannelKind::ALL
             .get(usize::from(kind))

@@ -25,7 +25,7 @@ use crate::octree::bounds;
 use crate::octree::tree::{Node, Octree};
 use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
-use crate::trace::traverse::{LeafEntry, Traversal, traverse_cone};
+use crate::trace::traverse::{LeafEntry, Traversal, node_entry, traverse_cone};
 use glam::{BVec4A, UVec3, Vec3, Vec3A, Vec4};
 
 /// Rays in a packet.
@@ -434,29 +434,13 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
                 }
                 stopped |= 1 << l;
                 let of_lane = |p: &Planes| Vec3A::new(lane(p.x, l), lane(p.y, l), lane(p.z, l));
-                let (b0, b1) = match &leaf_box {
+                let bounds = match &leaf_box {
                     Some((b0, b1)) => (of_lane(b0), of_lane(b1)),
                     None => (ray.t_planes(origin), of_lane(&c1)),
                 };
-                let (e0, e1) = (b0.max_element(), b1.min_element());
-                let t_in = if e0 > tmin[l] { e0 } else { tmin[l] };
-                let t_out = if e1 < tmax[l] { e1 } else { tmax[l] };
-                if t_out < t_in {
+                let stop = (node.first + rank, cell, half);
+                let Some(entry) = node_entry(ray, stop, bounds, (tmin[l], tmax[l]), NORMALS) else {
                     continue;
-                }
-                let (entry_normal, exit_normal) = if NORMALS {
-                    (ray.entry_normal_of(b0, tmin[l]), ray.exit_normal_of(b1))
-                } else {
-                    (Vec3::ZERO, Vec3::ZERO)
-                };
-                let entry = LeafEntry {
-                    leaf: node.first + rank,
-                    cell,
-                    side: half,
-                    t_enter: t_in,
-                    t_exit: t_out,
-                    entry_normal,
-                    exit_normal,
                 };
                 if let Some(h) = on_leaf(l, &entry) {
                     out[l].hit = Some(h);

@@ -32,6 +32,40 @@ use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use glam::{UVec3, Vec3, Vec3A};
 
+/// The entry of an inner node drawn in place of its subtree (`stop`: its index, minimum
+/// cell and side), for a ray whose parameters at the box of its leaves are `(b0, b1)`: that
+/// box clipped to `[tmin, tmax]`, `None` where the ray misses it there; the faces' normals
+/// with `normals` (else zero). The single and the packet walk stop at a node through it.
+#[inline]
+pub(crate) fn node_entry(
+    r: &MirroredRay,
+    (leaf, cell, side): (u32, UVec3, u32),
+    (b0, b1): (Vec3A, Vec3A),
+    (tmin, tmax): (f32, f32),
+    normals: bool,
+) -> Option<LeafEntry> {
+    let (e0, e1) = (b0.max_element(), b1.min_element());
+    let t_enter = if e0 > tmin { e0 } else { tmin };
+    let t_exit = if e1 < tmax { e1 } else { tmax };
+    if t_exit < t_enter {
+        return None;
+    }
+    let (entry_normal, exit_normal) = if normals {
+        (r.entry_normal_of(b0, tmin), r.exit_normal_of(b1))
+    } else {
+        (Vec3::ZERO, Vec3::ZERO)
+    };
+    Some(LeafEntry {
+        leaf,
+        cell,
+        side,
+        t_enter,
+        t_exit,
+        entry_normal,
+        exit_normal,
+    })
+}
+
 /// The default cap on traversal steps (children examined) per ray. A ray through a depth-10
 /// tree examines at most about `3 * 1024 * 8` children, so only a pathological callback
 /// (one that declines every leaf of a huge tree) reaches it.
@@ -403,21 +437,10 @@ fn traverse_with<const STACK: usize, T>(
                 if cone.stops_at(half, node_distance(ray.origin, cell, half)) {
                     // Wide enough: the node stands for its subtree, within the box of its
                     // leaves (which holds its surface), as the primary prepass tests it.
-                    let (b0, b1) = leaf_box.unwrap_or_else(|| (r.t_planes(origin), c1));
-                    let (e0, e1) = (b0.max_element(), b1.min_element());
-                    let t_in = if e0 > tmin { e0 } else { tmin };
-                    let t_out = if e1 < tmax { e1 } else { tmax };
-                    if t_out < t_in {
+                    let bounds = leaf_box.unwrap_or_else(|| (r.t_planes(origin), c1));
+                    let stop = (node.first + rank, cell, half);
+                    let Some(entry) = node_entry(&r, stop, bounds, (tmin, tmax), true) else {
                         continue;
-                    }
-                    let entry = LeafEntry {
-                        leaf: node.first + rank,
-                        cell,
-                        side: half,
-                        t_enter: t_in,
-                        t_exit: t_out,
-                        entry_normal: r.entry_normal_of(b0, tmin),
-                        exit_normal: r.exit_normal_of(b1),
                     };
                     if let Some(h) = on_leaf(&entry) {
                         out.hit = Some(h);

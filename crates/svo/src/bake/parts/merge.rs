@@ -734,27 +734,42 @@ pub(crate) fn copy_array(
     a: crate::bake::parts::part::PartArray,
     out: &mut dyn Write,
 ) -> Result<(), PartsError> {
+    read_array(path, a, "channel array", &mut |bytes| {
+        out.write_all(bytes).map_err(|e| PartsError::io(path, e))
+    })
+}
+
+/// Reads array `a` of a part file in pieces of whole 8-byte words (up to 1 MiB), handing each
+/// to `each`, and checks its hash (a mismatch names the array as `what`).
+pub(crate) fn read_array(
+    path: &Path,
+    a: crate::bake::parts::part::PartArray,
+    what: &str,
+    each: &mut dyn FnMut(&[u8]) -> Result<(), PartsError>,
+) -> Result<(), PartsError> {
     let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
     f.seek(SeekFrom::Start(a.offset))
         .map_err(|e| PartsError::io(path, e))?;
-    let mut r = f.take(a.len);
     let mut hash = xxhash_rust::xxh3::Xxh3::new();
-    let mut buf = vec![0u8; (a.len as usize).clamp(1, 1 << 20)];
+    let mut buf = vec![0u8; (a.len as usize).clamp(8, 1 << 20)];
     let mut left = a.len;
     while left > 0 {
-        let n = r.read(&mut buf).map_err(|e| PartsError::io(path, e))?;
-        if n == 0 {
-            return Err(corrupt(path, "truncated part file"));
-        }
+        let n = left.min(buf.len() as u64) as usize;
+        f.read_exact(&mut buf[..n]).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                corrupt(path, "truncated part file")
+            } else {
+                PartsError::io(path, e)
+            }
+        })?;
         hash.update(&buf[..n]);
-        out.write_all(&buf[..n])
-            .map_err(|e| PartsError::io(path, e))?;
+        each(&buf[..n])?;
         left -= n as u64;
     }
     if hash.digest() != a.hash {
         return Err(corrupt(
             path,
-            "channel array checksum mismatch: the part file is corrupt",
+            &format!("{what} checksum mismatch: the part file is corrupt"),
         ));
     }
     Ok(())

@@ -11,19 +11,18 @@
 //! the hashes, a second writes the file. Every piece read from a part is checked against the
 //! hash the part recorded for it.
 
-use crate::attributes::node_attributes::{Uniform, contour_of, node_slab};
+use crate::attributes::node_attributes::{Uniform, contour_of, node_slab, normal_storage};
 use crate::attributes::surface_sums::{NodeRule, NodeValue, SurfaceSums};
-use crate::bake::parts::merge::{Header, Sub, copy_array, corrupt, per_leaf_rank};
-use crate::bake::parts::part::PartArray;
+use crate::bake::parts::merge::{Header, Sub, copy_array, corrupt, per_leaf_rank, read_array};
 use crate::bake::parts::part_levels::{PartLevels, push_value};
 use crate::bake::parts::plan::{BakePlan, PartsError};
 use crate::io::header::{NodeChannelEntry, NodeStorage};
 use crate::io::write::{Layout, LevelPlan, Stored};
 use crate::octree::ChannelKind;
 use crate::octree::layout::Sums;
-use crate::octree::tree::Node;
+use crate::octree::tree::{Channel, Node};
 use crate::octree::validate::MAX_LEAVES;
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::io::Write;
 use std::path::Path;
 
 /// A node of the levels made here (above the parts' and the parts' own): its code on its
@@ -67,11 +66,12 @@ fn node_channels(channels: &[(u8, Stored)], normals: Uniform) -> Vec<NodeChannel
         .filter(|(k, _)| *k != ChannelKind::Contour as u8 || has_normal)
         .map(|&(kind, s)| {
             let storage = match s {
-                Stored::Constant(v) if kind == normal => match normals {
-                    Uniform::Empty => NodeStorage::Constant(v),
-                    Uniform::One(w) if w == v => NodeStorage::Constant(v),
-                    _ => NodeStorage::PerNode,
-                },
+                Stored::Constant(v) if kind == normal => {
+                    match normal_storage(&Channel::Constant(v), normals) {
+                        Some(Channel::Constant(v)) => NodeStorage::Constant(v),
+                        _ => NodeStorage::PerNode,
+                    }
+                }
                 _ if kind == ChannelKind::Contour as u8 => NodeStorage::PerNode,
                 Stored::Constant(v) => NodeStorage::Constant(v),
                 Stored::PerLeaf(_) => NodeStorage::PerNode,
@@ -276,7 +276,7 @@ impl<'a> LevelMerge<'a> {
                     _ => None,
                 }
             };
-            read_piece(path, a, &mut |bytes: &[u8]| {
+            read_array(path, a, "node array", &mut |bytes: &[u8]| {
                 let mut moved = Vec::with_capacity(bytes.len());
                 for rec in bytes.chunks_exact(8) {
                     let n: Node = bytemuck::pod_read_unaligned(rec);
@@ -298,41 +298,6 @@ impl<'a> LevelMerge<'a> {
     pub(crate) fn write(&self, layout: &Layout<'_>, output: &Path) -> Result<u64, PartsError> {
         crate::bake::parts::merge::write_streamed(layout, output, &mut |i, out| self.array(i, out))
     }
-}
-
-/// Reads a part's array `a` in pieces of whole 8-byte words, handing each to `each`, and
-/// checks its hash.
-fn read_piece(
-    path: &Path,
-    a: PartArray,
-    each: &mut dyn FnMut(&[u8]) -> Result<(), PartsError>,
-) -> Result<(), PartsError> {
-    let mut f = std::fs::File::open(path).map_err(|e| PartsError::io(path, e))?;
-    f.seek(SeekFrom::Start(a.offset))
-        .map_err(|e| PartsError::io(path, e))?;
-    let mut hash = xxhash_rust::xxh3::Xxh3::new();
-    let mut buf = vec![0u8; (a.len as usize).clamp(8, 1 << 20)];
-    let mut left = a.len;
-    while left > 0 {
-        let n = left.min(buf.len() as u64) as usize;
-        f.read_exact(&mut buf[..n]).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                corrupt(path, "truncated part file")
-            } else {
-                PartsError::io(path, e)
-            }
-        })?;
-        hash.update(&buf[..n]);
-        each(&buf[..n])?;
-        left -= n as u64;
-    }
-    if hash.digest() != a.hash {
-        return Err(corrupt(
-            path,
-            "node array checksum mismatch: the part file is corrupt",
-        ));
-    }
-    Ok(())
 }
 
 /// The levels from the root down to the parts' level (the subtrees' roots, from the parts'

@@ -331,35 +331,25 @@ fn bake_one(
     };
     let t0 = Instant::now();
     let codes = range.start..range.end;
-    let mut part = if plan.node_attributes {
+    // The subtrees' header list, leaf channels and statistics, with their nodes: level by
+    // level with the inner nodes' values, or in the merged file's depth-first order.
+    let (listed, (attributes, channels, mut stats), levels, nodes, level_arrays) = if plan
+        .node_attributes
+    {
         let (mut subtrees, tests) =
             voxelize_subtrees::<SurfaceSums>(inputs, opts.depth, opts.strategy, plan.level, codes);
         let leaf_off = leaf_offsets(&subtrees, index)?;
         let listed = listed(&subtrees);
-        let (attributes, channels, stats) = leaves_of(inputs, &mut subtrees, tests);
+        let leaves = leaves_of(inputs, &mut subtrees, tests);
         let (levels, level_arrays) = part_levels(
             &subtrees,
             &leaf_off,
-            &attributes,
-            &node_kinds(&channels),
+            &leaves.0,
+            &node_kinds(&leaves.1),
             opts.depth - plan.level - 1,
             inputs.node_rule(),
         );
-        drop(subtrees);
-        PartData {
-            header: PartHeader {
-                plan_hash,
-                index,
-                subtrees: listed,
-                channels,
-                arrays: Vec::new(),
-                stats,
-                levels: Some(levels),
-            },
-            nodes: Vec::new(),
-            level_arrays,
-            attributes,
-        }
+        (listed, leaves, Some(levels), Vec::new(), level_arrays)
     } else {
         let (mut subtrees, tests) =
             voxelize_subtrees::<()>(inputs, opts.depth, opts.strategy, plan.level, codes);
@@ -383,25 +373,24 @@ fn bake_one(
             }
         }
         let listed = listed(&subtrees);
-        let (attributes, channels, stats) = leaves_of(inputs, &mut subtrees, tests);
-        drop(subtrees);
-        PartData {
-            header: PartHeader {
-                plan_hash,
-                index,
-                subtrees: listed,
-                channels,
-                arrays: Vec::new(),
-                stats,
-                levels: None,
-            },
-            nodes,
-            level_arrays: Vec::new(),
-            attributes,
-        }
+        let leaves = leaves_of(inputs, &mut subtrees, tests);
+        (listed, leaves, None, nodes, Vec::new())
     };
-    part.header.stats.bake_s = t0.elapsed().as_secs_f64();
-    Ok(part)
+    stats.bake_s = t0.elapsed().as_secs_f64();
+    Ok(PartData {
+        header: PartHeader {
+            plan_hash,
+            index,
+            subtrees: listed,
+            channels,
+            arrays: Vec::new(),
+            stats,
+            levels,
+        },
+        nodes,
+        level_arrays,
+        attributes,
+    })
 }
 
 /// Each subtree's first leaf in the part (subtrees in code order), refusing a part of more

@@ -362,31 +362,36 @@ fn refuses_bad_parts(node_attributes: bool) {
 }
 
 /// A bake within a memory budget far below the bake in memory's needs goes into several
-/// parts and writes the in-memory bake's bytes.
+/// parts and writes the in-memory bake's bytes: version 2, and version 4 with the inner
+/// nodes' attributes.
 #[test]
 fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
     let dir = tempfile::tempdir().unwrap();
     let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
-    let opts = BakeOptions {
-        depth: 9,
-        ..BakeOptions::default()
-    };
-    let whole = in_memory(&mesh_path, &opts, dir.path());
-    let out = dir.path().join("limited.svo");
-    let mesh = crate::Mesh::load(&mesh_path).unwrap();
-    let report = bake_within(
-        &mesh,
-        &mesh_path,
-        &opts,
-        16 << 20,
-        &build_of(&mesh, &opts),
-        &out,
-        &|_, _| {},
-    )
-    .unwrap();
-    assert!(report.plan.part_count() > 1, "{report:?}");
-    assert_eq!(report.part_seconds.len() as u32, report.plan.part_count());
-    assert!(std::fs::read(out).unwrap() == whole);
+    for (node_attributes, version) in [(false, 2), (true, 4)] {
+        let opts = BakeOptions {
+            depth: 9,
+            node_attributes,
+            ..BakeOptions::default()
+        };
+        let whole = in_memory(&mesh_path, &opts, dir.path());
+        let out = dir.path().join("limited.svo");
+        let mesh = crate::Mesh::load(&mesh_path).unwrap();
+        let report = bake_within(
+            &mesh,
+            &mesh_path,
+            &opts,
+            16 << 20,
+            &build_of(&mesh, &opts),
+            &out,
+            &|_, _| {},
+        )
+        .unwrap();
+        assert!(report.plan.part_count() > 1, "{report:?}");
+        assert_eq!(report.part_seconds.len() as u32, report.plan.part_count());
+        assert_eq!(report.merge.version, version);
+        assert!(std::fs::read(out).unwrap() == whole);
+    }
 }
 
 /// A mesh with everything a bin must carry: three materials (one textured, one mirror, one
@@ -569,8 +574,8 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
 /// bytes, whatever the number of parts (the levels above the parts' made from their roots),
 /// on the torus, the bunny, a textured mesh with materials (per-node colours and optics), a
 /// flat square (one normal for every leaf: the nodes' normals are then stored once) and a
-/// mesh without channels (version 2); bakes within a small budget and from bins too. The
-/// merge refuses chunks for such a plan.
+/// mesh without channels (version 2). The merge refuses chunks for such a plan. (Bakes
+/// within a budget: `a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory`.)
 #[test]
 fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
@@ -636,27 +641,4 @@ fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
         nodes_normal(&cases[0].0),
         crate::octree::tree::Channel::PerLeaf(_)
     ));
-    // Within a small budget, in several parts.
-    let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
-    let opts = BakeOptions {
-        depth: 9,
-        node_attributes: true,
-        ..BakeOptions::default()
-    };
-    let whole = in_memory(&mesh_path, &opts, dir.path());
-    let out = dir.path().join("limited.svo");
-    let mesh = crate::Mesh::load(&mesh_path).unwrap();
-    let report = bake_within(
-        &mesh,
-        &mesh_path,
-        &opts,
-        16 << 20,
-        &build_of(&mesh, &opts),
-        &out,
-        &|_, _| {},
-    )
-    .unwrap();
-    assert!(report.plan.part_count() > 1, "{report:?}");
-    assert_eq!(report.merge.version, 4);
-    assert!(std::fs::read(out).unwrap() == whole);
 }
