@@ -152,6 +152,17 @@ impl Parts {
         p
     }
 
+    /// The same tree as a file of the DAG layout stores it (section 12; without inner-node
+    /// channels).
+    pub fn as_dag(&self) -> Self {
+        let mut p = self.clone();
+        p.version = 4;
+        p.layout = 1;
+        p.node_channels.clear();
+        p.node_count = dag_blocks(&p.nodes, p.depth).1.iter().sum();
+        p
+    }
+
     /// Section 11: the nodes' indices in `nodes` in level order (each level's children blocks
     /// in the order of their parents), and the nodes on each level.
     fn levels(&self) -> (Vec<usize>, Vec<u64>) {
@@ -178,6 +189,10 @@ impl Parts {
     /// Version 4's blocks: for each level, its records then (levels `0 .. depth - 2`) each
     /// per-node channel's values.
     fn blocks(&self) -> (Vec<Vec<Vec<u8>>>, Vec<u64>) {
+        if self.layout == 1 {
+            let (blocks, counts) = dag_blocks(&self.nodes, self.depth);
+            return (blocks.into_iter().map(|b| vec![b]).collect(), counts);
+        }
         let (order, counts) = self.levels();
         let mut at_of = vec![0u32; self.nodes.len()];
         for (new, &old) in order.iter().enumerate() {
@@ -636,6 +651,118 @@ fn scene() -> SceneInfo {
 
 /// Rebuilds the node array with the children blocks in breadth-first order: a valid tree in
 /// another order than the canonical one.
+/// Section 12: the levels of the DAG layout of the canonical tree `nodes` of `depth` levels
+/// (2 or more), each level's bytes, and the nodes on each level. Each tree node is named by
+/// what it holds (a leaf parent its mask; a node two levels above the leaves its 64-bit
+/// brick; a node above those its mask and its children's names); the names of a level are
+/// numbered in the order in which the level above, walked in its own order, first refers to
+/// them.
+fn dag_blocks(nodes: &[[u32; 2]], depth: u8) -> (Vec<Vec<u8>>, Vec<u64>) {
+    let depth = usize::from(depth);
+    let bricks_level = depth - 2;
+    let children = |i: usize| -> Vec<usize> {
+        let [info, first] = nodes[i];
+        let k = (info & 0xFF).count_ones() as usize;
+        if (first as i32) < 0 || k == 0 {
+            Vec::new()
+        } else {
+            (first as usize..first as usize + k).collect()
+        }
+    };
+    // The name of each tree node: (mask or brick, children's names) as text, bottom up.
+    fn name(
+        i: usize,
+        level: usize,
+        bricks_level: usize,
+        nodes: &[[u32; 2]],
+        children: &dyn Fn(usize) -> Vec<usize>,
+        names: &mut Vec<Option<String>>,
+    ) -> String {
+        if let Some(n) = &names[i] {
+            return n.clone();
+        }
+        let mask = nodes[i][0] & 0xFF;
+        let n = if level == bricks_level {
+            let mut brick = 0u64;
+            let mut kids = children(i).into_iter();
+            for a in 0..8 {
+                if mask >> a & 1 == 1 {
+                    let lp = kids.next().expect("a child for each bit");
+                    brick |= u64::from(nodes[lp][0] & 0xFF) << (8 * a);
+                }
+            }
+            format!("b{brick}")
+        } else {
+            let kids: Vec<String> = children(i)
+                .into_iter()
+                .map(|c| name(c, level + 1, bricks_level, nodes, children, names))
+                .collect();
+            format!("({mask}:{})", kids.join(","))
+        };
+        names[i] = Some(n.clone());
+        n
+    }
+    let mut names = vec![None; nodes.len()];
+    name(0, 0, bricks_level, nodes, &children, &mut names);
+    // Level by level: the distinct names in first-reference order, and one tree node for each.
+    let mut levels: Vec<Vec<(String, usize)>> =
+        vec![vec![(names[0].clone().unwrap_or_default(), 0)]];
+    for l in 1..=bricks_level {
+        let mut order: Vec<(String, usize)> = Vec::new();
+        for (_, i) in &levels[l - 1] {
+            for c in children(*i) {
+                let n = names[c].clone().unwrap_or_default();
+                if !order.iter().any(|(m, _)| *m == n) {
+                    order.push((n, c));
+                }
+            }
+        }
+        levels.push(order);
+    }
+    // The bytes: a level above the bricks holds, for each node, its mask word and its
+    // children's word offsets (or brick indices, above the bricks); the bricks' level the
+    // bricks.
+    let index_in = |l: usize, n: &str| levels[l].iter().position(|(m, _)| m == n).unwrap_or(0);
+    let mut offsets: Vec<Vec<u32>> = Vec::new();
+    for level in &levels {
+        let mut at = 0u32;
+        offsets.push(
+            level
+                .iter()
+                .map(|(_, i)| {
+                    let o = at;
+                    at += 1 + children(*i).len() as u32;
+                    o
+                })
+                .collect(),
+        );
+    }
+    let mut blocks = Vec::new();
+    for (l, level) in levels.iter().enumerate() {
+        let mut bytes = Vec::new();
+        for (n, i) in level {
+            if l == bricks_level {
+                let brick: u64 = n[1..].parse().unwrap_or(0);
+                bytes.extend(brick.to_le_bytes());
+                continue;
+            }
+            bytes.extend((nodes[*i][0] & 0xFF).to_le_bytes());
+            for c in children(*i) {
+                let k = index_in(l + 1, names[c].as_deref().unwrap_or_default());
+                let p = if l + 1 == bricks_level {
+                    k as u32
+                } else {
+                    offsets[l + 1][k]
+                };
+                bytes.extend(p.to_le_bytes());
+            }
+        }
+        blocks.push(bytes);
+    }
+    let counts = levels.iter().map(|l| l.len() as u64).collect();
+    (blocks, counts)
+}
+
 fn breadth_first_order(nodes: &[[u32; 2]], depth: u8) -> Vec<[u32; 2]> {
     let mut out = vec![nodes[0]];
     // (old index, new index, level)
@@ -899,6 +1026,7 @@ pub fn corpus() -> Vec<Entry> {
     version_3_chunks(&t, &mut invalid);
     edge_rules(&t, &mut invalid);
     version_4(&t, &mut invalid);
+    dag_layout(&t, &mut invalid);
     out
 }
 
@@ -1083,6 +1211,31 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         "levels-depth-30",
         "version 4: the depth-30 tree, 30 levels",
         &v4(deepest),
+    );
+    valid(
+        "dag",
+        "version 4's DAG layout: the per-leaf tree of depth 3, the root's mask word and brick indices, then its bricks",
+        &varied.as_dag(),
+    );
+    valid(
+        "dag-bake",
+        "version 4's DAG layout: the baked torus (depth 4: the root, its distinct children, their bricks), per-leaf channels",
+        &torus.as_dag(),
+    );
+    valid(
+        "dag-root-brick",
+        "version 4's DAG layout at depth 2: the root is the one brick",
+        &constant.as_dag(),
+    );
+    valid(
+        "dag-empty",
+        "version 4's DAG layout: the empty tree, the root's mask word 0 and no bricks",
+        &empty.as_dag(),
+    );
+    valid(
+        "dag-depth-30",
+        "version 4's DAG layout: the depth-30 tree, 28 levels of nodes above its bricks",
+        &deepest.as_dag(),
     );
 
     out
@@ -1872,8 +2025,8 @@ fn version_4(t: &Trees, invalid: &mut Invalid<'_>) {
     invalid(
         21,
         "layout",
-        "version 4: layout 1, which is reserved",
-        resealed(&|b| b[at4::LAYOUT] = 1),
+        "version 4: layout 2, which is reserved",
+        resealed(&|b| b[at4::LAYOUT] = 2),
     );
     invalid(
         21,
@@ -1959,6 +2112,150 @@ fn version_4(t: &Trees, invalid: &mut Invalid<'_>) {
             if let Stored::PerLeaf(v) = &mut p.node_channels[0].1 {
                 v[4..8].copy_from_slice(&0x8000_8000u32.to_le_bytes());
             }
+        }),
+    );
+}
+
+/// The invalid files of version 4's DAG layout (section 12), most of them the baked torus's
+/// graph (depth 4: level 0 the root, level 1 its distinct children, level 2 their bricks)
+/// with its level checksums, header checksum and checksum made right after the edit.
+fn dag_layout(t: &Trees, invalid: &mut Invalid<'_>) {
+    let base = t.torus.as_dag().encode();
+    // The word or brick `i` of level `l`, and its place in the file.
+    let at = |b: &[u8], l: usize, i: usize, size: usize| {
+        u64_at(b, at4::level(l) + 8) as usize + size * i
+    };
+    let edited = |bytes: &[u8], f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = bytes.to_vec();
+        f(&mut b);
+        for l in 0..usize::from(b[16 + 32]).saturating_sub(1) {
+            let (o, len) = (
+                u64_at(&b, at4::level(l) + 8) as usize,
+                u64_at(&b, at4::level(l) + 16) as usize,
+            );
+            if o + len <= b.len() {
+                let h = xxhash_rust::xxh3::xxh3_64(&b[o..o + len]);
+                put(&mut b, at4::level(l) + 24, &h.to_le_bytes());
+            }
+        }
+        reseal_v4(&mut b);
+        b
+    };
+    let word = |b: &[u8], l: usize, i: usize| {
+        u32::from_le_bytes(b[at(b, l, i, 4)..][..4].try_into().expect("4 bytes"))
+    };
+    let set_word = |b: &mut Vec<u8>, l: usize, i: usize, v: u32| {
+        let o = at(b, l, i, 4);
+        put(b, o, &v.to_le_bytes());
+    };
+    let constant = t.constant.as_dag().encode();
+    invalid(
+        9,
+        "dag-leaves-2-48",
+        "the DAG layout: the empty tree's header says 2^48 + 1 leaves",
+        edited(&t.empty.as_dag().encode(), &|b| {
+            put(b, 16 + 42, &((1u64 << 48) + 1).to_le_bytes())
+        }),
+    );
+    invalid(
+        21,
+        "dag-depth-1",
+        "the DAG layout at depth 1 (its bricks need two levels)",
+        edited(&constant, &|b| b[16 + 32] = 1),
+    );
+    invalid(
+        21,
+        "dag-node-channels",
+        "the DAG layout with inner-node channels in the header",
+        from(&t.varied.as_dag(), &|p| p.node_channels = node_values(p)),
+    );
+    invalid(
+        12,
+        "dag-block-length",
+        "the DAG layout: level 0's block said to be 2 bytes longer (not whole words)",
+        edited(&base, &|b| {
+            let n = u64_at(b, at4::level(0) + 16) + 2;
+            put(b, at4::level(0) + 16, &n.to_le_bytes());
+        }),
+    );
+    invalid(
+        14,
+        "dag-mask-bits",
+        "the DAG layout: bit 8 of the root's mask word set",
+        edited(&base, &|b| {
+            let w = word(b, 0, 0);
+            set_word(b, 0, 0, w | 0x100);
+        }),
+    );
+    invalid(
+        15,
+        "dag-childless",
+        "the DAG layout: the first node of level 1 has mask word 0",
+        edited(&base, &|b| set_word(b, 1, 0, 0)),
+    );
+    invalid(
+        15,
+        "dag-empty-brick",
+        "the DAG layout: brick 0 holds no leaf",
+        edited(&base, &|b| {
+            let o = at(b, 2, 0, 8);
+            put(b, o, &0u64.to_le_bytes());
+        }),
+    );
+    invalid(
+        16,
+        "dag-pointer",
+        "the DAG layout: the root's first child is word 1 of level 1, inside its first node",
+        edited(&base, &|b| set_word(b, 0, 1, 1)),
+    );
+    invalid(
+        16,
+        "dag-first-reference",
+        "the DAG layout: the root's first two children swapped (the second node of level 1 referred to before the first)",
+        edited(&base, &|b| {
+            let (x, y) = (word(b, 0, 1), word(b, 0, 2));
+            set_word(b, 0, 1, y);
+            set_word(b, 0, 2, x);
+        }),
+    );
+    invalid(
+        16,
+        "dag-twice",
+        "the DAG layout: brick 1 equal to brick 0",
+        edited(&base, &|b| {
+            let (o0, o1) = (at(b, 2, 0, 8), at(b, 2, 1, 8));
+            let v = b[o0..o0 + 8].to_vec();
+            put(b, o1, &v);
+        }),
+    );
+    invalid(
+        16,
+        "dag-orphan",
+        "the DAG layout: the root's last child made its previous one, so the last node of level 1 is referred to by none",
+        edited(&base, &|b| {
+            let k = (word(b, 0, 0) & 0xFF).count_ones() as usize;
+            let w = word(b, 0, k - 1);
+            set_word(b, 0, k, w);
+        }),
+    );
+    invalid(
+        16,
+        "dag-count",
+        "the DAG layout: the level table (and the node count) says level 1 holds one node more than its block",
+        edited(&base, &|b| {
+            let n = u64_at(b, at4::level(1)) + 1;
+            put(b, at4::level(1), &n.to_le_bytes());
+            let all = u64_at(b, 16 + 34) + 1;
+            put(b, 16 + 34, &all.to_le_bytes());
+        }),
+    );
+    invalid(
+        17,
+        "dag-leaf-count",
+        "the DAG layout: the header says one leaf more than the root brick holds (every channel a constant)",
+        edited(&constant, &|b| {
+            let n = u64_at(b, 16 + 42) + 1;
+            put(b, 16 + 42, &n.to_le_bytes());
         }),
     );
 }

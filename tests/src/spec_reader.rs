@@ -207,8 +207,10 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
     let (version, hl) = preamble(b)?;
     let h = decode(&b[16..16 + hl], version).ok_or(6u8)?;
     header_values(&h)?;
-    if h.levels.is_some() {
-        return check_levels(b, &h, hl);
+    match &h.levels {
+        Some((1, _, _)) => return check_dag(b, &h, hl),
+        Some(_) => return check_levels(b, &h, hl),
+        None => {}
     }
     layout(b, &h, hl)?;
     let trees = chunk_table(b, &h)?;
@@ -284,11 +286,13 @@ fn header_values(h: &Header) -> Result<(), u8> {
     {
         return Err(8);
     }
+    let dag = matches!(h.levels, Some((1, _, _)));
     let counts_ok = match h.chunks {
+        None if dag => h.node_count >= 1 && h.leaf_count <= 1 << 48,
         None => h.node_count >= 1 && h.leaf_count <= 1 << 31,
         Some((c, count, _)) => count <= h.node_count && count <= 1 << (3 * c),
     };
-    if !counts_ok || h.leaf_count > h.node_count.saturating_mul(8) {
+    if !counts_ok || (!dag && h.leaf_count > h.node_count.saturating_mul(8)) {
         return Err(9);
     }
     let mut last = -1i16;
@@ -332,7 +336,13 @@ fn header_values(h: &Header) -> Result<(), u8> {
             }
             sum = sum.saturating_add(e[0]);
         }
-        if *layout != 0 || table.len() != usize::from(h.depth) || sum != h.node_count {
+        let (levels, node_channels) = (table.len(), h.levels.as_ref().map_or(0, |l| l.2.len()));
+        let shape_ok = match layout {
+            0 => levels == usize::from(h.depth),
+            1 => h.depth >= 2 && levels + 1 == usize::from(h.depth) && node_channels == 0,
+            _ => false,
+        };
+        if !shape_ok || sum != h.node_count {
             return Err(21);
         }
     }
@@ -713,4 +723,151 @@ fn check_levels(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         }
     }
     Ok(())
+}
+
+/// A file of the DAG layout after check 21 (section 12): checks 12 and 13 (each level's block
+/// as long as its entry says, within what its nodes can take), 22, then level by level the
+/// nodes (14, 15, 16), their number, the level above's references to them and their being
+/// distinct (16), then the leaves the graph holds (17) and the leaves' values (18).
+fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
+    let Some((_, table, _)) = &h.levels else {
+        return Ok(());
+    };
+    let bricks_level = table.len() - 1;
+    let data_end = (b.len() - 8) as u64;
+    let e = 16 + hl as u64 + 8;
+    let mut at = pad8(e);
+    let mut gaps = vec![(e, at)];
+    for (l, &[n, offset, len, _]) in table.iter().enumerate() {
+        let fits = if l == bricks_level {
+            n.checked_mul(8) == Some(len)
+        } else {
+            len % 4 == 0
+                && n.checked_mul(4).is_some_and(|m| m <= len)
+                && n.checked_mul(36).is_some_and(|m| len <= m)
+        };
+        let end = offset.checked_add(len).ok_or(12u8)?;
+        if !fits || offset != at || end > data_end {
+            return Err(12);
+        }
+        gaps.push((end, pad8(end)));
+        at = pad8(end);
+    }
+    let leaf_arrays: Vec<((u64, u64), u64)> = h
+        .channels
+        .iter()
+        .filter_map(|(kind, s)| match s {
+            Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
+            Storage::Constant(_) => None,
+        })
+        .collect();
+    place(b, &leaf_arrays, at, gaps, data_end)?;
+    for &[_, offset, len, hash] in table {
+        if xxhash_rust::xxh3::xxh3_64(&b[offset as usize..(offset + len) as usize]) != hash {
+            return Err(22);
+        }
+    }
+    // Level by level. A node above the bricks: (its first word, its children's indices on
+    // the level below); the leaves below each node of the level last walked.
+    let word = |l: usize, i: usize| u32at(b, table[l][1] as usize + 4 * i);
+    let brick = |i: usize| {
+        u64::from_le_bytes(
+            b[table[bricks_level][1] as usize + 8 * i..][..8]
+                .try_into()
+                .unwrap(),
+        )
+    };
+    let mut above: Vec<(usize, Vec<usize>)> = Vec::new();
+    let mut nodes_of_levels: Vec<Vec<(usize, Vec<usize>)>> = Vec::new();
+    for (l, &[count, _, len, _]) in table.iter().enumerate() {
+        let words = (len / 4) as usize;
+        // The level's nodes: where each starts (a word, or a brick's index).
+        let mut starts: Vec<usize> = Vec::new();
+        if l == bricks_level {
+            for i in 0..count as usize {
+                if brick(i) == 0 && !(l == 0 && i == 0) {
+                    return Err(15);
+                }
+                starts.push(i);
+            }
+        } else {
+            let mut i = 0usize;
+            while i < words {
+                let m = word(l, i);
+                if m >> 8 != 0 {
+                    return Err(14);
+                }
+                if m == 0 && !(l == 0 && i == 0) {
+                    return Err(15);
+                }
+                let k = m.count_ones() as usize;
+                if i + 1 + k > words {
+                    return Err(16);
+                }
+                starts.push(i);
+                i += 1 + k;
+            }
+        }
+        if starts.len() as u64 != count {
+            return Err(16);
+        }
+        // The level above refers to each of these nodes, the first references in order.
+        let mut referred = 0usize;
+        for (start, kids) in &mut above {
+            let m = word(l - 1, *start);
+            for j in 0..m.count_ones() as usize {
+                let p = word(l - 1, *start + 1 + j) as usize;
+                let index = if l == bricks_level {
+                    (p < starts.len()).then_some(p)
+                } else {
+                    starts.iter().position(|&s| s == p)
+                };
+                match index {
+                    Some(x) if x < referred => kids.push(x),
+                    Some(x) if x == referred => {
+                        kids.push(x);
+                        referred += 1;
+                    }
+                    _ => return Err(16),
+                }
+            }
+        }
+        if l > 0 && referred != starts.len() {
+            return Err(16);
+        }
+        // No node twice.
+        let content = |s: usize| -> Vec<u64> {
+            if l == bricks_level {
+                vec![brick(s)]
+            } else {
+                (0..=word(l, s).count_ones() as usize)
+                    .map(|j| u64::from(word(l, s + j)))
+                    .collect()
+            }
+        };
+        let all: Vec<Vec<u64>> = starts.iter().map(|&s| content(s)).collect();
+        for i in 0..all.len() {
+            if all[..i].contains(&all[i]) {
+                return Err(16);
+            }
+        }
+        if !above.is_empty() {
+            nodes_of_levels.push(std::mem::take(&mut above));
+        }
+        above = starts.into_iter().map(|s| (s, Vec::new())).collect();
+    }
+    // 17: the leaves, from the bricks up.
+    let mut leaves: Vec<u64> = (0..table[bricks_level][0] as usize)
+        .map(|i| u64::from(brick(i).count_ones()))
+        .collect();
+    for level in nodes_of_levels.iter().rev() {
+        leaves = level
+            .iter()
+            .map(|(_, kids)| kids.iter().map(|&k| leaves[k]).sum())
+            .collect();
+    }
+    if leaves.first().copied().unwrap_or(0) != h.leaf_count {
+        return Err(17);
+    }
+    values(b, h, 4)
 }

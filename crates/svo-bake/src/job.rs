@@ -50,6 +50,10 @@ pub enum JobError {
     /// The scene file could not be loaded.
     #[error(transparent)]
     Scene(#[from] svo::scene::SceneError),
+    /// The output's node layout cannot hold this job's tree, or this kind of job does not
+    /// make it.
+    #[error("--layout dag: {0}")]
+    Layout(String),
 }
 
 // The bake's and the parts' errors are shown with a hint (below), not as sources: their
@@ -122,6 +126,19 @@ impl OutputFormat {
     }
 }
 
+/// How an `.svo` output stores its nodes (`docs/format.md`, sections 4 and 12).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[non_exhaustive]
+pub enum NodeLayout {
+    /// The tree: each node its child mask and a pointer to its children (version 2, or 4
+    /// with inner-node attributes).
+    #[default]
+    Tree,
+    /// Identical subtrees stored once, the two lowest levels as 64-bit bricks (version 4's
+    /// DAG layout; no inner-node attributes).
+    Dag,
+}
+
 /// One bake, file to file.
 #[derive(Clone, Debug)]
 pub struct BakeJob {
@@ -144,6 +161,9 @@ pub struct BakeJob {
     /// set and the bake could need more than that, in which case the bake goes into parts
     /// within that.
     pub memory: Option<u64>,
+    /// How an `.svo` output stores its nodes: the tree (the default) or the DAG, which a
+    /// bake in memory and the conversion of an `.svo` make (a bake in parts writes the tree).
+    pub layout: NodeLayout,
 }
 
 /// Which bake options were given explicitly (on the command line), so a scene file's own
@@ -259,7 +279,18 @@ fn run(
             job, &mesh, &options, &build, budget, automatic, threads, clock, progress,
         )
     };
+    let dag = job.layout == NodeLayout::Dag;
+    if dag && format != OutputFormat::Svo {
+        return Err(JobError::Layout("a node layout is for .svo outputs".into()));
+    }
     if let Some(budget) = job.memory {
+        if dag {
+            return Err(JobError::Layout(
+                "a bake within a memory budget writes the tree layout; convert its file \
+                 afterwards (svo-bake out.svo --layout dag -o dag.svo)"
+                    .into(),
+            ));
+        }
         if format != OutputFormat::Svo {
             return Err(PartsError::Unsupported(
                 "a bake within a memory budget writes .svo only".into(),
@@ -273,7 +304,7 @@ fn run(
     // nodes the file is version 3).
     let (tree, stats) = match bake_mesh_with_progress(&mesh, &options, progress) {
         Err(BakeError::TooLarge { .. } | BakeError::TooManyLeaves { .. })
-            if format == OutputFormat::Svo && options.solid.is_none() =>
+            if format == OutputFormat::Svo && options.solid.is_none() && !dag =>
         {
             return parts(options.max_memory.unwrap_or(u64::MAX), true);
         }
@@ -294,6 +325,9 @@ fn write_tree(
 ) -> Result<BakeReport, JobError> {
     let t = Instant::now();
     let file_bytes = match format {
+        OutputFormat::Svo if job.layout == NodeLayout::Dag => {
+            svo::io::write_dag_file(&tree, build, &job.output)?
+        }
         OutputFormat::Svo => write_file(&tree, build, &job.output)?,
         OutputFormat::Binvox => write_binvox(&tree, &job.output)?,
         OutputFormat::Vox => svo::io::write_vox(&tree, &job.output)?,

@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use svo::bake::parts::{MergeFormat, bake_part_file, merge_parts, part_path, plan_file};
 use svo::bake::{BakeOptions, ChannelSelection, Phase, SolidMode, Strategy};
-use svo_bake::job::{BakeJob, GivenOptions, bake_file_with_progress, parts_hint};
+use svo_bake::job::{BakeJob, GivenOptions, NodeLayout, bake_file_with_progress, parts_hint};
 use svo_bake::memory::available_memory;
 
 /// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
@@ -78,6 +78,21 @@ struct Args {
     /// Bake in memory even when it could need more than the available memory.
     #[arg(long)]
     force: bool,
+    /// How an .svo output stores its nodes: `tree` (each node its child mask and a pointer
+    /// to its children) or `dag` (identical subtrees stored once, the two lowest levels as
+    /// 64-bit bricks; format version 4, without inner-node attributes). With an .svo input,
+    /// converts it either way.
+    #[arg(long, default_value = "tree", value_name = "LAYOUT")]
+    layout: LayoutArg,
+}
+
+/// What `--layout` asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum LayoutArg {
+    /// The tree.
+    Tree,
+    /// The DAG.
+    Dag,
 }
 
 /// The bake settings that `plan` shares with a bake.
@@ -475,6 +490,10 @@ fn bake(args: &Args) -> anyhow::Result<()> {
             solid: args.solid.is_some(),
         },
         memory: args.memory,
+        layout: match args.layout {
+            LayoutArg::Tree => NodeLayout::Tree,
+            LayoutArg::Dag => NodeLayout::Dag,
+        },
     };
     let bar = progress_bar(args);
     let last = Mutex::new(None);

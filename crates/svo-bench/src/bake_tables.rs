@@ -261,6 +261,7 @@ pub fn pipeline(
         threads: Some(threads),
         given: Default::default(),
         memory: None,
+        layout: Default::default(),
     };
     let mut reports = Vec::new();
     let mut peak = None;

@@ -202,6 +202,7 @@ pub fn child_main(args: &[String]) -> i32 {
             solid: false,
         },
         memory: (budget > 0).then_some(budget),
+        layout: Default::default(),
     };
     let t = Instant::now();
     let (res, peak) = peak_memory::measure(|| bake_file(&job));

@@ -7,7 +7,7 @@
 //! alone (`svo_tests::spec_reader`), gives every file the same outcome and check.
 
 use std::collections::BTreeMap;
-use svo::io::{FormatError, from_bytes, to_bytes, write_chunked_to};
+use svo::io::{FormatError, from_bytes, to_bytes, write_chunked_to, write_dag_to};
 use svo::octree::Check;
 use svo_tests::conformance::{corpus, manifest};
 use svo_tests::harness::Test;
@@ -58,7 +58,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
     let dir = corpus_dir();
     let text = std::fs::read_to_string(dir.join("manifest.tsv")).expect("the manifest");
     let mut per_check = BTreeMap::new();
-    let (mut valid, mut chunked, mut levels) = (0, 0, 0);
+    let (mut valid, mut chunked, mut levels, mut dags) = (0, 0, 0, 0);
     for line in text.lines().filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = line.split('\t').collect();
         let bytes = std::fs::read(dir.join(f[0])).expect("a corpus file");
@@ -91,6 +91,13 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
                     );
                     levels += 1;
                 }
+                // The DAG layout (its layout byte follows the root cube and the depth).
+                if bytes[8] == 4 && bytes[16 + 33] == 1 {
+                    let mut out = Vec::new();
+                    write_dag_to(&tree, &build, &mut out).expect("written");
+                    assert!(out == bytes, "{}: written differently", f[0]);
+                    dags += 1;
+                }
                 if bytes[8] == 3 {
                     // The chunk level follows the depth (docs/format.md, section 3).
                     let mut out = Vec::new();
@@ -119,7 +126,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
             (o, _) => panic!("{}: unknown outcome {o}", f[0]),
         }
     }
-    assert_eq!((valid, chunked, levels), (23, 5, 4));
+    assert_eq!((valid, chunked, levels, dags), (28, 5, 4, 5));
     // Every check has at least one file that fails it.
     let numbers: Vec<u8> = per_check.keys().copied().collect();
     assert_eq!(numbers, (1..=22).collect::<Vec<u8>>());

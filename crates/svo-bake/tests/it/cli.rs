@@ -328,6 +328,95 @@ fn lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts() {
     );
 }
 
+/// `--layout dag` writes version 4's DAG layout: the same tree as the tree layout, smaller;
+/// an `.svo` converts either way, to the other layout's bytes exactly; what the layout cannot
+/// hold or this kind of job does not make is one clear line and no output.
+fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
+    let d = tmp();
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let p = |n: &str| d.path().join(n);
+    let (tree, dag) = (p("tree.svo"), p("dag.svo"));
+    ok(&[
+        s(&torus),
+        "--depth",
+        "7",
+        "--channels",
+        "none",
+        "-q",
+        "-o",
+        s(&tree),
+    ]);
+    ok(&[
+        s(&torus),
+        "--depth",
+        "7",
+        "--channels",
+        "none",
+        "--layout",
+        "dag",
+        "-q",
+        "-o",
+        s(&dag),
+    ]);
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    let (t, g) = (bytes(&tree), bytes(&dag));
+    assert_eq!(u32::from_le_bytes(g[8..12].try_into().unwrap()), 4);
+    assert!(2 * g.len() < t.len(), "{} against {}", g.len(), t.len());
+    assert_eq!(read_tree(&tree), read_tree(&dag));
+    // Conversions, both ways, give the other bake's bytes.
+    ok(&[s(&dag), "--layout", "tree", "-q", "-o", s(&p("back.svo"))]);
+    assert!(bytes(&p("back.svo")) == t);
+    ok(&[s(&tree), "--layout", "dag", "-q", "-o", s(&p("again.svo"))]);
+    assert!(bytes(&p("again.svo")) == g);
+    // Refused, with nothing written.
+    let no = p("no.svo");
+    fails(
+        &[
+            s(&torus),
+            "--depth",
+            "5",
+            "--lod",
+            "filtered",
+            "--layout",
+            "dag",
+            "-o",
+            s(&no),
+        ],
+        "inner-node attributes",
+    );
+    fails(
+        &[s(&torus), "--depth", "1", "--layout", "dag", "-o", s(&no)],
+        "depth 2 or more",
+    );
+    fails(
+        &[
+            s(&torus),
+            "--depth",
+            "5",
+            "--memory",
+            "64MiB",
+            "--layout",
+            "dag",
+            "-o",
+            s(&no),
+        ],
+        "memory budget",
+    );
+    fails(
+        &[
+            s(&torus),
+            "--depth",
+            "5",
+            "--layout",
+            "dag",
+            "-o",
+            s(&p("no.binvox")),
+        ],
+        ".svo outputs",
+    );
+    assert!(!no.exists() && !p("no.binvox").exists());
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -1078,6 +1167,7 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(scene_meshes_are_found_beside_in_svo_models_or_in_models),
         trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
         trial!(lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts),
+        trial!(layout_dag_writes_the_same_tree_and_converts_both_ways),
         #[cfg(unix)]
         trial!(interrupted_bakes_clean_up_and_killed_ones_resume),
     ]

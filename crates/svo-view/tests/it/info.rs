@@ -60,6 +60,20 @@ fn info_describes_a_file_and_errors_are_one_line() {
     ] {
         assert!(text.contains(want), "missing {want:?} in\n{text}");
     }
+    // The same tree as a DAG (format version 4, layout 1): the root is its one brick.
+    let dag = d.path().join("g.svo");
+    svo::io::write_dag_file(&tree, &build, &dag).unwrap();
+    let o = view(&[dag.to_str().unwrap(), "--info"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "format         version 4",
+        "layout         DAG",
+        "level 0        1 distinct bricks",
+        "leaves         20",
+    ] {
+        assert!(text.contains(want), "missing {want:?} in\n{text}");
+    }
     // A truncated file and a missing file: one line each, non-zero exit.
     let bytes = std::fs::read(&path).unwrap();
     let bad = d.path().join("bad.svo");

@@ -457,6 +457,7 @@ fn a_scene_file_is_a_triangle_reference() {
         threads: Some(1),
         given: Default::default(),
         memory: None,
+        layout: Default::default(),
     };
     svo_bake::job::bake_file(&job).unwrap();
     let png = d.path().join("s.png");

@@ -9,8 +9,9 @@
 //! so a walk from the root counts the leaves before a leaf (its index in the tree's leaf
 //! arrays, which stay in Morton order) by adding the counts of the children it passes.
 
+use super::expand::{Graph, canonical_nodes};
 use crate::octree::tree::{Node, Octree};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// The geometry of an [`Octree`] with identical subtrees stored once: see the module docs.
 ///
@@ -76,7 +77,9 @@ impl Dag {
         let mut id = vec![0u32; nodes.len()];
         let mut levels = vec![Level::default(); depth];
         for l in (0..depth).rev() {
-            let mut seen: HashMap<(u8, &[u32]), u32> = HashMap::new();
+            // Keyed by the mask and the children's ids in a fixed array (compared inline, unlike a
+            // slice): a node has at most 8 children, and the mask says how many.
+            let mut seen: FxHashMap<(u8, [u32; 8]), u32> = FxHashMap::default();
             let mut kids: Vec<u32> = Vec::new();
             // The children's ids of every node of the level, one after another.
             let mut spans = Vec::with_capacity(by_level[l].len());
@@ -96,7 +99,9 @@ impl Dag {
             let out = &mut levels[l];
             for (&i, span) in by_level[l].iter().zip(spans) {
                 let n = nodes[i as usize];
-                let key = (n.child_mask(), &kids[span.clone()]);
+                let mut ids = [0u32; 8];
+                ids[..span.len()].copy_from_slice(&kids[span.clone()]);
+                let key = (n.child_mask(), ids);
                 let next = out.masks.len() as u32;
                 let k = *seen.entry(key).or_insert(next);
                 if k == next {
@@ -166,57 +171,42 @@ impl Dag {
     /// bits 8-31 of `info` zero): each node's children block, then its children's subtrees
     /// from the last child to the first, the leaf parents' leaves numbered in Morton order.
     pub fn to_nodes(&self) -> Vec<Node> {
-        let depth = usize::from(self.depth);
-        let Some(top) = self.levels.first() else {
+        if self.levels.is_empty() {
             return Vec::new();
-        };
-        // Each tree node's record and the graph node it copies (level, index).
-        let mut out = vec![Node {
-            info: u32::from(top.masks[0]),
-            first: 0,
-        }];
-        let mut of = vec![(0usize, 0u32)];
-        let mut stack = vec![0usize];
-        while let Some(b) = stack.pop() {
-            let (l, k) = of[b];
-            let level = &self.levels[l];
-            let mask = level.masks[k as usize];
-            if l + 1 == depth || mask == 0 {
-                continue;
-            }
-            let (s, e) = (
-                level.starts[k as usize] as usize,
-                level.starts[k as usize + 1] as usize,
-            );
-            let first = out.len();
-            out[b].first = first as u32;
-            for &c in &level.children[s..e] {
-                out.push(Node {
-                    info: u32::from(self.levels[l + 1].masks[c as usize]),
-                    first: 0,
-                });
-                of.push((l + 1, c));
-            }
-            // Placed children's subtrees follow from the last child to the first.
-            stack.extend(first..out.len());
         }
-        // The leaf parents' leaves, in Morton order: a walk in child order.
-        let mut next_leaf = 0u32;
-        let mut walk = vec![0usize];
-        while let Some(i) = walk.pop() {
-            let n = out[i];
-            if n.child_mask() == 0 {
-                // The empty root: no children.
-            } else if of[i].0 + 1 == depth {
-                out[i].first = (-i64::from(next_leaf) - 1) as i32 as u32;
-                next_leaf += n.child_mask().count_ones();
-            } else {
-                let k = n.child_mask().count_ones() as usize;
-                let f = n.first as usize;
-                walk.extend((f..f + k).rev());
-            }
-        }
-        out
+        canonical_nodes(self)
+    }
+
+    /// Level `l`'s distinct nodes: masks, children spans and leaf counts.
+    pub(crate) fn level_parts(&self, l: usize) -> (&[u8], &[u32], &[u32], &[u64]) {
+        let v = &self.levels[l];
+        (&v.masks, &v.starts, &v.children, &v.leaves)
+    }
+}
+
+impl Graph for Dag {
+    /// (level, index on the level).
+    type Ref = (usize, u32);
+
+    fn root(&self) -> Self::Ref {
+        (0, 0)
+    }
+
+    fn mask(&self, (l, k): Self::Ref) -> u8 {
+        self.levels[l].masks[k as usize]
+    }
+
+    fn is_leaf_parent(&self, (l, _): Self::Ref) -> bool {
+        l + 1 == usize::from(self.depth)
+    }
+
+    fn children(&self, (l, k): Self::Ref, out: &mut Vec<Self::Ref>) {
+        let level = &self.levels[l];
+        let (s, e) = (
+            level.starts[k as usize] as usize,
+            level.starts[k as usize + 1] as usize,
+        );
+        out.extend(level.children[s..e].iter().map(|&c| (l + 1, c)));
     }
 }
 

@@ -1,7 +1,11 @@
 //! Compact geometry: a tree's nodes as a directed acyclic graph, identical subtrees stored
 //! once ([`Dag`]). The leaves' values stay in the tree's arrays, in Morton order; each node
-//! of the graph counts the leaves below it, so a walk finds a leaf's index.
+//! of the graph counts the leaves below it, so a walk finds a leaf's index. Files store the
+//! graph as version 4's DAG layout (`docs/format.md`, section 12: the levels above the bricks
+//! as mask words and child offsets, the two lowest levels as 64-bit 4x4x4 bricks).
 
 mod build;
+mod expand;
+pub(crate) mod levels;
 
 pub use build::Dag;

@@ -5,6 +5,7 @@
 use crate::io::header::{NodeStorage, PREAMBLE_LEN, Storage};
 use crate::io::read::{ChunksRead, Preamble, check_chunks_file, read_file_with_header};
 use crate::io::write::FormatError;
+use crate::octree::format_check::DAG_LAYOUT;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
 use std::fmt::Write;
 use std::path::Path;
@@ -102,6 +103,22 @@ fn describe_header(p: &Preamble, checksum: u64) -> String {
                 "arrays         nodes at {} ({} bytes)",
                 header.nodes.offset, header.nodes.len
             );
+        }
+        Some(levels) if levels.layout == DAG_LAYOUT => {
+            let _ = writeln!(
+                out,
+                "layout         DAG: distinct subtrees once, the two lowest levels as 4x4x4 bricks"
+            );
+            let last = levels.table.len().saturating_sub(1);
+            for (l, e) in levels.table.iter().enumerate() {
+                let what = if l == last { "bricks" } else { "nodes" };
+                let _ = writeln!(
+                    out,
+                    "level {l:<8} {} distinct {what}, block at {} ({} bytes), checksum {:#018x}",
+                    e.nodes, e.block.offset, e.block.len, e.hash
+                );
+            }
+            let _ = writeln!(out, "arrays");
         }
         Some(levels) => {
             for (l, e) in levels.table.iter().enumerate() {

@@ -237,3 +237,70 @@ fn the_writer_refuses_a_tree_the_reader_would_refuse() {
         assert!(t.validate().unwrap_err().to_string().starts_with(want));
     }
 }
+
+/// A file of the DAG layout whose levels were edited and whose level hashes, header checksum
+/// and checksum were then fixed, so that the checks of the levels themselves must catch the
+/// edit: every edit is refused at a check or reads as a valid tree, never a panic; and a
+/// header that claims more leaves than the graph holds fails check 17.
+#[test]
+fn hostile_dag_levels_with_valid_hashes_are_refused() {
+    use crate::io::header::HeaderV4;
+    use crate::io::write::write_dag_to;
+    let tree = small_tree();
+    let mut bytes = Vec::new();
+    write_dag_to(&tree, &info(), &mut bytes).unwrap();
+    assert_eq!(from_bytes(&bytes).unwrap().0, tree);
+    let p = read_header(&bytes).unwrap();
+    let levels = p.header.levels.clone().unwrap();
+    // Writes header `h` (of the length `b`'s has) into `b`, then its checksum and the file's.
+    let reseal = |b: &mut Vec<u8>, h: &crate::io::header::Header, hlen: usize| {
+        let l = h.levels.as_ref().unwrap();
+        let hb = bincode::serde::encode_to_vec(HeaderV4::of(h, l), bincode_config()).unwrap();
+        assert_eq!(hb.len(), hlen);
+        b[16..16 + hlen].copy_from_slice(&hb);
+        let s = xxhash_rust::xxh3::xxh3_64(&b[..16 + hlen]);
+        b[16 + hlen..24 + hlen].copy_from_slice(&s.to_le_bytes());
+        rechecksum(b);
+    };
+    let mut r = Rng::new(0xda9);
+    let mut failed = std::collections::BTreeMap::new();
+    for _ in 0..3000 {
+        let mut b = bytes.clone();
+        let l = r.below(levels.table.len());
+        let e = levels.table[l].block;
+        let (at, len) = (e.offset as usize, e.len as usize);
+        for _ in 0..r.in_range(1..3) {
+            let i = at + r.below(len);
+            b[i] = match r.below(3) {
+                0 => r.below(256) as u8,
+                1 => b[i] ^ (1 << r.below(8)),
+                _ => 0,
+            };
+        }
+        let mut h = p.header.clone();
+        h.levels.as_mut().unwrap().table[l].hash = xxhash_rust::xxh3::xxh3_64(&b[at..at + len]);
+        reseal(&mut b, &h, p.header_len);
+        match from_bytes(&b) {
+            Ok((t, _)) => t.validate().unwrap(),
+            Err(e) => *failed.entry(e.check()).or_insert(0) += 1,
+        }
+    }
+    for c in [Check::NodeWords, Check::TreeShape, Check::NodeOrder] {
+        assert!(failed.get(&Some(c)).is_some_and(|&n| n > 20), "{failed:?}");
+    }
+    // With constant channels (no array sized by the leaf count): one leaf more than the
+    // graph holds.
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let cells = (0..40u32).map(|i| UVec3::new(i % 16, (i * 7) % 16, (i * 3) % 16));
+    let glass = Octree::from_cells(root, 4, cells.map(|c| (c, Voxel::glass()))).unwrap();
+    let mut b = Vec::new();
+    write_dag_to(&glass, &info(), &mut b).unwrap();
+    let g = read_header(&b).unwrap();
+    let mut h = g.header;
+    h.leaf_count += 1;
+    reseal(&mut b, &h, g.header_len);
+    assert_eq!(check_of(&b), Some(Check::LeafOrder));
+}

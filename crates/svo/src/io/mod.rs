@@ -43,4 +43,6 @@ pub use read::{
 };
 #[cfg(feature = "vox")]
 pub use vox::write_vox;
-pub use write::{FormatError, to_bytes, write_chunked_to, write_file, write_to};
+pub use write::{
+    FormatError, to_bytes, write_chunked_to, write_dag_file, write_dag_to, write_file, write_to,
+};

@@ -4,6 +4,7 @@
 //! A corrupt, truncated or hostile file gives a [`FormatError`], never a panic, a hang or an
 //! allocation larger than the file.
 
+use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES};
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
@@ -12,7 +13,9 @@ use crate::io::header::{
 use crate::io::levels::{check_level_order, depth_first};
 pub(crate) use crate::io::write::FormatError;
 use crate::io::write::block_hash;
-use crate::octree::format_check::{CHUNKED_VERSION, Check, LEVELS_VERSION, MAX_CHUNK_LEVEL};
+use crate::octree::format_check::{
+    CHUNKED_VERSION, Check, DAG_LAYOUT, LEVELS_VERSION, MAX_CHUNK_LEVEL,
+};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
@@ -198,6 +201,7 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
     // 7. Depth; 8. root cube; 9. counts.
     let origin = DVec3::from_array(h.root_origin);
     match h.chunks {
+        None if is_dag(h) => check_dag_counts(h, origin),
         None => check_root_and_counts(h.depth, origin, h.root_side, h.node_count, h.leaf_count),
         Some(c) => check_chunked_counts(h, c, origin),
     }
@@ -271,7 +275,19 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
     // Version 4: the levels' blocks first, each its arrays one after another.
     if let Some(levels) = &h.levels {
         for (l, entry) in levels.table.iter().enumerate() {
-            let lens = level_lens(h, l).ok_or_else(|| overflows("level block's size"))?;
+            let lens = level_lens(h, l).ok_or_else(|| {
+                if is_dag(h) {
+                    corrupt(
+                        Check::ArrayLayout,
+                        format!(
+                            "level {l}'s block of {} bytes does not fit its {} nodes",
+                            entry.block.len, entry.nodes
+                        ),
+                    )
+                } else {
+                    overflows("level block's size")
+                }
+            })?;
             let (mut end, mut next) = (at, at);
             for &len in &lens {
                 end = next.saturating_add(len);
@@ -351,6 +367,19 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
 pub(crate) fn level_lens(h: &Header, l: usize) -> Option<Vec<u64>> {
     let levels = h.levels.as_ref()?;
     let nodes = levels.table.get(l)?.nodes;
+    if levels.layout == DAG_LAYOUT {
+        // The bricks' level: 8 bytes a brick; a level above: a mask word and 1 to 8 child
+        // words a node (check 21 made the layout's depth at least 2).
+        let len = levels.table[l].block.len;
+        let fits = if l + 2 == usize::from(h.depth) {
+            Some(len) == nodes.checked_mul(8)
+        } else {
+            len % 4 == 0
+                && nodes.checked_mul(4).is_some_and(|n| len >= n)
+                && nodes.checked_mul(36).is_some_and(|n| len <= n)
+        };
+        return fits.then(|| vec![len]);
+    }
     let mut lens = vec![nodes.checked_mul(8)?];
     if l + 2 <= usize::from(h.depth) {
         for e in &levels.node_channels {
@@ -402,17 +431,29 @@ fn constant_fits(kind: u8, v: u32, what: &str) -> Result<(), FormatError> {
 /// `node_count` nodes in all.
 fn check_level_table(h: &Header, l: &Levels) -> Result<(), FormatError> {
     let fail = |m: String| Err(corrupt(Check::Levels, m));
-    if l.layout != 0 {
+    if l.layout > DAG_LAYOUT {
         return fail(format!(
-            "layout {} (only 0, the tree, is defined)",
+            "layout {} (only 0, the tree, and 1, the DAG, are defined)",
             l.layout
         ));
     }
-    if l.table.len() != usize::from(h.depth) {
+    let dag = l.layout == DAG_LAYOUT;
+    if dag && h.depth < 2 {
         return fail(format!(
-            "{} levels in the table for a tree of depth {}",
-            l.table.len(),
+            "the DAG layout at depth {}: its bricks need two levels",
             h.depth
+        ));
+    }
+    if dag && !l.node_channels.is_empty() {
+        return fail("inner-node channels in the DAG layout".into());
+    }
+    let want = usize::from(h.depth) - usize::from(dag);
+    if l.table.len() != want {
+        return fail(format!(
+            "{} levels in the table for a tree of depth {} (layout {}: {want})",
+            l.table.len(),
+            h.depth,
+            l.layout
         ));
     }
     if l.table[0].nodes != 1 {
@@ -435,6 +476,56 @@ fn check_level_table(h: &Header, l: &Levels) -> Result<(), FormatError> {
         ));
     }
     Ok(())
+}
+
+/// Whether a header is version 4's with the DAG layout.
+fn is_dag(h: &Header) -> bool {
+    h.levels.as_ref().is_some_and(|l| l.layout == DAG_LAYOUT)
+}
+
+/// Checks 7 to 9 of a header of the DAG layout: the depth and root cube as in every version,
+/// a node, and at most [`MAX_DAG_LEAVES`] leaves (a graph's leaves are not bounded by its
+/// nodes).
+fn check_dag_counts(h: &Header, origin: DVec3) -> Result<(), (Check, String)> {
+    check_root_and_counts(h.depth, origin, h.root_side, h.node_count, 0)?;
+    if h.leaf_count > MAX_DAG_LEAVES {
+        return Err((
+            Check::Counts,
+            format!("{} leaves: more than 2^48", h.leaf_count),
+        ));
+    }
+    Ok(())
+}
+
+/// The canonical node array of the tree that the blocks of a file of the DAG layout stand
+/// for (`docs/format.md`, section 12): checks 14 to 16 on its levels, 17 on its leaves, and
+/// the tree's size against what one tree in memory holds.
+fn dag_nodes(
+    h: &Header,
+    levels: &Levels,
+    blocks: &[Vec<Vec<u8>>],
+) -> Result<Vec<Node>, FormatError> {
+    let arrays: Vec<&[u8]> = blocks.iter().map(|b| b[0].as_slice()).collect();
+    let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+    let dag = DagLevels::from_blocks(h.depth, &arrays, &counts)
+        .map_err(|(check, detail)| corrupt(check, detail))?;
+    let size = dag.tree_size();
+    if size.leaves != h.leaf_count {
+        return Err(corrupt(
+            Check::LeafOrder,
+            format!(
+                "the graph stands for {} leaves, the header says {}",
+                size.leaves, h.leaf_count
+            ),
+        ));
+    }
+    if size.leaves > MAX_LEAVES || size.nodes > MAX_LEAVES {
+        return Err(FormatError::DagTooLarge {
+            leaves: size.leaves,
+            nodes: size.nodes,
+        });
+    }
+    Ok(dag.to_nodes())
 }
 
 /// Checks 7 to 9 of a version-3 header: the depth, the chunk level below it, the root cube,
@@ -533,8 +624,9 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
             side: h.root_side,
         },
         depth: h.depth,
-        // Check 9 (versions 1 and 2) and `check_fits` (version 3) bound the count by 2^31.
-        leaf_count: h.leaf_count as u32,
+        // Check 9 (versions 1, 2 and 4's tree layout) and `check_fits` (version 3) bound the
+        // count by 2^31; the DAG layout's is checked against its graph before it is used.
+        leaf_count: h.leaf_count.min(MAX_LEAVES) as u32,
         nodes,
         attributes,
         node_attributes: Default::default(),
@@ -625,6 +717,11 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
             tree.nodes = unchunk(&tree, &table, c.level, &p.header)
                 .map_err(|(check, detail)| corrupt(check, detail))?;
             check_values(&tree, p.version)
+        }
+        (_, _, Some(levels)) if levels.layout == DAG_LAYOUT => {
+            check_level_hashes(levels, &blocks)?;
+            tree.nodes = dag_nodes(&p.header, levels, &blocks)?;
+            check_renumbered(&tree, p.version)
         }
         (_, _, Some(levels)) => {
             check_level_hashes(levels, &blocks)?;
@@ -1003,6 +1100,11 @@ pub fn read_file_to_depth(
     if max_depth >= h.depth {
         return read_file(path);
     }
+    if levels.layout == DAG_LAYOUT {
+        // A graph's levels are no tree's: the tree is made whole, then cut.
+        let (tree, build) = read_file(path)?;
+        return Ok((cut_to_depth(&tree, max_depth)?, build));
+    }
     // Everything up to the end of level `max_depth`'s block.
     let k = usize::from(max_depth);
     let last = levels.table[k].block;
@@ -1202,13 +1304,17 @@ pub struct LevelSizes {
 
 /// The level sizes of the version-4 file at `path`, read from its header (checks 1 to 4, 20,
 /// 6 to 12 and 21, as [`read_file_to_depth`] makes them); `None` for a file of an older
-/// version, which has no level table.
+/// version, which has no level table, or of the DAG layout, whose levels hold a graph's
+/// distinct nodes rather than a tree's.
 pub fn read_level_sizes(path: impl AsRef<Path>) -> Result<Option<LevelSizes>, FormatError> {
     let start = FileStart::open(path.as_ref())?;
     if start.version < LEVELS_VERSION {
         return Ok(None);
     }
     let (p, levels, _) = start.levels_header()?;
+    if levels.layout == DAG_LAYOUT {
+        return Ok(None);
+    }
     let h = &p.header;
     let size = |kind: u8| {
         ChannelKind::ALL

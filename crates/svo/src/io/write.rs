@@ -1,5 +1,7 @@
 //! Writing `.svo` files (see [`crate::io::header`] and `docs/format.md`).
 
+use crate::dag::Dag;
+use crate::dag::levels::DagLevels;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV3, HeaderV4,
@@ -8,7 +10,7 @@ use crate::io::header::{
 };
 use crate::io::levels::level_order;
 use crate::octree::format_check::{
-    CHUNKED_VERSION, Check, LEVELS_VERSION, MAX_CHUNK_LEVEL, PLAIN_VERSION,
+    CHUNKED_VERSION, Check, DAG_LAYOUT, LEVELS_VERSION, MAX_CHUNK_LEVEL, PLAIN_VERSION,
 };
 use crate::octree::stitch;
 use crate::octree::tree::{ChannelKind, Node, Octree, StoredChannel};
@@ -84,13 +86,24 @@ pub enum FormatError {
         /// Its chunks.
         chunks: u64,
     },
+    /// A file of the DAG layout whose tree is larger than one tree in memory holds (2^31
+    /// leaves and 2^31 nodes); refused after its levels are checked, before the tree is made.
+    #[error(
+        "the file's graph stands for a tree of {leaves} leaves and {nodes} nodes: more than one tree in memory holds (2^31 leaves, 2^31 nodes)"
+    )]
+    DagTooLarge {
+        /// The tree's leaves.
+        leaves: u64,
+        /// Its nodes.
+        nodes: u64,
+    },
 }
 
 impl FormatError {
     /// The numbered check of `docs/format.md` that the file failed (`None` for an I/O error).
     pub fn check(&self) -> Option<Check> {
         match self {
-            Self::Io { .. } | Self::TooLarge { .. } => None,
+            Self::Io { .. } | Self::TooLarge { .. } | Self::DagTooLarge { .. } => None,
             Self::NotSvo => Some(Check::Magic),
             Self::NewerVersion { .. } => Some(Check::Version),
             Self::Checksum { .. } => Some(Check::Checksum),
@@ -157,6 +170,94 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
     write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
 }
 
+/// Streams an octree to `w` as a version-4 file of the DAG layout (`docs/format.md`, section
+/// 12): its geometry as a graph of distinct subtrees ([`Dag`]), the two lowest levels as
+/// 64-bit bricks, its leaves' channels as [`write_to`] stores them. Refused for a tree of
+/// depth 1 (a DAG's lowest node is a brick, two levels) and for a tree with inner-node
+/// attributes (shared subtrees cannot keep values of their own). Returns the bytes written.
+///
+/// ```
+/// use glam::{DVec3, UVec3};
+/// use svo::io::{BuildInfo, from_bytes, to_bytes, write_dag_to};
+/// use svo::{Octree, RootCube, Voxel};
+/// let root = RootCube { origin: DVec3::ZERO, side: 1.0 };
+/// // A lattice: every subtree of a level the same.
+/// let cells = (0..512u32)
+///     .map(|i| UVec3::new(i % 8, i / 8 % 8, i / 64))
+///     .filter(|c| c.x % 2 == 0 && c.y % 2 == 0 && c.z % 2 == 0)
+///     .map(|c| (c, Voxel::glass()));
+/// let tree = Octree::from_cells(root, 3, cells)?;
+/// let mut dag = Vec::new();
+/// write_dag_to(&tree, &BuildInfo::new(), &mut dag)?;
+/// assert!(dag.len() < to_bytes(&tree, &BuildInfo::new()).len());
+/// assert_eq!(from_bytes(&dag)?.0, tree); // the same tree
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
+    let refuse = |m: &str| {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            m.to_string(),
+        ))
+    };
+    if tree.depth < 2 {
+        return refuse(
+            "the DAG layout needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)",
+        );
+    }
+    if !tree.node_attributes.stored().is_empty() {
+        return refuse(
+            "the DAG layout keeps no inner-node attributes: write the tree layout, or a tree \
+             without them",
+        );
+    }
+    let (channels, arrays) = checked_channels(tree)?;
+    let dag = DagLevels::of(&Dag::from_tree(tree));
+    let blocks = dag.blocks();
+    let plan = LevelPlan {
+        layout: DAG_LAYOUT,
+        counts: dag.counts(),
+        block_lens: blocks.iter().map(|b| b.len() as u64).collect(),
+        hashes: blocks
+            .iter()
+            .map(|b| block_hash(std::slice::from_ref(b)))
+            .collect(),
+        node_channels: Vec::new(),
+    };
+    let layout = Layout {
+        root_origin: tree.root.origin.to_array(),
+        root_side: tree.root.side,
+        depth: tree.depth,
+        node_count: plan.counts.iter().sum(),
+        leaf_count: u64::from(tree.leaf_count),
+        channels,
+        build,
+        chunks: None,
+        levels: Some(plan),
+    };
+    let all: Vec<&[u8]> = blocks.iter().map(Vec::as_slice).chain(arrays).collect();
+    write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
+}
+
+/// [`write_dag_to`] into the file at `path`, atomically (as [`write_file`]).
+pub fn write_dag_file(
+    tree: &Octree,
+    build: &BuildInfo,
+    path: impl AsRef<Path>,
+) -> Result<u64, FormatError> {
+    let path = path.as_ref();
+    let mut written = 0;
+    write_atomic(path, |w| {
+        written = write_dag_to(tree, build, w)?;
+        Ok(())
+    })
+    .map_err(|cause| FormatError::Io {
+        path: path.display().to_string(),
+        cause,
+    })?;
+    Ok(written)
+}
+
 /// A tree's nodes level by level, as version 4 stores them: for each level its block's arrays
 /// (the nodes' records, then on levels above the leaf parents each per-node channel's values),
 /// and the plan [`write_layout`] places them by.
@@ -185,6 +286,8 @@ pub(crate) fn level_blocks(tree: &Octree) -> (LevelPlan, Vec<Vec<Vec<u8>>>) {
         start = range.end;
     }
     let plan = LevelPlan {
+        layout: 0,
+        block_lens: Vec::new(),
         counts: order.counts,
         hashes: blocks.iter().map(|b| block_hash(b)).collect(),
         node_channels: stored
@@ -216,8 +319,13 @@ pub(crate) fn block_hash(arrays: &[Vec<u8>]) -> u64 {
 
 /// What a version-4 file's levels hold, before their offsets are known.
 pub(crate) struct LevelPlan {
+    /// The nodes' layout: 0 the tree, 1 the DAG (`docs/format.md`, section 12).
+    pub layout: u8,
     /// Nodes on each level, the root's first.
     pub counts: Vec<u64>,
+    /// The DAG layout: each level's block length (its words or bricks); the tree layout's
+    /// follow from the counts and channels.
+    pub block_lens: Vec<u64>,
     /// Each level's block hash.
     pub hashes: Vec<u64>,
     /// The inner nodes' channels, in increasing kind.
@@ -383,6 +491,11 @@ pub(crate) fn write_layout(
                 .map(|e| ChannelKind::ALL[usize::from(e.kind)].element_size() as u64)
                 .collect();
             for (l, &count) in plan.counts.iter().enumerate() {
+                if plan.layout == DAG_LAYOUT {
+                    lens.push(plan.block_lens[l]);
+                    level_arrays.push(1);
+                    continue;
+                }
                 lens.push(count.saturating_mul(8));
                 let mut k = 1;
                 if l + 2 <= usize::from(layout.depth) {
@@ -421,7 +534,7 @@ pub(crate) fn write_layout(
             table: ArrayRef::default(),
         }),
         levels: layout.levels.as_ref().map(|plan| Levels {
-            layout: 0,
+            layout: plan.layout,
             table: plan
                 .counts
                 .iter()

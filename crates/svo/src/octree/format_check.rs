@@ -26,6 +26,11 @@ pub(crate) const LEVELS_VERSION: u32 = 4;
 #[cfg_attr(not(feature = "io"), allow(dead_code))]
 pub(crate) const PLAIN_VERSION: u32 = 2;
 
+/// Version 4's `layout` byte of the DAG layout (`docs/format.md`, section 12); 0 is the
+/// tree.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
+pub(crate) const DAG_LAYOUT: u8 = 1;
+
 /// The deepest chunk level of a version-3 file: the chunks' Morton codes are 64-bit.
 #[cfg_attr(not(feature = "io"), allow(dead_code, unreachable_pub))]
 pub const MAX_CHUNK_LEVEL: u8 = 21;

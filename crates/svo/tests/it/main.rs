@@ -10,6 +10,7 @@ mod bake_sliced;
 mod deep_precision;
 mod deep_trees;
 mod exact_oracle;
+mod format_dag;
 mod format_levels;
 mod format_roundtrip;
 mod fuzz_regressions;

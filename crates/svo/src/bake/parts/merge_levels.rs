@@ -159,6 +159,8 @@ impl<'a> LevelMerge<'a> {
             hashes.push(h.0.digest());
         }
         let plan = LevelPlan {
+            layout: 0,
+            block_lens: Vec::new(),
             counts,
             hashes,
             node_channels,

@@ -1,0 +1,519 @@
+//! A graph as version 4's DAG layout stores it (`docs/format.md`, section 12), and the checks
+//! that a reader makes on it.
+//!
+//! Levels `0 .. depth - 2` hold the distinct nodes above the bricks, each a mask word (bits
+//! 0-7 its child mask, bits 8-31 zero) followed by one word for each child: on levels above
+//! `depth - 3` the child's word offset in the next level, on level `depth - 3` the child's
+//! index among the bricks. Level `depth - 2` holds the distinct subtrees of 4x4x4 cells as
+//! 64-bit bricks: bit `8 * a + b` is the leaf at child `b` of child `a` (each a child index
+//! of section 4), so the bricks' set bits, lowest first, are its leaves in Morton order. Each
+//! level lists its nodes in the order in which the level above first refers to them, the root
+//! alone on level 0; no two nodes of a level are equal, and every one is referred to.
+#![cfg_attr(not(feature = "io"), allow(dead_code))]
+
+use super::build::Dag;
+use super::expand::{Graph, canonical_nodes};
+use crate::octree::format_check::Check;
+use crate::octree::tree::Node;
+use crate::octree::validate::Failure;
+use rustc_hash::FxHashSet;
+
+/// Most leaves a version-4 file of the DAG layout may stand for (check 9).
+pub(crate) const MAX_DAG_LEAVES: u64 = 1 << 48;
+
+/// A tree's geometry in the DAG layout: see the module docs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct DagLevels {
+    depth: u8,
+    /// Levels `0 .. depth - 2`: the nodes' words.
+    words: Vec<Vec<u32>>,
+    /// Level `depth - 2`: the bricks.
+    bricks: Vec<u64>,
+    /// Levels `0 .. depth - 2`: each node's children, as indices on the level below (derived).
+    kids: Vec<Vec<u32>>,
+    /// Levels `0 .. depth - 2`: each node's first word and its first child in `kids`.
+    starts: Vec<Vec<(u32, u32)>>,
+}
+
+/// How large the tree a graph stands for is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct TreeSize {
+    /// Its leaves.
+    pub leaves: u64,
+    /// Its nodes (saturating).
+    pub nodes: u64,
+}
+
+impl DagLevels {
+    /// The file form of `dag` (of depth 2 or more).
+    pub(crate) fn of(dag: &Dag) -> Self {
+        let depth = usize::from(dag.depth());
+        debug_assert!(depth >= 2);
+        let top = depth - 2;
+        // Each node's first word on its level: its index plus the pointers before it.
+        let offsets: Vec<Vec<u32>> = (0..top)
+            .map(|l| {
+                let (masks, starts, _, _) = dag.level_parts(l);
+                (0..masks.len()).map(|k| k as u32 + starts[k]).collect()
+            })
+            .collect();
+        let mut words = Vec::with_capacity(top);
+        for l in 0..top {
+            let (masks, starts, children, _) = dag.level_parts(l);
+            let mut w = Vec::with_capacity(masks.len() + children.len());
+            for (k, &m) in masks.iter().enumerate() {
+                w.push(u32::from(m));
+                let span = &children[starts[k] as usize..starts[k + 1] as usize];
+                if l + 1 == top {
+                    w.extend_from_slice(span);
+                } else {
+                    w.extend(span.iter().map(|&c| offsets[l + 1][c as usize]));
+                }
+            }
+            words.push(w);
+        }
+        let (masks, starts, children, _) = dag.level_parts(top);
+        let (leaf_masks, ..) = dag.level_parts(top + 1);
+        let bricks = (0..masks.len())
+            .map(|k| {
+                let mut b = 0u64;
+                let span = &children[starts[k] as usize..starts[k + 1] as usize];
+                let mut c = span.iter();
+                for a in 0..8 {
+                    if masks[k] >> a & 1 != 0
+                        && let Some(&lp) = c.next()
+                    {
+                        b |= u64::from(leaf_masks[lp as usize]) << (8 * a);
+                    }
+                }
+                b
+            })
+            .collect();
+        let mut out = Self {
+            depth: dag.depth(),
+            words,
+            bricks,
+            kids: Vec::new(),
+            starts: Vec::new(),
+        };
+        // The nodes' starts (which the counts and a walk use): a graph made from a tree passes
+        // the reader's checks, which also derive its children's indices (made in debug builds).
+        for (l, level) in offsets.iter().enumerate() {
+            let (_, starts, children, _) = dag.level_parts(l);
+            out.starts
+                .push(level.iter().zip(starts).map(|(&o, &s)| (o, s)).collect());
+            out.kids.push(children.to_vec());
+        }
+        #[cfg(debug_assertions)]
+        {
+            let counts = out.counts();
+            let mut checked = out.clone();
+            if let Err((check, detail)) = checked.derive(&counts) {
+                unreachable!("{check}: {detail}");
+            }
+            debug_assert_eq!(checked, out);
+        }
+        out
+    }
+
+    /// The bytes of each level's block: the words, then the bricks.
+    pub(crate) fn blocks(&self) -> Vec<Vec<u8>> {
+        let mut out: Vec<Vec<u8>> = self
+            .words
+            .iter()
+            .map(|w| bytemuck::cast_slice(w).to_vec())
+            .collect();
+        out.push(bytemuck::cast_slice(&self.bricks).to_vec());
+        out
+    }
+
+    /// Nodes on each level, the root's first, the bricks last.
+    pub(crate) fn counts(&self) -> Vec<u64> {
+        let mut c: Vec<u64> = self.starts.iter().map(|s| s.len() as u64).collect();
+        c.push(self.bricks.len() as u64);
+        c
+    }
+
+    /// Checks 14 to 16 (`docs/format.md`, section 12) on the blocks of a graph of `depth`
+    /// levels (2 or more): `blocks[l]` holds level `l`'s bytes (a multiple of 4 bytes on the
+    /// node levels, of 8 on the bricks' level) and `counts[l]` the nodes the level table
+    /// gives it.
+    pub(crate) fn from_blocks(
+        depth: u8,
+        blocks: &[&[u8]],
+        counts: &[u64],
+    ) -> Result<Self, Failure> {
+        let top = usize::from(depth) - 2;
+        let words = blocks[..top]
+            .iter()
+            .map(|b| bytemuck::pod_collect_to_vec::<u8, u32>(b))
+            .collect();
+        let bricks = bytemuck::pod_collect_to_vec::<u8, u64>(blocks[top]);
+        let mut out = Self {
+            depth,
+            words,
+            bricks,
+            kids: Vec::new(),
+            starts: Vec::new(),
+        };
+        out.derive(counts)?;
+        Ok(out)
+    }
+
+    /// Parses the levels one after another, checking each as section 12 orders it against
+    /// the level table's `counts`, and keeps each node's start and children.
+    fn derive(&mut self, counts: &[u64]) -> Result<(), Failure> {
+        let top = usize::from(self.depth) - 2;
+        self.kids = Vec::with_capacity(top);
+        self.starts = Vec::with_capacity(top);
+        let fail = |c: Check, m: String| Err((c, m));
+        for (l, &want) in counts.iter().enumerate().take(top + 1) {
+            // (a) The level's nodes, one after another.
+            let count = if l == top {
+                for (k, &b) in self.bricks.iter().enumerate() {
+                    if b == 0 && !(l == 0 && k == 0) {
+                        return fail(
+                            Check::TreeShape,
+                            format!("level {l}: brick {k} has no leaves"),
+                        );
+                    }
+                }
+                self.bricks.len()
+            } else {
+                let w = &self.words[l];
+                let mut starts = Vec::new();
+                let mut at = 0usize;
+                while at < w.len() {
+                    let m = w[at];
+                    if m >> 8 != 0 {
+                        return fail(
+                            Check::NodeWords,
+                            format!("level {l}, word {at}: mask word {m:#010x} has bits 8-31 set"),
+                        );
+                    }
+                    if m == 0 && !(l == 0 && at == 0) {
+                        return fail(
+                            Check::TreeShape,
+                            format!("level {l}, word {at}: a node without children"),
+                        );
+                    }
+                    let k = m.count_ones() as usize;
+                    if at + 1 + k > w.len() {
+                        return fail(
+                            Check::NodeOrder,
+                            format!("level {l}, word {at}: the node's children run past the level"),
+                        );
+                    }
+                    starts.push((at as u32, 0u32));
+                    at += 1 + k;
+                }
+                self.starts.push(starts);
+                self.starts[l].len()
+            };
+            if count as u64 != want {
+                return fail(
+                    Check::NodeOrder,
+                    format!("level {l} holds {count} nodes, the level table says {want}"),
+                );
+            }
+            // (b) The level above refers to every node of this one, first references in order.
+            if l > 0 {
+                let targets: Option<Vec<u32>> =
+                    (l < top).then(|| self.starts[l].iter().map(|x| x.0).collect());
+                let above = &self.words[l - 1];
+                let mut kids = Vec::with_capacity(above.len());
+                let mut seen = 0usize;
+                for (k, s) in self.starts[l - 1].iter_mut().enumerate() {
+                    s.1 = kids.len() as u32;
+                    let at = s.0 as usize;
+                    let n = above[at].count_ones() as usize;
+                    for &p in &above[at + 1..at + 1 + n] {
+                        let i = match &targets {
+                            None => ((p as usize) < count).then_some(p as usize),
+                            Some(t) => t.binary_search(&p).ok(),
+                        };
+                        let Some(i) = i else {
+                            return fail(
+                                Check::NodeOrder,
+                                format!(
+                                    "level {}, node {k}: child {p} is not a node of level {l}",
+                                    l - 1
+                                ),
+                            );
+                        };
+                        if i > seen {
+                            return fail(
+                                Check::NodeOrder,
+                                format!(
+                                    "level {}, node {k}: child {i} of level {l} comes before \
+                                     child {seen}, which is first referred to later",
+                                    l - 1
+                                ),
+                            );
+                        }
+                        seen += usize::from(i == seen);
+                        kids.push(i as u32);
+                    }
+                }
+                if seen != count {
+                    return fail(
+                        Check::NodeOrder,
+                        format!(
+                            "level {l}: node {seen} is not referred to from level {}",
+                            l - 1
+                        ),
+                    );
+                }
+                self.kids.push(kids);
+            }
+            // (c) No node twice.
+            let twice = if l == top {
+                let mut set = FxHashSet::with_capacity_and_hasher(count, Default::default());
+                self.bricks.iter().position(|b| !set.insert(*b))
+            } else {
+                let w = &self.words[l];
+                let mut set = FxHashSet::with_capacity_and_hasher(count, Default::default());
+                self.starts[l].iter().position(|&(s, _)| {
+                    let s = s as usize;
+                    !set.insert(&w[s..s + 1 + w[s].count_ones() as usize])
+                })
+            };
+            if let Some(k) = twice {
+                return fail(
+                    Check::NodeOrder,
+                    format!("level {l}: node {k} equals an earlier node of the level"),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// The leaves and nodes of the tree the graph stands for.
+    pub(crate) fn tree_size(&self) -> TreeSize {
+        let top = usize::from(self.depth) - 2;
+        // Per node of a level: (leaves, nodes) of its subtree, from the bricks up.
+        let mut below: Vec<(u64, u64)> = self
+            .bricks
+            .iter()
+            .map(|&b| {
+                let parents = b.to_le_bytes().iter().filter(|&&x| x != 0).count() as u64;
+                (u64::from(b.count_ones()), 1 + parents)
+            })
+            .collect();
+        for l in (0..top).rev() {
+            let w = &self.words[l];
+            below = self.starts[l]
+                .iter()
+                .map(|&(s, first)| {
+                    let n = w[s as usize].count_ones() as usize;
+                    let f = first as usize;
+                    self.kids[l][f..f + n]
+                        .iter()
+                        .fold((0u64, 1u64), |(a, b), &c| {
+                            let (x, y) = below[c as usize];
+                            (a.saturating_add(x), b.saturating_add(y))
+                        })
+                })
+                .collect();
+        }
+        let (leaves, nodes) = below.first().copied().unwrap_or((0, 1));
+        TreeSize { leaves, nodes }
+    }
+
+    /// The canonical node array of the tree the graph stands for.
+    pub(crate) fn to_nodes(&self) -> Vec<Node> {
+        canonical_nodes(self)
+    }
+}
+
+/// A node of [`DagLevels`]: one above the bricks (level, index), a brick, or a leaf parent
+/// (its mask, a byte of a brick).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum DagRef {
+    Node(usize, u32),
+    Brick(u32),
+    LeafParent(u8),
+}
+
+impl Graph for DagLevels {
+    type Ref = DagRef;
+
+    fn root(&self) -> DagRef {
+        if self.depth == 2 {
+            DagRef::Brick(0)
+        } else {
+            DagRef::Node(0, 0)
+        }
+    }
+
+    fn mask(&self, r: DagRef) -> u8 {
+        match r {
+            DagRef::Node(l, k) => self.words[l][self.starts[l][k as usize].0 as usize] as u8,
+            DagRef::Brick(b) => {
+                let bytes = self.bricks[b as usize].to_le_bytes();
+                (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a)
+            }
+            DagRef::LeafParent(m) => m,
+        }
+    }
+
+    fn is_leaf_parent(&self, r: DagRef) -> bool {
+        matches!(r, DagRef::LeafParent(_))
+    }
+
+    fn children(&self, r: DagRef, out: &mut Vec<DagRef>) {
+        let top = usize::from(self.depth) - 2;
+        match r {
+            DagRef::Node(l, k) => {
+                let (s, first) = self.starts[l][k as usize];
+                let n = self.words[l][s as usize].count_ones() as usize;
+                let f = first as usize;
+                out.extend(self.kids[l][f..f + n].iter().map(|&c| {
+                    if l + 1 == top {
+                        DagRef::Brick(c)
+                    } else {
+                        DagRef::Node(l + 1, c)
+                    }
+                }));
+            }
+            DagRef::Brick(b) => {
+                let bytes = self.bricks[b as usize].to_le_bytes();
+                out.extend(
+                    bytes
+                        .iter()
+                        .filter(|&&x| x != 0)
+                        .map(|&x| DagRef::LeafParent(x)),
+                );
+            }
+            DagRef::LeafParent(_) => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::octree::tree::Octree;
+    use crate::octree::{RootCube, Voxel};
+    use glam::{DVec3, UVec3};
+
+    fn plain(nodes: &[Node]) -> Vec<Node> {
+        nodes
+            .iter()
+            .map(|n| Node {
+                info: n.info & 0xFF,
+                ..*n
+            })
+            .collect()
+    }
+
+    fn tree(depth: u8, cells: impl IntoIterator<Item = UVec3>) -> Octree {
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: 1.0,
+        };
+        Octree::from_cells(root, depth, cells.into_iter().map(|c| (c, Voxel::glass()))).unwrap()
+    }
+
+    /// Parses blocks as a reader does.
+    fn parse(blocks: &[Vec<u8>], counts: &[u64], depth: u8) -> Result<DagLevels, Failure> {
+        let arrays: Vec<&[u8]> = blocks.iter().map(Vec::as_slice).collect();
+        DagLevels::from_blocks(depth, &arrays, counts)
+    }
+
+    /// For seeded random trees of depths 2 to 8 (empty, one cell, sparse and dense), the
+    /// blocks parse back (checks 14 to 16 hold) into the same graph, which stands for the
+    /// tree: its node array, leaves and node count.
+    #[test]
+    fn a_graphs_blocks_give_its_tree_back() {
+        let mut rnd = svo_tests::seeds::xorshift(0xb21c);
+        for case in 0..120u32 {
+            let depth = 2 + (case % 7) as u8;
+            let side = 1u32 << depth;
+            let n = match case % 12 {
+                0 => 0,
+                1 => 1,
+                2 => 5000,
+                _ => 1 + rnd() % 400,
+            };
+            let t = tree(
+                depth,
+                (0..n).map(|_| UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side),
+            );
+            let dag = DagLevels::of(&Dag::from_tree(&t));
+            let back = parse(&dag.blocks(), &dag.counts(), depth).unwrap();
+            assert_eq!(back, dag, "case {case}");
+            assert_eq!(back.to_nodes(), plain(&t.nodes), "case {case}");
+            assert_eq!(
+                back.tree_size(),
+                TreeSize {
+                    leaves: u64::from(t.leaf_count),
+                    nodes: t.nodes.len() as u64
+                },
+                "case {case}"
+            );
+        }
+    }
+
+    /// Each rule of the levels, broken on its own in a depth-5 graph, fails at its check:
+    /// reserved mask bits (14), a node or brick without children (15), a child that is no
+    /// node, children out of first-reference order, a node twice, a node nobody refers to and
+    /// counts the table does not give (16).
+    #[test]
+    fn every_rule_of_the_levels_is_checked() {
+        let mut rnd = svo_tests::seeds::xorshift(0x5ca1e);
+        let cells = (0..300).map(|_| UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % 32);
+        let t = tree(5, cells);
+        let dag = DagLevels::of(&Dag::from_tree(&t));
+        let (blocks, counts) = (dag.blocks(), dag.counts());
+        assert!(counts[1] >= 2 && counts[3] >= 3, "{counts:?}");
+        assert!(parse(&blocks, &counts, 5).is_ok());
+        let word = |b: &[Vec<u8>], l: usize, i: usize| {
+            u32::from_le_bytes(b[l][4 * i..4 * i + 4].try_into().unwrap())
+        };
+        let set = |b: &mut [Vec<u8>], l: usize, i: usize, v: u32| {
+            b[l][4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());
+        };
+        let check = |b: &[Vec<u8>], c: &[u64]| parse(b, c, 5).err().map(|e| e.0);
+        // 14: bit 8 of the root's mask word.
+        let mut b = blocks.clone();
+        set(&mut b, 0, 0, word(&blocks, 0, 0) | 0x100);
+        assert_eq!(check(&b, &counts), Some(Check::NodeWords));
+        // 15: a node of level 1 without children; a brick without leaves.
+        let mut b = blocks.clone();
+        set(&mut b, 1, 0, 0);
+        assert_eq!(check(&b, &counts), Some(Check::TreeShape));
+        let mut b = blocks.clone();
+        b[3][8..16].fill(0);
+        assert_eq!(check(&b, &counts), Some(Check::TreeShape));
+        // 16: the root's first child points inside a node of level 1, or past it.
+        let mut b = blocks.clone();
+        set(&mut b, 0, 1, 1);
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        let mut b = blocks.clone();
+        set(&mut b, 0, 1, blocks[1].len() as u32 / 4);
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        // 16: the root's first two children swapped (the second is first referred to later).
+        let (a, c) = (word(&blocks, 0, 1), word(&blocks, 0, 2));
+        assert_ne!(a, c);
+        let mut b = blocks.clone();
+        set(&mut b, 0, 1, c);
+        set(&mut b, 0, 2, a);
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        // 16: two equal bricks; a brick nobody refers to; a count the table does not give.
+        let mut b = blocks.clone();
+        let first = b[3][..8].to_vec();
+        b[3][8..16].copy_from_slice(&first);
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        let mut b = blocks.clone();
+        b[3].extend_from_slice(&u64::MAX.to_le_bytes());
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        let mut c = counts.clone();
+        c[2] += 1;
+        assert_eq!(check(&blocks, &c), Some(Check::NodeOrder));
+        // 16: an empty root above nodes.
+        let mut b = blocks.clone();
+        b[0] = 0u32.to_le_bytes().to_vec();
+        assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+    }
+}

@@ -1,0 +1,136 @@
+//! Version 4's DAG layout: a tree written as a graph of distinct subtrees reads back as the
+//! same tree (its nodes and every leaf channel), converts back to the tree layout's bytes, is
+//! smaller where subtrees repeat, and reads to a depth as the tree layout's file does; trees
+//! the layout cannot hold are refused before anything is written.
+
+use glam::{DVec3, UVec3};
+use svo::io::{
+    BuildInfo, from_bytes, read_file, read_file_to_depth, to_bytes, write_dag_file, write_dag_to,
+    write_file,
+};
+use svo::{BakeOptions, Mesh, Octree, RootCube, Voxel, bake_mesh};
+
+fn dag_bytes(tree: &Octree) -> Vec<u8> {
+    let mut v = Vec::new();
+    write_dag_to(tree, &BuildInfo::new(), &mut v).unwrap();
+    v
+}
+
+fn version_and_layout(bytes: &[u8]) -> (u32, u8) {
+    let v = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    // The layout byte follows the root cube (32 bytes) and the depth in version 4's header.
+    (v, bytes[16 + 32 + 1])
+}
+
+/// Seeded random trees of depths 2 to 9 with per-leaf colours (empty, one cell, sparse,
+/// dense, and a lattice whose subtrees all repeat), and a bake with every channel: each reads
+/// back from its DAG file as the same tree, and the tree read back writes the tree layout's
+/// bytes again.
+#[test]
+fn a_dag_file_reads_back_as_the_same_tree() {
+    let root = RootCube {
+        origin: DVec3::new(-1.0, 2.0, 0.5),
+        side: 3.0,
+    };
+    let mut rnd = svo_tests::seeds::xorshift(0xda91);
+    let mut trees = Vec::new();
+    for case in 0..40u32 {
+        let depth = 2 + (case % 8) as u8;
+        let side = 1u32 << depth;
+        let n = match case % 10 {
+            0 => 0,
+            1 => 1,
+            2 => 3000,
+            _ => 1 + rnd() % 300,
+        };
+        let cells: Vec<(UVec3, Voxel)> = (0..n)
+            .map(|_| {
+                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
+                let v = Voxel {
+                    colour: [(rnd() % 256) as f32 / 255.0, 0.5, 0.25, 1.0],
+                    ..Voxel::default()
+                };
+                (c, v)
+            })
+            .collect();
+        trees.push(Octree::from_cells(root, depth, cells).unwrap());
+    }
+    let lattice = (0..4096u32)
+        .map(|i| UVec3::new(i % 16, i / 16 % 16, i / 256))
+        .filter(|c| c.x % 2 == 0 && c.y % 3 == 0)
+        .map(|c| (c, Voxel::glass()));
+    trees.push(Octree::from_cells(root, 4, lattice).unwrap());
+    let torus = Mesh::load(svo_tests::repo_root().join("fixtures/torus.obj")).unwrap();
+    let opts = BakeOptions {
+        depth: 7,
+        ..Default::default()
+    };
+    trees.push(bake_mesh(&torus, &opts).unwrap().0);
+    for (i, tree) in trees.iter().enumerate() {
+        let bytes = dag_bytes(tree);
+        assert_eq!(version_and_layout(&bytes), (4, 1), "tree {i}");
+        let back = from_bytes(&bytes).unwrap().0;
+        assert_eq!(&back, tree, "tree {i}");
+        assert_eq!(
+            to_bytes(&back, &BuildInfo::new()),
+            to_bytes(tree, &BuildInfo::new())
+        );
+        // The same bytes again from the tree read back: the layout is the tree's alone.
+        assert_eq!(dag_bytes(&back), bytes, "tree {i}");
+    }
+    // Subtrees that repeat are stored once: the lattice's file is a fraction of the tree's.
+    let lattice = &trees[40];
+    assert!(5 * dag_bytes(lattice).len() < to_bytes(lattice, &BuildInfo::new()).len());
+}
+
+/// A bake's DAG file on disk: read whole it is the tree, and read to each depth it is the
+/// coarser tree the tree layout's file gives; it is smaller than the tree's.
+#[test]
+fn a_dag_file_reads_to_a_depth_as_the_tree_layout_does() {
+    let mesh = Mesh::sphere(DVec3::splat(0.5), 0.4, 24);
+    let opts = BakeOptions {
+        depth: 6,
+        channels: svo::ChannelSelection::NONE,
+        ..Default::default()
+    };
+    let tree = bake_mesh(&mesh, &opts).unwrap().0;
+    let dir = tempfile::tempdir().unwrap();
+    let (tree_path, dag_path) = (dir.path().join("tree.svo"), dir.path().join("dag.svo"));
+    let tree_len = write_file(&tree, &BuildInfo::new(), &tree_path).unwrap();
+    let dag_len = write_dag_file(&tree, &BuildInfo::new(), &dag_path).unwrap();
+    assert!(dag_len < tree_len, "{dag_len} against {tree_len}");
+    assert_eq!(read_file(&dag_path).unwrap().0, tree);
+    for k in 1..=7 {
+        assert_eq!(
+            read_file_to_depth(&dag_path, k).unwrap().0,
+            read_file_to_depth(&tree_path, k).unwrap().0,
+            "depth {k}"
+        );
+    }
+}
+
+/// What the layout cannot hold is refused before a byte is written: a tree of depth 1 (its
+/// lowest nodes are bricks of two levels) and a tree with inner-node attributes (shared
+/// subtrees keep no values of their own).
+#[test]
+fn the_dag_layout_refuses_what_it_cannot_hold() {
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    let flat = Octree::from_cells(root, 1, [(UVec3::ONE, Voxel::glass())]).unwrap();
+    let mut out = Vec::new();
+    let e = write_dag_to(&flat, &BuildInfo::new(), &mut out).unwrap_err();
+    assert!(e.to_string().contains("depth 2 or more"), "{e}");
+    assert!(out.is_empty());
+    let mesh = Mesh::sphere(DVec3::splat(0.5), 0.4, 12);
+    let opts = BakeOptions {
+        depth: 4,
+        node_attributes: true,
+        ..Default::default()
+    };
+    let lod = bake_mesh(&mesh, &opts).unwrap().0;
+    let e = write_dag_to(&lod, &BuildInfo::new(), &mut out).unwrap_err();
+    assert!(e.to_string().contains("inner-node attributes"), "{e}");
+    assert!(out.is_empty());
+}
