@@ -616,15 +616,7 @@ fn check_levels(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         blocks.push((offset, end - offset, arrays));
     }
     // 12 and 13: the per-leaf arrays after the blocks, and the padding.
-    let leaf_arrays: Vec<((u64, u64), u64)> = h
-        .channels
-        .iter()
-        .filter_map(|(kind, s)| match s {
-            Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
-            Storage::Constant(_) => None,
-        })
-        .collect();
-    place(b, &leaf_arrays, at, gaps, data_end)?;
+    place(b, &leaf_arrays(h), at, gaps, data_end)?;
     // 22: the levels' checksums.
     for ((o, len, _), entry) in blocks.iter().zip(table) {
         if xxhash_rust::xxh3::xxh3_64(&b[*o as usize..(o + len) as usize]) != entry[3] {
@@ -753,15 +745,7 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         gaps.push((end, pad8(end)));
         at = pad8(end);
     }
-    let leaf_arrays: Vec<((u64, u64), u64)> = h
-        .channels
-        .iter()
-        .filter_map(|(kind, s)| match s {
-            Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
-            Storage::Constant(_) => None,
-        })
-        .collect();
-    place(b, &leaf_arrays, at, gaps, data_end)?;
+    place(b, &leaf_arrays(h), at, gaps, data_end)?;
     for &[_, offset, len, hash] in table {
         if xxhash_rust::xxh3::xxh3_64(&b[offset as usize..(offset + len) as usize]) != hash {
             return Err(22);
@@ -870,4 +854,16 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         return Err(17);
     }
     values(b, h, 4)
+}
+
+/// The per-leaf arrays of `h` (`(offset, len)` as stored, and the length the leaf count gives),
+/// which follow version 4's blocks.
+fn leaf_arrays(h: &Header) -> Vec<((u64, u64), u64)> {
+    h.channels
+        .iter()
+        .filter_map(|(kind, s)| match s {
+            Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
+            Storage::Constant(_) => None,
+        })
+        .collect()
 }

@@ -213,18 +213,9 @@ impl Graph for Dag {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dag::plain;
     use crate::octree::{RootCube, Voxel};
     use glam::{DVec3, UVec3};
-
-    fn plain(nodes: &[Node]) -> Vec<Node> {
-        nodes
-            .iter()
-            .map(|n| Node {
-                info: n.info & 0xFF,
-                ..*n
-            })
-            .collect()
-    }
 
     /// The graph gives the tree's nodes back, for seeded random trees of depths 1 to 7 (dense
     /// and sparse) and the empty tree; its counts add up (each node's leaves, at most the

@@ -393,19 +393,10 @@ impl Graph for DagLevels {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dag::plain;
     use crate::octree::tree::Octree;
     use crate::octree::{RootCube, Voxel};
     use glam::{DVec3, UVec3};
-
-    fn plain(nodes: &[Node]) -> Vec<Node> {
-        nodes
-            .iter()
-            .map(|n| Node {
-                info: n.info & 0xFF,
-                ..*n
-            })
-            .collect()
-    }
 
     fn tree(depth: u8, cells: impl IntoIterator<Item = UVec3>) -> Octree {
         let root = RootCube {

@@ -9,3 +9,15 @@ mod expand;
 pub(crate) mod levels;
 
 pub use build::Dag;
+
+/// The tree's nodes as files store them (bits 8-31 of `info` zero), which a graph gives back.
+#[cfg(test)]
+fn plain(nodes: &[crate::octree::tree::Node]) -> Vec<crate::octree::tree::Node> {
+    nodes
+        .iter()
+        .map(|n| crate::octree::tree::Node {
+            info: n.info & 0xFF,
+            ..*n
+        })
+        .collect()
+}

@@ -245,10 +245,17 @@ pub fn write_dag_file(
     build: &BuildInfo,
     path: impl AsRef<Path>,
 ) -> Result<u64, FormatError> {
-    let path = path.as_ref();
+    written_atomically(path.as_ref(), &mut |w| write_dag_to(tree, build, w))
+}
+
+/// What `write` streams, written to `path` atomically: the bytes written.
+fn written_atomically(
+    path: &Path,
+    write: &mut dyn FnMut(&mut dyn Write) -> std::io::Result<u64>,
+) -> Result<u64, FormatError> {
     let mut written = 0;
     write_atomic(path, |w| {
-        written = write_dag_to(tree, build, w)?;
+        written = write(w)?;
         Ok(())
     })
     .map_err(|cause| FormatError::Io {
@@ -670,17 +677,7 @@ pub fn write_file(
     build: &BuildInfo,
     path: impl AsRef<Path>,
 ) -> Result<u64, FormatError> {
-    let path = path.as_ref();
-    let mut written = 0;
-    write_atomic(path, |w| {
-        written = write_to(tree, build, w)?;
-        Ok(())
-    })
-    .map_err(|cause| FormatError::Io {
-        path: path.display().to_string(),
-        cause,
-    })?;
-    Ok(written)
+    written_atomically(path.as_ref(), &mut |w| write_to(tree, build, w))
 }
 
 impl Octree {
