@@ -320,6 +320,74 @@ impl DagLevels {
         TreeSize { leaves, nodes }
     }
 
+    /// For each level above the bricks, for each child word of its nodes in order: the leaves
+    /// below the node's earlier children (what a walk adds to its leaf index when it enters
+    /// that child).
+    #[cfg(feature = "trace")]
+    pub(crate) fn leaves_before(&self) -> Vec<Vec<u64>> {
+        let top = usize::from(self.depth) - 2;
+        let mut out = vec![Vec::new(); top];
+        let mut below: Vec<u64> = self
+            .bricks
+            .iter()
+            .map(|b| u64::from(b.count_ones()))
+            .collect();
+        for l in (0..top).rev() {
+            let w = &self.words[l];
+            let mut before = Vec::with_capacity(self.kids[l].len());
+            below = self.starts[l]
+                .iter()
+                .map(|&(s, first)| {
+                    let n = w[s as usize].count_ones() as usize;
+                    let f = first as usize;
+                    let mut sum = 0u64;
+                    for &c in &self.kids[l][f..f + n] {
+                        before.push(sum);
+                        sum = sum.saturating_add(below[c as usize]);
+                    }
+                    sum
+                })
+                .collect();
+            out[l] = before;
+        }
+        out
+    }
+
+    /// The graph's depth.
+    #[cfg(feature = "trace")]
+    pub(crate) fn depth(&self) -> u8 {
+        self.depth
+    }
+
+    /// Node `k` of level `l` (above the bricks): its mask word's index and its first child's
+    /// index in [`Self::kids_of`].
+    #[inline]
+    #[cfg(feature = "trace")]
+    pub(crate) fn start_of(&self, l: usize, k: u32) -> (u32, u32) {
+        self.starts[l][k as usize]
+    }
+
+    /// The mask of node `k` of level `l` (above the bricks).
+    #[inline]
+    #[cfg(feature = "trace")]
+    pub(crate) fn mask_of(&self, l: usize, k: u32) -> u8 {
+        self.words[l][self.starts[l][k as usize].0 as usize] as u8
+    }
+
+    /// The children of level `l`'s nodes, one after another, as indices on the level below.
+    #[inline]
+    #[cfg(feature = "trace")]
+    pub(crate) fn kids_of(&self, l: usize) -> &[u32] {
+        &self.kids[l]
+    }
+
+    /// Brick `b`.
+    #[inline]
+    #[cfg(feature = "trace")]
+    pub(crate) fn brick(&self, b: u32) -> u64 {
+        self.bricks[b as usize]
+    }
+
     /// The canonical node array of the tree the graph stands for.
     pub(crate) fn to_nodes(&self) -> Vec<Node> {
         canonical_nodes(self)

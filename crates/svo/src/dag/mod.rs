@@ -7,8 +7,12 @@
 mod build;
 mod expand;
 pub(crate) mod levels;
+#[cfg(feature = "trace")]
+mod walk;
 
 pub use build::Dag;
+#[cfg(feature = "trace")]
+pub use walk::{DagError, DagTree};
 
 /// The tree's nodes as files store them (bits 8-31 of `info` zero), which a graph gives back.
 #[cfg(test)]

@@ -38,6 +38,8 @@ pub use binvox::{BinvoxGrid, ExportError, read_binvox, write_binvox};
 pub use chunked::ChunkedFile;
 pub use describe::describe_file;
 pub use header::{BuildInfo, VERSION};
+#[cfg(feature = "trace")]
+pub use read::read_dag_file;
 pub use read::{
     LevelSizes, from_bytes, read_file, read_file_to_depth, read_from, read_level_sizes,
 };

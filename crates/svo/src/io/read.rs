@@ -4,6 +4,8 @@
 //! A corrupt, truncated or hostile file gives a [`FormatError`], never a panic, a hang or an
 //! allocation larger than the file.
 
+#[cfg(feature = "trace")]
+use crate::dag::DagTree;
 use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES};
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
@@ -505,20 +507,8 @@ fn dag_nodes(
     levels: &Levels,
     blocks: &[Vec<Vec<u8>>],
 ) -> Result<Vec<Node>, FormatError> {
-    let arrays: Vec<&[u8]> = blocks.iter().map(|b| b[0].as_slice()).collect();
-    let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
-    let dag = DagLevels::from_blocks(h.depth, &arrays, &counts)
-        .map_err(|(check, detail)| corrupt(check, detail))?;
+    let dag = dag_levels(h, levels, blocks)?;
     let size = dag.tree_size();
-    if size.leaves != h.leaf_count {
-        return Err(corrupt(
-            Check::LeafOrder,
-            format!(
-                "the graph stands for {} leaves, the header says {}",
-                size.leaves, h.leaf_count
-            ),
-        ));
-    }
     if size.leaves > MAX_LEAVES || size.nodes > MAX_LEAVES {
         return Err(FormatError::DagTooLarge {
             leaves: size.leaves,
@@ -526,6 +516,30 @@ fn dag_nodes(
         });
     }
     Ok(dag.to_nodes())
+}
+
+/// The graph the blocks of a file of the DAG layout hold: checks 14 to 16 on its levels and 17
+/// on its leaves.
+fn dag_levels(
+    h: &Header,
+    levels: &Levels,
+    blocks: &[Vec<Vec<u8>>],
+) -> Result<DagLevels, FormatError> {
+    let arrays: Vec<&[u8]> = blocks.iter().map(|b| b[0].as_slice()).collect();
+    let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+    let dag = DagLevels::from_blocks(h.depth, &arrays, &counts)
+        .map_err(|(check, detail)| corrupt(check, detail))?;
+    let leaves = dag.tree_size().leaves;
+    if leaves != h.leaf_count {
+        return Err(corrupt(
+            Check::LeafOrder,
+            format!(
+                "the graph stands for {leaves} leaves, the header says {}",
+                h.leaf_count
+            ),
+        ));
+    }
+    Ok(dag)
 }
 
 /// Checks 7 to 9 of a version-3 header: the depth, the chunk level below it, the root cube,
@@ -999,20 +1013,44 @@ pub(crate) struct FileRead {
 /// order as [`from_bytes`], but each array is read straight into the tree's own array and
 /// hashed as it passes, so no copy of the file is held beside the tree.
 pub(crate) fn read_file_with_header(path: &Path) -> Result<FileRead, FormatError> {
+    read_path(path, &mut |raw, p| finish_tree(raw, p)).map(|(tree, preamble, checksum, len)| {
+        FileRead {
+            tree,
+            preamble,
+            checksum,
+            len,
+        }
+    })
+}
+
+/// What [`read_stream`]'s caller makes of the arrays read and the header.
+type Finish<'a, X> = dyn FnMut(Raw, Preamble) -> Result<(X, Preamble), FormatError> + 'a;
+
+/// The file at `path` read in one pass (as [`read_file_with_header`]), its tree made by
+/// `finish` from the arrays read and the header: what `finish` makes, the header, the
+/// checksum and the file's length.
+fn read_path<X>(
+    path: &Path,
+    finish: &mut Finish<'_, X>,
+) -> Result<(X, Preamble, u64, u64), FormatError> {
     let io = |cause| FormatError::Io {
         path: path.display().to_string(),
         cause,
     };
     let f = std::fs::File::open(path).map_err(io)?;
     let len = f.metadata().map_err(io)?.len();
-    read_stream(std::io::BufReader::with_capacity(1 << 20, f), len).map_err(|e| match e {
+    read_stream(std::io::BufReader::with_capacity(1 << 20, f), len, finish).map_err(|e| match e {
         FormatError::Io { cause, .. } => io(cause),
         e => e,
     })
 }
 
-/// [`read_file_with_header`] from `r`, which holds `len` bytes.
-fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError> {
+/// [`read_path`] from `r`, which holds `len` bytes.
+fn read_stream<X>(
+    r: impl std::io::Read,
+    len: u64,
+    finish: &mut Finish<'_, X>,
+) -> Result<(X, Preamble, u64, u64), FormatError> {
     use std::io::Read;
     let io = |cause| FormatError::Io {
         path: "<reader>".into(),
@@ -1037,13 +1075,51 @@ fn read_stream(r: impl std::io::Read, len: u64) -> Result<FileRead, FormatError>
     if let Some(gap) = padding {
         return Err(padding_error(gap));
     }
-    let (tree, preamble) = finish_tree(tree, p)?;
-    Ok(FileRead {
-        tree,
-        preamble,
-        checksum,
-        len,
-    })
+    let (x, preamble) = finish(tree, p)?;
+    Ok((x, preamble, checksum, len))
+}
+
+/// Reads the file at `path` as a [`DagTree`] with every check of [`read_file`]: a file of the
+/// DAG layout (`docs/format.md`, section 12) without making the tree it stands for, so in
+/// memory about the size of its graph and its leaf channels; a file of another layout as its
+/// tree, reduced to its graph. The leaves' channels are kept as the file stores them.
+///
+/// ```
+/// use glam::{DVec3, UVec3};
+/// use svo::io::{BuildInfo, read_dag_file, write_dag_file};
+/// use svo::{Octree, RootCube, Voxel};
+/// let root = RootCube { origin: DVec3::ZERO, side: 1.0 };
+/// let cells = (0..64u32).map(|i| UVec3::new(i % 4, i / 4 % 4, i / 16) * 2);
+/// let tree = Octree::from_cells(root, 3, cells.map(|c| (c, Voxel::glass())))?;
+/// let path = std::env::temp_dir().join("svo-doc-read-dag.svo");
+/// write_dag_file(&tree, &BuildInfo::new(), &path)?;
+/// let (dag, _) = read_dag_file(&path)?;
+/// // The root and one brick, which every child of the root shares.
+/// assert_eq!((dag.leaf_count(), dag.level_counts()), (64, vec![1, 1]));
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[cfg(feature = "trace")]
+pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), FormatError> {
+    let (dag, p, ..) = read_path(path.as_ref(), &mut |raw, p| {
+        if !is_dag(&p.header) {
+            let (tree, p) = finish_tree(raw, p)?;
+            let mut dag = DagTree::from_tree(&tree)?;
+            dag.attributes = tree.attributes;
+            return Ok((dag, p));
+        }
+        let Raw { tree, blocks, .. } = raw;
+        let Some(levels) = &p.header.levels else {
+            return Err(corrupt(Check::Header, "a version-4 header without levels"));
+        };
+        check_level_hashes(levels, &blocks)?;
+        let graph = dag_levels(&p.header, levels, &blocks)?;
+        check_values(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
+        let mut dag = DagTree::from_levels(tree.root, graph)?;
+        dag.attributes = tree.attributes;
+        Ok((dag, p))
+    })?;
+    Ok((dag, p.header.build))
 }
 
 /// Reads the top `max_depth` levels of a `.svo` file as a valid tree of that depth (at least
@@ -1691,7 +1767,12 @@ mod tests {
     }
 
     fn streamed(bytes: &[u8]) -> Result<Octree, FormatError> {
-        read_stream(std::io::Cursor::new(bytes), bytes.len() as u64).map(|r| r.tree)
+        read_stream(
+            std::io::Cursor::new(bytes),
+            bytes.len() as u64,
+            &mut |raw, p| finish_tree(raw, p),
+        )
+        .map(|r| r.0)
     }
 
     /// The one-pass reader of files on disk and the reader of bytes agree on every file of the

@@ -97,6 +97,10 @@ pub enum FormatError {
         /// Its nodes.
         nodes: u64,
     },
+    /// The file's tree cannot be made a walkable graph ([`crate::dag::DagTree`]).
+    #[cfg(feature = "trace")]
+    #[error("the file's tree as a DAG: {0}")]
+    Dag(#[from] crate::dag::DagError),
 }
 
 impl FormatError {
@@ -104,6 +108,8 @@ impl FormatError {
     pub fn check(&self) -> Option<Check> {
         match self {
             Self::Io { .. } | Self::TooLarge { .. } | Self::DagTooLarge { .. } => None,
+            #[cfg(feature = "trace")]
+            Self::Dag(_) => None,
             Self::NotSvo => Some(Check::Magic),
             Self::NewerVersion { .. } => Some(Check::Version),
             Self::Checksum { .. } => Some(Check::Checksum),

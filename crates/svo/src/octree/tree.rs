@@ -53,8 +53,15 @@ impl Node {
     /// population count instruction and the traversals ask for it at every child they enter.
     #[inline]
     pub(crate) fn slot(self, i: u8) -> u32 {
-        u32::from(SLOTS[usize::from(self.child_mask())][usize::from(i & 7)])
+        slot_of(self.child_mask(), i)
     }
+}
+
+/// The packed slot of child `i` among the children of a node with child `mask`: the number of
+/// existing children before it.
+#[inline]
+pub(crate) fn slot_of(mask: u8, i: u8) -> u32 {
+    u32::from(SLOTS[usize::from(mask)][usize::from(i & 7)])
 }
 
 /// Per child mask and child index, the number of existing children before it.

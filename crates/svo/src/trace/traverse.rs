@@ -27,7 +27,7 @@
 //! are the same with or without the boxes; only the steps differ.
 
 use crate::octree::bounds;
-use crate::octree::tree::{Node, Octree};
+use crate::octree::tree::{Node, Octree, slot_of};
 use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
 use glam::{UVec3, Vec3, Vec3A};
@@ -105,27 +105,135 @@ pub struct Traversal<T> {
     pub capped: bool,
 }
 
+impl<T> Traversal<T> {
+    /// No hit, no step.
+    pub(crate) fn missed() -> Self {
+        Self {
+            hit: None,
+            steps: 0,
+            capped: false,
+        }
+    }
+}
+
 const DONE: u8 = 8;
 
-/// An ancestor on the stack: what the walk cannot recompute when it returns to it. Its
+/// What the walk reads of a node array: a tree's ([`Octree`]) or a graph's
+/// ([`crate::dag::DagTree`]).
+pub(crate) trait WalkNodes {
+    /// A node as the walk holds it, in registers and on its stack.
+    type N: Copy;
+    /// The root, where there is one.
+    fn root(&self) -> Option<Self::N>;
+    /// The node at `index` of the array, where a walk may start ([`StartNode`]).
+    fn start(&self, index: u32) -> Option<Self::N>;
+    /// The node's child mask.
+    fn mask(n: Self::N) -> u8;
+    /// Where a leaf parent's first leaf lies in the leaf arrays (`None` for another node).
+    fn leaf_base(n: Self::N) -> Option<u32>;
+    /// Child `real` of `n` (not a leaf parent), the `rank`-th of its existing children.
+    fn child(&self, n: Self::N, real: u8, rank: u32) -> Option<Self::N>;
+    /// Whether `n` is a leaf parent.
+    fn is_leaf_parent(n: Self::N) -> bool;
+    /// The box of `n`'s leaves that `n` keeps (bits 8-31 of a tree node's `info`; 0: none).
+    fn leaf_box(n: Self::N) -> u32;
+    /// The index by which the node attributes of child `rank` of `n` are found (a walk with a
+    /// footprint stops there).
+    fn child_index(n: Self::N, rank: u32) -> u32;
+    /// An ancestor on the walk's stack: the node, the child to visit next and where the ray
+    /// enters that child (its corner, side and planes follow from the current cell's).
+    type Saved: Copy;
+    /// An all-zero stack entry: the stack is initialized with it, which compiles to one
+    /// `memset`.
+    const EMPTY: Self::Saved;
+    /// The stack entry of `n`.
+    fn save(n: Self::N, next: u8, enter: f32) -> Self::Saved;
+    /// The node, next child and entry of a stack entry.
+    fn restore(s: Self::Saved) -> (Self::N, u8, f32);
+}
+
+impl WalkNodes for Octree {
+    type N = Node;
+
+    #[inline]
+    fn root(&self) -> Option<Node> {
+        self.nodes.first().copied()
+    }
+
+    #[inline]
+    fn start(&self, index: u32) -> Option<Node> {
+        self.nodes.get(index as usize).copied()
+    }
+
+    #[inline]
+    fn mask(n: Node) -> u8 {
+        n.child_mask()
+    }
+
+    #[inline]
+    fn leaf_base(n: Node) -> Option<u32> {
+        n.leaf_base()
+    }
+
+    #[inline]
+    fn child(&self, n: Node, _real: u8, rank: u32) -> Option<Node> {
+        self.nodes.get((n.first + rank) as usize).copied()
+    }
+
+    #[inline]
+    fn is_leaf_parent(n: Node) -> bool {
+        n.is_leaf_parent()
+    }
+
+    #[inline]
+    fn leaf_box(n: Node) -> u32 {
+        n.info >> 8
+    }
+
+    #[inline]
+    fn child_index(n: Node, rank: u32) -> u32 {
+        n.first + rank
+    }
+
+    type Saved = Saved;
+    const EMPTY: Saved = Saved {
+        first: 0,
+        info: 0,
+        next: 0,
+        enter: 0.0,
+    };
+
+    #[inline]
+    fn save(n: Node, next: u8, enter: f32) -> Saved {
+        Saved {
+            first: n.first,
+            info: n.child_mask(),
+            next,
+            enter,
+        }
+    }
+
+    #[inline]
+    fn restore(s: Saved) -> (Node, u8, f32) {
+        let node = Node {
+            info: u32::from(s.info),
+            first: s.first,
+        };
+        (node, s.next, s.enter)
+    }
+}
+
+/// A tree's ancestor on the stack: what the walk cannot recompute when it returns to it. Its
 /// corner is the current cell's corner with the bits below its side cleared, its side
 /// follows from its level, and its planes from both, so only the node, the child to visit
 /// next and where the ray enters that child are kept (12 bytes).
 #[derive(Clone, Copy, Debug)]
-struct Saved {
+pub(crate) struct Saved {
     first: u32,
     info: u8,
     next: u8,
     enter: f32,
 }
-
-/// An all-zero ancestor: the stack is initialized with it, which compiles to one `memset`.
-const EMPTY: Saved = Saved {
-    first: 0,
-    info: 0,
-    next: 0,
-    enter: 0.0,
-};
 
 /// SIMD comparison masks have x in bit 0; child indices have x in bit 2.
 const REVERSE3: [u8; 8] = [0, 4, 2, 6, 1, 5, 3, 7];
@@ -195,11 +303,9 @@ pub fn traverse_cone<T>(
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Traversal<T> {
     // Only a walk from a node can be refused.
-    traverse_from(tree, ray, None, cone, tmin, tmax, max_steps, on_leaf).unwrap_or(Traversal {
-        hit: None,
-        steps: 0,
-        capped: false,
-    })
+    let depth = tree.depth;
+    traverse_from(tree, depth, ray, None, cone, tmin, tmax, max_steps, on_leaf)
+        .unwrap_or_else(Traversal::missed)
 }
 
 /// An inner node to start a traversal at: its index in the node array, its minimum cell
@@ -232,12 +338,23 @@ pub(crate) fn traverse_node<T>(
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Option<Traversal<T>> {
-    traverse_from(tree, ray, Some(start), cone, tmin, tmax, max_steps, on_leaf)
+    traverse_from(
+        tree,
+        tree.depth,
+        ray,
+        Some(start),
+        cone,
+        tmin,
+        tmax,
+        max_steps,
+        on_leaf,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
-fn traverse_from<T>(
-    tree: &Octree,
+pub(crate) fn traverse_from<W: WalkNodes, T>(
+    tree: &W,
+    depth: u8,
     ray: &GridRay,
     start: Option<StartNode>,
     cone: Cone,
@@ -248,21 +365,22 @@ fn traverse_from<T>(
 ) -> Option<Traversal<T>> {
     // The stack holds one frame per level above the leaves; a stack sized for the tree
     // keeps its initialization (a `memset` per ray) small.
-    let levels = start.map_or(tree.depth, |s| s.side.max(1).ilog2().min(32) as u8);
+    let levels = start.map_or(depth, |s| s.side.max(1).ilog2().min(32) as u8);
+    let walk = (tree, depth);
     if levels <= 2 {
-        traverse_with::<2, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<2, W, T>(walk, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 4 {
-        traverse_with::<4, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<4, W, T>(walk, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else if levels <= 12 {
-        traverse_with::<12, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<12, W, T>(walk, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     } else {
-        traverse_with::<32, T>(tree, ray, start, cone, tmin, tmax, max_steps, on_leaf)
+        traverse_with::<32, W, T>(walk, ray, start, cone, tmin, tmax, max_steps, on_leaf)
     }
 }
 
 #[allow(clippy::too_many_arguments)]
-fn traverse_with<const STACK: usize, T>(
-    tree: &Octree,
+fn traverse_with<const STACK: usize, W: WalkNodes, T>(
+    (tree, depth): (&W, u8),
     ray: &GridRay,
     start: Option<StartNode>,
     cone: Cone,
@@ -280,19 +398,15 @@ fn traverse_with<const STACK: usize, T>(
     } else {
         0.0
     };
-    let mut out = Traversal {
-        hit: None,
-        steps: 0,
-        capped: false,
-    };
-    let depth = usize::from(tree.depth);
+    let mut out = Traversal::missed();
+    let depth = usize::from(depth);
     if depth == 0 || depth > usize::from(crate::MAX_DEPTH) {
         return Some(out);
     }
     let n = 1u32 << depth;
     let (node, origin, side) = match start {
-        None => match tree.nodes.first() {
-            Some(&root) => (root, UVec3::ZERO, n),
+        None => match tree.root() {
+            Some(root) => (root, UVec3::ZERO, n),
             None => return Some(out),
         },
         Some(s) => {
@@ -301,15 +415,15 @@ fn traverse_with<const STACK: usize, T>(
                 && s.side <= n
                 && (s.origin % s.side) == UVec3::ZERO
                 && s.origin.max_element() < n;
-            match tree.nodes.get(s.index as usize) {
-                Some(&node) if fits && node.is_leaf_parent() == (s.side == 2) => {
+            match tree.start(s.index) {
+                Some(node) if fits && W::is_leaf_parent(node) == (s.side == 2) => {
                     (node, s.origin, s.side)
                 }
                 _ => return Some(out),
             }
         }
     };
-    if node.child_mask() == 0 {
+    if W::mask(node) == 0 {
         return Some(out);
     }
     let Some(r) = MirroredRay::new(ray, n) else {
@@ -332,7 +446,7 @@ fn traverse_with<const STACK: usize, T>(
     let mut tm = r.t_planes(origin + UVec3::splat(half));
     let mut next = first_child(tm, enter);
     let mut enter = enter;
-    let mut stack = [EMPTY; STACK];
+    let mut stack = [W::EMPTY; STACK];
     let mut len = 0usize;
     let mask = r.mask;
     let swap = bounds::swap_mask(mask);
@@ -345,14 +459,11 @@ fn traverse_with<const STACK: usize, T>(
                     return Some(out);
                 }
                 len -= 1;
-                let s = stack[len];
-                if s.next != DONE {
-                    node = Node {
-                        info: u32::from(s.info),
-                        first: s.first,
-                    };
-                    next = s.next;
-                    enter = s.enter;
+                let (n, s_next, s_enter) = W::restore(stack[len]);
+                if s_next != DONE {
+                    node = n;
+                    next = s_next;
+                    enter = s_enter;
                     break;
                 }
             }
@@ -364,7 +475,7 @@ fn traverse_with<const STACK: usize, T>(
         // Step over the node's children in the ray's order until one exists or none is
         // left: most children of a sparse tree are absent, and this is the cheap part of a
         // step.
-        let child_mask = node.child_mask();
+        let child_mask = W::mask(node);
         let (c, t_enter, c1, m, real) = loop {
             let c = next;
             let t_enter = enter;
@@ -395,9 +506,9 @@ fn traverse_with<const STACK: usize, T>(
         if t_exit < t_enter {
             continue;
         }
-        let rank = node.slot(real);
+        let rank = slot_of(child_mask, real);
         let origin = corner + child_bits(c) * half;
-        if let Some(base) = node.leaf_base() {
+        if let Some(base) = W::leaf_base(node) {
             // The cell's entry planes are its integer low planes: the values a walk that
             // carried them down would have, bit for bit.
             let entry = LeafEntry {
@@ -418,13 +529,14 @@ fn traverse_with<const STACK: usize, T>(
             if len == STACK || half < 2 {
                 continue;
             }
-            let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
+            let Some(child) = tree.child(node, real, rank) else {
                 continue;
             };
             // The planes of the box of the child's leaves, where it keeps one: a ray that
             // passes beside it finds none there.
-            let leaf_box = (child.info >> 8 != 0).then(|| {
-                let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
+            let boxed = W::leaf_box(child);
+            let leaf_box = (boxed != 0).then(|| {
+                let (lo, hi) = bounds::cell_box(bounds::mirrored(boxed << 8, swap), origin, half);
                 (r.t_planes(lo), r.t_planes(hi))
             });
             if let Some((b0, b1)) = leaf_box
@@ -432,13 +544,14 @@ fn traverse_with<const STACK: usize, T>(
             {
                 continue;
             }
-            if coarse && !child.is_leaf_parent() && half as f32 <= cone.width_at(t_enter * reach) {
+            if coarse && !W::is_leaf_parent(child) && half as f32 <= cone.width_at(t_enter * reach)
+            {
                 let cell = r.flip(origin, half);
                 if cone.stops_at(half, node_distance(ray.origin, cell, half)) {
                     // Wide enough: the node stands for its subtree, within the box of its
                     // leaves (which holds its surface), as the primary prepass tests it.
                     let bounds = leaf_box.unwrap_or_else(|| (r.t_planes(origin), c1));
-                    let stop = (node.first + rank, cell, half);
+                    let stop = (W::child_index(node, rank), cell, half);
                     let Some(entry) = node_entry(&r, stop, bounds, (tmin, tmax), true) else {
                         continue;
                     };
@@ -449,12 +562,7 @@ fn traverse_with<const STACK: usize, T>(
                     continue;
                 }
             }
-            stack[len] = Saved {
-                first: node.first,
-                info: node.child_mask(),
-                next,
-                enter,
-            };
+            stack[len] = W::save(node, next, enter);
             len += 1;
             node = child;
             corner = origin;

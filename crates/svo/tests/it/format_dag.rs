@@ -5,8 +5,8 @@
 
 use glam::{DVec3, UVec3};
 use svo::io::{
-    BuildInfo, from_bytes, read_file, read_file_to_depth, to_bytes, write_dag_file, write_dag_to,
-    write_file,
+    BuildInfo, from_bytes, read_dag_file, read_file, read_file_to_depth, to_bytes, write_dag_file,
+    write_dag_to, write_file,
 };
 use svo::{BakeOptions, Mesh, Octree, RootCube, Voxel, bake_mesh};
 
@@ -133,4 +133,60 @@ fn the_dag_layout_refuses_what_it_cannot_hold() {
     let e = write_dag_to(&lod, &BuildInfo::new(), &mut out).unwrap_err();
     assert!(e.to_string().contains("inner-node attributes"), "{e}");
     assert!(out.is_empty());
+}
+
+/// A DAG file read as a graph (`read_dag_file`, the tree it stands for never made) is the
+/// graph of its tree with the tree's leaf channels, and rays walk it as they walk the tree: the
+/// same leaves, one after another, for rays across the bake from every side; a file of the
+/// tree layout reads as the same graph.
+#[test]
+fn a_dag_file_reads_as_the_graph_rays_walk() {
+    use glam::Vec3;
+    use svo::dag::DagTree;
+    use svo::trace::{GridRay, MAX_STEPS, traverse};
+    let torus = Mesh::load(svo_tests::repo_root().join("fixtures/torus.obj")).unwrap();
+    let opts = BakeOptions {
+        depth: 7,
+        ..Default::default()
+    };
+    let tree = bake_mesh(&torus, &opts).unwrap().0;
+    let dir = tempfile::tempdir().unwrap();
+    let (tree_path, dag_path) = (dir.path().join("tree.svo"), dir.path().join("dag.svo"));
+    write_file(&tree, &BuildInfo::new(), &tree_path).unwrap();
+    write_dag_file(&tree, &BuildInfo::new(), &dag_path).unwrap();
+    let (dag, _) = read_dag_file(&dag_path).unwrap();
+    let (again, _) = read_dag_file(&tree_path).unwrap();
+    let made = DagTree::from_tree(&tree).unwrap();
+    assert_eq!(dag.level_counts(), made.level_counts());
+    assert_eq!(again.level_counts(), made.level_counts());
+    assert_eq!(dag.attributes(), &tree.attributes);
+    assert_eq!(again.attributes(), &tree.attributes);
+    assert_eq!(
+        (dag.depth(), dag.root(), dag.leaf_count()),
+        (7, tree.root, tree.leaf_count)
+    );
+    let mut rnd = svo_tests::seeds::xorshift(0xda9a1c);
+    let mut unit = || (rnd() % 20_001) as f32 / 10_000.0 - 1.0;
+    let mut met = 0;
+    for _ in 0..2000 {
+        let origin = Vec3::splat(64.0) + Vec3::new(unit(), unit(), unit()) * 120.0;
+        let to = Vec3::splat(64.0) + Vec3::new(unit(), unit(), unit()) * 40.0;
+        let ray = GridRay {
+            origin,
+            dir: (to - origin).normalize_or(Vec3::X),
+        };
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        let ta = dag.traverse(&ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+            a.push((e.leaf, e.cell, e.t_enter.to_bits()));
+            None::<()>
+        });
+        let tb = traverse(&tree, &ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+            b.push((e.leaf, e.cell, e.t_enter.to_bits()));
+            None::<()>
+        });
+        assert_eq!(a, b, "{ray:?}");
+        assert!(!ta.capped && !tb.capped);
+        met += a.len();
+    }
+    assert!(met > 2000, "{met} leaves met");
 }

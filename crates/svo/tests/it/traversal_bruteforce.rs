@@ -21,6 +21,7 @@ use glam::{UVec3, Vec3};
 use num_bigint::Sign;
 use rand::Rng;
 use std::collections::HashMap;
+use svo::dag::DagTree;
 use svo::octree::Octree;
 use svo::trace::{GridRay, HitMode, LeafEntry, MAX_STEPS, cast, traverse};
 
@@ -644,26 +645,150 @@ type Walked = (Vec<[u32; 12]>, Option<u32>, u32, bool);
 fn walk(tree: &Octree, ray: &GridRay, tmin: f32, tmax: f32, stop: Option<u32>) -> Walked {
     let mut seen = Vec::new();
     let t = traverse(tree, ray, tmin, tmax, MAX_STEPS, |e: &LeafEntry| {
-        let n = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-        let [a, b, c] = n(e.entry_normal);
-        let [d, f, g] = n(e.exit_normal);
-        seen.push([
-            e.leaf,
-            e.cell.x,
-            e.cell.y,
-            e.cell.z,
-            e.t_enter.to_bits(),
-            e.t_exit.to_bits(),
-            a,
-            b,
-            c,
-            d,
-            f,
-            g,
-        ]);
+        seen.push(entry_bits(e));
         (Some(e.leaf) == stop).then_some(e.leaf)
     });
     (seen, t.hit, t.steps, t.capped)
+}
+
+/// [`walk`] on a tree's graph.
+fn walk_dag(dag: &DagTree, ray: &GridRay, tmin: f32, tmax: f32, stop: Option<u32>) -> Walked {
+    let mut seen = Vec::new();
+    let t = dag.traverse(ray, tmin, tmax, MAX_STEPS, |e: &LeafEntry| {
+        seen.push(entry_bits(e));
+        (Some(e.leaf) == stop).then_some(e.leaf)
+    });
+    (seen, t.hit, t.steps, t.capped)
+}
+
+/// An entry as its bits: the leaf, the cell, the parameters and both normals.
+fn entry_bits(e: &LeafEntry) -> [u32; 12] {
+    let n = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let [a, b, c] = n(e.entry_normal);
+    let [d, f, g] = n(e.exit_normal);
+    [
+        e.leaf,
+        e.cell.x,
+        e.cell.y,
+        e.cell.z,
+        e.t_enter.to_bits(),
+        e.t_exit.to_bits(),
+        a,
+        b,
+        c,
+        d,
+        f,
+        g,
+    ]
+}
+
+/// A ray of this file's families for a tree of `depth` levels, with random `tmin` and `tmax`
+/// (infinite for 70% of them). Past depth 8, small-tree rays scaled up to the deep tree: the
+/// coordinates of families that are exact on small trees stay exact.
+fn bounded_ray(rng: &mut impl Rng, depth: u8) -> (GridRay, f32, f32) {
+    let n = (1u64 << depth) as f32;
+    let (ray, tmin) = if depth > 8 {
+        let (r, t) = random_ray(rng, 128.0);
+        let s = if rng.random_bool(0.5) { 1.0 } else { n / 128.0 };
+        (
+            GridRay {
+                origin: r.origin * s,
+                dir: r.dir,
+            },
+            t * s,
+        )
+    } else {
+        random_ray(rng, n)
+    };
+    let tmax = if rng.random_bool(0.3) {
+        tmin + rng.random_range(0.0..n * 2.0)
+    } else {
+        f32::INFINITY
+    };
+    (ray, tmin, tmax)
+}
+
+/// Seeded random trees for the walks' comparisons: slabs and clusters at depths `depths`,
+/// random cells (sparse and dense) at depth up to 5, and sparse trees of depth 12, 20 and 30
+/// whose shapes lie near the low faces, the far corner and in the middle (so that mirrored
+/// axes meet boxes next to either face).
+fn walk_trees(
+    rng: &mut impl Rng,
+    depths: std::ops::RangeInclusive<u8>,
+    dense: f64,
+) -> Vec<(u8, Octree)> {
+    let mut trees = Vec::new();
+    for depth in depths {
+        for k in 0..3 {
+            let cells = match k {
+                0 => slabs_and_clusters(rng, depth),
+                1 => random_cells(rng, depth.min(5), 0.03),
+                _ => random_cells(rng, depth.min(5), dense),
+            };
+            if !cells.is_empty() {
+                let d = if k == 0 { depth } else { depth.min(5) };
+                trees.push((d, plain_tree(d, &cells)));
+            }
+        }
+    }
+    for depth in [12u8, 20, 30] {
+        let far = (1u32 << depth) - 1;
+        let mut cells = slabs_and_clusters(rng, 7);
+        let n = cells.len();
+        for i in 0..n {
+            let c = cells[i];
+            cells.push(UVec3::splat(far) - c);
+            cells.push(c + UVec3::splat(far / 2));
+        }
+        trees.push((depth, plain_tree(depth, &cells)));
+    }
+    trees
+}
+
+/// A tree's graph (`svo::dag::DagTree`: identical subtrees once, 4x4x4 bricks at the bottom)
+/// walks as the tree does: on seeded random trees (slabs, clusters, random cells, depths 2
+/// to 8, a lattice whose every subtree repeats, and sparse trees of depth 12, 20 and 30),
+/// every ray family of this file with random `tmin` and `tmax` (axis-parallel with `-0.0`,
+/// through lattice corners and edges, from inside), walked to the end and stopped at a chosen
+/// leaf, hands over the same leaves (the same indices into the tree's leaf arrays) with the
+/// same entries bit for bit, in as many steps as the tree without its nodes' boxes, and stops
+/// at the same leaf.
+#[test]
+fn the_dag_walk_hands_over_the_trees_entries() {
+    let mut rng = common::rng(0xDA6_3A1C);
+    let mut trees = walk_trees(&mut rng, 2..=8, 0.4);
+    let lattice: Vec<UVec3> = random_cells(&mut rng, 6, 1.0)
+        .into_iter()
+        .filter(|c| c.x % 3 == 0 && (c.y + c.z) % 2 == 0)
+        .collect();
+    trees.push((6, plain_tree(6, &lattice)));
+    let (mut rays, mut handed) = (0usize, 0usize);
+    for (depth, tree) in &trees {
+        let dag = DagTree::from_tree(tree).unwrap();
+        assert_eq!(dag.leaf_count(), tree.leaf_count);
+        let mut bare = tree.clone();
+        bare.clear_bounds();
+        for _ in 0..300 {
+            let (ray, tmin, tmax) = bounded_ray(&mut rng, *depth);
+            let all = walk(&bare, &ray, tmin, tmax, None);
+            assert_eq!(
+                walk_dag(&dag, &ray, tmin, tmax, None),
+                all,
+                "{ray:?} {tmin} {tmax}"
+            );
+            rays += 1;
+            handed += all.0.len();
+            if let Some(e) = all.0.get(rng.random_range(0..all.0.len().max(1))) {
+                let stop = Some(e[0]);
+                assert_eq!(
+                    walk_dag(&dag, &ray, tmin, tmax, stop),
+                    walk(&bare, &ray, tmin, tmax, stop),
+                    "{ray:?} stopped at {stop:?}"
+                );
+            }
+        }
+    }
+    assert!(handed > rays, "{handed} leaves over {rays} rays");
 }
 
 /// Cells that leave most of a node's cube empty, where the boxes of the nodes' leaves pay:
@@ -724,59 +849,13 @@ fn node_bounds_change_the_steps_and_nothing_else() {
     let mut rng = common::rng(0xB0_0B5);
     let (mut with, mut without, mut rays, mut handed) = (0u64, 0u64, 0usize, 0usize);
     let (mut boxed, mut more) = (0, 0);
-    let mut trees = Vec::new();
-    for depth in 1..=8u8 {
-        for k in 0..3 {
-            let cells = match k {
-                0 => slabs_and_clusters(&mut rng, depth),
-                1 => random_cells(&mut rng, depth.min(5), 0.03),
-                _ => random_cells(&mut rng, depth.min(5), 0.3),
-            };
-            if !cells.is_empty() {
-                let d = if k == 0 { depth } else { depth.min(5) };
-                trees.push((d, plain_tree(d, &cells)));
-            }
-        }
-    }
-    for depth in [12u8, 20, 30] {
-        let far = (1u32 << depth) - 1;
-        let mut cells = slabs_and_clusters(&mut rng, 7);
-        // The same shapes near the low faces, the far corner and in the middle, so that
-        // mirrored axes meet boxes next to either face.
-        let n = cells.len();
-        for i in 0..n {
-            let c = cells[i];
-            cells.push(UVec3::splat(far) - c);
-            cells.push(c + UVec3::splat(far / 2));
-        }
-        trees.push((depth, plain_tree(depth, &cells)));
-    }
+    let trees = walk_trees(&mut rng, 1..=8, 0.3);
     for (depth, tree) in &trees {
         let mut bare = tree.clone();
         bare.clear_bounds();
         boxed += usize::from(&bare != tree);
-        let n = (1u64 << depth) as f32;
         for _ in 0..300 {
-            let (ray, tmin) = if *depth > 8 {
-                // Small-tree rays scaled up to the deep tree: the coordinates of families
-                // that are exact on small trees stay exact.
-                let (r, t) = random_ray(&mut rng, 128.0);
-                let s = if rng.random_bool(0.5) { 1.0 } else { n / 128.0 };
-                (
-                    GridRay {
-                        origin: r.origin * s,
-                        dir: r.dir,
-                    },
-                    t * s,
-                )
-            } else {
-                random_ray(&mut rng, n)
-            };
-            let tmax = if rng.random_bool(0.3) {
-                tmin + rng.random_range(0.0..n * 2.0)
-            } else {
-                f32::INFINITY
-            };
+            let (ray, tmin, tmax) = bounded_ray(&mut rng, *depth);
             let all = walk(&bare, &ray, tmin, tmax, None);
             assert_eq!(
                 walk(tree, &ray, tmin, tmax, None).0,

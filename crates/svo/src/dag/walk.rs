@@ -1,0 +1,276 @@
+//! Rays through a graph: [`DagTree`], a tree's geometry with identical subtrees stored once,
+//! walked as the tree is ([`crate::trace::traverse`]'s walk, over the graph's nodes), each leaf
+//! found with its index in the tree's Morton order from the leaves below the children the walk
+//! passes.
+
+use super::build::Dag;
+use super::levels::DagLevels;
+use crate::octree::RootCube;
+use crate::octree::tree::{LeafAttributes, Octree};
+use crate::octree::validate::MAX_LEAVES;
+use crate::trace::GridRay;
+use crate::trace::cone::Cone;
+use crate::trace::traverse::{LeafEntry, Traversal, WalkNodes, traverse_from};
+use thiserror::Error;
+
+/// Why a [`DagTree`] cannot be made.
+#[derive(Debug, Error, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum DagError {
+    /// A tree of depth 1: a graph's lowest nodes are 4x4x4 bricks, two levels.
+    #[error("a DAG needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)")]
+    TooShallow,
+    /// More leaves than a leaf index holds.
+    #[error("{0} leaves: more than 2^31, which a leaf index holds")]
+    TooManyLeaves(u64),
+}
+
+/// A tree's geometry as a graph of its distinct subtrees (the file form of `docs/format.md`,
+/// section 12, with what a walk derives: each node's children as indices and the leaves
+/// before each child), and the tree's root cube: rays walk it as they walk the tree and meet
+/// the same leaves, with the same indices into the tree's leaf arrays.
+///
+/// ```
+/// use glam::{DVec3, UVec3, Vec3};
+/// use svo::dag::DagTree;
+/// use svo::trace::{GridRay, MAX_STEPS, traverse};
+/// use svo::{Octree, RootCube, Voxel};
+/// let root = RootCube { origin: DVec3::ZERO, side: 1.0 };
+/// let cells = [UVec3::new(1, 2, 3), UVec3::new(5, 2, 3), UVec3::new(6, 6, 6)];
+/// let tree = Octree::from_cells(root, 3, cells.map(|c| (c, Voxel::glass())))?;
+/// let dag = DagTree::from_tree(&tree)?;
+/// let ray = GridRay { origin: Vec3::new(-1.0, 2.5, 3.5), dir: Vec3::X };
+/// let leaves = |t: &svo::trace::Traversal<u32>| t.hit;
+/// let on_dag = dag.traverse(&ray, 0.0, f32::INFINITY, MAX_STEPS, |e| Some(e.leaf));
+/// let on_tree = traverse(&tree, &ray, 0.0, f32::INFINITY, MAX_STEPS, |e| Some(e.leaf));
+/// assert_eq!(leaves(&on_dag), leaves(&on_tree)); // leaf 0, the cell (1, 2, 3)
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct DagTree {
+    root: RootCube,
+    graph: DagLevels,
+    /// Per level above the bricks, per child word: the leaves below the earlier children.
+    before: Vec<Vec<u32>>,
+    leaf_count: u32,
+    /// The leaves' channels, in Morton order (none for a graph made by [`Self::from_tree`]).
+    pub(crate) attributes: LeafAttributes,
+}
+
+impl DagTree {
+    /// The graph of `tree`'s geometry (its values are not part of it).
+    pub fn from_tree(tree: &Octree) -> Result<Self, DagError> {
+        if tree.depth < 2 {
+            return Err(DagError::TooShallow);
+        }
+        Self::from_levels(tree.root, DagLevels::of(&Dag::from_tree(tree)))
+    }
+
+    /// The walkable form of a graph that passed the reader's checks.
+    pub(crate) fn from_levels(root: RootCube, graph: DagLevels) -> Result<Self, DagError> {
+        let leaves = graph.tree_size().leaves;
+        if leaves > MAX_LEAVES {
+            return Err(DagError::TooManyLeaves(leaves));
+        }
+        // Within 2^31 leaves, every partial sum fits.
+        let before = graph
+            .leaves_before()
+            .into_iter()
+            .map(|l| l.into_iter().map(|x| x as u32).collect())
+            .collect();
+        Ok(Self {
+            root,
+            graph,
+            before,
+            leaf_count: leaves as u32,
+            attributes: LeafAttributes::default(),
+        })
+    }
+
+    /// The root cube.
+    pub fn root(&self) -> RootCube {
+        self.root
+    }
+
+    /// Levels below the root.
+    pub fn depth(&self) -> u8 {
+        self.graph.depth()
+    }
+
+    /// The tree's leaves.
+    pub fn leaf_count(&self) -> u32 {
+        self.leaf_count
+    }
+
+    /// The leaves' channels, in the tree's Morton order (what [`crate::io::read_dag_file`]
+    /// read; none for a graph made by [`Self::from_tree`]).
+    pub fn attributes(&self) -> &LeafAttributes {
+        &self.attributes
+    }
+
+    /// Distinct nodes on each level, the root's first, the bricks last (`depth - 1` levels).
+    pub fn level_counts(&self) -> Vec<u64> {
+        self.graph.counts()
+    }
+
+    /// [`crate::trace::traverse`] on the graph: the same leaves, front to back, with the same
+    /// entries (indices into the tree's leaf arrays, cells, parameters and normals) as on the
+    /// tree; the steps differ (the graph keeps no boxes of its nodes' leaves).
+    pub fn traverse<T>(
+        &self,
+        ray: &GridRay,
+        tmin: f32,
+        tmax: f32,
+        max_steps: u32,
+        on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
+    ) -> Traversal<T> {
+        let depth = self.depth();
+        traverse_from(
+            self,
+            depth,
+            ray,
+            None,
+            Cone::EXACT,
+            tmin,
+            tmax,
+            max_steps,
+            on_leaf,
+        )
+        .unwrap_or_else(Traversal::missed)
+    }
+}
+
+/// A node of the graph as the walk holds it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DagNode {
+    /// 0: a node above the bricks; 1: a brick; 2: a leaf parent (a byte of a brick).
+    kind: u8,
+    mask: u8,
+    /// A node's level (above the bricks).
+    level: u8,
+    /// A node's index on its level, or a brick's (also a leaf parent's brick).
+    index: u32,
+    /// The index of the node's first leaf in the tree's leaf arrays.
+    base: u32,
+}
+
+/// The child mask of a brick: its nonzero bytes.
+#[inline]
+fn brick_mask(b: u64) -> u8 {
+    let bytes = b.to_le_bytes();
+    (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a)
+}
+
+impl DagTree {
+    /// Node `k` of level `l`, or brick `k` where `l` is the bricks' level, with first leaf `base`.
+    #[inline]
+    fn node(&self, l: usize, k: u32, base: u32) -> DagNode {
+        if l + 2 == usize::from(self.depth()) {
+            DagNode {
+                kind: 1,
+                mask: brick_mask(self.graph.brick(k)),
+                level: l as u8,
+                index: k,
+                base,
+            }
+        } else {
+            DagNode {
+                kind: 0,
+                mask: self.graph.mask_of(l, k),
+                level: l as u8,
+                index: k,
+                base,
+            }
+        }
+    }
+}
+
+impl WalkNodes for DagTree {
+    type N = DagNode;
+
+    #[inline]
+    fn root(&self) -> Option<DagNode> {
+        Some(self.node(0, 0, 0))
+    }
+
+    #[inline]
+    fn start(&self, _index: u32) -> Option<DagNode> {
+        None
+    }
+
+    #[inline]
+    fn mask(n: DagNode) -> u8 {
+        n.mask
+    }
+
+    #[inline]
+    fn leaf_base(n: DagNode) -> Option<u32> {
+        (n.kind == 2).then_some(n.base)
+    }
+
+    #[inline]
+    fn child(&self, n: DagNode, real: u8, rank: u32) -> Option<DagNode> {
+        match n.kind {
+            0 => {
+                let l = usize::from(n.level);
+                let (_, first) = self.graph.start_of(l, n.index);
+                let at = (first + rank) as usize;
+                let k = *self.graph.kids_of(l).get(at)?;
+                let base = n.base + *self.before[l].get(at)?;
+                Some(self.node(l + 1, k, base))
+            }
+            1 => {
+                let b = self.graph.brick(n.index);
+                let shift = 8 * u32::from(real);
+                let below = b & ((1u64 << shift) - 1);
+                Some(DagNode {
+                    kind: 2,
+                    mask: (b >> shift) as u8,
+                    level: n.level + 1,
+                    index: n.index,
+                    base: n.base + below.count_ones(),
+                })
+            }
+            _ => None,
+        }
+    }
+
+    #[inline]
+    fn is_leaf_parent(n: DagNode) -> bool {
+        n.kind == 2
+    }
+
+    #[inline]
+    fn leaf_box(_n: DagNode) -> u32 {
+        0
+    }
+
+    #[inline]
+    fn child_index(_n: DagNode, _rank: u32) -> u32 {
+        // A graph keeps no inner-node values: its walks have no footprint.
+        0
+    }
+
+    type Saved = (DagNode, u8, f32);
+    const EMPTY: Self::Saved = (
+        DagNode {
+            kind: 0,
+            mask: 0,
+            level: 0,
+            index: 0,
+            base: 0,
+        },
+        0,
+        0.0,
+    );
+
+    #[inline]
+    fn save(n: DagNode, next: u8, enter: f32) -> Self::Saved {
+        (n, next, enter)
+    }
+
+    #[inline]
+    fn restore(s: Self::Saved) -> (DagNode, u8, f32) {
+        s
+    }
+}
