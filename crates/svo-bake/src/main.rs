@@ -472,6 +472,15 @@ fn progress_bar(args: &Args) -> ProgressBar {
 /// A bake: input to output.
 fn bake(args: &Args) -> anyhow::Result<()> {
     let input = args.input.clone().context("no input file given")?;
+    let is_svo = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svo"));
+    if is_svo && args.output.is_none() {
+        anyhow::bail!(
+            "{}: an .svo input needs -o (its default output, the same name, is the input itself)",
+            input.display()
+        );
+    }
     let output = args
         .output
         .clone()

@@ -415,6 +415,9 @@ fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
         ".svo outputs",
     );
     assert!(!no.exists() && !p("no.binvox").exists());
+    // An .svo input without -o would be written over: refused, the input untouched.
+    fails(&[s(&tree), "--layout", "dag"], "needs -o");
+    assert!(bytes(&tree) == t);
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {

@@ -353,6 +353,48 @@ impl DagLevels {
         out
     }
 
+    /// The codes of the boxes of the nodes' leaves (`crate::octree::bounds`), which the tree
+    /// keeps in its nodes' spare bits: per level above the bricks one per node, and one per
+    /// brick. A subtree's code depends on its shape alone, so a graph's node has its tree
+    /// nodes' code.
+    #[cfg(feature = "trace")]
+    pub(crate) fn box_codes(&self) -> (Vec<Vec<u32>>, Vec<u32>) {
+        use crate::octree::bounds::{combine_codes, leaf_parent_code};
+        let depth = u32::from(self.depth);
+        let top = usize::from(self.depth) - 2;
+        let bricks: Vec<u32> = self
+            .bricks
+            .iter()
+            .map(|&b| {
+                let bytes = b.to_le_bytes();
+                let mask = (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a);
+                let kids = bytes.into_iter().filter(|&x| x != 0).map(leaf_parent_code);
+                combine_codes(mask, kids, 2)
+            })
+            .collect();
+        let mut levels = vec![Vec::new(); top];
+        for l in (0..top).rev() {
+            let below: &[u32] = if l + 1 == top {
+                &bricks
+            } else {
+                &levels[l + 1]
+            };
+            let w = &self.words[l];
+            let codes = self.starts[l]
+                .iter()
+                .map(|&(s, first)| {
+                    let mask = w[s as usize] as u8;
+                    let n = mask.count_ones() as usize;
+                    let f = first as usize;
+                    let kids = self.kids[l][f..f + n].iter().map(|&c| below[c as usize]);
+                    combine_codes(mask, kids, depth - l as u32)
+                })
+                .collect();
+            levels[l] = codes;
+        }
+        (levels, bricks)
+    }
+
     /// The graph's depth.
     #[cfg(feature = "trace")]
     pub(crate) fn depth(&self) -> u8 {

@@ -6,6 +6,7 @@
 use super::build::Dag;
 use super::levels::DagLevels;
 use crate::octree::RootCube;
+use crate::octree::bounds::leaf_parent_code;
 use crate::octree::tree::{LeafAttributes, Octree};
 use crate::octree::validate::MAX_LEAVES;
 use crate::trace::GridRay;
@@ -55,6 +56,9 @@ pub struct DagTree {
     leaf_count: u32,
     /// The leaves' channels, in Morton order (none for a graph made by [`Self::from_tree`]).
     pub(crate) attributes: LeafAttributes,
+    /// The codes of the boxes of the nodes' leaves: per level above the bricks, and per brick.
+    boxes: Vec<Vec<u32>>,
+    brick_boxes: Vec<u32>,
 }
 
 impl DagTree {
@@ -78,12 +82,15 @@ impl DagTree {
             .into_iter()
             .map(|l| l.into_iter().map(|x| x as u32).collect())
             .collect();
+        let (boxes, brick_boxes) = graph.box_codes();
         Ok(Self {
             root,
             graph,
             before,
             leaf_count: leaves as u32,
             attributes: LeafAttributes::default(),
+            boxes,
+            brick_boxes,
         })
     }
 
@@ -114,8 +121,9 @@ impl DagTree {
     }
 
     /// [`crate::trace::traverse`] on the graph: the same leaves, front to back, with the same
-    /// entries (indices into the tree's leaf arrays, cells, parameters and normals) as on the
-    /// tree; the steps differ (the graph keeps no boxes of its nodes' leaves).
+    /// entries (indices into the tree's leaf arrays, cells, parameters and normals) and the
+    /// same steps as on the tree (each distinct node keeps the box of its leaves, as the tree's
+    /// nodes do).
     pub fn traverse<T>(
         &self,
         ray: &GridRay,
@@ -152,6 +160,8 @@ pub(crate) struct DagNode {
     index: u32,
     /// The index of the node's first leaf in the tree's leaf arrays.
     base: u32,
+    /// The code of the box of its leaves.
+    boxed: u32,
 }
 
 /// The child mask of a brick: its nonzero bytes.
@@ -172,6 +182,7 @@ impl DagTree {
                 level: l as u8,
                 index: k,
                 base,
+                boxed: self.brick_boxes[k as usize],
             }
         } else {
             DagNode {
@@ -180,6 +191,7 @@ impl DagTree {
                 level: l as u8,
                 index: k,
                 base,
+                boxed: self.boxes[l][k as usize],
             }
         }
     }
@@ -223,12 +235,14 @@ impl WalkNodes for DagTree {
                 let b = self.graph.brick(n.index);
                 let shift = 8 * u32::from(real);
                 let below = b & ((1u64 << shift) - 1);
+                let mask = (b >> shift) as u8;
                 Some(DagNode {
                     kind: 2,
-                    mask: (b >> shift) as u8,
+                    mask,
                     level: n.level + 1,
                     index: n.index,
                     base: n.base + below.count_ones(),
+                    boxed: leaf_parent_code(mask),
                 })
             }
             _ => None,
@@ -241,8 +255,8 @@ impl WalkNodes for DagTree {
     }
 
     #[inline]
-    fn leaf_box(_n: DagNode) -> u32 {
-        0
+    fn leaf_box(n: DagNode) -> u32 {
+        n.boxed
     }
 
     #[inline]
@@ -259,6 +273,7 @@ impl WalkNodes for DagTree {
             level: 0,
             index: 0,
             base: 0,
+            boxed: 0,
         },
         0,
         0.0,

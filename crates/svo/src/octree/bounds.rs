@@ -132,22 +132,44 @@ pub(crate) fn derive_checked(nodes: &mut [Node], depth: u8) {
 /// halves the child's numbers; below, both units are one cell.
 #[inline]
 fn combine(nodes: &[Node], first: usize, mask: u8, side_log: u32) -> u32 {
-    let (mut rest, mut j) = (mask, first);
+    combine_codes(
+        mask,
+        nodes[first..].iter().map(|n| n.info >> SHIFT),
+        side_log,
+    )
+}
+
+/// The code of a node of side `2^side_log` (at least 4) with child `mask` from its children's
+/// codes, in child order (as [`combine`]; a graph's nodes, whose children are not packed, take
+/// it so).
+#[inline]
+pub(crate) fn combine_codes(
+    mask: u8,
+    mut children: impl Iterator<Item = u32>,
+    side_log: u32,
+) -> u32 {
+    let mut rest = mask;
     let mut acc = LANES_MAX;
     let half = 1u32 << (side_log - 1);
     while rest != 0 {
         let c = usize::from(rest.trailing_zeros() as u8);
         rest &= rest - 1;
-        let v = lanes(nodes[j].info >> SHIFT);
+        let v = lanes(children.next().unwrap_or(0));
         let v = if side_log >= 5 {
             ((v >> 1) & LANES_LOW4) + LANE_OFFSET[c] * 8
         } else {
             v + LANE_OFFSET[c] * half
         };
         acc = lanes_min(acc, v);
-        j += 1;
     }
     unlanes(acc)
+}
+
+/// The code of a leaf parent with child `mask`.
+#[cfg(feature = "trace")]
+#[inline]
+pub(crate) fn leaf_parent_code(mask: u8) -> u32 {
+    LEAF_PARENT[usize::from(mask)]
 }
 
 /// A 24-bit code's six 4-bit numbers in six 5-bit lanes (bits `5k..5k+4`), the top bit of
