@@ -18,6 +18,13 @@ use crate::octree::tree::Node;
 use crate::octree::validate::Failure;
 use rustc_hash::FxHashSet;
 
+/// The child mask of a brick's node: its nonzero bytes, its leaf parents.
+#[inline]
+pub(crate) fn brick_mask(b: u64) -> u8 {
+    let bytes = b.to_le_bytes();
+    (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a)
+}
+
 /// Most leaves a version-4 file of the DAG layout may stand for (check 9).
 pub(crate) const MAX_DAG_LEAVES: u64 = 1 << 48;
 
@@ -288,35 +295,59 @@ impl DagLevels {
         Ok(())
     }
 
-    /// The leaves and nodes of the tree the graph stands for.
-    pub(crate) fn tree_size(&self) -> TreeSize {
+    /// Every node's value from the bricks up: `brick(b)` for each brick, then level by level
+    /// from the one above the bricks to the root, `node(l, mask, values)` for each node of level
+    /// `l` with the values of its children in child order. The values of the levels above the
+    /// bricks, and the bricks'.
+    fn bottom_up<T: Copy + Default>(
+        &self,
+        brick: impl Fn(u64) -> T,
+        mut node: impl FnMut(usize, u8, &[T]) -> T,
+    ) -> (Vec<Vec<T>>, Vec<T>) {
         let top = usize::from(self.depth) - 2;
-        // Per node of a level: (leaves, nodes) of its subtree, from the bricks up.
-        let mut below: Vec<(u64, u64)> = self
-            .bricks
-            .iter()
-            .map(|&b| {
-                let parents = b.to_le_bytes().iter().filter(|&&x| x != 0).count() as u64;
-                (u64::from(b.count_ones()), 1 + parents)
-            })
-            .collect();
+        let bricks: Vec<T> = self.bricks.iter().map(|&b| brick(b)).collect();
+        let mut levels = vec![Vec::new(); top];
         for l in (0..top).rev() {
+            let below = if l + 1 == top {
+                &bricks
+            } else {
+                &levels[l + 1]
+            };
             let w = &self.words[l];
-            below = self.starts[l]
+            let mut kids = [T::default(); 8];
+            let values = self.starts[l]
                 .iter()
                 .map(|&(s, first)| {
-                    let n = w[s as usize].count_ones() as usize;
-                    let f = first as usize;
-                    self.kids[l][f..f + n]
-                        .iter()
-                        .fold((0u64, 1u64), |(a, b), &c| {
-                            let (x, y) = below[c as usize];
-                            (a.saturating_add(x), b.saturating_add(y))
-                        })
+                    let mask = w[s as usize] as u8;
+                    let (f, n) = (first as usize, mask.count_ones() as usize);
+                    for (v, &c) in kids.iter_mut().zip(&self.kids[l][f..f + n]) {
+                        *v = below[c as usize];
+                    }
+                    node(l, mask, &kids[..n])
                 })
                 .collect();
+            levels[l] = values;
         }
-        let (leaves, nodes) = below.first().copied().unwrap_or((0, 1));
+        (levels, bricks)
+    }
+
+    /// The leaves and nodes of the tree the graph stands for.
+    pub(crate) fn tree_size(&self) -> TreeSize {
+        let (levels, bricks) = self.bottom_up(
+            |b| {
+                (
+                    u64::from(b.count_ones()),
+                    1 + u64::from(brick_mask(b).count_ones()),
+                )
+            },
+            |_, _, kids| {
+                kids.iter().fold((0u64, 1u64), |(a, b), &(x, y)| {
+                    (a.saturating_add(x), b.saturating_add(y))
+                })
+            },
+        );
+        let root = levels.first().map_or(bricks.first(), |l| l.first());
+        let (leaves, nodes) = root.copied().unwrap_or((0, 1));
         TreeSize { leaves, nodes }
     }
 
@@ -325,32 +356,19 @@ impl DagLevels {
     /// that child).
     #[cfg(feature = "trace")]
     pub(crate) fn leaves_before(&self) -> Vec<Vec<u64>> {
-        let top = usize::from(self.depth) - 2;
-        let mut out = vec![Vec::new(); top];
-        let mut below: Vec<u64> = self
-            .bricks
-            .iter()
-            .map(|b| u64::from(b.count_ones()))
-            .collect();
-        for l in (0..top).rev() {
-            let w = &self.words[l];
-            let mut before = Vec::with_capacity(self.kids[l].len());
-            below = self.starts[l]
-                .iter()
-                .map(|&(s, first)| {
-                    let n = w[s as usize].count_ones() as usize;
-                    let f = first as usize;
-                    let mut sum = 0u64;
-                    for &c in &self.kids[l][f..f + n] {
-                        before.push(sum);
-                        sum = sum.saturating_add(below[c as usize]);
-                    }
-                    sum
-                })
-                .collect();
-            out[l] = before;
-        }
-        out
+        let mut before = vec![Vec::new(); usize::from(self.depth) - 2];
+        self.bottom_up(
+            |b| u64::from(b.count_ones()),
+            |l, _, kids| {
+                let mut sum = 0u64;
+                for &k in kids {
+                    before[l].push(sum);
+                    sum = sum.saturating_add(k);
+                }
+                sum
+            },
+        );
+        before
     }
 
     /// The codes of the boxes of the nodes' leaves (`crate::octree::bounds`), which the tree
@@ -361,38 +379,13 @@ impl DagLevels {
     pub(crate) fn box_codes(&self) -> (Vec<Vec<u32>>, Vec<u32>) {
         use crate::octree::bounds::{combine_codes, leaf_parent_code};
         let depth = u32::from(self.depth);
-        let top = usize::from(self.depth) - 2;
-        let bricks: Vec<u32> = self
-            .bricks
-            .iter()
-            .map(|&b| {
-                let bytes = b.to_le_bytes();
-                let mask = (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a);
-                let kids = bytes.into_iter().filter(|&x| x != 0).map(leaf_parent_code);
-                combine_codes(mask, kids, 2)
-            })
-            .collect();
-        let mut levels = vec![Vec::new(); top];
-        for l in (0..top).rev() {
-            let below: &[u32] = if l + 1 == top {
-                &bricks
-            } else {
-                &levels[l + 1]
-            };
-            let w = &self.words[l];
-            let codes = self.starts[l]
-                .iter()
-                .map(|&(s, first)| {
-                    let mask = w[s as usize] as u8;
-                    let n = mask.count_ones() as usize;
-                    let f = first as usize;
-                    let kids = self.kids[l][f..f + n].iter().map(|&c| below[c as usize]);
-                    combine_codes(mask, kids, depth - l as u32)
-                })
-                .collect();
-            levels[l] = codes;
-        }
-        (levels, bricks)
+        self.bottom_up(
+            |b| {
+                let parents = b.to_le_bytes().into_iter().filter(|&x| x != 0);
+                combine_codes(brick_mask(b), parents.map(leaf_parent_code), 2)
+            },
+            |l, mask, kids| combine_codes(mask, kids.iter().copied(), depth - l as u32),
+        )
     }
 
     /// The graph's depth.
@@ -459,10 +452,7 @@ impl Graph for DagLevels {
     fn mask(&self, r: DagRef) -> u8 {
         match r {
             DagRef::Node(l, k) => self.words[l][self.starts[l][k as usize].0 as usize] as u8,
-            DagRef::Brick(b) => {
-                let bytes = self.bricks[b as usize].to_le_bytes();
-                (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a)
-            }
+            DagRef::Brick(b) => brick_mask(self.bricks[b as usize]),
             DagRef::LeafParent(m) => m,
         }
     }

@@ -4,7 +4,7 @@
 //! passes.
 
 use super::build::Dag;
-use super::levels::DagLevels;
+use super::levels::{DagLevels, brick_mask};
 use crate::octree::RootCube;
 use crate::octree::bounds::leaf_parent_code;
 use crate::octree::tree::{LeafAttributes, Octree};
@@ -67,12 +67,17 @@ impl DagTree {
         if tree.depth < 2 {
             return Err(DagError::TooShallow);
         }
-        Self::from_levels(tree.root, DagLevels::of(&Dag::from_tree(tree)))
+        let graph = DagLevels::of(&Dag::from_tree(tree));
+        Self::from_levels(tree.root, graph, u64::from(tree.leaf_count))
     }
 
-    /// The walkable form of a graph that passed the reader's checks.
-    pub(crate) fn from_levels(root: RootCube, graph: DagLevels) -> Result<Self, DagError> {
-        let leaves = graph.tree_size().leaves;
+    /// The walkable form of a graph that passed the reader's checks, whose tree has `leaves`
+    /// leaves.
+    pub(crate) fn from_levels(
+        root: RootCube,
+        graph: DagLevels,
+        leaves: u64,
+    ) -> Result<Self, DagError> {
         if leaves > MAX_LEAVES {
             return Err(DagError::TooManyLeaves(leaves));
         }
@@ -162,13 +167,6 @@ pub(crate) struct DagNode {
     base: u32,
     /// The code of the box of its leaves.
     boxed: u32,
-}
-
-/// The child mask of a brick: its nonzero bytes.
-#[inline]
-fn brick_mask(b: u64) -> u8 {
-    let bytes = b.to_le_bytes();
-    (0..8).fold(0u8, |m, a| m | u8::from(bytes[a] != 0) << a)
 }
 
 impl DagTree {

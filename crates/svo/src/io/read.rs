@@ -6,7 +6,7 @@
 
 #[cfg(feature = "trace")]
 use crate::dag::DagTree;
-use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES};
+use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES, TreeSize};
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
@@ -507,8 +507,7 @@ fn dag_nodes(
     levels: &Levels,
     blocks: &[Vec<Vec<u8>>],
 ) -> Result<Vec<Node>, FormatError> {
-    let dag = dag_levels(h, levels, blocks)?;
-    let size = dag.tree_size();
+    let (dag, size) = dag_levels(h, levels, blocks)?;
     if size.leaves > MAX_LEAVES || size.nodes > MAX_LEAVES {
         return Err(FormatError::DagTooLarge {
             leaves: size.leaves,
@@ -518,28 +517,28 @@ fn dag_nodes(
     Ok(dag.to_nodes())
 }
 
-/// The graph the blocks of a file of the DAG layout hold: checks 14 to 16 on its levels and 17
-/// on its leaves.
+/// The graph the blocks of a file of the DAG layout hold, and the size of its tree: checks 14
+/// to 16 on its levels and 17 on its leaves.
 fn dag_levels(
     h: &Header,
     levels: &Levels,
     blocks: &[Vec<Vec<u8>>],
-) -> Result<DagLevels, FormatError> {
+) -> Result<(DagLevels, TreeSize), FormatError> {
     let arrays: Vec<&[u8]> = blocks.iter().map(|b| b[0].as_slice()).collect();
     let counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
     let dag = DagLevels::from_blocks(h.depth, &arrays, &counts)
         .map_err(|(check, detail)| corrupt(check, detail))?;
-    let leaves = dag.tree_size().leaves;
-    if leaves != h.leaf_count {
+    let size = dag.tree_size();
+    if size.leaves != h.leaf_count {
         return Err(corrupt(
             Check::LeafOrder,
             format!(
-                "the graph stands for {leaves} leaves, the header says {}",
-                h.leaf_count
+                "the graph stands for {} leaves, the header says {}",
+                size.leaves, h.leaf_count
             ),
         ));
     }
-    Ok(dag)
+    Ok((dag, size))
 }
 
 /// Checks 7 to 9 of a version-3 header: the depth, the chunk level below it, the root cube,
@@ -1113,9 +1112,9 @@ pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), For
             return Err(corrupt(Check::Header, "a version-4 header without levels"));
         };
         check_level_hashes(levels, &blocks)?;
-        let graph = dag_levels(&p.header, levels, &blocks)?;
+        let (graph, size) = dag_levels(&p.header, levels, &blocks)?;
         check_values(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
-        let mut dag = DagTree::from_levels(tree.root, graph)?;
+        let mut dag = DagTree::from_levels(tree.root, graph, size.leaves)?;
         dag.attributes = tree.attributes;
         Ok((dag, p))
     })?;
