@@ -8,6 +8,7 @@ use crate::bake::estimate::{Estimate, estimate};
 use crate::geometry::grid::RootCube;
 use crate::geometry::triangle_setup::{setup_triangles_in_order, spatial_order};
 use crate::mesh::triangle_mesh::{Mesh, MeshError};
+use crate::octree::level_order::{into_level_order, keeps_level_order};
 use crate::octree::tree::{ChannelKind, ChannelStorage, LeafAttributes, Octree};
 use crate::solid::mode::SolidMode;
 use crate::voxelize::build::{self as octree_build, LeafTriangles};
@@ -165,8 +166,9 @@ pub struct BakeStats {
     pub attributes_s: f64,
     /// Seconds spent on contours.
     pub contours_s: f64,
-    /// Seconds spent on the inner nodes' contours and channels after the build (their other
-    /// values are made during it, within `voxelize_s` and `attributes_s`).
+    /// Seconds spent on the inner nodes' contours and channels after the build, and on putting
+    /// the nodes in level order (their other values are made during the build, within
+    /// `voxelize_s` and `attributes_s`).
     pub node_attributes_s: f64,
     /// The solid mode, when the inside was filled.
     pub solid: Option<String>,
@@ -358,7 +360,6 @@ pub(crate) fn bake_for_file(
         LeafAttributes::default()
     };
     drop(node_values);
-    let node_attributes_s = t_nodes.elapsed().as_secs_f64();
     let mut tree = Octree {
         root,
         depth: opts.depth,
@@ -367,6 +368,10 @@ pub(crate) fn bake_for_file(
         attributes,
         node_attributes,
     };
+    if keeps_level_order(&tree) {
+        into_level_order(&mut tree);
+    }
+    let node_attributes_s = t_nodes.elapsed().as_secs_f64();
     let (mut interior_leaves, mut solid_s) = (0, 0.0);
     if let Some(mode) = opts.solid {
         let t = Instant::now();

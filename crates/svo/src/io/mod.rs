@@ -27,7 +27,6 @@ pub(crate) mod describe;
 pub(crate) mod header;
 #[cfg(test)]
 mod hostile_tests;
-pub(crate) mod levels;
 pub(crate) mod read;
 #[cfg(feature = "vox")]
 pub(crate) mod vox;

@@ -12,12 +12,12 @@ use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
     Levels, MAGIC, MAX_HEADER_LEN, NodeStorage, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
-use crate::io::levels::{check_level_order, depth_first};
 pub(crate) use crate::io::write::FormatError;
 use crate::io::write::block_hash;
 use crate::octree::format_check::{
     CHUNKED_VERSION, Check, DAG_LAYOUT, LEVELS_VERSION, MAX_CHUNK_LEVEL,
 };
+use crate::octree::level_order::{check_level_order, depth_first};
 use crate::octree::stitch::{self, Piece, Stub, moved};
 use crate::octree::tree::{Channel, ChannelKind, LeafAttributes, Node, Octree};
 use crate::octree::validate::{
@@ -777,7 +777,8 @@ fn check_level_hashes(levels: &Levels, blocks: &[Vec<Vec<u8>>]) -> Result<(), Fo
 
 /// The top of a tree stored level by level.
 pub(crate) struct TopLevels {
-    /// The nodes of the levels walked, in the canonical depth-first order.
+    /// The nodes of the levels walked, in the canonical order: level order where the tree
+    /// keeps inner-node channels, else depth-first.
     pub nodes: Vec<Node>,
     /// The inner nodes' channels (a leaf parent's values, which files do not store, are 0).
     pub node_attributes: LeafAttributes,
@@ -818,9 +819,8 @@ pub(crate) fn from_levels(
             }
         }
     }
-    let (nodes, at) = depth_first(&bfs);
-    // A level's values, put where depth-first order has them (the leaf parents' stay 0), or
-    // the next level's as leaves'.
+    // A level's values in level order (the leaf parents' stay 0), or the next level's as
+    // leaves'.
     let mut node_attributes = LeafAttributes::default();
     let mut leaf_attributes = LeafAttributes::default();
     let keeps = |l: usize| l + 2 <= usize::from(depth);
@@ -837,15 +837,14 @@ pub(crate) fn from_levels(
             }
             NodeStorage::PerNode => {
                 let size = ChannelKind::ALL[usize::from(e.kind)].element_size();
-                let mut all = vec![0u8; nodes.len() * size];
+                let mut all = vec![0u8; bfs.len() * size];
                 let mut i = 0usize;
                 for (l, block) in blocks[..walked].iter().enumerate() {
                     let n = block[0].len() / 8;
                     if keeps(l) && l + 1 < walked {
-                        for (j, v) in block[array].chunks_exact(size).enumerate() {
-                            let d = at[i + j] as usize * size;
-                            all[d..d + size].copy_from_slice(v);
-                        }
+                        // Check 12 held: one value a node of the level.
+                        let len = (n * size).min(block[array].len());
+                        all[i * size..i * size + len].copy_from_slice(&block[array][..len]);
                     }
                     i += n;
                 }
@@ -865,6 +864,12 @@ pub(crate) fn from_levels(
         node_attributes = LeafAttributes::default();
         leaf_attributes = LeafAttributes::default();
     }
+    // A tree without inner-node channels keeps the depth-first order.
+    let nodes = if node_attributes.stored().is_empty() {
+        depth_first(&bfs).0
+    } else {
+        bfs
+    };
     Ok(TopLevels {
         nodes,
         node_attributes,

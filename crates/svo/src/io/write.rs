@@ -8,10 +8,10 @@ use crate::io::header::{
     LevelEntry, Levels, MAGIC, NodeChannelEntry, NodeStorage, PREAMBLE_LEN, Storage,
     bincode_config,
 };
-use crate::io::levels::level_order;
 use crate::octree::format_check::{
     CHUNKED_VERSION, Check, DAG_LAYOUT, LEVELS_VERSION, MAX_CHUNK_LEVEL, PLAIN_VERSION,
 };
+use crate::octree::level_order::{depth_first, keeps_level_order, level_order};
 use crate::octree::stitch;
 use crate::octree::tree::{ChannelKind, Node, Octree, StoredChannel};
 use crate::octree::validate::{InfoBits, check_tree};
@@ -138,8 +138,8 @@ impl Write for Hashing<'_> {
 }
 
 /// Streams an octree in the `.svo` format to `w` (arrays are written straight from memory,
-/// not copied into a buffer first, but for a tree with inner-node attributes, whose nodes are
-/// renumbered level by level) and returns the number of bytes written: version 4 for a tree
+/// not copied into a buffer first, but for a tree with inner-node attributes, whose levels'
+/// blocks, nodes and values side by side, are put together first) and returns the number of bytes written: version 4 for a tree
 /// with [`Octree::node_attributes`], version 2 for another.
 pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
     // A tree a reader would refuse is not written (trees that svo builds pass). Bits 8-31
@@ -379,7 +379,15 @@ pub fn write_chunked_to(
         ));
     }
     let (channels, arrays) = checked_channels(tree)?;
-    let cuts = stitch::cut(tree, level);
+    // Chunks are depth-first subtrees (version 3 keeps no inner-node channels).
+    let depth_first_nodes;
+    let nodes = if keeps_level_order(tree) {
+        depth_first_nodes = depth_first(&tree.nodes).0;
+        &depth_first_nodes
+    } else {
+        &tree.nodes
+    };
+    let cuts = stitch::cut(nodes, level);
     let table: Vec<ChunkRecord> = cuts
         .iter()
         .map(|c| ChunkRecord {
@@ -406,7 +414,7 @@ pub fn write_chunked_to(
             for (c, r) in cuts.iter().zip(&table) {
                 for j in 0..r.nodes as usize {
                     // A subtree of a checked tree numbers within 2^31.
-                    buf.push(c.local(tree, j).unwrap_or_default());
+                    buf.push(c.local(nodes, j).unwrap_or_default());
                     if buf.len() == 4096 {
                         out.write_all(bytemuck::cast_slice(&buf))?;
                         buf.clear();

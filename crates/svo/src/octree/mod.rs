@@ -14,6 +14,7 @@ pub(crate) mod contour;
 pub(crate) mod encoding;
 pub(crate) mod format_check;
 pub(crate) mod layout;
+pub(crate) mod level_order;
 pub(crate) mod normal_encoding;
 pub(crate) mod query;
 #[cfg(feature = "io")]

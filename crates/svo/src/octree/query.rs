@@ -90,7 +90,8 @@ impl Octree {
 
     /// Checks the tree as the `.svo` reader checks every file (`docs/format.md`, checks 7 to
     /// 10 and 14 to 18): depth, root cube, counts, channels, the tree's shape, the canonical
-    /// node order, leaves numbered depth-first, and the stored values; and bits 8-31 of the
+    /// node order (level order for a tree with inner-node attributes, else depth-first; see
+    /// [`Octree::nodes`]), leaves numbered depth-first, and the stored values; and bits 8-31 of the
     /// nodes' `info` words, which must be zero (as in a file) or the nodes' bounds
     /// ([`Octree::refresh_bounds`]). The error ([`OctreeError::Invalid`]) names the check
     /// (`check 16 (node order): ...`).

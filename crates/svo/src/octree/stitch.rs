@@ -9,7 +9,7 @@
 //! their parents' blocks), and each subtree's nodes below its root, for the caller to copy
 //! with its pointers moved.
 
-use crate::octree::tree::{Node, Octree};
+use crate::octree::tree::Node;
 use std::ops::Range;
 
 /// A node record with its pointers moved: an inner node's `first` by `nodes_by`, a leaf
@@ -38,8 +38,8 @@ pub(crate) fn moved(n: Node, nodes_by: i64, leaves_by: i64) -> Option<Node> {
     }
 }
 
-/// A subtree of a tree cut at a level, as a tree of its own: its root is `tree.nodes[root]`,
-/// the nodes below it are `tree.nodes[below]` (contiguous in the canonical order), and its
+/// A subtree of a tree cut at a level, as a tree of its own: its root is `nodes[root]`, the
+/// nodes below it are `nodes[below]` (contiguous in the depth-first order), and its
 /// leaves are `leaf_base..leaf_base + leaves`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct Cut {
@@ -58,12 +58,11 @@ pub(crate) struct Cut {
 impl Cut {
     /// Node `i` of the subtree numbered on its own (the root 0, the nodes below it from 1),
     /// its leaves from 0: `None` past its last node.
-    pub(crate) fn local(&self, tree: &Octree, i: usize) -> Option<Node> {
+    pub(crate) fn local(&self, nodes: &[Node], i: usize) -> Option<Node> {
         let n = if i == 0 {
-            tree.nodes[self.root]
+            nodes[self.root]
         } else {
-            *tree
-                .nodes
+            *nodes
                 .get(self.below.start + i - 1)
                 .filter(|_| i <= self.below.len())?
         };
@@ -71,20 +70,20 @@ impl Cut {
     }
 }
 
-/// The subtrees of `tree` under the nodes at `level` (`< tree.depth`), in increasing code;
-/// none for the empty tree.
-pub(crate) fn cut(tree: &Octree, level: u8) -> Vec<Cut> {
+/// The subtrees of the tree of depth-first `nodes` under the nodes at `level` (above its
+/// depth), in increasing code; none for the empty tree.
+pub(crate) fn cut(nodes: &[Node], level: u8) -> Vec<Cut> {
     let mut out = Vec::new();
     let mut leaf_base = 0u64;
     // (node, level, code), children pushed last first so they pop in child order.
     let mut stack = vec![(0usize, 0u8, 0u64)];
     while let Some((i, l, code)) = stack.pop() {
-        let n = tree.nodes[i];
+        let n = nodes[i];
         if n.child_mask() == 0 {
             continue;
         }
         if l == level {
-            let (below, leaves) = extent(tree, i);
+            let (below, leaves) = extent(nodes, i);
             out.push(Cut {
                 code,
                 root: i,
@@ -106,8 +105,8 @@ pub(crate) fn cut(tree: &Octree, level: u8) -> Vec<Cut> {
 }
 
 /// The nodes below node `i` (a contiguous range in the canonical order) and its leaves.
-fn extent(tree: &Octree, i: usize) -> (Range<usize>, u64) {
-    let n = tree.nodes[i];
+fn extent(nodes: &[Node], i: usize) -> (Range<usize>, u64) {
+    let n = nodes[i];
     if n.is_leaf_parent() {
         let at = i + 1;
         return (at..at, u64::from(n.child_mask().count_ones()));
@@ -115,7 +114,7 @@ fn extent(tree: &Octree, i: usize) -> (Range<usize>, u64) {
     let (mut count, mut leaves) = (0usize, 0u64);
     let mut stack = vec![i];
     while let Some(j) = stack.pop() {
-        let m = tree.nodes[j];
+        let m = nodes[j];
         let k = m.child_mask().count_ones() as usize;
         if m.is_leaf_parent() {
             leaves += k as u64;
@@ -313,7 +312,7 @@ mod tests {
                 };
                 let tree = Octree::from_cells(root, depth, cells).unwrap();
                 for target in 0..depth {
-                    let subs = cut(&tree, target);
+                    let subs = cut(&tree.nodes, target);
                     assert_eq!(
                         subs.iter().map(|s| s.leaves).sum::<u64>(),
                         u64::from(tree.leaf_count)
@@ -328,7 +327,7 @@ mod tests {
                     assert_eq!(node_count(&stubs, target), tree.nodes.len() as u64);
                     let mut nodes = Vec::new();
                     let back = |s: &Cut, i: usize, at: u64| {
-                        let n = s.local(&tree, i).unwrap();
+                        let n = s.local(&tree.nodes, i).unwrap();
                         moved(n, at as i64 - 1, s.leaf_base as i64).unwrap()
                     };
                     stitch::<()>(&stubs, target, &mut |p| {

@@ -383,7 +383,10 @@ pub struct Octree {
     pub root: RootCube,
     /// Levels below the root: leaves are cells of a `2^depth` grid. At least 1.
     pub depth: u8,
-    /// Packed nodes, root first.
+    /// Packed nodes, root first, in the canonical order: level by level (each level's
+    /// children blocks in the order of their parents) for a tree with inner-node attributes,
+    /// depth-first (a node's children block, then the children's subtrees from the last child
+    /// to the first) for a tree without them. `docs/format.md` gives both orders.
     pub nodes: Vec<Node>,
     /// How many leaves.
     pub leaf_count: u32,

@@ -5,7 +5,8 @@
 //! [`Check`].
 //!
 //! The tree must be in the canonical layout: children blocks where the canonical node order
-//! puts them and leaves numbered in depth-first child order. Checking positions against
+//! puts them (level order for a tree with inner-node attributes, else depth-first) and leaves
+//! numbered in depth-first child order. Checking positions against
 //! counters of where the next block and the next leaf belong rules out cycles, sharing,
 //! orphans and out-of-range references at once, and needs no memory per node or leaf.
 
@@ -13,6 +14,7 @@ use crate::geometry::grid::RootCube;
 use crate::octree::contour::FULL;
 use crate::octree::format_check::CURRENT_VERSION;
 use crate::octree::format_check::Check;
+use crate::octree::level_order::{check_level_order, keeps_level_order, level_counts};
 use crate::octree::tree::{
     Channel, ChannelKind, ChannelStorage, LeafAttributes, NO_NORMAL, Node, Octree, StoredChannel,
 };
@@ -90,7 +92,12 @@ pub(crate) fn check_tree(t: &Octree, version: u32, bits: InfoBits) -> Result<(),
     if bits == InfoBits::Zero {
         check_node_words(&t.nodes)?;
     }
-    let leaf_order = check_shape_and_node_order(&t.nodes, t.depth, true, leaves)?;
+    let leaf_order = if keeps_level_order(t) {
+        check_level_order_whole(&t.nodes, t.depth, leaves)?;
+        true
+    } else {
+        check_shape_and_node_order(&t.nodes, t.depth, true, leaves)?
+    };
     if bits == InfoBits::Bounds && t.nodes.iter().any(|n| n.info >> 8 != 0) {
         // The shape is sound, so each node's bounds are known.
         let mut derived = t.nodes.clone();
@@ -235,6 +242,20 @@ pub(crate) fn check_chunk(nodes: &[Node], levels: u8, leaves: u64) -> Result<(),
         check_leaf_order(nodes, leaves)?;
     }
     Ok(())
+}
+
+/// Checks 15 to 17 on the node array of a tree of `depth` levels in level order (a tree with
+/// inner-node attributes), its levels' counts read from the array itself.
+fn check_level_order_whole(nodes: &[Node], depth: u8, leaf_count: u64) -> Result<(), Failure> {
+    let counts = level_counts(nodes, depth);
+    let (walked, n) = (counts.iter().sum::<u64>(), nodes.len() as u64);
+    if walked != n {
+        return Err((
+            Check::NodeOrder,
+            format!("nodes {walked}..{n} are not in the tree"),
+        ));
+    }
+    check_level_order(nodes, &counts, usize::from(depth), depth, leaf_count)
 }
 
 /// Checks 15 and 16 on the node array of a tree of `depth` levels: walks the nodes in the

@@ -10,6 +10,8 @@ use rand::Rng;
 use svo::octree::Channel;
 use svo::{BakeOptions, Material, Mesh, Octree, bake_mesh, with_threads};
 
+use crate::order::{is_level_order, same_shape};
+
 /// `n` random triangles of about `size` in the unit cube, in two materials (red and blue)
 /// where `colours` is set.
 fn random_mesh(seed: u64, n: usize, size: f64, colours: bool) -> Mesh {
@@ -229,7 +231,9 @@ fn node_attributes_do_not_depend_on_the_thread_count_nor_change_the_leaves() {
     )
     .unwrap()
     .0;
-    assert_eq!(plain.nodes, one.nodes);
+    // The same shape, the nodes level by level where they carry values.
+    assert!(same_shape(&plain, &one));
+    assert!(is_level_order(&one) && !is_level_order(&plain));
     assert_eq!(plain.attributes, one.attributes);
     assert_eq!(
         plain.node_attributes,
@@ -241,8 +245,38 @@ fn node_attributes_do_not_depend_on_the_thread_count_nor_change_the_leaves() {
         _ => 0,
     };
     assert_eq!(per_node(&one.node_attributes.contour), one.nodes.len());
-    // The tree checks out; a node channel one value short does not.
+    // The tree checks out; in depth-first order with its values it does not.
     one.validate().unwrap();
+    // (Constant values, so that only the order can fail.)
+    fn constant<T: Copy + Default>(c: &Channel<T>) -> Channel<T> {
+        match c {
+            Channel::Absent => Channel::Absent,
+            _ => Channel::Constant(T::default()),
+        }
+    }
+    let a = &one.node_attributes;
+    let constants = svo::octree::LeafAttributes {
+        normal: constant(&a.normal),
+        contour: constant(&a.contour),
+        colour: constant(&a.colour),
+        reflectivity: constant(&a.reflectivity),
+        refractivity: constant(&a.refractivity),
+        ior: constant(&a.ior),
+    };
+    Octree {
+        node_attributes: constants.clone(),
+        ..one.clone()
+    }
+    .validate()
+    .unwrap();
+    let depth_first = Octree {
+        nodes: plain.nodes.clone(),
+        node_attributes: constants,
+        ..one.clone()
+    };
+    let err = depth_first.validate().unwrap_err().to_string();
+    assert!(err.contains("check 16"), "{err}");
+    // Nor does one with a node channel one value short.
     let mut short = one.clone();
     if let Channel::PerLeaf(v) = &mut short.node_attributes.normal {
         v.pop();

@@ -14,8 +14,8 @@
 use crate::attributes::node_attributes::{Uniform, node_contours};
 use crate::attributes::surface_sums::{NodeRule, NodeValue, SurfaceSums};
 use crate::bake::parts::part::PartStorage;
-use crate::io::levels::level_order;
 use crate::octree::ChannelKind;
+use crate::octree::level_order::level_order;
 use crate::octree::tree::{LeafAttributes, Node};
 use crate::voxelize::build::Subtree;
 use serde::{Deserialize, Serialize};
