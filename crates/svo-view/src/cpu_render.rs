@@ -2,7 +2,8 @@
 //! hit as cubes, contours or, with the mesh, the mesh's triangles), the triangle reference's
 //! (`--reference`), or both measured against each other (`--compare`); once, or timed over
 //! frames (`--bench`); or the primary rays alone cast and timed (`--cast`). A version-3 file
-//! past what one tree in memory holds is rendered chunk by chunk as one tree.
+//! past what one tree in memory holds is rendered chunk by chunk as one tree; a DAG file is
+//! rendered on its graph, its tree never made (where the job needs no mesh and no prefix).
 
 use crate::job::{JobError, RenderJob, diff_path, load_reference, prepare, sibling, write_output};
 use crate::report::{CameraReport, CompareReport, CpuRun, FrameReport, FrameTiming};
@@ -10,13 +11,16 @@ use crate::timing::{cast_timed, render_timed};
 use svo::FormatError;
 use svo::io::ChunkedFile;
 use svo::render::{
-    Camera, ChunkTree, ChunkedSurfaces, Frame, MeshSurfaces, OctreeSurfaces, RenderScene,
-    RenderStats, SetupError, Surfaces, Tracer, compare, write_png,
+    Camera, ChunkTree, ChunkedSurfaces, DagSurfaces, Frame, MeshSurfaces, OctreeSurfaces,
+    RenderScene, RenderStats, SetupError, Surfaces, Tracer, compare, write_png,
 };
 use svo::trace::HitMode;
 
 /// Runs a render job on the CPU (see the module docs).
 pub fn render_file(job: &RenderJob) -> Result<FrameReport, JobError> {
+    if renders_as_graph(job)? {
+        return svo::with_threads(job.threads, |threads| render_graph(job, threads))?;
+    }
     svo::with_threads(job.threads, |threads| match prepare(job) {
         Err(JobError::Setup(SetupError::Format(FormatError::TooLarge { .. }))) => {
             render_chunked(job, threads)
@@ -270,6 +274,51 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
     })
 }
 
+/// Whether the job renders a DAG file as its graph, its tree never made: a DAG file, in the
+/// cube or contour hit mode, whole, without the mesh. (Other jobs on it read the tree.)
+fn renders_as_graph(job: &RenderJob) -> Result<bool, JobError> {
+    let plain = job.reference.is_none()
+        && job.mesh.is_none()
+        && job.max_depth.is_none()
+        && job.trace.mode != HitMode::Exact;
+    if !plain {
+        return Ok(false);
+    }
+    job.check()?;
+    Ok(svo::io::is_dag_file(&job.input).map_err(SetupError::from)?)
+}
+
+/// The job on a DAG file, traced on its graph ([`DagSurfaces`]: the tree's hits and image,
+/// in the memory of the graph and the leaves' channels).
+fn render_graph(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError> {
+    let (dag, build) = svo::io::read_dag_file(&job.input).map_err(SetupError::from)?;
+    let (lo, hi) = dag.occupied_bounds();
+    let stage = job.setup()?.stage(dag.depth(), lo, hi, &build.scene)?;
+    let s = DagSurfaces::new(&dag, job.trace.mode);
+    let tracer = Tracer::new(s, &stage.lights, stage.sky, stage.phong, job.trace);
+    let shown = timed(job, &tracer, &stage.camera)?;
+    let (output, cost_scale) = write_frame(job, &shown)?;
+    Ok(FrameReport {
+        width: stage.camera.width,
+        height: stage.camera.height,
+        depth: dag.depth(),
+        leaves: u64::from(dag.leaf_count()),
+        hit: job.trace.mode.name(),
+        timing: FrameTiming::new(&shown.times, &shown.stats),
+        stats: shown.stats,
+        output,
+        camera: CameraReport::of(&stage.camera),
+        cpu: Some(CpuRun {
+            threads,
+            cost_scale,
+            compare: None,
+            lod: job.trace.lod,
+            lod_applied: false,
+        }),
+        gpu: None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -337,5 +386,54 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("without --reference"), "{e}");
+    }
+
+    /// A DAG file renders on its graph the image its tree layout's file renders, byte for
+    /// byte, with the same hits and steps (for the depth AOV too); a job that needs the tree (a
+    /// prefix) reads the tree.
+    #[test]
+    fn a_dag_file_renders_on_its_graph_the_image_of_its_tree() {
+        let dir = tempfile::tempdir().unwrap();
+        let torus = svo::Mesh::load(svo_tests::repo_root().join("fixtures/torus.obj")).unwrap();
+        let opts = svo::BakeOptions {
+            depth: 7,
+            ..Default::default()
+        };
+        let tree = svo::bake_mesh(&torus, &opts).unwrap().0;
+        let (tree_path, dag_path) = (dir.path().join("t.svo"), dir.path().join("d.svo"));
+        let build = svo::io::BuildInfo::new();
+        svo::io::write_file(&tree, &build, &tree_path).unwrap();
+        svo::io::write_dag_file(&tree, &build, &dag_path).unwrap();
+        let job = |input: &std::path::Path, name: &str, aov: svo::render::Aov| RenderJob {
+            input: input.to_path_buf(),
+            output: Some(dir.path().join(name)),
+            width: 96,
+            height: 72,
+            threads: Some(2),
+            aov,
+            ..RenderJob::default()
+        };
+        for (aov, ext) in [
+            (svo::render::Aov::Colour, "png"),
+            (svo::render::Aov::Depth, "pfm"),
+        ] {
+            let (a, b) = (format!("tree.{ext}"), format!("dag.{ext}"));
+            assert!(renders_as_graph(&job(&dag_path, &b, aov)).unwrap());
+            assert!(!renders_as_graph(&job(&tree_path, &a, aov)).unwrap());
+            let on_tree = render_file(&job(&tree_path, &a, aov)).unwrap();
+            let on_graph = render_file(&job(&dag_path, &b, aov)).unwrap();
+            assert!(on_tree.stats.primary_hits > 500, "{:?}", on_tree.stats);
+            assert_eq!(on_graph.stats.primary_hits, on_tree.stats.primary_hits);
+            assert_eq!(on_graph.stats.shadow_rays, on_tree.stats.shadow_rays);
+            assert_eq!(on_graph.leaves, on_tree.leaves);
+            let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+            assert!(read(&a) == read(&b), "{aov:?}");
+        }
+        let prefix = RenderJob {
+            max_depth: Some(5),
+            ..job(&dag_path, "prefix.png", svo::render::Aov::Colour)
+        };
+        assert!(!renders_as_graph(&prefix).unwrap());
+        assert_eq!(render_file(&prefix).unwrap().depth, 5);
     }
 }

@@ -12,6 +12,8 @@ use crate::octree::validate::MAX_LEAVES;
 use crate::trace::GridRay;
 use crate::trace::cone::Cone;
 use crate::trace::traverse::{LeafEntry, Traversal, WalkNodes, traverse_from};
+use glam::{DVec3, UVec3};
+use std::collections::BinaryHeap;
 use thiserror::Error;
 
 /// Why a [`DagTree`] cannot be made.
@@ -54,7 +56,7 @@ pub struct DagTree {
     /// Per level above the bricks, per child word: the leaves below the earlier children.
     before: Vec<Vec<u32>>,
     leaf_count: u32,
-    /// The leaves' channels, in Morton order (none for a graph made by [`Self::from_tree`]).
+    /// The leaves' channels, in Morton order.
     pub(crate) attributes: LeafAttributes,
     /// The codes of the boxes of the nodes' leaves: per level above the bricks, and per brick.
     boxes: Vec<Vec<u32>>,
@@ -62,13 +64,16 @@ pub struct DagTree {
 }
 
 impl DagTree {
-    /// The graph of `tree`'s geometry (its values are not part of it).
+    /// The graph of `tree`'s geometry, with a copy of its leaves' channels (its inner nodes'
+    /// are not kept: shared subtrees hold no values of their own).
     pub fn from_tree(tree: &Octree) -> Result<Self, DagError> {
         if tree.depth < 2 {
             return Err(DagError::TooShallow);
         }
         let graph = DagLevels::of(&Dag::from_tree(tree));
-        Self::from_levels(tree.root, graph, u64::from(tree.leaf_count))
+        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count))?;
+        dag.attributes = tree.attributes.clone();
+        Ok(dag)
     }
 
     /// The walkable form of a graph that passed the reader's checks, whose tree has `leaves`
@@ -115,9 +120,80 @@ impl DagTree {
     }
 
     /// The leaves' channels, in the tree's Morton order (what [`crate::io::read_dag_file`]
-    /// read; none for a graph made by [`Self::from_tree`]).
+    /// read, or the tree's that [`Self::from_tree`] copied).
     pub fn attributes(&self) -> &LeafAttributes {
         &self.attributes
+    }
+
+    /// The least and greatest cells of the leaves on each axis (`None` for a tree without
+    /// leaves): what [`Octree::occupied_cells`] gives for the tree, found by a best-first
+    /// descent of the graph per axis and side.
+    pub fn occupied_cells(&self) -> Option<(UVec3, UVec3)> {
+        let (mut lo, mut hi) = (UVec3::ZERO, UVec3::ZERO);
+        for axis in 0..3 {
+            lo[axis] = self.extreme_cell(axis, false)?;
+            hi[axis] = self.extreme_cell(axis, true)?;
+        }
+        Some((lo, hi))
+    }
+
+    /// [`Self::occupied_cells`] in scene units: the box of the leaves' cells, the root cube
+    /// for a tree without leaves.
+    pub fn occupied_bounds(&self) -> (DVec3, DVec3) {
+        let Some((lo, hi)) = self.occupied_cells() else {
+            return (self.root.origin, self.root.origin + self.root.side);
+        };
+        let at = |c: DVec3| self.root.to_scene(c, self.depth());
+        (at(lo.as_dvec3()), at(hi.as_dvec3() + DVec3::ONE))
+    }
+
+    /// The least (or, with `max`, the greatest) coordinate on `axis` of a leaf's cell.
+    fn extreme_cell(&self, axis: usize, max: bool) -> Option<u32> {
+        // How far a cube reaches toward the side sought, larger is further.
+        let reach = |origin: UVec3, side: u32| {
+            if max {
+                origin[axis] + (side - 1)
+            } else {
+                u32::MAX - origin[axis]
+            }
+        };
+        // A max-heap of (reach, side's complement, node in `nodes`, minimum cell): the
+        // furthest first and, among equals, the smallest; a side of 0 is a leaf.
+        let mut nodes = vec![WalkNodes::root(self)?];
+        let mut heap = BinaryHeap::new();
+        let n = 1u32 << self.depth();
+        heap.push((reach(UVec3::ZERO, n), u32::MAX - n, 0usize, [0u32; 3]));
+        while let Some((_, inv, k, origin)) = heap.pop() {
+            let (side, origin) = (u32::MAX - inv, UVec3::from_array(origin));
+            if side == 0 {
+                return Some(origin[axis]);
+            }
+            let node = nodes[k];
+            let half = side / 2;
+            let mask = Self::mask(node);
+            for real in (0..8u8).filter(|c| mask >> c & 1 == 1) {
+                let offset = UVec3::new(
+                    u32::from(real >> 2 & 1),
+                    u32::from(real >> 1 & 1),
+                    u32::from(real & 1),
+                ) * half;
+                let at = origin + offset;
+                if Self::is_leaf_parent(node) {
+                    heap.push((reach(at, 1), u32::MAX, 0, at.to_array()));
+                    continue;
+                }
+                let rank = (mask & ((1u8 << real) - 1)).count_ones();
+                let child = self.child(node, real, rank)?;
+                nodes.push(child);
+                heap.push((
+                    reach(at, half),
+                    u32::MAX - half,
+                    nodes.len() - 1,
+                    at.to_array(),
+                ));
+            }
+        }
+        None
     }
 
     /// Distinct nodes on each level, the root's first, the bricks last (`depth - 1` levels).

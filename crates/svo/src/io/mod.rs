@@ -40,7 +40,7 @@ pub use header::{BuildInfo, VERSION};
 #[cfg(feature = "trace")]
 pub use read::read_dag_file;
 pub use read::{
-    LevelSizes, from_bytes, read_file, read_file_to_depth, read_from, read_level_sizes,
+    LevelSizes, from_bytes, is_dag_file, read_file, read_file_to_depth, read_from, read_level_sizes,
 };
 #[cfg(feature = "vox")]
 pub use vox::write_vox;

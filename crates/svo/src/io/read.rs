@@ -1107,9 +1107,10 @@ fn read_stream<X>(
 pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), FormatError> {
     let (dag, p, ..) = read_path(path.as_ref(), &mut |raw, p| {
         if !is_dag(&p.header) {
-            let (tree, p) = finish_tree(raw, p)?;
+            let (mut tree, p) = finish_tree(raw, p)?;
+            let attributes = std::mem::take(&mut tree.attributes);
             let mut dag = DagTree::from_tree(&tree)?;
-            dag.attributes = tree.attributes;
+            dag.attributes = attributes;
             return Ok((dag, p));
         }
         let Raw { tree, blocks, .. } = raw;
@@ -1380,6 +1381,18 @@ pub struct LevelSizes {
     pub leaf_bytes: u64,
     /// Bytes of an inner node's per-node channels (on levels `0 .. depth - 2`).
     pub node_bytes: u64,
+}
+
+/// Whether the file at `path` is of the DAG layout (a version-4 file whose levels hold a
+/// graph, `docs/format.md` section 12), read from its header (checks 1 to 4, 20, 6 to 12 and
+/// 21): what [`read_dag_file`] reads without making the tree.
+pub fn is_dag_file(path: impl AsRef<Path>) -> Result<bool, FormatError> {
+    let start = FileStart::open(path.as_ref())?;
+    if start.version < LEVELS_VERSION {
+        return Ok(false);
+    }
+    let (_, levels, _) = start.levels_header()?;
+    Ok(levels.layout == DAG_LAYOUT)
 }
 
 /// The level sizes of the version-4 file at `path`, read from its header (checks 1 to 4, 20,

@@ -33,11 +33,13 @@
 pub(crate) mod aov;
 pub(crate) mod camera;
 pub(crate) mod chunked_surfaces;
+pub(crate) mod dag_surfaces;
 pub(crate) mod exact_surfaces;
 pub(crate) mod frame;
 pub(crate) mod image_compare;
 #[cfg(feature = "image-io")]
 pub(crate) mod image_write;
+pub(crate) mod leaf_values;
 #[cfg(feature = "reference")]
 pub(crate) mod mesh_reference;
 pub(crate) mod primary_cast;
@@ -52,6 +54,7 @@ pub(crate) mod whitted;
 pub use aov::{Aov, colour_rgb8, cost_rgb8};
 pub use camera::{Camera, CameraError, CameraRays};
 pub use chunked_surfaces::{ChunkTree, ChunkedSurfaces};
+pub use dag_surfaces::DagSurfaces;
 pub use exact_surfaces::{ExactLeaves, exact_surfaces};
 pub use frame::{Frame, NO_LEAF, RenderStats, render, render_into};
 pub use image_compare::{ImageDiff, compare};

@@ -4,9 +4,8 @@
 //! same camera, lights and shading and their images can be compared pixel for pixel.
 
 use crate::geometry::grid::RootCube;
-use crate::mesh::triangle_mesh::srgb_to_linear;
-use crate::octree::encoding::ior_decode;
-use crate::octree::tree::{LeafAttributes, Octree};
+use crate::octree::tree::Octree;
+use crate::render::leaf_values::{LeafValues, Run};
 use crate::render::primary_prepass::PrimaryBand;
 use crate::render::whitted::PrimaryStart;
 use crate::trace::cone::Cone;
@@ -74,7 +73,7 @@ pub const NODE_ID: u32 = 1 << 31;
 
 /// The id of a hit on entry `e`: the leaf's index, or the node's with [`NODE_ID`].
 #[inline]
-fn entry_id(e: &LeafEntry) -> u32 {
+pub(crate) fn entry_id(e: &LeafEntry) -> u32 {
     if e.side > 1 { NODE_ID | e.leaf } else { e.leaf }
 }
 
@@ -427,9 +426,7 @@ fn stored_normal_or(tree: &Octree, e: &LeafEntry, geometric: Vec3) -> Vec3 {
 pub struct OctreeSurfaces<'a, L = HitMode> {
     tree: &'a Octree,
     shape: L,
-    srgb: [f32; 256],
-    /// Whether some leaf is an interior cell of a solid bake (rays pass through those).
-    interior: bool,
+    values: LeafValues<'a>,
     /// Whether the inner nodes carry attributes: only then may a ray's cone stop at them.
     coarse: bool,
 }
@@ -447,8 +444,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
         Self {
             tree,
             shape,
-            srgb: std::array::from_fn(|i| srgb_to_linear(i as u8)),
-            interior: tree.attributes.has_interior(),
+            values: LeafValues::new(&tree.attributes),
             coarse: !tree.node_attributes.stored().is_empty(),
         }
     }
@@ -462,34 +458,13 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
     /// reflective, opaque, IOR 1.5).
     #[inline]
     pub fn material(&self, i: u32) -> SurfaceMaterial {
-        self.material_in(&self.tree.attributes, i)
+        self.values.material(i)
     }
 
-    /// The material of entry `i` of channels `a` (the leaves' or the inner nodes').
-    #[inline]
-    fn material_in(&self, a: &LeafAttributes, i: u32) -> SurfaceMaterial {
-        let i = i as usize;
-        let albedo = a.colour.get(i).map_or(Vec3::splat(0.8), |c| {
-            let b = c.to_le_bytes();
-            Vec3::new(
-                self.srgb[usize::from(b[0])],
-                self.srgb[usize::from(b[1])],
-                self.srgb[usize::from(b[2])],
-            )
-        });
-        SurfaceMaterial {
-            albedo,
-            reflectivity: a.reflectivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
-            refractivity: a.refractivity.get(i).map_or(0.0, |v| f32::from(v) / 255.0),
-            ior: a.ior.get(i).map_or(1.5, ior_decode),
-        }
-    }
-
-    /// Whether rays pass through leaf `i`: an interior cell of a solid (the surface leaves
-    /// around it are the interfaces).
+    /// Whether rays pass through leaf `i`: an interior cell of a solid.
     #[inline]
     fn passes_through(&self, i: u32) -> bool {
-        self.interior && self.tree.attributes.is_interior(i as usize)
+        self.values.passes_through(i)
     }
 
     /// The cone a walk with `cone` uses here: none where the inner nodes carry nothing, or
@@ -542,7 +517,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             id: entry_id(e),
             side: e.side,
             normal,
-            material: self.material_in(&self.tree.node_attributes, e.leaf),
+            material: self.values.material_in(&self.tree.node_attributes, e.leaf),
             medium: None,
         })
     }
@@ -551,91 +526,26 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
     /// medium read.
     #[inline]
     fn hit_of(&self, e: &LeafEntry, t: f32, normal: Vec3) -> SurfaceHit {
-        SurfaceHit {
-            t,
-            t_exit: e.t_exit,
-            id: e.leaf,
-            side: 1,
-            normal,
-            material: self.material(e.leaf),
-            medium: self.medium_of(e.leaf),
-        }
+        self.values.hit_of(e, t, normal)
     }
 
     /// The closest-hit walk's callback for leaf entry `e` of `ray` under query `q`.
-    /// Inside a medium, the run of its cells along the ray ends at `run`: the exit parameter
-    /// and outward normal of the last cell, and its leaf.
     #[inline]
     fn closest_at(
         &self,
         ray: &GridRay,
         q: &Query,
-        run: &mut Option<(f32, Vec3, u32)>,
+        run: &mut Run,
         e: &LeafEntry,
     ) -> Option<SurfaceHit> {
-        if let Some(m) = q.medium {
-            if let Some(x) = *run
-                && e.t_enter > x.0
-            {
-                // A gap after the medium's cells: the ray left it there.
-                return Some(self.medium_exit(q, x));
-            }
-            if e.side == 1 && self.medium_of(e.leaf) == Some(m) {
-                *run = Some((e.t_exit, e.exit_normal, e.leaf));
-                return None;
-            }
-        }
-        if Some(entry_id(e)) == q.skip {
-            return None;
-        }
-        self.surface_hit(ray, e)
-    }
-
-    /// Where a ray inside `q`'s medium leaves it: the end of the run of its cells.
-    fn medium_exit(&self, q: &Query, (t, n, leaf): (f32, Vec3, u32)) -> SurfaceHit {
-        SurfaceHit {
-            t,
-            t_exit: t,
-            id: leaf,
-            side: 1,
-            normal: n,
-            material: self.material(leaf),
-            medium: q.medium,
-        }
-    }
-
-    /// The closest-hit walk's outcome: its hit, or where the medium's run ended.
-    fn closest_of(
-        &self,
-        q: &Query,
-        run: Option<(f32, Vec3, u32)>,
-        hit: Option<SurfaceHit>,
-        steps: u32,
-        capped: bool,
-    ) -> Traced {
-        let hit = match (hit, run) {
-            (None, Some(x)) if !capped => Some(self.medium_exit(q, x)),
-            (h, _) => h,
-        };
-        Traced { hit, steps, capped }
+        self.values
+            .closest_at(q, run, e, || self.surface_hit(ray, e))
     }
 
     /// The volumetric medium of leaf `i`: transparent and without a stored normal.
     #[inline]
     pub fn medium_of(&self, i: u32) -> Option<Medium> {
-        let a = &self.tree.attributes;
-        let i = i as usize;
-        if a.normal.get(i).is_some() {
-            return None;
-        }
-        let kt = a.refractivity.get(i).unwrap_or(0);
-        (kt > 0).then(|| {
-            Medium(
-                u64::from(kt)
-                    | u64::from(a.ior.get(i).unwrap_or(0)) << 8
-                    | u64::from(a.colour.get(i).unwrap_or(0)) << 24,
-            )
-        })
+        self.values.medium_of(i)
     }
 }
 
@@ -738,7 +648,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         let r = traverse_cone(self.tree, ray, cone, q.tmin, q.tmax, q.max_steps, |e| {
             self.closest_at(ray, q, &mut run, e)
         });
-        self.closest_of(q, run, r.hit, r.steps, r.capped)
+        self.values.closest_of(q, run, r.hit, r.steps, r.capped)
     }
 
     fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
@@ -757,7 +667,10 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             max_steps,
             |l, e| self.closest_at(&rays[l], &q[l], &mut run[l], e),
         );
-        std::array::from_fn(|l| self.closest_of(&q[l], run[l], r[l].hit, r[l].steps, r[l].capped))
+        std::array::from_fn(|l| {
+            self.values
+                .closest_of(&q[l], run[l], r[l].hit, r[l].steps, r[l].capped)
+        })
     }
 
     fn walk(

@@ -148,9 +148,15 @@ impl LeafTest {
     /// The test of leaf `leaf` of `tree` in `mode`.
     #[inline]
     pub(crate) fn new(tree: &Octree, leaf: u32, mode: HitMode) -> Self {
+        Self::of_leaf(&tree.attributes, leaf, mode)
+    }
+
+    /// [`Self::new`] for leaf `leaf` of the leaf channels `a`.
+    #[inline]
+    pub(crate) fn of_leaf(a: &LeafAttributes, leaf: u32, mode: HitMode) -> Self {
         match mode {
             HitMode::Cube | HitMode::Exact => Self::Cube,
-            HitMode::Contour => Self::slab(&tree.attributes, leaf, 1),
+            HitMode::Contour => Self::slab(a, leaf, 1),
         }
     }
 

@@ -25,7 +25,7 @@ fn version_and_layout(bytes: &[u8]) -> (u32, u8) {
 /// Seeded random trees of depths 2 to 9 with per-leaf colours (empty, one cell, sparse,
 /// dense, and a lattice whose subtrees all repeat), and a bake with every channel: each reads
 /// back from its DAG file as the same tree, and the tree read back writes the tree layout's
-/// bytes again.
+/// bytes again; its graph finds the tree's box of occupied cells.
 #[test]
 fn a_dag_file_reads_back_as_the_same_tree() {
     let root = RootCube {
@@ -77,6 +77,10 @@ fn a_dag_file_reads_back_as_the_same_tree() {
         );
         // The same bytes again from the tree read back: the layout is the tree's alone.
         assert_eq!(dag_bytes(&back), bytes, "tree {i}");
+        // The graph finds the tree's box of occupied cells.
+        let graph = svo::dag::DagTree::from_tree(tree).unwrap();
+        assert_eq!(graph.occupied_cells(), tree.occupied_cells(), "tree {i}");
+        assert_eq!(graph.occupied_bounds(), tree.occupied_bounds(), "tree {i}");
     }
     // Subtrees that repeat are stored once: the lattice's file is a fraction of the tree's.
     let lattice = &trees[40];

@@ -1287,3 +1287,136 @@ fn a_tree_in_chunks_renders_as_the_whole_tree() {
     }
     assert_eq!(checked, 12);
 }
+
+/// A tree and its graph (`DagSurfaces`, the graph's single walks) render the same images and
+/// AOVs bit for bit, and take the same steps as the tree's single walks (without the prepass
+/// and packets): the torus with contours and cubes from outside, close up and inside its tube,
+/// with shadows; a mirror-and-glass scene of stored normals with reflections and refractions;
+/// and glass cells without normals (one medium) seen through.
+#[test]
+fn a_graph_renders_what_its_tree_renders() {
+    let torus = torus_tree(7);
+    let (lo, hi) = torus.occupied_bounds();
+    let base = Camera::framing(lo, hi, 96, 72, 40.0);
+    let c = (lo + hi) * 0.5;
+    let close = Camera {
+        eye: c + (base.eye - c) * 0.35,
+        ..base
+    };
+    let inside = Camera {
+        eye: c + DVec3::new((hi.x - lo.x) * 0.375, 0.0, 0.0),
+        target: c + DVec3::new((hi.x - lo.x) * 0.375, 0.0, 1.0),
+        ..base
+    };
+    for mode in [HitMode::Contour, HitMode::Cube] {
+        for (k, cam) in [base, close, inside].iter().enumerate() {
+            let stats = same_on_graph(&torus, mode, cam, &Sky::default(), &format!("torus {k}"));
+            assert!(stats.shadow_rays > 0, "{stats:?}");
+        }
+    }
+    // Mirrors under a glass slab with normals; a block of glass cells without normals.
+    let (_, sky) = glass_slab_under_white_sky();
+    let glass = |n: Vec3| Voxel {
+        normal: Some(n),
+        ..glass_pane()
+    };
+    let mut cells: Vec<(UVec3, Voxel)> = (0..16u32)
+        .flat_map(|x| (0..12u32).map(move |z| (x, z)))
+        .flat_map(|(x, z)| {
+            [
+                (UVec3::new(x, 4, z), glass(Vec3::NEG_Y)),
+                (UVec3::new(x, 5, z), glass(Vec3::Y)),
+            ]
+        })
+        .collect();
+    cells.extend((0..16).map(|x| (UVec3::new(x, 1, 7), mirror(0.8))));
+    cells.extend((3..9).flat_map(|x| (9..12).map(move |y| (UVec3::new(x, y, 4), glass_pane()))));
+    let slab = grid16(cells);
+    let cam = Camera {
+        eye: DVec3::new(8.0, 14.0, 22.0),
+        target: DVec3::new(7.0, 5.0, 3.0),
+        up: DVec3::Y,
+        fov_deg: 50.0,
+        width: 80,
+        height: 60,
+    };
+    for mode in [HitMode::Contour, HitMode::Cube] {
+        let stats = same_on_graph(&slab, mode, &cam, &sky, "glass and mirrors");
+        assert!(stats.secondary_rays > 1000, "{stats:?}");
+    }
+}
+
+/// `tree`'s image of `cam` and its graph's: the same colours, depths, normals and leaves bit
+/// for bit, and the graph's walks as many steps as the tree's single walks.
+fn same_on_graph(
+    tree: &Octree,
+    mode: HitMode,
+    cam: &Camera,
+    sky: &Sky,
+    what: &str,
+) -> svo::render::RenderStats {
+    let dag = svo::dag::DagTree::from_tree(tree).unwrap();
+    let light = [PointLight {
+        position: cam.eye + DVec3::new(0.3, 1.0, 0.2),
+        colour: Vec3::ONE,
+        intensity: 1.0,
+    }];
+    let opts = |fast: bool| TraceOptions {
+        mode,
+        prepass: fast,
+        packets: fast,
+        ..TraceOptions::default()
+    };
+    let on = |s, o| {
+        render(
+            &Tracer::new(s, &light, sky.clone(), Phong::default(), o),
+            cam,
+        )
+    };
+    let tree_fast = on(OctreeSurfaces::new(tree, mode), opts(true)).unwrap();
+    let tree_single = render(
+        &Tracer::new(
+            OctreeSurfaces::new(tree, mode),
+            &light,
+            sky.clone(),
+            Phong::default(),
+            opts(false),
+        ),
+        cam,
+    )
+    .unwrap();
+    let graph = render(
+        &Tracer::new(
+            svo::render::DagSurfaces::new(&dag, mode),
+            &light,
+            sky.clone(),
+            Phong::default(),
+            opts(true),
+        ),
+        cam,
+    )
+    .unwrap();
+    assert!(graph.stats.primary_hits > 0, "{what}");
+    for t in [&tree_fast, &tree_single] {
+        assert_eq!(graph.colour, t.colour, "{what}, {mode:?}");
+        assert_eq!(graph.normal, t.normal, "{what}, {mode:?}");
+        assert_eq!(graph.leaf, t.leaf, "{what}, {mode:?}");
+        assert!(
+            graph
+                .depth
+                .iter()
+                .zip(&t.depth)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{what}, {mode:?}"
+        );
+    }
+    assert_eq!(
+        graph.stats.steps, tree_single.stats.steps,
+        "{what}, {mode:?}"
+    );
+    assert_eq!(
+        graph.stats.secondary_rays, tree_single.stats.secondary_rays,
+        "{what}"
+    );
+    graph.stats
+}
