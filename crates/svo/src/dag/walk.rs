@@ -280,11 +280,6 @@ impl WalkNodes for DagTree {
     }
 
     #[inline]
-    fn start(&self, _index: u32) -> Option<DagNode> {
-        None
-    }
-
-    #[inline]
     fn mask(n: DagNode) -> u8 {
         n.mask
     }

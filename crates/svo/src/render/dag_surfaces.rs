@@ -1,18 +1,23 @@
 //! A tree held as its graph ([`DagSurfaces`]): rays walk the [`DagTree`] (the tree's own walk
 //! over the graph's nodes, [`DagTree::traverse`]) and hit its leaves as the tree's are hit, with
 //! the leaves' channels the graph carries, so that a DAG file renders without its tree being
-//! made. The walks are single rays (no primary prepass, no packets), which give the same hits
-//! and the same image as the tree's.
+//! made. The walks are the tree's over the graph's nodes: one ray at a time, four together
+//! (packets), and the primary prepass that projects the nodes front to back. The hits and
+//! the image are the tree's.
 
 use crate::dag::DagTree;
 use crate::geometry::grid::RootCube;
 use crate::octree::normal_encoding;
 use crate::render::leaf_values::LeafValues;
-use crate::render::surfaces::{Query, SurfaceHit, Surfaces, Traced, Walked, entry_id};
+use crate::render::primary_prepass::PrimaryBand;
+use crate::render::surfaces::{FirstHit, Query, SurfaceHit, Surfaces, Traced, Walked, entry_id};
+use crate::render::whitted::PrimaryStart;
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest};
-use crate::trace::traverse::LeafEntry;
+use crate::trace::packet::{LANES, traverse_packet_on};
+use crate::trace::traverse::{LeafEntry, Traversal};
+use glam::Vec3;
 
 /// The surfaces of a graph's leaves (a tree's geometry with identical subtrees stored once),
 /// hit in one of the [`HitMode`]s ([`HitMode::Exact`], which needs the triangles, as cubes):
@@ -68,12 +73,46 @@ impl<'a> DagSurfaces<'a> {
         let h = test.hit(ray, e)?;
         let normal = match test {
             LeafTest::Slab { n, .. } => n,
-            LeafTest::Cube => a
-                .normal
-                .get(e.leaf as usize)
-                .map_or(h.normal, normal_encoding::decode),
+            LeafTest::Cube => self.stored_normal_or(e, h.normal),
         };
         Some(self.values.hit_of(e, h.t, normal))
+    }
+
+    /// Entry `e`'s stored normal, decoded, or `geometric` where the leaves store none.
+    #[inline]
+    fn stored_normal_or(&self, e: &LeafEntry, geometric: Vec3) -> Vec3 {
+        let a = self.values.attributes();
+        a.normal
+            .get(e.leaf as usize)
+            .map_or(geometric, normal_encoding::decode)
+    }
+
+    /// The parameter of [`Self::surface_hit`] alone.
+    #[inline]
+    fn hit_t(&self, ray: &GridRay, e: &LeafEntry) -> Option<f32> {
+        if self.values.passes_through(e.leaf) {
+            return None;
+        }
+        let test = LeafTest::of_leaf(self.values.attributes(), e.leaf, self.mode);
+        test.hit(ray, e).map(|h| h.t)
+    }
+
+    /// The packet walk of the graph ([`traverse_packet_on`]) for the lanes in `active`.
+    #[allow(clippy::too_many_arguments)]
+    fn packet<const NORMALS: bool, T>(
+        &self,
+        rays: &[GridRay; LANES],
+        tmin: [f32; LANES],
+        tmax: [f32; LANES],
+        active: u8,
+        max_steps: u32,
+        on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
+    ) -> [Traversal<T>; LANES] {
+        let exact = [Cone::EXACT; LANES];
+        let depth = self.dag.depth();
+        traverse_packet_on::<NORMALS, DagTree, T>(
+            self.dag, depth, rays, exact, tmin, tmax, active, max_steps, on_leaf,
+        )
     }
 }
 
@@ -89,6 +128,129 @@ impl Surfaces for DagSurfaces<'_> {
                 .closest_at(q, &mut run, e, || self.surface_hit(ray, e))
         });
         self.values.closest_of(q, run, r.hit, r.steps, r.capped)
+    }
+
+    fn primary_band(&self, band: &mut PrimaryBand<'_>) {
+        // The graph keeps no inner-node values: no cone stops a ray (`level_of_detail`).
+        let a = self.values.attributes();
+        band.decide(
+            (self.dag, self.dag.depth()),
+            false,
+            |leaf| {
+                let through = self.values.passes_through(leaf);
+                let test = LeafTest::of_leaf(a, leaf, self.mode);
+                move |ray: &GridRay, e: &LeafEntry| {
+                    if through {
+                        None
+                    } else {
+                        test.hit(ray, e).map(|h| h.t)
+                    }
+                }
+            },
+            |_, _| |_: &GridRay, _: &LeafEntry| None,
+        );
+    }
+
+    fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
+        if q.medium.is_some() || q.skip.is_some() {
+            return self.closest(ray, q);
+        }
+        match *start {
+            PrimaryStart::From(_) => self.closest(ray, q),
+            PrimaryStart::Miss { tests } => Traced {
+                hit: None,
+                steps: tests,
+                capped: false,
+            },
+            // The entry the prepass hit at `t`, with the leaf's stored normal where it has
+            // one (a contour's is that normal), else the face the ray entered through.
+            PrimaryStart::Leaf { entry, t, tests } => Traced {
+                hit: Some(self.values.hit_of(
+                    &entry,
+                    t,
+                    self.stored_normal_or(&entry, entry.entry_normal),
+                )),
+                steps: tests,
+                capped: false,
+            },
+        }
+    }
+
+    fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
+        if q.medium.is_some() || q.skip.is_some() {
+            return self.closest(ray, q).into();
+        }
+        FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
+    }
+
+    fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
+        let max_steps = q.iter().map(|q| q.max_steps).max().unwrap_or(0);
+        if q.iter().any(|x| x.max_steps != max_steps) {
+            return std::array::from_fn(|l| self.closest_lane(rays, q, active, l));
+        }
+        let mut run = [None; LANES];
+        let (tmin, tmax) = (q.map(|q| q.tmin), q.map(|q| q.tmax));
+        let r = self.packet::<true, _>(rays, tmin, tmax, active, max_steps, |l, e| {
+            self.values
+                .closest_at(&q[l], &mut run[l], e, || self.surface_hit(&rays[l], e))
+        });
+        std::array::from_fn(|l| {
+            let r = &r[l];
+            self.values
+                .closest_of(&q[l], run[l], r.hit, r.steps, r.capped)
+        })
+    }
+
+    fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
+        if q.medium.is_some() || q.skip.is_some() {
+            return std::array::from_fn(|l| {
+                if l < n {
+                    self.closest(&rays[l], q).into()
+                } else {
+                    FirstHit::MISS
+                }
+            });
+        }
+        let active = ((1u16 << n.min(LANES)) - 1) as u8;
+        let walks = self.packet::<true, _>(
+            rays,
+            [q.tmin; LANES],
+            [q.tmax; LANES],
+            active,
+            q.max_steps,
+            |l, e| self.hit_t(&rays[l], e).map(|t| (e.leaf, t)),
+        );
+        walks.map(|w| FirstHit {
+            hit: w.hit,
+            steps: w.steps,
+            capped: w.capped,
+        })
+    }
+
+    fn walks(
+        &self,
+        rays: &[GridRay; LANES],
+        tmax: [f32; LANES],
+        skip: [Option<u32>; LANES],
+        _cones: [Cone; LANES],
+        active: u8,
+        max_steps: u32,
+        visit: &mut dyn FnMut(usize, &SurfaceHit) -> bool,
+    ) -> [Walked; LANES] {
+        // The leaves' tests read no entry normals: the walk makes none and the hits carry no
+        // shading normal (a walk's hits are for visibility), as on the tree.
+        let r = self.packet::<false, _>(rays, [0.0; LANES], tmax, active, max_steps, |l, e| {
+            if Some(entry_id(e)) == skip[l] {
+                return None;
+            }
+            let h = self.values.hit_of(e, self.hit_t(&rays[l], e)?, Vec3::ZERO);
+            visit(l, &h).then_some(())
+        });
+        r.map(|w| Walked {
+            blocked: w.hit.is_some(),
+            steps: w.steps,
+            capped: w.capped,
+        })
     }
 
     fn walk(

@@ -36,13 +36,13 @@
 
 use crate::geometry::child_classify::child_offset;
 use crate::octree::bounds;
-use crate::octree::tree::Octree;
+use crate::octree::tree::slot_of;
 use crate::render::camera::CameraRays;
 use crate::render::surfaces::Surfaces;
 use crate::render::whitted::{PrimaryStart, Tracer};
 use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, entry_normal_of, exit_normal_of, safe_inverse};
-use crate::trace::traverse::{LeafEntry, MAX_STEPS, StartNode, traverse_node};
+use crate::trace::traverse::{LeafEntry, MAX_STEPS, StartAt, WalkNodes, traverse_from};
 use glam::{DVec3, UVec3, Vec3, Vec3A};
 
 /// Rows per band: the unit of parallel work, and of the per-pixel state kept at once.
@@ -265,9 +265,11 @@ struct Rect {
     r1: u32,
 }
 
-/// A node waiting on the walk's stack.
+/// A node waiting on the walk's stack: the node as the walk holds it, the index its values
+/// are found by (a tree's node index), its minimum cell and side.
 #[derive(Clone, Copy, Debug)]
-struct Pending {
+struct Pending<N> {
+    node: N,
     index: u32,
     origin: UVec3,
     side: u32,
@@ -299,7 +301,6 @@ pub(crate) struct PrimaryScratch {
     tests: Vec<u32>,
     /// The decided hits: the leaf's entry and the hit's parameter.
     hits: Vec<(LeafEntry, f32)>,
-    stack: Vec<Pending>,
 }
 
 /// A pixel's grid ray, as the prepass keeps it once made ([`PrimaryView::ray`]).
@@ -454,9 +455,9 @@ impl<'a> PrimaryBand<'a> {
     /// eye, tested as the walk hands them over, in place of their leaves). Unless
     /// `reads_normals`, the tests are given the entries with their face normals zero, and a
     /// hit's entry gets them before it is kept.
-    pub(crate) fn decide<T, N>(
+    pub(crate) fn decide<W: WalkNodes, T, N>(
         &mut self,
-        tree: &Octree,
+        (tree, depth): (&W, u8),
         reads_normals: bool,
         leaf_test: impl Fn(u32) -> T,
         node_test: impl Fn(u32, u32) -> N,
@@ -468,7 +469,6 @@ impl<'a> PrimaryBand<'a> {
             leaf: leaf_test,
             node: node_test,
         };
-        let depth = tree.depth;
         if !(1..=24).contains(&depth) {
             return;
         }
@@ -494,10 +494,10 @@ impl<'a> PrimaryBand<'a> {
             }
         }
         self.decided = true;
-        let mut stack = std::mem::take(&mut s.stack);
-        stack.clear();
-        if tree.nodes.first().is_some_and(|r| r.child_mask() != 0) {
+        let mut stack = Vec::with_capacity(64);
+        if let Some(root) = tree.root().filter(|&r| W::mask(r) != 0) {
             stack.push(Pending {
+                node: root,
                 index: 0,
                 origin: UVec3::ZERO,
                 side: n,
@@ -514,23 +514,21 @@ impl<'a> PrimaryBand<'a> {
             if open == 0 {
                 continue;
             }
-            let Some(&node) = tree.nodes.get(p.index as usize) else {
-                continue;
-            };
+            let node = p.node;
             if coarse
                 && p.side < n
-                && !node.is_leaf_parent()
+                && !W::is_leaf_parent(node)
                 && cone.stops_at(p.side, node_distance(eye, p.origin, p.side))
             {
                 // The node stands for its subtree, within the box of its leaves.
-                let planes = bounds::cell_box(node.info >> 8, p.origin, p.side);
+                let planes = bounds::cell_box(W::leaf_box(node), p.origin, p.side);
                 let cell = (p.index, p.origin, p.side);
                 let test = |node| (tests.node)(node, p.side);
                 self.test_cell(cell, planes, rect, reads_normals, &test);
                 continue;
             }
             if open <= WALK_PIXELS {
-                self.walk_node(tree, p, rect, &tests);
+                self.walk_node((tree, depth), p, rect, &tests);
                 continue;
             }
             let half = p.side / 2;
@@ -540,14 +538,16 @@ impl<'a> PrimaryBand<'a> {
                 | (u8::from(eye.y >= mid.y) << 1)
                 | u8::from(eye.z >= mid.z);
             let child = |c: u8| p.origin + UVec3::from_array(child_offset(c)) * half;
-            if let Some(base) = node.leaf_base() {
+            let mask = W::mask(node);
+            let rank_of = |c: u8| (mask >> c & 1 == 1).then(|| slot_of(mask, c));
+            if let Some(base) = W::leaf_base(node) {
                 if half != 1 {
                     // Not a valid tree (leaves one cell wide only).
                     continue;
                 }
                 for k in 0..8u8 {
                     let c = k ^ near;
-                    let Some(rank) = node.child_rank(c) else {
+                    let Some(rank) = rank_of(c) else {
                         continue;
                     };
                     let cell = child(c);
@@ -566,9 +566,13 @@ impl<'a> PrimaryBand<'a> {
                 // Pushed far to near, so the nearest comes off the stack first.
                 for k in (0..8u8).rev() {
                     let c = k ^ near;
-                    if let Some(rank) = node.child_rank(c) {
+                    let Some(rank) = rank_of(c) else {
+                        continue;
+                    };
+                    if let Some(child_node) = tree.child(node, c, rank) {
                         stack.push(Pending {
-                            index: node.first + rank,
+                            node: child_node,
+                            index: W::child_index(node, rank),
                             origin: child(c),
                             side: half,
                         });
@@ -576,7 +580,6 @@ impl<'a> PrimaryBand<'a> {
                 }
             }
         }
-        self.s.stack = stack;
     }
 
     /// The band's pixels that may see the cube at `origin` with `side` cells, `None` if
@@ -650,18 +653,18 @@ impl<'a> PrimaryBand<'a> {
 
     /// Decides the open pixels of `r` by walking node `p`'s subtree along each one's ray
     /// ([`traverse_node`]: the leaves and entries of the walk from the root, within it).
-    fn walk_node<T, N>(
+    fn walk_node<W: WalkNodes, T, N>(
         &mut self,
-        tree: &Octree,
-        p: Pending,
+        (tree, depth): (&W, u8),
+        p: Pending<W::N>,
         r: Rect,
         tests: &Tests<impl Fn(u32) -> T, impl Fn(u32, u32) -> N>,
     ) where
         T: Fn(&GridRay, &LeafEntry) -> Option<f32>,
         N: Fn(&GridRay, &LeafEntry) -> Option<f32>,
     {
-        let start = StartNode {
-            index: p.index,
+        let start = StartAt {
+            node: p.node,
             origin: p.origin,
             side: p.side,
         };
@@ -675,10 +678,11 @@ impl<'a> PrimaryBand<'a> {
                 band.view.ray(x, y)
             };
             let cone = band.view.cone;
-            let walk = traverse_node(
+            let walk = traverse_from(
                 tree,
+                depth,
                 &ray,
-                start,
+                Some(start),
                 cone,
                 0.0,
                 f32::INFINITY,

@@ -560,7 +560,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn primary_band(&self, band: &mut PrimaryBand<'_>) {
         band.decide(
-            self.tree,
+            (self.tree, self.tree.depth),
             self.shape.hit_t_reads_normals(),
             |leaf| {
                 let through = self.passes_through(leaf);

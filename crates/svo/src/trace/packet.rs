@@ -22,19 +22,20 @@
 //! overlap where a single ray has one.
 
 use crate::octree::bounds;
-use crate::octree::tree::{Node, Octree};
+use crate::octree::tree::Octree;
 use crate::trace::cone::{Cone, node_distance};
 use crate::trace::grid_ray::{GridRay, MirroredRay};
-use crate::trace::traverse::{LeafEntry, Traversal, node_entry, traverse_cone};
+use crate::trace::traverse::{LeafEntry, Traversal, WalkNodes, node_entry, traverse_from};
 use glam::{BVec4A, UVec3, Vec3, Vec3A, Vec4};
 
 /// Rays in a packet.
 pub const LANES: usize = 4;
 
-/// A node being walked by the packet, one SIMD lane per ray.
+/// A node (of a tree's array or a graph, [`WalkNodes`]) being walked by the packet, one SIMD
+/// lane per ray.
 #[derive(Clone, Copy, Debug)]
-struct Frame {
-    node: Node,
+struct Frame<N> {
+    node: N,
     /// Mirrored minimum corner, in leaf cells.
     corner: UVec3,
     /// The lanes whose chain through the node has a child left ...
@@ -47,15 +48,20 @@ struct Frame {
     enter: Vec4,
 }
 
-const EMPTY: Frame = Frame {
-    node: Node { info: 0, first: 0 },
-    corner: UVec3::ZERO,
-    chain: BVec4A::FALSE,
-    bx: BVec4A::FALSE,
-    by: BVec4A::FALSE,
-    bz: BVec4A::FALSE,
-    enter: Vec4::ZERO,
-};
+impl<N: Copy> Frame<N> {
+    /// A frame of `node`, no lane in it.
+    const fn of(node: N) -> Self {
+        Self {
+            node,
+            corner: UVec3::ZERO,
+            chain: BVec4A::FALSE,
+            bx: BVec4A::FALSE,
+            by: BVec4A::FALSE,
+            bz: BVec4A::FALSE,
+            enter: Vec4::ZERO,
+        }
+    }
+}
 
 /// The lanes of each 4-bit mask (bit `l` for lane `l`).
 const LANE_MASKS: [BVec4A; 16] = {
@@ -138,14 +144,45 @@ pub(crate) fn traverse_packet_with<const NORMALS: bool, T>(
     max_steps: u32,
     on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
 ) -> [Traversal<T>; LANES] {
-    if tree.depth <= 4 {
-        walk::<4, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
-    } else if tree.depth <= 12 {
-        walk::<12, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
+    let d = tree.depth;
+    traverse_packet_on::<NORMALS, _, T>(
+        tree, d, rays, cones, tmin, tmax, active, max_steps, on_leaf,
+    )
+}
+
+/// [`traverse_packet_with`] on the nodes of `nodes` (a tree's array, or a graph: the same
+/// walk, [`WalkNodes`]) of a tree of `depth` levels.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn traverse_packet_on<const NORMALS: bool, W: WalkNodes, T>(
+    nodes: &W,
+    depth: u8,
+    rays: &[GridRay; LANES],
+    cones: [Cone; LANES],
+    tmin: [f32; LANES],
+    tmax: [f32; LANES],
+    active: u8,
+    max_steps: u32,
+    on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
+) -> [Traversal<T>; LANES] {
+    let lanes = (rays, cones, tmin, tmax, active, max_steps);
+    if depth <= 4 {
+        walk::<4, NORMALS, W, T>(nodes, depth, lanes, on_leaf)
+    } else if depth <= 12 {
+        walk::<12, NORMALS, W, T>(nodes, depth, lanes, on_leaf)
     } else {
-        walk::<32, NORMALS, T>(tree, rays, cones, tmin, tmax, active, max_steps, on_leaf)
+        walk::<32, NORMALS, W, T>(nodes, depth, lanes, on_leaf)
     }
 }
+
+/// The lanes' rays, cones, parameter ranges, which are traced, and the step cap.
+type LaneArgs<'a> = (
+    &'a [GridRay; LANES],
+    [Cone; LANES],
+    [f32; LANES],
+    [f32; LANES],
+    u8,
+    u32,
+);
 
 fn nothing<T>() -> [Traversal<T>; LANES] {
     std::array::from_fn(|_| Traversal {
@@ -193,33 +230,28 @@ fn lane(v: Vec4, l: usize) -> f32 {
 /// The first child of every lane entering at `t` (`first_child` per lane): the axes whose
 /// mid plane is at or before `t`.
 #[inline]
-fn first_bits(f: &mut Frame, tm: &Planes, t: Vec4) {
+fn first_bits<N>(f: &mut Frame<N>, tm: &Planes, t: Vec4) {
     f.bx = tm.x.cmple(t);
     f.by = tm.y.cmple(t);
     f.bz = tm.z.cmple(t);
 }
 
-#[allow(clippy::too_many_arguments)]
-fn walk<const STACK: usize, const NORMALS: bool, T>(
-    tree: &Octree,
-    rays: &[GridRay; LANES],
-    cones: [Cone; LANES],
-    tmin: [f32; LANES],
-    tmax: [f32; LANES],
-    active: u8,
-    max_steps: u32,
+fn walk<const STACK: usize, const NORMALS: bool, W: WalkNodes, T>(
+    nodes: &W,
+    tree_depth: u8,
+    (rays, cones, tmin, tmax, active, max_steps): LaneArgs<'_>,
     mut on_leaf: impl FnMut(usize, &LeafEntry) -> Option<T>,
 ) -> [Traversal<T>; LANES] {
     let mut out = nothing();
-    let depth = usize::from(tree.depth);
+    let depth = usize::from(tree_depth);
     if depth == 0 || depth > usize::from(crate::MAX_DEPTH) {
         return out;
     }
     let n = 1u32 << depth;
-    let Some(&root) = tree.nodes.first() else {
+    let Some(root) = nodes.root() else {
         return out;
     };
-    if root.child_mask() == 0 {
+    if W::mask(root) == 0 {
         return out;
     }
     // The lanes that enter the root, with their mirrored rays and entries.
@@ -252,9 +284,19 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         // (and so are caps beyond the packet's f32 step counters).
         for (l, o) in out.iter_mut().enumerate() {
             if lanes >> l & 1 != 0 {
-                *o = traverse_cone(tree, &rays[l], cones[l], tmin[l], tmax[l], max_steps, |e| {
-                    on_leaf(l, e)
-                });
+                let (ray, cone) = (&rays[l], cones[l]);
+                *o = traverse_from(
+                    nodes,
+                    tree_depth,
+                    ray,
+                    None,
+                    cone,
+                    tmin[l],
+                    tmax[l],
+                    max_steps,
+                    |e| on_leaf(l, e),
+                )
+                .unwrap_or_else(Traversal::missed);
             }
         }
         return out;
@@ -284,15 +326,14 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
     let mut capped = BVec4A::FALSE;
     let cap = Vec4::splat(max_steps as f32);
     // The node being walked lives in locals; the stack holds its ancestors (`len - 1`).
-    let mut stack = [EMPTY; STACK];
+    let mut stack = [Frame::of(root); STACK];
     let mut half = n / 2;
     let mut tm = ls.planes(&any, UVec3::splat(half));
     let mut t1 = ls.planes(&any, UVec3::splat(n));
     let mut f = Frame {
-        node: root,
         chain: alive,
         enter: Vec4::from_array(enter),
-        ..EMPTY
+        ..Frame::of(root)
     };
     first_bits(&mut f, &tm, Vec4::from_array(enter));
     let mut len = 1usize;
@@ -353,7 +394,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         }
         let real = c ^ mask;
         let node = f.node;
-        let child_mask = node.child_mask();
+        let child_mask = W::mask(node);
         if child_mask >> real & 1 == 0 {
             continue;
         }
@@ -366,9 +407,9 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         if !enters.any() {
             continue;
         }
-        let rank = node.slot(real);
+        let rank = crate::octree::tree::slot_of(child_mask, real);
         let origin = f.corner + super::traverse::child_bits(c) * half;
-        if let Some(base) = node.leaf_base() {
+        if let Some(base) = W::leaf_base(node) {
             let enters = enters.bitmask();
             for l in 0..LANES {
                 let Some(ray) = r[l].as_ref().filter(|_| enters >> l & 1 != 0) else {
@@ -403,13 +444,14 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         if len == STACK || half < 2 {
             continue;
         }
-        let Some(&child) = tree.nodes.get((node.first + rank) as usize) else {
+        let Some(child) = nodes.child(node, real, rank) else {
             continue;
         };
         // The single walk's test of the box of the child's leaves, on every lane.
         let mut enters = enters;
-        let leaf_box = (child.info >> 8 != 0).then(|| {
-            let (lo, hi) = bounds::cell_box(bounds::mirrored(child.info, swap), origin, half);
+        let boxed = W::leaf_box(child);
+        let leaf_box = (boxed != 0).then(|| {
+            let (lo, hi) = bounds::cell_box(bounds::mirrored(boxed << 8, swap), origin, half);
             (ls.planes(&any, lo), ls.planes(&any, hi))
         });
         if let Some((b0, b1)) = &leaf_box {
@@ -421,7 +463,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
             }
         }
         let may_stop = coarse & enters.bitmask() as u8;
-        if may_stop != 0 && !child.is_leaf_parent() {
+        if may_stop != 0 && !W::is_leaf_parent(child) {
             // The single walk's stop at a node as wide as the lane's cone (traverse.rs).
             let mut stopped = 0u8;
             for l in 0..LANES {
@@ -438,7 +480,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
                     Some((b0, b1)) => (of_lane(b0), of_lane(b1)),
                     None => (ray.t_planes(origin), of_lane(&c1)),
                 };
-                let stop = (node.first + rank, cell, half);
+                let stop = (W::child_index(node, rank), cell, half);
                 let Some(entry) = node_entry(ray, stop, bounds, (tmin[l], tmax[l]), NORMALS) else {
                     continue;
                 };
@@ -457,11 +499,10 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
         tm = ls.planes(&any, origin + UVec3::splat(half));
         stack[len - 1] = f;
         f = Frame {
-            node: child,
             corner: origin,
             chain: enters,
             enter: t_enter,
-            ..EMPTY
+            ..Frame::of(child)
         };
         first_bits(&mut f, &tm, t_enter);
         len += 1;
@@ -477,6 +518,7 @@ fn walk<const STACK: usize, const NORMALS: bool, T>(
 pub(crate) mod tests {
     use super::*;
     use crate::octree::{RootCube, Voxel};
+    use crate::trace::traverse::traverse_cone;
     use crate::trace::traverse::{MAX_STEPS, traverse};
     use glam::{DVec3, Vec3};
 
@@ -509,6 +551,31 @@ pub(crate) mod tests {
         stop: &dyn Fn(&LeafEntry) -> bool,
     ) -> [Seen; LANES] {
         packed_with::<true>(tree, rays, tmin, tmax, active, max_steps, stop)
+    }
+
+    /// What each lane of the packet walk on the graph of a tree of `depth` levels saw.
+    fn packed_on_graph(
+        dag: &crate::dag::DagTree,
+        depth: u8,
+        p: &Packet,
+        stop: &dyn Fn(&LeafEntry) -> bool,
+    ) -> [Seen; LANES] {
+        let mut seen: [Vec<LeafEntry>; LANES] = Default::default();
+        let t = traverse_packet_on::<true, _, _>(
+            dag,
+            depth,
+            &p.rays,
+            [Cone::EXACT; LANES],
+            p.tmin,
+            p.tmax,
+            p.active,
+            p.max_steps,
+            |l, e| {
+                seen[l].push(*e);
+                stop(e).then_some(e.leaf)
+            },
+        );
+        std::array::from_fn(|l| (seen[l].clone(), t[l].hit, t[l].steps, t[l].capped))
     }
 
     /// What each lane of the packet walk saw, with or without the entries' normals.
@@ -737,18 +804,21 @@ pub(crate) mod tests {
     /// point (shadow rays), axis-parallel rays with signed zeros on cell faces, rays between
     /// lattice points (through edges and corners), rays from inside with later `tmin` and
     /// nearer `tmax`, lanes switched off, lanes in other octants (walked one at a time),
-    /// step caps that stop lanes midway, and callbacks that stop at chosen leaves.
+    /// step caps that stop lanes midway, and callbacks that stop at chosen leaves. The packet
+    /// walk on the tree's graph ([`crate::dag::DagTree`]) sees the same.
     #[test]
     fn every_lane_sees_what_the_single_walk_sees() {
         let mut next = svo_tests::seeds::xorshift(0xBA_C4E7);
         let mut unit = svo_tests::seeds::unit_f64(0x51_DE);
         let mut compared = 0usize;
         let mut hits = 0usize;
+        let mut graphs = 0usize;
         for depth in 1..=6u8 {
             for density in [0.02, 0.2, 0.7] {
                 let Some(tree) = random_tree(depth, density, &mut unit) else {
                     continue;
                 };
+                let graph = (depth >= 2).then(|| crate::dag::DagTree::from_tree(&tree).unwrap());
                 for _ in 0..150 {
                     let p = random_packet(&mut next, &mut unit, depth);
                     let k = next() % 4;
@@ -762,12 +832,17 @@ pub(crate) mod tests {
                         compared += 1;
                         hits += usize::from(want.1.is_some());
                     }
+                    // The same walk on the tree's graph: the same entries and outcomes.
+                    if let Some(dag) = &graph {
+                        assert_eq!(packed_on_graph(dag, depth, &p, &stop), got, "graph");
+                        graphs += 1;
+                    }
                 }
             }
         }
         assert!(
-            compared > 8_000 && hits > 500,
-            "{compared} lanes, {hits} hits"
+            compared > 8_000 && hits > 500 && graphs > 1_500,
+            "{compared} lanes, {hits} hits, {graphs} packets on graphs"
         );
     }
 

@@ -125,8 +125,6 @@ pub(crate) trait WalkNodes {
     type N: Copy;
     /// The root, where there is one.
     fn root(&self) -> Option<Self::N>;
-    /// The node at `index` of the array, where a walk may start ([`StartNode`]).
-    fn start(&self, index: u32) -> Option<Self::N>;
     /// The node's child mask.
     fn mask(n: Self::N) -> u8;
     /// Where a leaf parent's first leaf lies in the leaf arrays (`None` for another node).
@@ -158,11 +156,6 @@ impl WalkNodes for Octree {
     #[inline]
     fn root(&self) -> Option<Node> {
         self.nodes.first().copied()
-    }
-
-    #[inline]
-    fn start(&self, index: u32) -> Option<Node> {
-        self.nodes.get(index as usize).copied()
     }
 
     #[inline]
@@ -310,10 +303,22 @@ pub fn traverse_cone<T>(
 
 /// An inner node to start a traversal at: its index in the node array, its minimum cell
 /// and its side in cells (a power of two, at least 2).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct StartNode {
     /// Index into the node array.
     pub index: u32,
+    /// Minimum cell (real, not mirrored).
+    pub origin: UVec3,
+    /// Side in cells.
+    pub side: u32,
+}
+
+/// [`StartNode`] with the node itself, as the walk holds it ([`WalkNodes::N`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StartAt<N> {
+    /// The node.
+    pub node: N,
     /// Minimum cell (real, not mirrored).
     pub origin: UVec3,
     /// Side in cells.
@@ -327,6 +332,7 @@ pub(crate) struct StartNode {
 /// at a point (an edge or a corner): a walk from the root crosses such points into the
 /// diagonal neighbour without handing over the cells it touches, except where it starts
 /// (at `tmin`, or where it only touches the root), so only that walk knows.
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn traverse_node<T>(
     tree: &Octree,
@@ -338,11 +344,15 @@ pub(crate) fn traverse_node<T>(
     max_steps: u32,
     on_leaf: impl FnMut(&LeafEntry) -> Option<T>,
 ) -> Option<Traversal<T>> {
+    let Some(&node) = tree.nodes.get(start.index as usize) else {
+        return Some(Traversal::missed());
+    };
+    let StartNode { origin, side, .. } = start;
     traverse_from(
         tree,
         tree.depth,
         ray,
-        Some(start),
+        Some(StartAt { node, origin, side }),
         cone,
         tmin,
         tmax,
@@ -356,7 +366,7 @@ pub(crate) fn traverse_from<W: WalkNodes, T>(
     tree: &W,
     depth: u8,
     ray: &GridRay,
-    start: Option<StartNode>,
+    start: Option<StartAt<W::N>>,
     cone: Cone,
     tmin: f32,
     tmax: f32,
@@ -382,7 +392,7 @@ pub(crate) fn traverse_from<W: WalkNodes, T>(
 fn traverse_with<const STACK: usize, W: WalkNodes, T>(
     (tree, depth): (&W, u8),
     ray: &GridRay,
-    start: Option<StartNode>,
+    start: Option<StartAt<W::N>>,
     cone: Cone,
     tmin: f32,
     tmax: f32,
@@ -415,12 +425,10 @@ fn traverse_with<const STACK: usize, W: WalkNodes, T>(
                 && s.side <= n
                 && (s.origin % s.side) == UVec3::ZERO
                 && s.origin.max_element() < n;
-            match tree.start(s.index) {
-                Some(node) if fits && W::is_leaf_parent(node) == (s.side == 2) => {
-                    (node, s.origin, s.side)
-                }
-                _ => return Some(out),
+            if !fits || W::is_leaf_parent(s.node) != (s.side == 2) {
+                return Some(out);
             }
+            (s.node, s.origin, s.side)
         }
     };
     if W::mask(node) == 0 {

@@ -1288,9 +1288,8 @@ fn a_tree_in_chunks_renders_as_the_whole_tree() {
     assert_eq!(checked, 12);
 }
 
-/// A tree and its graph (`DagSurfaces`, the graph's single walks) render the same images and
-/// AOVs bit for bit, and take the same steps as the tree's single walks (without the prepass
-/// and packets): the torus with contours and cubes from outside, close up and inside its tube,
+/// A tree and its graph (`DagSurfaces`) render the same images and AOVs bit for bit, and take
+/// the same steps as the tree's walks (with the prepass and packets, and without): the torus with contours and cubes from outside, close up and inside its tube,
 /// with shadows; a mirror-and-glass scene of stored normals with reflections and refractions;
 /// and glass cells without normals (one medium) seen through.
 #[test]
@@ -1346,8 +1345,9 @@ fn a_graph_renders_what_its_tree_renders() {
     }
 }
 
-/// `tree`'s image of `cam` and its graph's: the same colours, depths, normals and leaves bit
-/// for bit, and the graph's walks as many steps as the tree's single walks.
+/// `tree`'s image of `cam` and its graph's, each with and without the primary prepass and
+/// the packets: the same colours, depths, normals and leaves bit for bit, and the graph's
+/// walks as many steps as the tree's the same way.
 fn same_on_graph(
     tree: &Octree,
     mode: HitMode,
@@ -1367,56 +1367,46 @@ fn same_on_graph(
         packets: fast,
         ..TraceOptions::default()
     };
-    let on = |s, o| {
-        render(
-            &Tracer::new(s, &light, sky.clone(), Phong::default(), o),
-            cam,
-        )
+    // Each renderer with and without the prepass and the packets.
+    let frames = |graph: bool| {
+        [true, false].map(|fast| {
+            let o = opts(fast);
+            let light = &light;
+            let f = if graph {
+                let s = svo::render::DagSurfaces::new(&dag, mode);
+                render(
+                    &Tracer::new(s, light, sky.clone(), Phong::default(), o),
+                    cam,
+                )
+            } else {
+                let s = OctreeSurfaces::new(tree, mode);
+                render(
+                    &Tracer::new(s, light, sky.clone(), Phong::default(), o),
+                    cam,
+                )
+            };
+            f.unwrap()
+        })
     };
-    let tree_fast = on(OctreeSurfaces::new(tree, mode), opts(true)).unwrap();
-    let tree_single = render(
-        &Tracer::new(
-            OctreeSurfaces::new(tree, mode),
-            &light,
-            sky.clone(),
-            Phong::default(),
-            opts(false),
-        ),
-        cam,
-    )
-    .unwrap();
-    let graph = render(
-        &Tracer::new(
-            svo::render::DagSurfaces::new(&dag, mode),
-            &light,
-            sky.clone(),
-            Phong::default(),
-            opts(true),
-        ),
-        cam,
-    )
-    .unwrap();
+    let (on_tree, on_graph) = (frames(false), frames(true));
+    let graph = &on_graph[0];
     assert!(graph.stats.primary_hits > 0, "{what}");
-    for t in [&tree_fast, &tree_single] {
-        assert_eq!(graph.colour, t.colour, "{what}, {mode:?}");
-        assert_eq!(graph.normal, t.normal, "{what}, {mode:?}");
-        assert_eq!(graph.leaf, t.leaf, "{what}, {mode:?}");
-        assert!(
-            graph
-                .depth
-                .iter()
-                .zip(&t.depth)
-                .all(|(a, b)| a.to_bits() == b.to_bits()),
-            "{what}, {mode:?}"
-        );
+    for (k, (t, g)) in on_tree.iter().zip(&on_graph).enumerate() {
+        for t in [t, &on_tree[1 - k]] {
+            assert_eq!(g.colour, t.colour, "{what}, {mode:?}");
+            assert_eq!(g.normal, t.normal, "{what}, {mode:?}");
+            assert_eq!(g.leaf, t.leaf, "{what}, {mode:?}");
+            assert!(
+                g.depth
+                    .iter()
+                    .zip(&t.depth)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{what}, {mode:?}"
+            );
+        }
+        // The same walks: the same steps.
+        assert_eq!(g.stats.steps, t.stats.steps, "{what}, {mode:?}, fast {k}");
+        assert_eq!(g.stats.secondary_rays, t.stats.secondary_rays, "{what}");
     }
-    assert_eq!(
-        graph.stats.steps, tree_single.stats.steps,
-        "{what}, {mode:?}"
-    );
-    assert_eq!(
-        graph.stats.secondary_rays, tree_single.stats.secondary_rays,
-        "{what}"
-    );
     graph.stats
 }
