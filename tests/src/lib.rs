@@ -10,7 +10,8 @@
 //!   rationals, and the margin the tracer's `f32` arithmetic allows), [`spec_reader`] (a
 //!   `.svo` reader written from `docs/format.md` alone) and [`conformance`] (the format's
 //!   conformance corpus, encoded from the document);
-//! - [`fuzz_cases`]: what the fuzz targets check, as functions the tests also run.
+//! - [`fuzz_cases`]: what the fuzz targets check, as functions the tests also run;
+//! - [`node_order`]: the node orders a tree keeps, and the shape two trees share.
 //!
 //! The end-to-end tests themselves are in `tests/it/`.
 
@@ -20,6 +21,7 @@ pub mod exact_sat;
 pub mod fuzz_cases;
 pub mod geometry;
 pub mod harness;
+pub mod node_order;
 pub mod oracle;
 pub mod ray_check;
 pub mod ray_reference;

@@ -12,7 +12,7 @@ use svo::FormatError;
 use svo::io::ChunkedFile;
 use svo::render::{
     Camera, ChunkTree, ChunkedSurfaces, DagSurfaces, Frame, MeshSurfaces, OctreeSurfaces,
-    RenderScene, RenderStats, SetupError, Surfaces, Tracer, compare, write_png,
+    RenderScene, RenderStats, SetupError, Stage, Surfaces, Tracer, compare, write_png,
 };
 use svo::trace::HitMode;
 
@@ -250,14 +250,27 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
         &chunks,
         job.trace.mode,
     )?;
-    let tracer = Tracer::new(s, &stage.lights, stage.sky, stage.phong, job.trace);
+    render_staged(job, threads, stage, s, (file.depth(), file.leaf_count()))
+}
+
+/// The job's frames of `surfaces` (a tree of `depth` levels and `leaves` leaves not held as
+/// one tree in memory: in chunks, or as its graph) on `stage`, written and reported.
+fn render_staged<S: Surfaces>(
+    job: &RenderJob,
+    threads: usize,
+    stage: Stage,
+    surfaces: S,
+    (depth, leaves): (u8, u64),
+) -> Result<FrameReport, JobError> {
+    let lod_applied = surfaces.level_of_detail();
+    let tracer = Tracer::new(surfaces, &stage.lights, stage.sky, stage.phong, job.trace);
     let shown = timed(job, &tracer, &stage.camera)?;
     let (output, cost_scale) = write_frame(job, &shown)?;
     Ok(FrameReport {
         width: stage.camera.width,
         height: stage.camera.height,
-        depth: file.depth(),
-        leaves: file.leaf_count(),
+        depth,
+        leaves,
         hit: job.trace.mode.name(),
         timing: FrameTiming::new(&shown.times, &shown.stats),
         stats: shown.stats,
@@ -268,7 +281,7 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
             cost_scale,
             compare: None,
             lod: job.trace.lod,
-            lod_applied: false,
+            lod_applied,
         }),
         gpu: None,
     })
@@ -295,28 +308,8 @@ fn render_graph(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError
     let (lo, hi) = dag.occupied_bounds();
     let stage = job.setup()?.stage(dag.depth(), lo, hi, &build.scene)?;
     let s = DagSurfaces::new(&dag, job.trace.mode);
-    let tracer = Tracer::new(s, &stage.lights, stage.sky, stage.phong, job.trace);
-    let shown = timed(job, &tracer, &stage.camera)?;
-    let (output, cost_scale) = write_frame(job, &shown)?;
-    Ok(FrameReport {
-        width: stage.camera.width,
-        height: stage.camera.height,
-        depth: dag.depth(),
-        leaves: u64::from(dag.leaf_count()),
-        hit: job.trace.mode.name(),
-        timing: FrameTiming::new(&shown.times, &shown.stats),
-        stats: shown.stats,
-        output,
-        camera: CameraReport::of(&stage.camera),
-        cpu: Some(CpuRun {
-            threads,
-            cost_scale,
-            compare: None,
-            lod: job.trace.lod,
-            lod_applied: false,
-        }),
-        gpu: None,
-    })
+    let size = (dag.depth(), u64::from(dag.leaf_count()));
+    render_staged(job, threads, stage, s, size)
 }
 
 #[cfg(test)]

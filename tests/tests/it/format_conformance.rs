@@ -161,13 +161,11 @@ fn the_version_1_3_and_4_files_hold_the_same_trees_as_their_version_2_twins() {
     assert_same_shape(&bake, &read("valid-bake.svo").0);
 }
 
-/// The same leaves in the same cells and as many nodes, whatever the nodes' order.
+/// The same leaves in the same cells, the same channels and as many nodes, whatever the
+/// nodes' order.
 fn assert_same_shape(a: &svo::Octree, b: &svo::Octree) {
-    assert_eq!(
-        (a.nodes.len(), &a.attributes),
-        (b.nodes.len(), &b.attributes)
-    );
-    assert!(a.leaves().map(|l| l.cell).eq(b.leaves().map(|l| l.cell)));
+    assert_eq!(a.attributes, b.attributes);
+    assert!(svo_tests::node_order::same_shape(a, b));
 }
 
 /// This module's tests, with what each needs of the machine.

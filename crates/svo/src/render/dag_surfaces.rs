@@ -152,35 +152,17 @@ impl Surfaces for DagSurfaces<'_> {
     }
 
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
-        if q.medium.is_some() || q.skip.is_some() {
-            return self.closest(ray, q);
-        }
-        match *start {
-            PrimaryStart::From(_) => self.closest(ray, q),
-            PrimaryStart::Miss { tests } => Traced {
-                hit: None,
-                steps: tests,
-                capped: false,
-            },
-            // The entry the prepass hit at `t`, with the leaf's stored normal where it has
-            // one (a contour's is that normal), else the face the ray entered through.
-            PrimaryStart::Leaf { entry, t, tests } => Traced {
-                hit: Some(self.values.hit_of(
-                    &entry,
-                    t,
-                    self.stored_normal_or(&entry, entry.entry_normal),
-                )),
-                steps: tests,
-                capped: false,
-            },
-        }
+        // The entry the prepass hit at `t`, with the leaf's stored normal where it has one (a
+        // contour's is that normal), else the face the ray entered through.
+        let decided = |e: &LeafEntry, t| {
+            let normal = self.stored_normal_or(e, e.entry_normal);
+            Some(self.values.hit_of(e, t, normal))
+        };
+        Traced::from_start(q, start, decided, || self.closest(ray, q))
     }
 
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
-        if q.medium.is_some() || q.skip.is_some() {
-            return self.closest(ray, q).into();
-        }
-        FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
+        FirstHit::from_start(q, start, || self.closest(ray, q))
     }
 
     fn closest4(&self, rays: &[GridRay; LANES], q: &[Query; LANES], active: u8) -> [Traced; LANES] {
@@ -220,11 +202,7 @@ impl Surfaces for DagSurfaces<'_> {
             q.max_steps,
             |l, e| self.hit_t(&rays[l], e).map(|t| (e.leaf, t)),
         );
-        walks.map(|w| FirstHit {
-            hit: w.hit,
-            steps: w.steps,
-            capped: w.capped,
-        })
+        walks.each_ref().map(FirstHit::of)
     }
 
     fn walks(
@@ -246,11 +224,7 @@ impl Surfaces for DagSurfaces<'_> {
             let h = self.values.hit_of(e, self.hit_t(&rays[l], e)?, Vec3::ZERO);
             visit(l, &h).then_some(())
         });
-        r.map(|w| Walked {
-            blocked: w.hit.is_some(),
-            steps: w.steps,
-            capped: w.capped,
-        })
+        r.each_ref().map(Walked::of)
     }
 
     fn walk(
@@ -269,10 +243,6 @@ impl Surfaces for DagSurfaces<'_> {
             let h = self.surface_hit(ray, e)?;
             visit(&h).then_some(())
         });
-        Walked {
-            blocked: r.hit.is_some(),
-            steps: r.steps,
-            capped: r.capped,
-        }
+        Walked::of(&r)
     }
 }

@@ -12,7 +12,7 @@ use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
 use crate::trace::packet::{LANES, traverse_packet_with};
-use crate::trace::traverse::{LeafEntry, traverse_cone};
+use crate::trace::traverse::{LeafEntry, Traversal, traverse_cone};
 use glam::Vec3;
 
 /// The material at a hit.
@@ -158,6 +158,61 @@ impl FirstHit {
         steps: 0,
         capped: false,
     };
+
+    /// A ray cast's outcome from its walk, whose hits are `(id, t)`.
+    pub(crate) fn of(r: &Traversal<(u32, f32)>) -> Self {
+        Self {
+            hit: r.hit,
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
+
+    /// [`Surfaces::first_hit`] of surfaces that decide primary rays: what the prepass
+    /// decided (`start`), else, or for a secondary query, `closest`'s.
+    pub(crate) fn from_start(
+        q: &Query,
+        start: &PrimaryStart,
+        closest: impl FnOnce() -> Traced,
+    ) -> Self {
+        if q.medium.is_some() || q.skip.is_some() {
+            return closest().into();
+        }
+        Self::decided(start).unwrap_or_else(|| closest().into())
+    }
+}
+
+impl Traced {
+    /// [`Surfaces::closest_primary`] of surfaces that decide primary rays: the prepass's
+    /// miss, its hit (`decided` of the entry it hit at `t`, where that gives one), else, or
+    /// for a secondary query, `closest`'s.
+    pub(crate) fn from_start(
+        q: &Query,
+        start: &PrimaryStart,
+        decided: impl FnOnce(&LeafEntry, f32) -> Option<SurfaceHit>,
+        closest: impl FnOnce() -> Traced,
+    ) -> Self {
+        if q.medium.is_some() || q.skip.is_some() {
+            return closest();
+        }
+        match *start {
+            PrimaryStart::From(_) => closest(),
+            PrimaryStart::Miss { tests } => Self {
+                hit: None,
+                steps: tests,
+                capped: false,
+            },
+            PrimaryStart::Leaf { entry, t, tests } => match decided(&entry, t) {
+                Some(h) => Self {
+                    hit: Some(h),
+                    steps: tests,
+                    capped: false,
+                },
+                // Not reached: the prepass hit the same entry.
+                None => closest(),
+            },
+        }
+    }
 }
 
 impl From<Traced> for FirstHit {
@@ -188,6 +243,15 @@ impl Walked {
         steps: 0,
         capped: false,
     };
+
+    /// A walk's outcome from its traversal: blocked where the visitor stopped it.
+    pub(crate) fn of<T>(r: &Traversal<T>) -> Self {
+        Self {
+            blocked: r.hit.is_some(),
+            steps: r.steps,
+            capped: r.capped,
+        }
+    }
 }
 
 /// Surfaces a [`Tracer`](crate::render::Tracer) can trace, in the grid space of a root cube:
@@ -575,33 +639,12 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
     }
 
     fn closest_primary(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> Traced {
-        if q.medium.is_some() || q.skip.is_some() {
-            return self.closest(ray, q);
-        }
-        match *start {
-            PrimaryStart::From(_) => self.closest(ray, q),
-            PrimaryStart::Miss { tests } => Traced {
-                hit: None,
-                steps: tests,
-                capped: false,
-            },
-            PrimaryStart::Leaf { entry, t, tests } => match self.decided_hit(ray, &entry, t) {
-                Some(h) => Traced {
-                    hit: Some(h),
-                    steps: tests,
-                    capped: false,
-                },
-                // Not reached: the prepass hit the same entry.
-                None => self.closest(ray, q),
-            },
-        }
+        let decided = |e: &LeafEntry, t| self.decided_hit(ray, e, t);
+        Traced::from_start(q, start, decided, || self.closest(ray, q))
     }
 
     fn first_hit(&self, ray: &GridRay, q: &Query, start: &PrimaryStart) -> FirstHit {
-        if q.medium.is_some() || q.skip.is_some() {
-            return self.closest(ray, q).into();
-        }
-        FirstHit::decided(start).unwrap_or_else(|| self.closest(ray, q).into())
+        FirstHit::from_start(q, start, || self.closest(ray, q))
     }
 
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
@@ -635,11 +678,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
                     .map(|t| (e.leaf, t))
             },
         );
-        walks.map(|w| FirstHit {
-            hit: w.hit,
-            steps: w.steps,
-            capped: w.capped,
-        })
+        walks.each_ref().map(FirstHit::of)
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
@@ -690,11 +729,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
             let h = self.surface_hit(ray, e)?;
             visit(&h).then_some(())
         });
-        Walked {
-            blocked: r.hit.is_some(),
-            steps: r.steps,
-            capped: r.capped,
-        }
+        Walked::of(&r)
     }
 
     fn walks(
@@ -734,10 +769,6 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
                 tree, rays, cones, tmin, tmax, active, max_steps, on_leaf,
             )
         };
-        r.map(|w| Walked {
-            blocked: w.hit.is_some(),
-            steps: w.steps,
-            capped: w.capped,
-        })
+        r.each_ref().map(Walked::of)
     }
 }

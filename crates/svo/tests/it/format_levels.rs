@@ -8,7 +8,7 @@ use svo::io::{BuildInfo, from_bytes, read_file, read_file_to_depth, to_bytes, wr
 use svo::octree::Check;
 use svo::{BakeOptions, Mesh, Octree, bake_mesh};
 
-use crate::order::{is_level_order, same_shape};
+use svo_tests::node_order::{is_level_order, same_shape};
 
 fn bake(mesh: &Mesh, depth: u8, node_attributes: bool) -> Octree {
     let opts = BakeOptions {

@@ -10,7 +10,7 @@ use rand::Rng;
 use svo::octree::Channel;
 use svo::{BakeOptions, Material, Mesh, Octree, bake_mesh, with_threads};
 
-use crate::order::{is_level_order, same_shape};
+use svo_tests::node_order::{is_level_order, same_shape};
 
 /// `n` random triangles of about `size` in the unit cube, in two materials (red and blue)
 /// where `colours` is set.
