@@ -7,7 +7,7 @@ use crate::memory::peak_resident;
 use crate::report::{BakeReport, PartsReport};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use svo::bake::parts::{PartsError, bake_within};
+use svo::bake::parts::{MergeFormat, PartsError, bake_within};
 use svo::bake::{BakeError, BakeOptions, BakeStats, Phase, bake_mesh_with_progress};
 use svo::io::{BuildInfo, ExportError, read_file, write_binvox, write_file};
 use svo::mesh::{MeshFormat, SceneInfo};
@@ -283,14 +283,20 @@ fn run(
     if dag && format != OutputFormat::Svo {
         return Err(JobError::Layout("a node layout is for .svo outputs".into()));
     }
+    if dag && options.node_attributes {
+        return Err(JobError::Layout(
+            "the DAG layout keeps no inner-node attributes: bake with --lod none, or write the \
+             tree layout"
+                .into(),
+        ));
+    }
+    if dag && options.depth < 2 {
+        return Err(JobError::Layout(
+            "the DAG layout needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)"
+                .into(),
+        ));
+    }
     if let Some(budget) = job.memory {
-        if dag {
-            return Err(JobError::Layout(
-                "a bake within a memory budget writes the tree layout; convert its file \
-                 afterwards (svo-bake out.svo --layout dag -o dag.svo)"
-                    .into(),
-            ));
-        }
         if format != OutputFormat::Svo {
             return Err(PartsError::Unsupported(
                 "a bake within a memory budget writes .svo only".into(),
@@ -304,7 +310,7 @@ fn run(
     // nodes the file is version 3).
     let (tree, stats) = match bake_mesh_with_progress(&mesh, &options, progress) {
         Err(BakeError::TooLarge { .. } | BakeError::TooManyLeaves { .. })
-            if format == OutputFormat::Svo && options.solid.is_none() && !dag =>
+            if format == OutputFormat::Svo && options.solid.is_none() =>
         {
             return parts(options.max_memory.unwrap_or(u64::MAX), true);
         }
@@ -382,6 +388,11 @@ fn bake_in_parts(
         budget,
         build,
         &job.output,
+        if job.layout == NodeLayout::Dag {
+            MergeFormat::Dag
+        } else {
+            MergeFormat::Auto
+        },
         progress,
     )?;
     let bake_s = t.elapsed().as_secs_f64() - r.merge.seconds;

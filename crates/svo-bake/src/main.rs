@@ -192,8 +192,13 @@ enum Command {
         output: PathBuf,
         /// Write format version 3 (the subtrees at the plan's level stored as chunks) even
         /// when version 2 holds the tree; past 2^31 leaves or nodes it is written anyway.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "layout")]
         chunked: bool,
+        /// How the file stores its nodes: `tree`, or `dag` (the parts reduced into one graph
+        /// of distinct subtrees as they are read; format version 4, without inner-node
+        /// attributes).
+        #[arg(long, default_value = "tree", value_name = "LAYOUT")]
+        layout: LayoutArg,
         /// Print the summary as JSON on stdout.
         #[arg(long)]
         json: bool,
@@ -321,8 +326,9 @@ fn real_main() -> anyhow::Result<()> {
             plan,
             output,
             chunked,
+            layout,
             json,
-        }) => merge(plan, output, *chunked, *json),
+        }) => merge(plan, output, *chunked, *layout, *json),
         None => bake(&args),
     }
 }
@@ -406,12 +412,13 @@ fn merge(
     plan: &std::path::Path,
     output: &std::path::Path,
     chunked: bool,
+    layout: LayoutArg,
     json: bool,
 ) -> anyhow::Result<()> {
-    let format = if chunked {
-        MergeFormat::Chunked
-    } else {
-        MergeFormat::Auto
+    let format = match (chunked, layout) {
+        (_, LayoutArg::Dag) => MergeFormat::Dag,
+        (true, LayoutArg::Tree) => MergeFormat::Chunked,
+        (false, LayoutArg::Tree) => MergeFormat::Auto,
     };
     let r = merge_parts(plan, output, format)
         .map_err(|e| with_hint(&e))

@@ -308,7 +308,7 @@ fn render_graph(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError
     let (lo, hi) = dag.occupied_bounds();
     let stage = job.setup()?.stage(dag.depth(), lo, hi, &build.scene)?;
     let s = DagSurfaces::new(&dag, job.trace.mode);
-    let size = (dag.depth(), u64::from(dag.leaf_count()));
+    let size = (dag.depth(), dag.leaf_count());
     render_staged(job, threads, stage, s, size)
 }
 

@@ -331,7 +331,8 @@ fn lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts() {
 }
 
 /// `--layout dag` writes version 4's DAG layout: the same tree as the tree layout, smaller;
-/// an `.svo` converts either way, to the other layout's bytes exactly; what the layout cannot
+/// an `.svo` converts either way, to the other layout's bytes exactly; a bake within a memory
+/// budget and a merge of a plan's parts write the DAG bake's bytes; what the layout cannot
 /// hold or this kind of job does not make is one clear line and no output.
 fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
     let d = tmp();
@@ -390,6 +391,48 @@ fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
         &[s(&torus), "--depth", "1", "--layout", "dag", "-o", s(&no)],
         "depth 2 or more",
     );
+    // Within a memory budget (in parts, reduced into one graph at the merge), and merged from
+    // a plan's parts: the bytes of the DAG bake in memory.
+    let deeper = |extra: &[&str], out: &Path| {
+        let mut a = vec![s(&torus), "--depth", "9", "--channels", "normal", "-q"];
+        a.extend_from_slice(extra);
+        a.extend(["-o", s(out)]);
+        ok(&a);
+        bytes(out)
+    };
+    let whole = deeper(&["--layout", "dag"], &p("d9.svo"));
+    let parts = deeper(&["--layout", "dag", "--memory", "16MiB"], &p("d9parts.svo"));
+    assert!(
+        parts == whole,
+        "{} bytes against {}",
+        parts.len(),
+        whole.len()
+    );
+    let plan = p("d9.svoplan");
+    ok(&[
+        "plan",
+        s(&torus),
+        "--parts",
+        "3",
+        "--depth",
+        "9",
+        "--channels",
+        "normal",
+        "-o",
+        s(&plan),
+    ]);
+    for i in ["0", "1", "2"] {
+        ok(&["part", s(&plan), i]);
+    }
+    ok(&[
+        "merge",
+        s(&plan),
+        "--layout",
+        "dag",
+        "-o",
+        s(&p("d9merged.svo")),
+    ]);
+    assert!(bytes(&p("d9merged.svo")) == whole);
     fails(
         &[
             s(&torus),
@@ -397,12 +440,14 @@ fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
             "5",
             "--memory",
             "64MiB",
+            "--lod",
+            "filtered",
             "--layout",
             "dag",
             "-o",
             s(&no),
         ],
-        "memory budget",
+        "inner-node attributes",
     );
     fails(
         &[

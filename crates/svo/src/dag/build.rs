@@ -55,78 +55,16 @@ struct Level {
 }
 
 impl Dag {
-    /// The graph of `tree`'s geometry (its values are not part of it).
+    /// The graph of `tree`'s geometry (its values are not part of it). `tree` must be a valid
+    /// tree ([`Octree::validate`]); of another, the graph holds what the walk from its root
+    /// could reduce before it met what is not a tree.
     pub fn from_tree(tree: &Octree) -> Self {
-        let depth = usize::from(tree.depth);
-        let nodes = &tree.nodes;
-        // The tree's nodes level by level, each level in Morton order.
-        let mut by_level: Vec<Vec<u32>> = Vec::with_capacity(depth);
-        let mut level = vec![0u32];
-        for _ in 0..depth {
-            let mut next = Vec::new();
-            for &i in &level {
-                let n = nodes[i as usize];
-                if !n.is_leaf_parent() && n.child_mask() != 0 {
-                    next.extend(n.first..n.first + n.child_mask().count_ones());
-                }
-            }
-            by_level.push(level);
-            level = next;
+        let mut graph = DagBuilder::new(tree.depth);
+        if let Some(&root) = tree.nodes.first() {
+            let whole = graph.add(0, root, &tree.nodes);
+            debug_assert!(whole.is_ok(), "{whole:?}");
         }
-        // From the leaf parents up: each tree node's index among its level's distinct nodes.
-        let mut id = vec![0u32; nodes.len()];
-        let mut levels = vec![Level::default(); depth];
-        for l in (0..depth).rev() {
-            // Keyed by the mask and the children's ids in a fixed array (compared inline, unlike a
-            // slice): a node has at most 8 children, and the mask says how many.
-            let mut seen: FxHashMap<(u8, [u32; 8]), u32> = FxHashMap::default();
-            let mut kids: Vec<u32> = Vec::new();
-            // The children's ids of every node of the level, one after another.
-            let mut spans = Vec::with_capacity(by_level[l].len());
-            for &i in &by_level[l] {
-                let n = nodes[i as usize];
-                let start = kids.len();
-                if !n.is_leaf_parent() && n.child_mask() != 0 {
-                    let block = n.first..n.first + n.child_mask().count_ones();
-                    kids.extend(block.map(|c| id[c as usize]));
-                }
-                spans.push(start..kids.len());
-            }
-            let below = levels
-                .get(l + 1)
-                .map(|b| b.leaves.clone())
-                .unwrap_or_default();
-            let out = &mut levels[l];
-            for (&i, span) in by_level[l].iter().zip(spans) {
-                let n = nodes[i as usize];
-                let mut ids = [0u32; 8];
-                ids[..span.len()].copy_from_slice(&kids[span.clone()]);
-                let key = (n.child_mask(), ids);
-                let next = out.masks.len() as u32;
-                let k = *seen.entry(key).or_insert(next);
-                if k == next {
-                    out.masks.push(n.child_mask());
-                    let leaves = if n.is_leaf_parent() {
-                        u64::from(n.child_mask().count_ones())
-                    } else {
-                        kids[span.clone()].iter().map(|&c| below[c as usize]).sum()
-                    };
-                    out.leaves.push(leaves);
-                    if l + 1 < depth {
-                        out.starts.push(out.children.len() as u32);
-                        out.children.extend_from_slice(&kids[span]);
-                    }
-                }
-                id[i as usize] = k;
-            }
-            if l + 1 < depth {
-                out.starts.push(out.children.len() as u32);
-            }
-        }
-        Self {
-            depth: tree.depth,
-            levels,
-        }
+        graph.finish()
     }
 
     /// The tree's depth (the levels of nodes are `0 .. depth`).
@@ -210,6 +148,170 @@ impl Graph for Dag {
     }
 }
 
+/// A graph built from subtrees handed over in Morton order: a whole tree, or the subtrees at
+/// one level of a bake's parts, one after another, then the levels above them
+/// ([`DagBuilder::add_top`]). Each level keeps its distinct nodes in the order they are first
+/// met, which is the tree's Morton order on that level whatever the subtrees were, so the
+/// graph is the one [`Dag::from_tree`] makes of the whole tree.
+pub(crate) struct DagBuilder {
+    depth: u8,
+    levels: Vec<Level>,
+    /// Per level, each distinct node's index by its mask and its children's indices.
+    seen: Vec<FxHashMap<(u8, [u32; 8]), u32>>,
+}
+
+impl DagBuilder {
+    /// An empty graph of a tree of `depth` levels.
+    pub(crate) fn new(depth: u8) -> Self {
+        let depth_levels = usize::from(depth);
+        Self {
+            depth,
+            levels: vec![Level::default(); depth_levels],
+            seen: vec![FxHashMap::default(); depth_levels],
+        }
+    }
+
+    /// The node of `level` with child mask `mask` and the children `kids` (their indices on
+    /// the level below, in child order; none on the leaf parents' level): its index on the
+    /// level, added if the level has no such node yet.
+    pub(crate) fn node(&mut self, level: usize, mask: u8, kids: &[u32]) -> u32 {
+        let mut ids = [0u32; 8];
+        ids[..kids.len()].copy_from_slice(kids);
+        let next = self.levels[level].masks.len() as u32;
+        let k = *self.seen[level].entry((mask, ids)).or_insert(next);
+        if k == next {
+            let leaf_parents = level + 1 == usize::from(self.depth);
+            let leaves = if leaf_parents {
+                u64::from(mask.count_ones())
+            } else {
+                let below = &self.levels[level + 1].leaves;
+                kids.iter().map(|&c| below[c as usize]).sum()
+            };
+            let out = &mut self.levels[level];
+            out.masks.push(mask);
+            out.leaves.push(leaves);
+            if !leaf_parents {
+                out.starts.push(out.children.len() as u32);
+                out.children.extend_from_slice(kids);
+            }
+        }
+        k
+    }
+
+    /// The leaves below node `k` of `level`.
+    pub(crate) fn leaves(&self, level: usize, k: u32) -> u64 {
+        self.levels[level].leaves[k as usize]
+    }
+
+    /// Adds the subtree of `root`, a node on `level` whose children's block (and theirs, down
+    /// to the leaf parents) lie in `nodes`, each node's `first` an index into `nodes`; returns
+    /// its index on `level`. Only the root of level 0 may have no children. `Err` names what
+    /// makes `nodes` no tree of the graph's depth (a block past the end of `nodes`, a leaf
+    /// parent above the lowest level or an inner node on it, a node without children, more
+    /// nodes met than `nodes` holds), and the levels then hold part of the subtree.
+    pub(crate) fn add(
+        &mut self,
+        level: usize,
+        root: Node,
+        nodes: &[Node],
+    ) -> Result<u32, &'static str> {
+        let depth = usize::from(self.depth);
+        if level == 0 && root.child_mask() == 0 {
+            return Ok(self.node(0, 0, &[]));
+        }
+        let block = |n: Node, l: usize| -> Result<std::ops::Range<u32>, &'static str> {
+            let leaf_parent = l + 1 == depth;
+            if n.child_mask() == 0 {
+                return Err("a node below the root has no children");
+            }
+            if n.is_leaf_parent() != leaf_parent {
+                return Err("a node's children are leaves above the lowest level, or nodes on it");
+            }
+            if leaf_parent {
+                return Ok(0..0);
+            }
+            let end = u64::from(n.first) + u64::from(n.child_mask().count_ones());
+            if end > nodes.len() as u64 {
+                return Err("a node's children lie past the subtree's nodes");
+            }
+            Ok(n.first..end as u32)
+        };
+        // The subtree's nodes level by level below its root, each level in Morton order: a
+        // node's children follow those of the nodes before it on its level.
+        let mut by_level: Vec<Vec<u32>> = Vec::with_capacity(depth.saturating_sub(level + 1));
+        let mut next: Vec<u32> = block(root, level)?.collect();
+        let mut met = next.len();
+        for l in level + 1..depth {
+            let mut deeper = Vec::new();
+            for &i in &next {
+                let kids = block(nodes[i as usize], l)?;
+                met += kids.len();
+                if met > nodes.len() {
+                    return Err("the subtree's nodes are met more than once");
+                }
+                deeper.extend(kids);
+            }
+            by_level.push(std::mem::replace(&mut next, deeper));
+        }
+        // From the leaf parents up, each node's index on its level.
+        let mut ids_below: Vec<u32> = Vec::new();
+        for (r, list) in by_level.iter().enumerate().rev() {
+            let l = level + 1 + r;
+            let mut ids = Vec::with_capacity(list.len());
+            let mut at = 0;
+            for &i in list {
+                let n = nodes[i as usize];
+                let c = if l + 1 == depth {
+                    0
+                } else {
+                    n.child_mask().count_ones() as usize
+                };
+                ids.push(self.node(l, n.child_mask(), &ids_below[at..at + c]));
+                at += c;
+            }
+            ids_below = ids;
+        }
+        Ok(self.node(level, root.child_mask(), &ids_below))
+    }
+
+    /// Adds the levels above `level` over that level's nodes, given as their Morton codes on
+    /// `level` with their indices, in increasing code (none: the empty tree). Returns the
+    /// root's index (0).
+    pub(crate) fn add_top(&mut self, level: usize, mut cells: Vec<(u64, u32)>) -> u32 {
+        if cells.is_empty() {
+            return self.node(0, 0, &[]);
+        }
+        for l in (0..level).rev() {
+            let mut up = Vec::with_capacity(cells.len() / 2 + 1);
+            let mut rest = cells.as_slice();
+            while let Some(&(code, _)) = rest.first() {
+                let n = rest.iter().take_while(|c| c.0 >> 3 == code >> 3).count();
+                let (group, after) = rest.split_at(n);
+                let mask = group.iter().fold(0u8, |m, c| m | 1 << (c.0 & 7));
+                let kids: Vec<u32> = group.iter().map(|c| c.1).collect();
+                up.push((code >> 3, self.node(l, mask, &kids)));
+                rest = after;
+            }
+            cells = up;
+        }
+        cells[0].1
+    }
+
+    /// The graph.
+    pub(crate) fn finish(mut self) -> Dag {
+        let depth = usize::from(self.depth);
+        for (l, level) in self.levels.iter_mut().enumerate() {
+            if l + 1 < depth {
+                level.starts.push(level.children.len() as u32);
+            }
+        }
+        Dag {
+            depth: self.depth,
+            levels: self.levels,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,5 +384,78 @@ mod tests {
             "{}",
             dag.node_count()
         );
+    }
+
+    /// The nodes of `tree` at `level` in Morton order, with their codes.
+    fn at_level(tree: &Octree, level: usize) -> Vec<(u64, Node)> {
+        let mut cells = vec![(0u64, tree.nodes[0])];
+        for _ in 0..level {
+            let mut next = Vec::new();
+            for &(code, n) in &cells {
+                let mut first = n.first;
+                for c in 0..8u64 {
+                    if n.child_mask() >> c & 1 != 0 {
+                        next.push((code << 3 | c, tree.nodes[first as usize]));
+                        first += 1;
+                    }
+                }
+            }
+            cells = next;
+        }
+        cells
+    }
+
+    /// The subtrees at any level handed over one after another in Morton order, then the
+    /// levels above them, make the graph of the whole tree (what the merge of a bake's parts
+    /// relies on); nodes that are no tree are refused, never a panic.
+    #[test]
+    fn subtrees_in_morton_order_make_the_graph_of_the_whole_tree() {
+        let mut rnd = svo_tests::seeds::xorshift(0xda7);
+        let root = RootCube {
+            origin: DVec3::ZERO,
+            side: 1.0,
+        };
+        for case in 0..60u32 {
+            let depth = 2 + (case % 6) as u8;
+            let side = 1u32 << depth;
+            let n = if case % 7 == 0 { 3000 } else { 1 + rnd() % 200 };
+            let cells = (0..n).map(|_| {
+                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
+                (c, Voxel::glass())
+            });
+            let tree = Octree::from_cells(root, depth, cells).unwrap();
+            let whole = Dag::from_tree(&tree);
+            for level in 1..usize::from(depth) {
+                let mut graph = DagBuilder::new(depth);
+                let cells: Vec<(u64, u32)> = at_level(&tree, level)
+                    .into_iter()
+                    .map(|(code, n)| (code, graph.add(level, n, &tree.nodes).unwrap()))
+                    .collect();
+                assert_eq!(graph.add_top(level, cells), 0);
+                assert_eq!(graph.finish(), whole, "case {case}, level {level}");
+            }
+            // Damaged nodes: refused or reduced, never a panic or a hang.
+            for _ in 0..40 {
+                let mut nodes = tree.nodes.clone();
+                let k = rnd() as usize % nodes.len();
+                match rnd() % 3 {
+                    0 => nodes[k].first = rnd() as u32 % (nodes.len() as u32 + 2),
+                    1 => nodes[k].info ^= 1 << (rnd() % 8),
+                    _ => nodes[k].first = nodes[k].first.wrapping_neg(),
+                }
+                let mut graph = DagBuilder::new(depth);
+                let _ = graph.add(0, nodes[0], &nodes);
+            }
+        }
+        // A root that is its own first child: its nodes met again and again, refused.
+        let tree = Octree::from_cells(
+            root,
+            3,
+            [UVec3::new(0, 0, 0), UVec3::new(7, 7, 7)].map(|c| (c, Voxel::glass())),
+        )
+        .unwrap();
+        let mut nodes = tree.nodes.clone();
+        nodes[0].first = 0;
+        assert!(DagBuilder::new(3).add(0, nodes[0], &nodes).is_err());
     }
 }

@@ -22,17 +22,26 @@ pub(crate) trait Graph {
 
 /// The canonical node array of the tree `g` stands for (bits 8-31 of `info` zero).
 pub(crate) fn canonical_nodes<G: Graph>(g: &G) -> Vec<Node> {
+    canonical_nodes_to(g, usize::MAX)
+}
+
+/// The canonical node array of the top `levels` levels of the tree `g` stands for: its nodes
+/// on level `levels - 1` are leaf parents, their children the leaves.
+pub(crate) fn canonical_nodes_to<G: Graph>(g: &G, levels: usize) -> Vec<Node> {
     let root = g.root();
     let mut out = vec![Node {
         info: u32::from(g.mask(root)),
         first: 0,
     }];
     let mut of = vec![root];
+    // Each placed node's level.
+    let mut level = vec![0usize];
+    let leaf_parent = |r: G::Ref, l: usize| g.is_leaf_parent(r) || l + 1 >= levels;
     let mut stack = vec![0usize];
     let mut kids = Vec::with_capacity(8);
     while let Some(b) = stack.pop() {
         let r = of[b];
-        if g.is_leaf_parent(r) || g.mask(r) == 0 {
+        if leaf_parent(r, level[b]) || g.mask(r) == 0 {
             continue;
         }
         kids.clear();
@@ -45,6 +54,7 @@ pub(crate) fn canonical_nodes<G: Graph>(g: &G) -> Vec<Node> {
                 first: 0,
             });
             of.push(c);
+            level.push(level[b] + 1);
         }
         // Placed children's subtrees follow from the last child to the first.
         stack.extend(first..out.len());
@@ -56,7 +66,7 @@ pub(crate) fn canonical_nodes<G: Graph>(g: &G) -> Vec<Node> {
         let n = out[i];
         if n.child_mask() == 0 {
             // The empty root: no children.
-        } else if g.is_leaf_parent(of[i]) {
+        } else if leaf_parent(of[i], level[i]) {
             out[i].first = (-i64::from(next_leaf) - 1) as i32 as u32;
             next_leaf += n.child_mask().count_ones();
         } else {

@@ -12,7 +12,7 @@
 #![cfg_attr(not(feature = "io"), allow(dead_code))]
 
 use super::build::Dag;
-use super::expand::{Graph, canonical_nodes};
+use super::expand::{Graph, canonical_nodes, canonical_nodes_to};
 use crate::octree::format_check::Check;
 use crate::octree::tree::Node;
 use crate::octree::validate::Failure;
@@ -139,6 +139,42 @@ impl DagLevels {
         let mut c: Vec<u64> = self.starts.iter().map(|s| s.len() as u64).collect();
         c.push(self.bricks.len() as u64);
         c
+    }
+
+    /// The nodes on each level of the tree the graph stands for, the root's first (`depth`
+    /// entries), then its leaves (saturating): each node counted as often as paths from the
+    /// root reach it.
+    pub(crate) fn tree_counts(&self) -> Vec<u64> {
+        let top = usize::from(self.depth) - 2;
+        let mut counts = Vec::with_capacity(top + 3);
+        // How many of the tree's nodes each node of the level stands for.
+        let mut times = vec![1u64];
+        for l in 0..top {
+            counts.push(times.iter().fold(0u64, |a, &t| a.saturating_add(t)));
+            let below = if l + 1 == top {
+                self.bricks.len()
+            } else {
+                self.starts[l + 1].len()
+            };
+            let mut next = vec![0u64; below];
+            for (k, &(s, first)) in self.starts[l].iter().enumerate() {
+                let n = self.words[l][s as usize].count_ones() as usize;
+                let f = first as usize;
+                for &c in &self.kids[l][f..f + n] {
+                    next[c as usize] = next[c as usize].saturating_add(times[k]);
+                }
+            }
+            times = next;
+        }
+        let sum = |per: &dyn Fn(u64) -> u64| {
+            self.bricks.iter().zip(&times).fold(0u64, |a, (&b, &t)| {
+                a.saturating_add(t.saturating_mul(per(b)))
+            })
+        };
+        counts.push(sum(&|_| 1));
+        counts.push(sum(&|b| u64::from(brick_mask(b).count_ones())));
+        counts.push(sum(&|b| u64::from(b.count_ones())));
+        counts
     }
 
     /// Checks 14 to 16 (`docs/format.md`, section 12) on the blocks of a graph of `depth`
@@ -426,6 +462,12 @@ impl DagLevels {
     /// The canonical node array of the tree the graph stands for.
     pub(crate) fn to_nodes(&self) -> Vec<Node> {
         canonical_nodes(self)
+    }
+
+    /// The canonical node array of the tree's top `levels` levels (its nodes on level
+    /// `levels - 1` as leaf parents).
+    pub(crate) fn to_nodes_to(&self, levels: usize) -> Vec<Node> {
+        canonical_nodes_to(self, levels)
     }
 }
 

@@ -23,15 +23,18 @@ pub enum DagError {
     /// A tree of depth 1: a graph's lowest nodes are 4x4x4 bricks, two levels.
     #[error("a DAG needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)")]
     TooShallow,
-    /// More leaves than a leaf index holds.
-    #[error("{0} leaves: more than 2^31, which a leaf index holds")]
+    /// More leaves than a leaf index holds, with channels stored per leaf (which the index
+    /// reads).
+    #[error("{0} leaves with channels stored per leaf: more than 2^31, which a leaf index holds")]
     TooManyLeaves(u64),
 }
 
 /// A tree's geometry as a graph of its distinct subtrees (the file form of `docs/format.md`,
 /// section 12, with what a walk derives: each node's children as indices and the leaves
 /// before each child), and the tree's root cube: rays walk it as they walk the tree and meet
-/// the same leaves, with the same indices into the tree's leaf arrays.
+/// the same leaves, with the same indices into the tree's leaf arrays. A graph whose tree has
+/// more than 2^31 leaves has no leaf arrays (its channels are constants; a per-leaf array is
+/// refused): its leaves' indices are their Morton index modulo 2^32, which nothing reads.
 ///
 /// ```
 /// use glam::{DVec3, UVec3, Vec3};
@@ -55,7 +58,7 @@ pub struct DagTree {
     graph: DagLevels,
     /// Per level above the bricks, per child word: the leaves below the earlier children.
     before: Vec<Vec<u32>>,
-    leaf_count: u32,
+    leaf_count: u64,
     /// The leaves' channels, in Morton order.
     pub(crate) attributes: LeafAttributes,
     /// The codes of the boxes of the nodes' leaves: per level above the bricks, and per brick.
@@ -71,22 +74,25 @@ impl DagTree {
             return Err(DagError::TooShallow);
         }
         let graph = DagLevels::of(&Dag::from_tree(tree));
-        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count))?;
+        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count), false)?;
         dag.attributes = tree.attributes.clone();
         Ok(dag)
     }
 
     /// The walkable form of a graph that passed the reader's checks, whose tree has `leaves`
-    /// leaves.
+    /// leaves; `per_leaf`: the leaves' channels will include an array, which refuses a tree
+    /// past 2^31 leaves.
     pub(crate) fn from_levels(
         root: RootCube,
         graph: DagLevels,
         leaves: u64,
+        per_leaf: bool,
     ) -> Result<Self, DagError> {
-        if leaves > MAX_LEAVES {
+        if leaves > MAX_LEAVES && per_leaf {
             return Err(DagError::TooManyLeaves(leaves));
         }
-        // Within 2^31 leaves, every partial sum fits.
+        // Within 2^31 leaves every partial sum fits; past them, a leaf's index is its Morton
+        // index modulo 2^32 (the walk adds with wrapping), which no array is read by.
         let before = graph
             .leaves_before()
             .into_iter()
@@ -97,7 +103,7 @@ impl DagTree {
             root,
             graph,
             before,
-            leaf_count: leaves as u32,
+            leaf_count: leaves,
             attributes: LeafAttributes::default(),
             boxes,
             brick_boxes,
@@ -115,7 +121,7 @@ impl DagTree {
     }
 
     /// The tree's leaves.
-    pub fn leaf_count(&self) -> u32 {
+    pub fn leaf_count(&self) -> u64 {
         self.leaf_count
     }
 
@@ -297,7 +303,7 @@ impl WalkNodes for DagTree {
                 let (_, first) = self.graph.start_of(l, n.index);
                 let at = (first + rank) as usize;
                 let k = *self.graph.kids_of(l).get(at)?;
-                let base = n.base + *self.before[l].get(at)?;
+                let base = n.base.wrapping_add(*self.before[l].get(at)?);
                 Some(self.node(l + 1, k, base))
             }
             1 => {
@@ -310,7 +316,7 @@ impl WalkNodes for DagTree {
                     mask,
                     level: n.level + 1,
                     index: n.index,
-                    base: n.base + below.count_ones(),
+                    base: n.base.wrapping_add(below.count_ones()),
                     boxed: leaf_parent_code(mask),
                 })
             }
@@ -356,5 +362,95 @@ impl WalkNodes for DagTree {
     #[inline]
     fn restore(s: Self::Saved) -> (DagNode, u8, f32) {
         s
+    }
+}
+
+#[cfg(all(test, feature = "io"))]
+mod tests {
+    use super::*;
+    use crate::dag::DagBuilder;
+    use crate::io::BuildInfo;
+    use crate::io::write::{Layout, dag_blocks, write_layout};
+    use crate::trace::MAX_STEPS;
+    use glam::Vec3;
+
+    /// The Morton index of cell `c` in a full grid of `depth` levels.
+    fn morton(c: UVec3, depth: u8) -> u64 {
+        (0..depth).rev().fold(0u64, |code, l| {
+            code << 3
+                | u64::from(c.x >> l & 1) << 2
+                | u64::from(c.y >> l & 1) << 1
+                | u64::from(c.z >> l & 1)
+        })
+    }
+
+    /// A full grid of 2^12 cells a side (2^36 leaves, one node a level as a graph) as a file:
+    /// its tree is refused as too large, its top levels and level sizes read, and its graph
+    /// walked, each leaf met with its Morton index modulo 2^32; with a channel stored per leaf
+    /// the graph is refused.
+    #[test]
+    fn a_graph_past_2_31_leaves_opens_coarse_and_is_walked_without_leaf_arrays() {
+        let depth = 12u8;
+        let dag = dag_full(depth);
+        assert_eq!(dag.leaf_count(), 1 << 36);
+        let (plan, blocks) = dag_blocks(&dag);
+        let layout = Layout {
+            root_origin: [0.0; 3],
+            root_side: 1.0,
+            depth,
+            node_count: plan.counts.iter().sum(),
+            leaf_count: 1 << 36,
+            channels: Vec::new(),
+            build: &BuildInfo::new(),
+            chunks: None,
+            levels: Some(plan),
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("full.svo");
+        let mut bytes = Vec::new();
+        write_layout(&layout, &mut bytes, &mut |i, out| out.write_all(&blocks[i])).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+        assert!(matches!(
+            crate::io::read_file(&path),
+            Err(crate::io::FormatError::DagTooLarge { .. })
+        ));
+        let sizes = crate::io::read_level_sizes(&path).unwrap().unwrap();
+        let want: Vec<u64> = (0..=depth).map(|l| 8u64.pow(u32::from(l))).collect();
+        assert_eq!(sizes.counts, want);
+        let (top, _) = crate::io::read_file_to_depth(&path, 4).unwrap();
+        assert_eq!((top.depth, top.leaf_count), (4, 4096));
+        let (dag, _) = crate::io::read_dag_file(&path).unwrap();
+        assert_eq!(dag.leaf_count(), 1 << 36);
+        let ray = GridRay {
+            origin: Vec3::new(-1.0, 3000.5, 2000.5),
+            dir: Vec3::X,
+        };
+        let mut met = Vec::new();
+        dag.traverse(&ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+            met.push((e.leaf, e.cell));
+            (met.len() == 3).then_some(())
+        });
+        let want: Vec<(u32, UVec3)> = (0..3)
+            .map(|x| {
+                let c = UVec3::new(x, 3000, 2000);
+                (morton(c, depth) as u32, c)
+            })
+            .collect();
+        assert_eq!(met, want);
+        // A per-leaf channel's index would pass 32 bits: refused.
+        let graph = DagLevels::of(&dag_full(depth));
+        assert_eq!(
+            DagTree::from_levels(dag.root(), graph, 1 << 36, true).unwrap_err(),
+            DagError::TooManyLeaves(1 << 36)
+        );
+    }
+
+    fn dag_full(depth: u8) -> Dag {
+        let mut graph = DagBuilder::new(depth);
+        for l in (0..usize::from(depth)).rev() {
+            let kids = if l + 1 == usize::from(depth) { 0 } else { 8 };
+            graph.node(l, 0xFF, &[0; 8][..kids]);
+        }
+        graph.finish()
     }
 }

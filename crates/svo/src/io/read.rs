@@ -1113,14 +1113,9 @@ pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), For
             dag.attributes = attributes;
             return Ok((dag, p));
         }
-        let Raw { tree, blocks, .. } = raw;
-        let Some(levels) = &p.header.levels else {
-            return Err(corrupt(Check::Header, "a version-4 header without levels"));
-        };
-        check_level_hashes(levels, &blocks)?;
-        let (graph, size) = dag_levels(&p.header, levels, &blocks)?;
-        check_values(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
-        let mut dag = DagTree::from_levels(tree.root, graph, size.leaves)?;
+        let (graph, size, tree) = dag_of_raw(raw, &p)?;
+        let per_leaf = tree.attributes.per_leaf_bytes() > 0;
+        let mut dag = DagTree::from_levels(tree.root, graph, size.leaves, per_leaf)?;
         dag.attributes = tree.attributes;
         Ok((dag, p))
     })?;
@@ -1136,7 +1131,9 @@ pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), For
 /// to `max_depth` and nothing after them, in time and memory proportional to those levels.
 /// What is read is checked (checks 1 to 4, 20, 6 to 12 and 21 from the header and the file's
 /// length, then 13, 22 and 14 to 18 on the levels read); the whole-file checksum (check 5) is
-/// not, since it needs every byte. A version-3 file (chunks) is read in one pass holding one
+/// not, since it needs every byte. A file of the DAG layout, whose levels are a graph's, is
+/// read whole with every check and only the top levels of its tree are made from the graph,
+/// so a graph past 2^31 leaves opens coarse. A version-3 file (chunks) is read in one pass holding one
 /// chunk's nodes at a time, so a tree past 2^31 leaves opens coarse; a version-2 file is read
 /// whole and cut in memory.
 ///
@@ -1182,9 +1179,10 @@ pub fn read_file_to_depth(
         return read_file(path);
     }
     if levels.layout == DAG_LAYOUT {
-        // A graph's levels are no tree's: the tree is made whole, then cut.
-        let (tree, build) = read_file(path)?;
-        return Ok((cut_to_depth(&tree, max_depth)?, build));
+        // A graph's levels are no tree's: the graph is read whole, and only the tree's top
+        // levels made.
+        drop(start);
+        return dag_file_to_depth(path, max_depth);
     }
     // Everything up to the end of level `max_depth`'s block.
     let k = usize::from(max_depth);
@@ -1225,6 +1223,47 @@ pub fn read_file_to_depth(
         side: h.root_side,
     };
     let tree = top_tree(root, top, max_depth, counts[k], p.version)?;
+    Ok((tree, p.header.build))
+}
+
+/// The graph a DAG-layout file's blocks hold (checks 22, 14 to 17), the size of its tree, and
+/// the file's tree without nodes (its root cube and leaves' channels, check 18 applied).
+fn dag_of_raw(raw: Raw, p: &Preamble) -> Result<(DagLevels, TreeSize, Octree), FormatError> {
+    let Raw { tree, blocks, .. } = raw;
+    let Some(levels) = &p.header.levels else {
+        return Err(corrupt(Check::Header, "a version-4 header without levels"));
+    };
+    check_level_hashes(levels, &blocks)?;
+    let (graph, size) = dag_levels(&p.header, levels, &blocks)?;
+    check_values(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
+    Ok((graph, size, tree))
+}
+
+/// The top `max_depth` levels (fewer than the file's) of the tree that the DAG-layout file at
+/// `path` stands for: its graph read whole, only those levels of the tree made (their last
+/// level's nodes the leaves, without channels: a graph's nodes keep none). Refused when they
+/// pass 2^31 leaves or nodes.
+fn dag_file_to_depth(path: &Path, max_depth: u8) -> Result<(Octree, BuildInfo), FormatError> {
+    let k = usize::from(max_depth);
+    let (tree, p, ..) = read_path(path, &mut |raw, p| {
+        let (graph, _, file) = dag_of_raw(raw, &p)?;
+        let counts = graph.tree_counts();
+        let (nodes, leaves) = (counts[..k].iter().sum::<u64>(), counts[k]);
+        if leaves > MAX_LEAVES || nodes > MAX_LEAVES {
+            return Err(FormatError::DagTooLarge { leaves, nodes });
+        }
+        let mut tree = Octree {
+            root: file.root,
+            depth: max_depth,
+            nodes: graph.to_nodes_to(k),
+            leaf_count: leaves as u32,
+            attributes: LeafAttributes::default(),
+            node_attributes: LeafAttributes::default(),
+        };
+        check_renumbered(&tree, LEVELS_VERSION).map_err(|(c, d)| corrupt(c, d))?;
+        tree.refresh_checked_bounds();
+        Ok((tree, p))
+    })?;
     Ok((tree, p.header.build))
 }
 
@@ -1397,25 +1436,34 @@ pub fn is_dag_file(path: impl AsRef<Path>) -> Result<bool, FormatError> {
 
 /// The level sizes of the version-4 file at `path`, read from its header (checks 1 to 4, 20,
 /// 6 to 12 and 21, as [`read_file_to_depth`] makes them); `None` for a file of an older
-/// version, which has no level table, or of the DAG layout, whose levels hold a graph's
-/// distinct nodes rather than a tree's.
+/// version, which has no level table. A file of the DAG layout, whose levels hold a graph's
+/// distinct nodes, is read whole with every check of [`read_file`] and its tree's levels
+/// counted from the graph, without the tree being made.
 pub fn read_level_sizes(path: impl AsRef<Path>) -> Result<Option<LevelSizes>, FormatError> {
     let start = FileStart::open(path.as_ref())?;
     if start.version < LEVELS_VERSION {
         return Ok(None);
     }
     let (p, levels, _) = start.levels_header()?;
-    if levels.layout == DAG_LAYOUT {
-        return Ok(None);
-    }
+    let counts = if levels.layout == DAG_LAYOUT {
+        // The tree's levels, which the graph gives.
+        drop(start);
+        let path = path.as_ref();
+        read_path(path, &mut |raw, p| {
+            Ok((dag_of_raw(raw, &p)?.0.tree_counts(), p))
+        })?
+        .0
+    } else {
+        let mut counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
+        counts.push(p.header.leaf_count);
+        counts
+    };
     let h = &p.header;
     let size = |kind: u8| {
         ChannelKind::ALL
             .get(usize::from(kind))
             .map_or(0, |k| k.element_size() as u64)
     };
-    let mut counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
-    counts.push(h.leaf_count);
     Ok(Some(LevelSizes {
         counts,
         leaf_bytes: h

@@ -218,18 +218,7 @@ pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std:
         );
     }
     let (channels, arrays) = checked_channels(tree)?;
-    let dag = DagLevels::of(&Dag::from_tree(tree));
-    let blocks = dag.blocks();
-    let plan = LevelPlan {
-        layout: DAG_LAYOUT,
-        counts: dag.counts(),
-        block_lens: blocks.iter().map(|b| b.len() as u64).collect(),
-        hashes: blocks
-            .iter()
-            .map(|b| block_hash(std::slice::from_ref(b)))
-            .collect(),
-        node_channels: Vec::new(),
-    };
+    let (plan, blocks) = dag_blocks(&Dag::from_tree(tree));
     let layout = Layout {
         root_origin: tree.root.origin.to_array(),
         root_side: tree.root.side,
@@ -243,6 +232,24 @@ pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std:
     };
     let all: Vec<&[u8]> = blocks.iter().map(Vec::as_slice).chain(arrays).collect();
     write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
+}
+
+/// The DAG layout's level blocks of `dag` (of depth 2 or more), and the plan [`write_layout`]
+/// places them by.
+pub(crate) fn dag_blocks(dag: &Dag) -> (LevelPlan, Vec<Vec<u8>>) {
+    let levels = DagLevels::of(dag);
+    let blocks = levels.blocks();
+    let plan = LevelPlan {
+        layout: DAG_LAYOUT,
+        counts: levels.counts(),
+        block_lens: blocks.iter().map(|b| b.len() as u64).collect(),
+        hashes: blocks
+            .iter()
+            .map(|b| block_hash(std::slice::from_ref(b)))
+            .collect(),
+        node_channels: Vec::new(),
+    };
+    (plan, blocks)
 }
 
 /// [`write_dag_to`] into the file at `path`, atomically (as [`write_file`]).

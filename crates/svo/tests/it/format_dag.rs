@@ -87,28 +87,42 @@ fn a_dag_file_reads_back_as_the_same_tree() {
     assert!(5 * dag_bytes(lattice).len() < to_bytes(lattice, &BuildInfo::new()).len());
 }
 
-/// A bake's DAG file on disk: read whole it is the tree, and read to each depth it is the
-/// coarser tree the tree layout's file gives; it is smaller than the tree's.
+/// A bake's DAG file on disk (without channels, and with all): read whole it is the tree, and
+/// read to each depth it is the coarser tree the tree layout's file gives; its level sizes
+/// are the tree's, counted on the graph; it is smaller than the tree's.
 #[test]
 fn a_dag_file_reads_to_a_depth_as_the_tree_layout_does() {
     let mesh = Mesh::sphere(DVec3::splat(0.5), 0.4, 24);
-    let opts = BakeOptions {
-        depth: 6,
-        channels: svo::ChannelSelection::NONE,
-        ..Default::default()
-    };
-    let tree = bake_mesh(&mesh, &opts).unwrap().0;
-    let dir = tempfile::tempdir().unwrap();
-    let (tree_path, dag_path) = (dir.path().join("tree.svo"), dir.path().join("dag.svo"));
-    let tree_len = write_file(&tree, &BuildInfo::new(), &tree_path).unwrap();
-    let dag_len = write_dag_file(&tree, &BuildInfo::new(), &dag_path).unwrap();
-    assert!(dag_len < tree_len, "{dag_len} against {tree_len}");
-    assert_eq!(read_file(&dag_path).unwrap().0, tree);
-    for k in 1..=7 {
+    for channels in [svo::ChannelSelection::NONE, svo::ChannelSelection::ALL] {
+        let opts = BakeOptions {
+            depth: 6,
+            channels,
+            ..Default::default()
+        };
+        let tree = bake_mesh(&mesh, &opts).unwrap().0;
+        let dir = tempfile::tempdir().unwrap();
+        let (tree_path, dag_path) = (dir.path().join("tree.svo"), dir.path().join("dag.svo"));
+        let tree_len = write_file(&tree, &BuildInfo::new(), &tree_path).unwrap();
+        let dag_len = write_dag_file(&tree, &BuildInfo::new(), &dag_path).unwrap();
+        assert!(dag_len < tree_len, "{dag_len} against {tree_len}");
+        assert_eq!(read_file(&dag_path).unwrap().0, tree);
+        for k in 1..=7 {
+            assert_eq!(
+                read_file_to_depth(&dag_path, k).unwrap().0,
+                read_file_to_depth(&tree_path, k).unwrap().0,
+                "depth {k}"
+            );
+        }
+        let sizes = svo::io::read_level_sizes(&dag_path).unwrap().unwrap();
+        let mut want = vec![0u64; 7];
+        for d in 0..=6u8 {
+            let top = read_file_to_depth(&tree_path, d.max(1)).unwrap().0;
+            want[usize::from(d)] = if d == 0 { 1 } else { u64::from(top.leaf_count) };
+        }
+        assert_eq!(sizes.counts, want);
         assert_eq!(
-            read_file_to_depth(&dag_path, k).unwrap().0,
-            read_file_to_depth(&tree_path, k).unwrap().0,
-            "depth {k}"
+            (sizes.leaf_bytes, sizes.node_bytes),
+            (tree.attributes.per_leaf_bytes() as u64, 0)
         );
     }
 }
@@ -167,7 +181,7 @@ fn a_dag_file_reads_as_the_graph_rays_walk() {
     assert_eq!(again.attributes(), &tree.attributes);
     assert_eq!(
         (dag.depth(), dag.root(), dag.leaf_count()),
-        (7, tree.root, tree.leaf_count)
+        (7, tree.root, u64::from(tree.leaf_count))
     );
     let mut rnd = svo_tests::seeds::xorshift(0xda9a1c);
     let mut unit = || (rnd() % 20_001) as f32 / 10_000.0 - 1.0;

@@ -765,7 +765,7 @@ fn the_dag_walk_hands_over_the_trees_entries() {
     let (mut rays, mut handed) = (0usize, 0usize);
     for (depth, tree) in &trees {
         let dag = DagTree::from_tree(tree).unwrap();
-        assert_eq!(dag.leaf_count(), tree.leaf_count);
+        assert_eq!(dag.leaf_count(), u64::from(tree.leaf_count));
         for _ in 0..300 {
             let (ray, tmin, tmax) = bounded_ray(&mut rng, *depth);
             let all = walk(tree, &ray, tmin, tmax, None);

@@ -44,9 +44,11 @@ pub struct PartsReport {
 /// process into a file in a folder beside `output` (`.svo-parts.NAME.HASH`, the plan's hash),
 /// then merged; the folder is removed at the end. A run killed before then leaves it: the
 /// next run of the same bake takes the parts it finished, checked whole, and bakes the rest;
-/// one with another plan removes it. The same bytes as the bake in memory; `build` is what the file records of the
-/// bake (`opts.max_memory` is not used). `progress` receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around
+/// one with another plan removes it. The same bytes as the bake in memory written in `format`
+/// ([`MergeFormat::Dag`]: as [`crate::io::write_dag_to`] writes it); `build` is what the file
+/// records of the bake (`opts.max_memory` is not used). `progress` receives [`Phase::Part`] as each part ends and [`Phase::Merge`] around
 /// the merge.
+#[allow(clippy::too_many_arguments)]
 pub fn bake_within(
     mesh: &Mesh,
     mesh_path: &Path,
@@ -54,6 +56,7 @@ pub fn bake_within(
     budget: u64,
     build: &BuildInfo,
     output: &Path,
+    format: MergeFormat,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<PartsReport, PartsError> {
     // The budget is the limit now: the whole bake's estimate is not held against it.
@@ -62,7 +65,7 @@ pub fn bake_within(
         ..opts.clone()
     };
     let plan = plan_for_budget(mesh, mesh_path, &opts, budget, build)?;
-    let p = bake_planned(mesh, &plan, output, progress)?;
+    let p = bake_planned(mesh, &plan, output, format, progress)?;
     Ok(PartsReport {
         plan,
         part_seconds: p.part_seconds,
@@ -316,6 +319,7 @@ pub(crate) fn bake_planned(
     mesh: &Mesh,
     plan: &BakePlan,
     output: &Path,
+    format: MergeFormat,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<Planned, PartsError> {
     check_disk(mesh, plan, parent_dir(output))?;
@@ -349,7 +353,7 @@ pub(crate) fn bake_planned(
         Ok(())
     })?;
     progress(Phase::Merge, 0.0);
-    let merge = merge_with(plan, hash, &path_of, output, MergeFormat::Auto)?;
+    let merge = merge_with(plan, hash, &path_of, output, format)?;
     progress(Phase::Merge, 1.0);
     Ok(Planned {
         merge,

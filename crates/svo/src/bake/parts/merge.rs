@@ -11,6 +11,7 @@
 //! it. The output is written atomically: a missing, foreign, truncated or damaged part leaves
 //! no file.
 
+use crate::bake::parts::merge_dag::merge_dag;
 use crate::bake::parts::merge_levels::LevelMerge;
 use crate::bake::parts::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
 use crate::bake::parts::part_levels::node_kinds;
@@ -64,6 +65,11 @@ pub enum MergeFormat {
     Auto,
     /// Version 3 whatever the tree's size.
     Chunked,
+    /// Version 4's DAG layout (`docs/format.md`, section 12): the geometry as a graph of
+    /// distinct subtrees, the parts reduced into it as they are read; the bytes
+    /// [`crate::io::write_dag_to`] writes of the tree baked in memory. Refused for a bake with
+    /// inner-node attributes and for a tree of depth 1.
+    Dag,
 }
 
 /// Merges the parts of the plan at `plan_path` (each at [`part_path`]) into `output`.
@@ -97,6 +103,31 @@ pub(crate) fn merge_with(
     let headers = read_headers(plan, plan_hash, path_of)?;
     let (subs, leaf_off, leaves) = subtrees(&headers);
     let (channels, copied) = channels(&headers, leaves);
+    if format == MergeFormat::Dag {
+        if plan.node_attributes {
+            return Err(PartsError::Unsupported(
+                "the DAG layout keeps no inner-node attributes: bake without them".into(),
+            ));
+        }
+        if plan.depth < 2 {
+            return Err(PartsError::Unsupported(
+                "the DAG layout needs a tree of depth 2 or more".into(),
+            ));
+        }
+        let merged = merge_dag(plan, &headers, channels.clone(), &copied, leaves, output)?;
+        let layout = Layout {
+            root_origin: plan.root_origin,
+            root_side: plan.root_side,
+            depth: plan.depth,
+            node_count: merged.nodes,
+            leaf_count: leaves,
+            channels,
+            build: &plan.build,
+            chunks: None,
+            levels: None,
+        };
+        return Ok(report(plan, &headers, &layout, merged.bytes, 4, 0, t0));
+    }
     if plan.node_attributes && leaves > 0 {
         if format == MergeFormat::Chunked {
             return Err(PartsError::Unsupported(

@@ -21,6 +21,7 @@
 pub(crate) mod bins;
 pub(crate) mod bounded;
 pub(crate) mod merge;
+pub(crate) mod merge_dag;
 pub(crate) mod merge_levels;
 pub(crate) mod part;
 pub(crate) mod part_levels;

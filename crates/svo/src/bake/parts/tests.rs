@@ -79,6 +79,17 @@ fn check_chunked(plan: &Path, whole: &[u8], dir: &Path) {
     assert_eq!(crate::io::from_bytes(&got).unwrap().0, tree);
 }
 
+/// The merge into the DAG layout (the parts reduced into one graph as they are read) is what
+/// the library's DAG writer makes of the in-memory bake's tree, and reads back as that tree.
+fn check_dag(plan: &Path, whole: &[u8], dir: &Path) {
+    let got = merged_as(plan, dir, MergeFormat::Dag).unwrap();
+    let (tree, build) = crate::io::from_bytes(whole).unwrap();
+    let mut want = Vec::new();
+    crate::io::write_dag_to(&tree, &build, &mut want).unwrap();
+    assert!(got == want, "{} bytes against {}", got.len(), want.len());
+    assert_eq!(crate::io::from_bytes(&got).unwrap().0, tree);
+}
+
 fn meshes() -> Vec<PathBuf> {
     let mut v = vec![svo_tests::repo_root().join("fixtures/torus.obj")];
     v.extend(svo_tests::model("stanford/bun_zipper.ply"));
@@ -86,7 +97,8 @@ fn meshes() -> Vec<PathBuf> {
 }
 
 /// At depths 6 to 9 (parts' levels 1 to 4), in 1 to 16 parts, with every channel, with
-/// none and with an inexact strategy: the merged file is the in-memory bake's, byte for byte.
+/// none and with an inexact strategy: the merged file is the in-memory bake's, byte for byte,
+/// in each of the tree layout, chunks and the DAG layout.
 #[test]
 fn parts_merge_into_the_bytes_of_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
@@ -125,6 +137,7 @@ fn parts_merge_into_the_bytes_of_the_whole_bake() {
                         whole.len()
                     );
                     check_chunked(&plan, &whole, dir.path());
+                    check_dag(&plan, &whole, dir.path());
                     checked += 1;
                 }
             }
@@ -209,7 +222,8 @@ fn lattice_soup(rng: &mut impl Rng, scale: f64, path: &Path) {
 /// Seeded random lattice soups whose triangles lie on the parts' boundaries (faces, edges and
 /// corners of the nodes the parts are made of; degenerate and in-plane triangles among them;
 /// coordinates scaled by 1, 2^-70 and 2^70), at depths 6 to 9 in 2 to 16 parts: the parts
-/// baked from their bins merge into the in-memory bake's bytes, and into its chunked file.
+/// baked from their bins merge into the in-memory bake's bytes, and into its chunked and DAG
+/// files.
 #[test]
 fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
@@ -247,6 +261,7 @@ fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
             whole.len()
         );
         check_chunked(&plan, &whole, dir.path());
+        check_dag(&plan, &whole, dir.path());
     }
     // The soups leave some parts without a triangle, whose merge must still hold.
     assert!(empty_parts > 0);
@@ -291,11 +306,12 @@ fn a_part_baked_twice_is_the_same_file() {
 /// that names it, and writes no output, with and without the inner nodes' attributes.
 #[test]
 fn the_merge_refuses_bad_parts_and_writes_nothing() {
-    refuses_bad_parts(false);
-    refuses_bad_parts(true);
+    refuses_bad_parts(false, MergeFormat::Auto);
+    refuses_bad_parts(true, MergeFormat::Auto);
+    refuses_bad_parts(false, MergeFormat::Dag);
 }
 
-fn refuses_bad_parts(node_attributes: bool) {
+fn refuses_bad_parts(node_attributes: bool, format: MergeFormat) {
     let dir = tempfile::tempdir().unwrap();
     let mesh = svo_tests::repo_root().join("fixtures/torus.obj");
     let opts = BakeOptions {
@@ -322,8 +338,8 @@ fn refuses_bad_parts(node_attributes: bool) {
         .unwrap();
     let good = std::fs::read(part_path(&plan, big)).unwrap();
     let out = dir.path().join("merged.svo");
-    let check = |what: &str, want: &str| {
-        let e = merge_parts(&plan, &out, MergeFormat::Auto)
+    let check_with = |format: MergeFormat, what: &str, want: &str| {
+        let e = merge_parts(&plan, &out, format)
             .expect_err(what)
             .to_string();
         assert!(e.contains(want), "{what}: {e}");
@@ -335,6 +351,7 @@ fn refuses_bad_parts(node_attributes: bool) {
             .collect();
         assert!(leftovers.is_empty(), "{what}: {leftovers:?}");
     };
+    let check = |what: &str, want: &str| check_with(format, what, want);
     let put = |bytes: &[u8]| std::fs::write(part_path(&plan, big), bytes).unwrap();
 
     std::fs::remove_file(part_path(&plan, big)).unwrap();
@@ -357,24 +374,38 @@ fn refuses_bad_parts(node_attributes: bool) {
         check(&format!("byte {at} flipped"), "corrupt");
     }
     put(&good);
-    assert!(merge_parts(&plan, &out, MergeFormat::Auto).is_ok());
+    assert!(merge_parts(&plan, &out, format).is_ok());
     assert_eq!(p.parts.len(), 4);
+    if node_attributes {
+        // The DAG layout keeps no inner-node attributes.
+        std::fs::remove_file(&out).unwrap();
+        check_with(MergeFormat::Dag, "DAG layout", "no inner-node attributes");
+    }
 }
 
 /// A bake within a memory budget far below the bake in memory's needs goes into several
-/// parts and writes the in-memory bake's bytes: version 2, and version 4 with the inner
-/// nodes' attributes.
+/// parts and writes the in-memory bake's bytes: version 2, version 4 with the inner nodes'
+/// attributes, and version 4's DAG layout.
 #[test]
 fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
     let dir = tempfile::tempdir().unwrap();
     let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
-    for (node_attributes, version) in [(false, 2), (true, 4)] {
+    for (node_attributes, format, version) in [
+        (false, MergeFormat::Auto, 2),
+        (true, MergeFormat::Auto, 4),
+        (false, MergeFormat::Dag, 4),
+    ] {
         let opts = BakeOptions {
             depth: 9,
             node_attributes,
             ..BakeOptions::default()
         };
-        let whole = in_memory(&mesh_path, &opts, dir.path());
+        let mut whole = in_memory(&mesh_path, &opts, dir.path());
+        if format == MergeFormat::Dag {
+            let (tree, build) = crate::io::from_bytes(&whole).unwrap();
+            whole.clear();
+            crate::io::write_dag_to(&tree, &build, &mut whole).unwrap();
+        }
         let out = dir.path().join("limited.svo");
         let mesh = crate::Mesh::load(&mesh_path).unwrap();
         let report = bake_within(
@@ -384,6 +415,7 @@ fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
             16 << 20,
             &build_of(&mesh, &opts),
             &out,
+            format,
             &|_, _| {},
         )
         .unwrap();
