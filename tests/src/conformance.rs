@@ -719,48 +719,62 @@ fn dag_blocks(nodes: &[[u32; 2]], depth: u8) -> (Vec<Vec<u8>>, Vec<u64>) {
         }
         levels.push(order);
     }
-    // The bytes: a level above the bricks holds, for each node, its mask word and its
-    // children's word offsets (or brick indices, above the bricks); the bricks' level the
-    // bricks.
+    // The bytes: a level above the bricks holds, for each node, its mask (8 bits) and its
+    // children's indices on the level below, each in as many bits as that level's count
+    // needs, packed lowest bit first; the bricks' level the bricks.
     let index_in = |l: usize, n: &str| levels[l].iter().position(|(m, _)| m == n).unwrap_or(0);
-    let mut offsets: Vec<Vec<u32>> = Vec::new();
-    for level in &levels {
-        let mut at = 0u32;
-        offsets.push(
-            level
-                .iter()
-                .map(|(_, i)| {
-                    let o = at;
-                    at += 1 + children(*i).len() as u32;
-                    o
-                })
-                .collect(),
-        );
-    }
     let mut blocks = Vec::new();
     for (l, level) in levels.iter().enumerate() {
+        let mut bits: Vec<bool> = Vec::new();
         let mut bytes = Vec::new();
+        let width = levels
+            .get(l + 1)
+            .map_or(1, |below| reference_bits(below.len() as u64));
         for (n, i) in level {
             if l == bricks_level {
                 let brick: u64 = n[1..].parse().unwrap_or(0);
                 bytes.extend(brick.to_le_bytes());
                 continue;
             }
-            bytes.extend((nodes[*i][0] & 0xFF).to_le_bytes());
+            push_bits(&mut bits, nodes[*i][0] & 0xFF, 8);
             for c in children(*i) {
                 let k = index_in(l + 1, names[c].as_deref().unwrap_or_default());
-                let p = if l + 1 == bricks_level {
-                    k as u32
-                } else {
-                    offsets[l + 1][k]
-                };
-                bytes.extend(p.to_le_bytes());
+                push_bits(&mut bits, k as u32, width);
             }
+        }
+        if l < bricks_level {
+            bytes = pack_bits(&bits);
         }
         blocks.push(bytes);
     }
     let counts = levels.iter().map(|l| l.len() as u64).collect();
     (blocks, counts)
+}
+
+/// Section 12: the bits of a reference to a level of `count` nodes, the fewest (at least 1)
+/// that hold `count - 1`.
+pub fn reference_bits(count: u64) -> u32 {
+    let mut w = 1;
+    while w < 64 && count > 1u64 << w {
+        w += 1;
+    }
+    w
+}
+
+/// Appends `value`'s `width` lowest bits, lowest first.
+fn push_bits(bits: &mut Vec<bool>, value: u32, width: u32) {
+    bits.extend((0..width).map(|i| value >> i & 1 == 1));
+}
+
+/// Bits into bytes, bit `i` in bit `i % 8` of byte `i / 8`, the last byte's high bits zero.
+fn pack_bits(bits: &[bool]) -> Vec<u8> {
+    bits.chunks(8)
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u8, |b, (i, &x)| b | u8::from(x) << i)
+        })
+        .collect()
 }
 
 fn breadth_first_order(nodes: &[[u32; 2]], depth: u8) -> Vec<[u32; 2]> {
@@ -1214,7 +1228,7 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
     );
     valid(
         "dag",
-        "version 4's DAG layout: the per-leaf tree of depth 3, the root's mask word and brick indices, then its bricks",
+        "version 4's DAG layout: the per-leaf tree of depth 3, the root's mask and brick references, then its bricks",
         &varied.as_dag(),
     );
     valid(
@@ -1229,7 +1243,7 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
     );
     valid(
         "dag-empty",
-        "version 4's DAG layout: the empty tree, the root's mask word 0 and no bricks",
+        "version 4's DAG layout: the empty tree, the root's mask 0 and no bricks",
         &empty.as_dag(),
     );
     valid(
@@ -2141,13 +2155,29 @@ fn dag_layout(t: &Trees, invalid: &mut Invalid<'_>) {
         reseal_v4(&mut b);
         b
     };
-    let word = |b: &[u8], l: usize, i: usize| {
-        u32::from_le_bytes(b[at(b, l, i, 4)..][..4].try_into().expect("4 bytes"))
+    // The field of `width` bits at bit `bit` of level `l`'s block.
+    let field = |b: &[u8], l: usize, bit: usize, width: u32| {
+        (0..width as usize).fold(0u32, |v, i| {
+            let x = at(b, l, 0, 1) * 8 + bit + i;
+            v | u32::from(b[x / 8] >> (x % 8) & 1) << i
+        })
     };
-    let set_word = |b: &mut Vec<u8>, l: usize, i: usize, v: u32| {
-        let o = at(b, l, i, 4);
-        put(b, o, &v.to_le_bytes());
+    let set_field = |b: &mut Vec<u8>, l: usize, bit: usize, width: u32, v: u32| {
+        let base = at(b, l, 0, 1) * 8;
+        for i in 0..width as usize {
+            let x = base + bit + i;
+            b[x / 8] = b[x / 8] & !(1 << (x % 8)) | ((v >> i & 1) as u8) << (x % 8);
+        }
     };
+    let count = |b: &[u8], l: usize| u64_at(b, at4::level(l));
+    // The torus's graph: the root, level 1's nodes (references to the bricks), the bricks.
+    let (w0, w1) = (
+        reference_bits(count(&base, 1)),
+        reference_bits(count(&base, 2)),
+    );
+    let root_ref = |j: usize| 8 + j * w0 as usize;
+    // The bits level 1's nodes take.
+    let root_kids = field(&base, 0, 0, 8).count_ones() as usize;
     let constant = t.constant.as_dag().encode();
     invalid(
         9,
@@ -2172,26 +2202,35 @@ fn dag_layout(t: &Trees, invalid: &mut Invalid<'_>) {
     invalid(
         12,
         "dag-block-length",
-        "the DAG layout: level 0's block said to be 2 bytes longer (not whole words)",
+        "the DAG layout: level 0's block said to be a byte longer than its one node can take (a mask byte and 8 references)",
         edited(&base, &|b| {
-            let n = u64_at(b, at4::level(0) + 16) + 2;
+            let n = 1 + u64::from(w0) + 1;
             put(b, at4::level(0) + 16, &n.to_le_bytes());
         }),
     );
+    // A node level whose block ends before the next multiple of 8 and could be a byte longer
+    // (within check 12): that byte of padding counted in the block, 8 bits after the last node.
+    let len = |b: &[u8], l: usize| u64_at(b, at4::level(l) + 16);
+    let longer = (0..2)
+        .find(|&l| {
+            let w = [w0, w1][l];
+            len(&base, l) % 8 != 0 && len(&base, l) < count(&base, l) * (1 + u64::from(w))
+        })
+        .expect("a node level with room for a byte more");
     invalid(
         14,
-        "dag-mask-bits",
-        "the DAG layout: bit 8 of the root's mask word set",
+        "dag-trailing-byte",
+        "the DAG layout: a level's block a zero byte longer than its nodes (8 bits after the last node)",
         edited(&base, &|b| {
-            let w = word(b, 0, 0);
-            set_word(b, 0, 0, w | 0x100);
+            let n = len(b, longer) + 1;
+            put(b, at4::level(longer) + 16, &n.to_le_bytes());
         }),
     );
     invalid(
         15,
         "dag-childless",
-        "the DAG layout: the first node of level 1 has mask word 0",
-        edited(&base, &|b| set_word(b, 1, 0, 0)),
+        "the DAG layout: the first node of level 1 has mask 0",
+        edited(&base, &|b| set_field(b, 1, 0, 8, 0)),
     );
     invalid(
         15,
@@ -2202,20 +2241,34 @@ fn dag_layout(t: &Trees, invalid: &mut Invalid<'_>) {
             put(b, o, &0u64.to_le_bytes());
         }),
     );
+    // A reference past the next level's nodes, on a level whose width holds one: the first
+    // reference of the first node of such a level, in the torus's graph or the solid torus's.
+    let (graph, l) = [&base, &t.solid.as_dag().encode()]
+        .into_iter()
+        .find_map(|g| {
+            let levels = usize::from(g[16 + 32]) - 2;
+            (0..levels)
+                .find(|&l| 1u64 << reference_bits(count(g, l + 1)) > count(g, l + 1))
+                .map(|l| (g.clone(), l))
+        })
+        .expect("a graph with a level whose references have room past its next level");
     invalid(
         16,
         "dag-pointer",
-        "the DAG layout: the root's first child is word 1 of level 1, inside its first node",
-        edited(&base, &|b| set_word(b, 0, 1, 1)),
+        "the DAG layout: a node's first child refers to an index past the next level's nodes",
+        edited(&graph, &|b| {
+            let below = count(b, l + 1);
+            set_field(b, l, 8, reference_bits(below), below as u32);
+        }),
     );
     invalid(
         16,
         "dag-first-reference",
         "the DAG layout: the root's first two children swapped (the second node of level 1 referred to before the first)",
         edited(&base, &|b| {
-            let (x, y) = (word(b, 0, 1), word(b, 0, 2));
-            set_word(b, 0, 1, y);
-            set_word(b, 0, 2, x);
+            let (x, y) = (field(b, 0, root_ref(0), w0), field(b, 0, root_ref(1), w0));
+            set_field(b, 0, root_ref(0), w0, y);
+            set_field(b, 0, root_ref(1), w0, x);
         }),
     );
     invalid(
@@ -2233,11 +2286,13 @@ fn dag_layout(t: &Trees, invalid: &mut Invalid<'_>) {
         "dag-orphan",
         "the DAG layout: the root's last child made its previous one, so the last node of level 1 is referred to by none",
         edited(&base, &|b| {
-            let k = (word(b, 0, 0) & 0xFF).count_ones() as usize;
-            let w = word(b, 0, k - 1);
-            set_word(b, 0, k, w);
+            let k = root_kids;
+            let w = field(b, 0, root_ref(k - 2), w0);
+            set_field(b, 0, root_ref(k - 1), w0, w);
         }),
     );
+    // One node more on level 1: a node past level 1's block, or (where the count passes a
+    // power of two) the root's references a bit wider, past level 0's block; check 16 either way.
     invalid(
         16,
         "dag-count",

@@ -231,6 +231,12 @@ pub fn check(b: &[u8]) -> Result<(), u8> {
 }
 
 /// The little-endian `u32` at byte `i` of `b`.
+/// Section 12: the bits of a reference to a level of `count` nodes, the fewest (at least 1)
+/// that hold `count - 1`.
+fn reference_bits(count: u64) -> u32 {
+    (1..64).find(|&w| count <= 1u64 << w).unwrap_or(64)
+}
+
 fn u32at(b: &[u8], i: usize) -> u32 {
     u32::from_le_bytes(b[i..i + 4].try_into().unwrap())
 }
@@ -719,8 +725,8 @@ fn check_levels(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
 
 /// A file of the DAG layout after check 21 (section 12): checks 12 and 13 (each level's block
 /// as long as its entry says, within what its nodes can take), 22, then level by level the
-/// nodes (14, 15, 16), their number, the level above's references to them and their being
-/// distinct (16), then the leaves the graph holds (17) and the leaves' values (18).
+/// nodes (15, 16, 14), then level by level the level above's references to them and their
+/// being distinct (16), then the leaves the graph holds (17) and the leaves' values (18).
 fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
     let Some((_, table, _)) = &h.levels else {
         return Ok(());
@@ -734,9 +740,8 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
         let fits = if l == bricks_level {
             n.checked_mul(8) == Some(len)
         } else {
-            len % 4 == 0
-                && n.checked_mul(4).is_some_and(|m| m <= len)
-                && n.checked_mul(36).is_some_and(|m| len <= m)
+            let width = u64::from(reference_bits(table[l + 1][0]));
+            n <= len && n.checked_mul(1 + width).is_some_and(|m| len <= m)
         };
         let end = offset.checked_add(len).ok_or(12u8)?;
         if !fits || offset != at || end > data_end {
@@ -751,9 +756,8 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
             return Err(22);
         }
     }
-    // Level by level. A node above the bricks: (its first word, its children's indices on
-    // the level below); the leaves below each node of the level last walked.
-    let word = |l: usize, i: usize| u32at(b, table[l][1] as usize + 4 * i);
+    // The nodes, level by level: a node above the bricks is its mask and its references
+    // (indices on the next level), read from the block's bit stream; a brick its 64 bits.
     let brick = |i: usize| {
         u64::from_le_bytes(
             b[table[bricks_level][1] as usize + 8 * i..][..8]
@@ -761,85 +765,92 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
                 .unwrap(),
         )
     };
-    let mut above: Vec<(usize, Vec<usize>)> = Vec::new();
-    let mut nodes_of_levels: Vec<Vec<(usize, Vec<usize>)>> = Vec::new();
-    for (l, &[count, _, len, _]) in table.iter().enumerate() {
-        let words = (len / 4) as usize;
-        // The level's nodes: where each starts (a word, or a brick's index).
-        let mut starts: Vec<usize> = Vec::new();
+    let mut node_levels: Vec<Vec<(u32, Vec<u64>)>> = Vec::new();
+    for (l, &[count, offset, len, _]) in table.iter().enumerate() {
         if l == bricks_level {
             for i in 0..count as usize {
                 if brick(i) == 0 && !(l == 0 && i == 0) {
                     return Err(15);
                 }
-                starts.push(i);
             }
-        } else {
-            let mut i = 0usize;
-            while i < words {
-                let m = word(l, i);
-                if m >> 8 != 0 {
-                    return Err(14);
-                }
-                if m == 0 && !(l == 0 && i == 0) {
-                    return Err(15);
-                }
-                let k = m.count_ones() as usize;
-                if i + 1 + k > words {
-                    return Err(16);
-                }
-                starts.push(i);
-                i += 1 + k;
+            break;
+        }
+        let block = &b[offset as usize..(offset + len) as usize];
+        let bit = |i: u64| block[(i / 8) as usize] >> (i % 8) & 1 == 1;
+        let total = 8 * len;
+        let width = u64::from(reference_bits(table[l + 1][0]));
+        let mut at = 0u64;
+        let read = |w: u64, at: &mut u64| -> Option<u64> {
+            if *at + w > total {
+                return None;
             }
-        }
-        if starts.len() as u64 != count {
-            return Err(16);
-        }
-        // The level above refers to each of these nodes, the first references in order.
-        let mut referred = 0usize;
-        for (start, kids) in &mut above {
-            let m = word(l - 1, *start);
-            for j in 0..m.count_ones() as usize {
-                let p = word(l - 1, *start + 1 + j) as usize;
-                let index = if l == bricks_level {
-                    (p < starts.len()).then_some(p)
-                } else {
-                    starts.iter().position(|&s| s == p)
-                };
-                match index {
-                    Some(x) if x < referred => kids.push(x),
-                    Some(x) if x == referred => {
-                        kids.push(x);
-                        referred += 1;
-                    }
-                    _ => return Err(16),
-                }
-            }
-        }
-        if l > 0 && referred != starts.len() {
-            return Err(16);
-        }
-        // No node twice.
-        let content = |s: usize| -> Vec<u64> {
-            if l == bricks_level {
-                vec![brick(s)]
-            } else {
-                (0..=word(l, s).count_ones() as usize)
-                    .map(|j| u64::from(word(l, s + j)))
-                    .collect()
-            }
+            let v = (0..w).fold(0u64, |v, i| v | u64::from(bit(*at + i)) << i);
+            *at += w;
+            Some(v)
         };
-        let all: Vec<Vec<u64>> = starts.iter().map(|&s| content(s)).collect();
+        let mut nodes = Vec::new();
+        for i in 0..count {
+            let mask = read(8, &mut at).ok_or(16u8)? as u32;
+            if mask == 0 && !(l == 0 && i == 0) {
+                return Err(15);
+            }
+            let mut refs = Vec::new();
+            for _ in 0..mask.count_ones() {
+                refs.push(read(width, &mut at).ok_or(16u8)?);
+            }
+            nodes.push((mask, refs));
+        }
+        if total - at >= 8 || (at..total).any(bit) {
+            return Err(14);
+        }
+        node_levels.push(nodes);
+    }
+    // Level by level from 1: the references of the level above, each to a node of this level,
+    // the first references in order, every node referred to; no node twice.
+    for l in 0..=bricks_level {
+        let count = table[l][0] as usize;
+        if l > 0 {
+            let mut referred = 0usize;
+            for (_, refs) in &node_levels[l - 1] {
+                for &p in refs {
+                    let p = p as usize;
+                    if p >= count || p > referred {
+                        return Err(16);
+                    }
+                    referred += usize::from(p == referred);
+                }
+            }
+            if referred != count {
+                return Err(16);
+            }
+        }
+        let all: Vec<Vec<u64>> = (0..count)
+            .map(|i| {
+                if l == bricks_level {
+                    vec![brick(i)]
+                } else {
+                    let (m, refs) = &node_levels[l][i];
+                    std::iter::once(u64::from(*m))
+                        .chain(refs.iter().copied())
+                        .collect()
+                }
+            })
+            .collect();
         for i in 0..all.len() {
             if all[..i].contains(&all[i]) {
                 return Err(16);
             }
         }
-        if !above.is_empty() {
-            nodes_of_levels.push(std::mem::take(&mut above));
-        }
-        above = starts.into_iter().map(|s| (s, Vec::new())).collect();
     }
+    let nodes_of_levels: Vec<Vec<(usize, Vec<usize>)>> = node_levels
+        .iter()
+        .map(|level| {
+            level
+                .iter()
+                .map(|(_, refs)| (0, refs.iter().map(|&r| r as usize).collect()))
+                .collect()
+        })
+        .collect();
     // 17: the leaves, from the bricks up.
     let mut leaves: Vec<u64> = (0..table[bricks_level][0] as usize)
         .map(|i| u64::from(brick(i).count_ones()))

@@ -1,9 +1,12 @@
 //! The tree's geometry as a DAG (`svo::dag::Dag`): distinct nodes, pointers and bits a leaf
-//! beside the tree's, and the time to build the graph beside the bake's.
+//! beside the tree's, the sizes of both layouts' files (geometry alone and with every
+//! channel), and the time to build the graph and write its file beside the bake's.
 
 use std::time::Instant;
 use svo::dag::Dag;
+use svo::io::{BuildInfo, write_dag_to, write_to};
 use svo::mesh::Mesh;
+use svo::octree::LeafAttributes;
 use svo::{BakeOptions, bake_mesh};
 
 /// One mesh at one depth.
@@ -29,6 +32,13 @@ pub struct DagRow {
     pub bake_s: f64,
     /// Seconds building the graph from the tree, one run.
     pub dag_s: f64,
+    /// Bytes of the tree-layout file with every channel, and of its geometry alone.
+    pub tree_file: (u64, u64),
+    /// Bytes of the DAG-layout file with every channel, and of its geometry alone.
+    pub dag_file: (u64, u64),
+    /// Seconds writing the DAG-layout file of the geometry (the graph built again, its
+    /// levels encoded, hashed and streamed to nowhere), one run.
+    pub dag_write_s: f64,
 }
 
 impl DagRow {
@@ -49,11 +59,9 @@ impl DagRow {
         self.dag_bits() + 32.0 * (n + self.bricks) as f64 / self.leaves.max(1) as f64
     }
 
-    /// Bits a leaf with the two lowest levels as 4x4x4 bricks of 64 bits (8 bytes a distinct
-    /// brick), leaf counts included.
-    pub fn brick_bits(&self) -> f64 {
-        let (n, p) = self.above_bricks;
-        (32.0 * (2 * n + p) as f64 + 64.0 * self.bricks as f64) / self.leaves.max(1) as f64
+    /// Bits a leaf of a file of `bytes`.
+    pub fn file_bits(&self, bytes: u64) -> f64 {
+        8.0 * bytes as f64 / self.leaves.max(1) as f64
     }
 }
 
@@ -71,7 +79,7 @@ pub fn measure(
             ..Default::default()
         };
         let t = Instant::now();
-        let tree = bake_mesh(mesh, &opts)?.0;
+        let mut tree = bake_mesh(mesh, &opts)?.0;
         let bake_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let dag = Dag::from_tree(&tree);
@@ -79,6 +87,15 @@ pub fn measure(
         let counts = dag.level_counts();
         let pointers = dag.level_pointer_counts();
         let k = counts.len().saturating_sub(2);
+        let build = BuildInfo::new();
+        let sink = &mut std::io::sink();
+        let tree_all = write_to(&tree, &build, sink)?;
+        let dag_all = write_dag_to(&tree, &build, sink)?;
+        tree.attributes = LeafAttributes::default();
+        let tree_geometry = write_to(&tree, &build, sink)?;
+        let t = Instant::now();
+        let dag_geometry = write_dag_to(&tree, &build, sink)?;
+        let dag_write_s = t.elapsed().as_secs_f64();
         rows.push(DagRow {
             mesh: name.to_string(),
             depth,
@@ -90,6 +107,9 @@ pub fn measure(
             above_bricks: (counts[..k].iter().sum(), pointers[..k].iter().sum()),
             bake_s,
             dag_s,
+            tree_file: (tree_all, tree_geometry),
+            dag_file: (dag_all, dag_geometry),
+            dag_write_s,
         });
     }
     Ok(rows)

@@ -156,8 +156,15 @@ impl Graph for Dag {
 pub(crate) struct DagBuilder {
     depth: u8,
     levels: Vec<Level>,
-    /// Per level, each distinct node's index by its mask and its children's indices.
+    /// Per level above the leaf parents, each distinct node's index by its mask and its
+    /// children's indices.
     seen: Vec<FxHashMap<(u8, [u32; 8]), u32>>,
+    /// Each leaf parent's index by its mask (`u32::MAX`: none yet): most of a tree's nodes
+    /// are leaf parents, and a mask is all that names one.
+    leaf_parents: [u32; 256],
+    /// Each node's index on the level above the leaf parents by its brick (its leaf parents'
+    /// masks, a byte a child): one word names it.
+    bricks: FxHashMap<u64, u32>,
 }
 
 impl DagBuilder {
@@ -168,6 +175,8 @@ impl DagBuilder {
             depth,
             levels: vec![Level::default(); depth_levels],
             seen: vec![FxHashMap::default(); depth_levels],
+            leaf_parents: [u32::MAX; 256],
+            bricks: FxHashMap::default(),
         }
     }
 
@@ -175,25 +184,40 @@ impl DagBuilder {
     /// the level below, in child order; none on the leaf parents' level): its index on the
     /// level, added if the level has no such node yet.
     pub(crate) fn node(&mut self, level: usize, mask: u8, kids: &[u32]) -> u32 {
-        let mut ids = [0u32; 8];
-        ids[..kids.len()].copy_from_slice(kids);
+        if level + 1 == usize::from(self.depth) {
+            let known = self.leaf_parents[usize::from(mask)];
+            if known != u32::MAX {
+                return known;
+            }
+            let out = &mut self.levels[level];
+            let k = out.masks.len() as u32;
+            out.masks.push(mask);
+            out.leaves.push(u64::from(mask.count_ones()));
+            self.leaf_parents[usize::from(mask)] = k;
+            return k;
+        }
         let next = self.levels[level].masks.len() as u32;
-        let k = *self.seen[level].entry((mask, ids)).or_insert(next);
+        let k = if level + 2 == usize::from(self.depth) {
+            let parents = &self.levels[level + 1].masks;
+            let mut kid = kids.iter();
+            let brick = (0..8).fold(0u64, |b, a| match mask >> a & 1 {
+                0 => b,
+                _ => b | kid.next().map_or(0, |&c| u64::from(parents[c as usize])) << (8 * a),
+            });
+            *self.bricks.entry(brick).or_insert(next)
+        } else {
+            let mut ids = [0u32; 8];
+            ids[..kids.len()].copy_from_slice(kids);
+            *self.seen[level].entry((mask, ids)).or_insert(next)
+        };
         if k == next {
-            let leaf_parents = level + 1 == usize::from(self.depth);
-            let leaves = if leaf_parents {
-                u64::from(mask.count_ones())
-            } else {
-                let below = &self.levels[level + 1].leaves;
-                kids.iter().map(|&c| below[c as usize]).sum()
-            };
+            let below = &self.levels[level + 1].leaves;
+            let leaves = kids.iter().map(|&c| below[c as usize]).sum();
             let out = &mut self.levels[level];
             out.masks.push(mask);
             out.leaves.push(leaves);
-            if !leaf_parents {
-                out.starts.push(out.children.len() as u32);
-                out.children.extend_from_slice(kids);
-            }
+            out.starts.push(out.children.len() as u32);
+            out.children.extend_from_slice(kids);
         }
         k
     }

@@ -1,14 +1,16 @@
 //! A graph as version 4's DAG layout stores it (`docs/format.md`, section 12), and the checks
 //! that a reader makes on it.
 //!
-//! Levels `0 .. depth - 2` hold the distinct nodes above the bricks, each a mask word (bits
-//! 0-7 its child mask, bits 8-31 zero) followed by one word for each child: on levels above
-//! `depth - 3` the child's word offset in the next level, on level `depth - 3` the child's
-//! index among the bricks. Level `depth - 2` holds the distinct subtrees of 4x4x4 cells as
-//! 64-bit bricks: bit `8 * a + b` is the leaf at child `b` of child `a` (each a child index
-//! of section 4), so the bricks' set bits, lowest first, are its leaves in Morton order. Each
-//! level lists its nodes in the order in which the level above first refers to them, the root
-//! alone on level 0; no two nodes of a level are equal, and every one is referred to.
+//! Levels `0 .. depth - 2` hold the distinct nodes above the bricks, each its 8-bit child mask
+//! followed by one reference for each child, the child's index among the next level's nodes
+//! (the bricks', below level `depth - 3`), packed into a bit stream with as few bits a
+//! reference as the next level's count needs ([`ref_bits`]). Level `depth - 2` holds the
+//! distinct subtrees of 4x4x4 cells as 64-bit bricks: bit `8 * a + b` is the leaf at child `b`
+//! of child `a` (each a child index of section 4), so the bricks' set bits, lowest first, are
+//! its leaves in Morton order. Each level lists its nodes in the order in which the level
+//! above first refers to them, the root alone on level 0; no two nodes of a level are equal,
+//! and every one is referred to. In memory each node is a mask word followed by its
+//! children's indices.
 #![cfg_attr(not(feature = "io"), allow(dead_code))]
 
 use super::build::Dag;
@@ -27,6 +29,73 @@ pub(crate) fn brick_mask(b: u64) -> u8 {
 
 /// Most leaves a version-4 file of the DAG layout may stand for (check 9).
 pub(crate) const MAX_DAG_LEAVES: u64 = 1 << 48;
+
+/// The bits of a child reference on a level whose next level holds `below` nodes: the fewest,
+/// at least 1, that hold every index below `below`.
+pub(crate) fn ref_bits(below: u64) -> u32 {
+    (64 - below.saturating_sub(1).leading_zeros()).max(1)
+}
+
+/// The most bytes a node level's block may take: `nodes` nodes of 8 children each.
+pub(crate) fn max_block_len(nodes: u64, below: u64) -> Option<u64> {
+    nodes.checked_mul(1 + u64::from(ref_bits(below)))
+}
+
+/// Writes fields into a little-endian bit stream, each lowest bit first.
+#[derive(Default)]
+struct BitWriter {
+    bytes: Vec<u8>,
+    /// Bits not yet a whole byte, the lowest first, and how many.
+    pending: u64,
+    held: u32,
+}
+
+impl BitWriter {
+    /// Appends the `width` (at most 32) lowest bits of `value`.
+    fn put(&mut self, value: u32, width: u32) {
+        self.pending |= (u64::from(value) & ((1u64 << width) - 1)) << self.held;
+        self.held += width;
+        while self.held >= 8 {
+            self.bytes.push(self.pending as u8);
+            self.pending >>= 8;
+            self.held -= 8;
+        }
+    }
+
+    /// The stream's bytes, the last one's bits past the stream zero.
+    fn finish(mut self) -> Vec<u8> {
+        if self.held > 0 {
+            self.bytes.push(self.pending as u8);
+        }
+        self.bytes
+    }
+}
+
+/// Reads fields from a little-endian bit stream.
+struct BitReader<'a> {
+    bytes: &'a [u8],
+    bit: u64,
+}
+
+impl BitReader<'_> {
+    /// The next `width` bits (at most 32), or `None` past the end.
+    fn take(&mut self, width: u32) -> Option<u32> {
+        if self.bit + u64::from(width) > 8 * self.bytes.len() as u64 {
+            return None;
+        }
+        let mut v = 0u32;
+        let mut got = 0u32;
+        while got < width {
+            let at = self.bit + u64::from(got);
+            let byte = self.bytes[(at / 8) as usize] >> (at % 8);
+            let n = (8 - (at % 8) as u32).min(width - got);
+            v |= (u32::from(byte) & ((1u32 << n) - 1)) << got;
+            got += n;
+        }
+        self.bit += u64::from(width);
+        Some(v)
+    }
+}
 
 /// A tree's geometry in the DAG layout: see the module docs.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -57,25 +126,13 @@ impl DagLevels {
         let depth = usize::from(dag.depth());
         debug_assert!(depth >= 2);
         let top = depth - 2;
-        // Each node's first word on its level: its index plus the pointers before it.
-        let offsets: Vec<Vec<u32>> = (0..top)
-            .map(|l| {
-                let (masks, starts, _, _) = dag.level_parts(l);
-                (0..masks.len()).map(|k| k as u32 + starts[k]).collect()
-            })
-            .collect();
         let mut words = Vec::with_capacity(top);
         for l in 0..top {
             let (masks, starts, children, _) = dag.level_parts(l);
             let mut w = Vec::with_capacity(masks.len() + children.len());
             for (k, &m) in masks.iter().enumerate() {
                 w.push(u32::from(m));
-                let span = &children[starts[k] as usize..starts[k + 1] as usize];
-                if l + 1 == top {
-                    w.extend_from_slice(span);
-                } else {
-                    w.extend(span.iter().map(|&c| offsets[l + 1][c as usize]));
-                }
+                w.extend_from_slice(&children[starts[k] as usize..starts[k + 1] as usize]);
             }
             words.push(w);
         }
@@ -105,10 +162,15 @@ impl DagLevels {
         };
         // The nodes' starts (which the counts and a walk use): a graph made from a tree passes
         // the reader's checks, which also derive its children's indices (made in debug builds).
-        for (l, level) in offsets.iter().enumerate() {
+        for l in 0..top {
             let (_, starts, children, _) = dag.level_parts(l);
-            out.starts
-                .push(level.iter().zip(starts).map(|(&o, &s)| (o, s)).collect());
+            out.starts.push(
+                starts[..starts.len() - 1]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &s)| (k as u32 + s, s))
+                    .collect(),
+            );
             out.kids.push(children.to_vec());
         }
         #[cfg(debug_assertions)]
@@ -123,13 +185,27 @@ impl DagLevels {
         out
     }
 
-    /// The bytes of each level's block: the words, then the bricks.
+    /// The bytes of each level's block: each node level's bit stream, then the bricks.
     pub(crate) fn blocks(&self) -> Vec<Vec<u8>> {
-        let mut out: Vec<Vec<u8>> = self
-            .words
-            .iter()
-            .map(|w| bytemuck::cast_slice(w).to_vec())
-            .collect();
+        let counts = self.counts();
+        let mut out: Vec<Vec<u8>> = Vec::with_capacity(self.words.len() + 1);
+        for (l, w) in self.words.iter().enumerate() {
+            let width = ref_bits(counts[l + 1]);
+            let mut bits = BitWriter {
+                bytes: Vec::with_capacity(w.len() * (width as usize + 8) / 8 + 1),
+                ..BitWriter::default()
+            };
+            let mut at = 0;
+            while at < w.len() {
+                let k = w[at].count_ones() as usize;
+                bits.put(w[at], 8);
+                for &c in &w[at + 1..at + 1 + k] {
+                    bits.put(c, width);
+                }
+                at += 1 + k;
+            }
+            out.push(bits.finish());
+        }
         out.push(bytemuck::cast_slice(&self.bricks).to_vec());
         out
     }
@@ -178,8 +254,8 @@ impl DagLevels {
     }
 
     /// Checks 14 to 16 (`docs/format.md`, section 12) on the blocks of a graph of `depth`
-    /// levels (2 or more): `blocks[l]` holds level `l`'s bytes (a multiple of 4 bytes on the
-    /// node levels, of 8 on the bricks' level) and `counts[l]` the nodes the level table
+    /// levels (2 or more): `blocks[l]` holds level `l`'s bytes (a bit stream on the node
+    /// levels, 8 bytes a brick on the bricks' level) and `counts[l]` the nodes the level table
     /// gives it.
     pub(crate) fn from_blocks(
         depth: u8,
@@ -187,10 +263,10 @@ impl DagLevels {
         counts: &[u64],
     ) -> Result<Self, Failure> {
         let top = usize::from(depth) - 2;
-        let words = blocks[..top]
-            .iter()
-            .map(|b| bytemuck::pod_collect_to_vec::<u8, u32>(b))
-            .collect();
+        let mut words = Vec::with_capacity(top);
+        for l in 0..top {
+            words.push(decode_level(l, blocks[l], counts[l], counts[l + 1])?);
+        }
         let bricks = bytemuck::pod_collect_to_vec::<u8, u64>(blocks[top]);
         let mut out = Self {
             depth,
@@ -203,44 +279,36 @@ impl DagLevels {
         Ok(out)
     }
 
-    /// Parses the levels one after another, checking each as section 12 orders it against
-    /// the level table's `counts`, and keeps each node's start and children.
+    /// Derives each node's start and children from the words and bricks: the bricks without
+    /// leaves (check 15), then level by level from 1 down the references of the level above
+    /// (check 16) and the level's nodes being distinct (check 16), as section 12 orders them
+    /// after reading the nodes ([`decode_level`]).
     fn derive(&mut self, counts: &[u64]) -> Result<(), Failure> {
         let top = usize::from(self.depth) - 2;
         self.kids = Vec::with_capacity(top);
         self.starts = Vec::with_capacity(top);
         let fail = |c: Check, m: String| Err((c, m));
+        if let Some(k) = self
+            .bricks
+            .iter()
+            .enumerate()
+            .position(|(k, &b)| b == 0 && !(top == 0 && k == 0))
+        {
+            return fail(
+                Check::TreeShape,
+                format!("level {top}: brick {k} has no leaves"),
+            );
+        }
         for (l, &want) in counts.iter().enumerate().take(top + 1) {
             // (a) The level's nodes, one after another.
             let count = if l == top {
-                for (k, &b) in self.bricks.iter().enumerate() {
-                    if b == 0 && !(l == 0 && k == 0) {
-                        return fail(
-                            Check::TreeShape,
-                            format!("level {l}: brick {k} has no leaves"),
-                        );
-                    }
-                }
                 self.bricks.len()
             } else {
                 let w = &self.words[l];
                 let mut starts = Vec::new();
                 let mut at = 0usize;
                 while at < w.len() {
-                    let m = w[at];
-                    if m >> 8 != 0 {
-                        return fail(
-                            Check::NodeWords,
-                            format!("level {l}, word {at}: mask word {m:#010x} has bits 8-31 set"),
-                        );
-                    }
-                    if m == 0 && !(l == 0 && at == 0) {
-                        return fail(
-                            Check::TreeShape,
-                            format!("level {l}, word {at}: a node without children"),
-                        );
-                    }
-                    let k = m.count_ones() as usize;
+                    let k = w[at].count_ones() as usize;
                     if at + 1 + k > w.len() {
                         return fail(
                             Check::NodeOrder,
@@ -261,8 +329,6 @@ impl DagLevels {
             }
             // (b) The level above refers to every node of this one, first references in order.
             if l > 0 {
-                let targets: Option<Vec<u32>> =
-                    (l < top).then(|| self.starts[l].iter().map(|x| x.0).collect());
                 let above = &self.words[l - 1];
                 let mut kids = Vec::with_capacity(above.len());
                 let mut seen = 0usize;
@@ -271,11 +337,7 @@ impl DagLevels {
                     let at = s.0 as usize;
                     let n = above[at].count_ones() as usize;
                     for &p in &above[at + 1..at + 1 + n] {
-                        let i = match &targets {
-                            None => ((p as usize) < count).then_some(p as usize),
-                            Some(t) => t.binary_search(&p).ok(),
-                        };
-                        let Some(i) = i else {
+                        let Some(i) = ((p as usize) < count).then_some(p as usize) else {
                             return fail(
                                 Check::NodeOrder,
                                 format!(
@@ -387,7 +449,7 @@ impl DagLevels {
         TreeSize { leaves, nodes }
     }
 
-    /// For each level above the bricks, for each child word of its nodes in order: the leaves
+    /// For each level above the bricks, for each child reference of its nodes in order: the leaves
     /// below the node's earlier children (what a walk adds to its leaf index when it enters
     /// that child).
     #[cfg(feature = "trace")]
@@ -469,6 +531,54 @@ impl DagLevels {
     pub(crate) fn to_nodes_to(&self, levels: usize) -> Vec<Node> {
         canonical_nodes_to(self, levels)
     }
+}
+
+/// The words (each node's mask word, then its children's indices) of node level `l`'s block:
+/// its `count` nodes read one after another, references of [`ref_bits`]`(below)` bits. A
+/// mask 0 below the root fails check 15, a node past the block's end check 16, and bits left
+/// after the last node (8 or more, or any set) check 14.
+fn decode_level(l: usize, block: &[u8], count: u64, below: u64) -> Result<Vec<u32>, Failure> {
+    let width = ref_bits(below);
+    let mut bits = BitReader {
+        bytes: block,
+        bit: 0,
+    };
+    // At most 9 words a node, and a node takes at least a byte (check 12 bounds the count).
+    let mut words = Vec::with_capacity(block.len().min(count as usize) * 2);
+    for k in 0..count {
+        let past = || {
+            Err((
+                Check::NodeOrder,
+                format!("level {l}, node {k}: the node runs past the level's block"),
+            ))
+        };
+        let Some(mask) = bits.take(8) else {
+            return past();
+        };
+        if mask == 0 && !(l == 0 && k == 0) {
+            return Err((
+                Check::TreeShape,
+                format!("level {l}, node {k}: a node without children"),
+            ));
+        }
+        words.push(mask);
+        for _ in 0..mask.count_ones() {
+            let Some(c) = bits.take(width) else {
+                return past();
+            };
+            words.push(c);
+        }
+    }
+    let left = 8 * block.len() as u64 - bits.bit;
+    if left >= 8 || bits.take(left as u32).is_some_and(|v| v != 0) {
+        return Err((
+            Check::NodeWords,
+            format!(
+                "level {l}: {left} bits after the last node, which must be fewer than 8 and zero"
+            ),
+        ));
+    }
+    Ok(words)
 }
 
 /// A node of [`DagLevels`]: one above the bricks (level, index), a brick, or a leaf parent
@@ -589,9 +699,9 @@ mod tests {
     }
 
     /// Each rule of the levels, broken on its own in a depth-5 graph, fails at its check:
-    /// reserved mask bits (14), a node or brick without children (15), a child that is no
-    /// node, children out of first-reference order, a node twice, a node nobody refers to and
-    /// counts the table does not give (16).
+    /// bits left after a level's last node (14), a node or brick without children (15), a
+    /// node past its block, a reference past the next level, children out of first-reference
+    /// order, a node twice, a node nobody refers to and counts the table does not give (16).
     #[test]
     fn every_rule_of_the_levels_is_checked() {
         let mut rnd = svo_tests::seeds::xorshift(0x5ca1e);
@@ -601,39 +711,57 @@ mod tests {
         let (blocks, counts) = (dag.blocks(), dag.counts());
         assert!(counts[1] >= 2 && counts[3] >= 3, "{counts:?}");
         assert!(parse(&blocks, &counts, 5).is_ok());
-        let word = |b: &[Vec<u8>], l: usize, i: usize| {
-            u32::from_le_bytes(b[l][4 * i..4 * i + 4].try_into().unwrap())
+        // The field of `width` bits at bit `at` of level `l`'s block.
+        let get = |b: &[Vec<u8>], l: usize, at: u64, width: u32| {
+            (0..u64::from(width)).fold(0u32, |v, i| {
+                let x = at + i;
+                v | u32::from(b[l][(x / 8) as usize] >> (x % 8) & 1) << i
+            })
         };
-        let set = |b: &mut [Vec<u8>], l: usize, i: usize, v: u32| {
-            b[l][4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());
+        let set = |b: &mut [Vec<u8>], l: usize, at: u64, width: u32, v: u32| {
+            for i in 0..u64::from(width) {
+                let x = at + i;
+                let byte = &mut b[l][(x / 8) as usize];
+                *byte = *byte & !(1 << (x % 8)) | ((v >> i & 1) as u8) << (x % 8);
+            }
         };
+        let w0 = ref_bits(counts[1]);
+        let root_ref = |j: u64| 8 + j * u64::from(w0);
         let check = |b: &[Vec<u8>], c: &[u64]| parse(b, c, 5).err().map(|e| e.0);
-        // 14: bit 8 of the root's mask word.
+        // 14: a byte more after level 0's node.
         let mut b = blocks.clone();
-        set(&mut b, 0, 0, word(&blocks, 0, 0) | 0x100);
+        b[0].push(0);
         assert_eq!(check(&b, &counts), Some(Check::NodeWords));
         // 15: a node of level 1 without children; a brick without leaves.
         let mut b = blocks.clone();
-        set(&mut b, 1, 0, 0);
+        set(&mut b, 1, 0, 8, 0);
         assert_eq!(check(&b, &counts), Some(Check::TreeShape));
         let mut b = blocks.clone();
         b[3][8..16].fill(0);
         assert_eq!(check(&b, &counts), Some(Check::TreeShape));
-        // 16: the root's first child points inside a node of level 1, or past it.
+        // 16: level 1's last node cut short; a reference past the next level's nodes where the
+        // width holds one.
         let mut b = blocks.clone();
-        set(&mut b, 0, 1, 1);
+        b[1].pop();
         assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        let l = (0..3)
+            .find(|&l| 1u64 << ref_bits(counts[l + 1]) > counts[l + 1])
+            .unwrap();
         let mut b = blocks.clone();
-        set(&mut b, 0, 1, blocks[1].len() as u32 / 4);
+        set(&mut b, l, 8, ref_bits(counts[l + 1]), counts[l + 1] as u32);
         assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
         // 16: the root's first two children swapped (the second is first referred to later).
-        let (a, c) = (word(&blocks, 0, 1), word(&blocks, 0, 2));
+        let (a, c) = (
+            get(&blocks, 0, root_ref(0), w0),
+            get(&blocks, 0, root_ref(1), w0),
+        );
         assert_ne!(a, c);
         let mut b = blocks.clone();
-        set(&mut b, 0, 1, c);
-        set(&mut b, 0, 2, a);
+        set(&mut b, 0, root_ref(0), w0, c);
+        set(&mut b, 0, root_ref(1), w0, a);
         assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
-        // 16: two equal bricks; a brick nobody refers to; a count the table does not give.
+        // 16: two equal bricks; a brick nobody refers to; a count the table does not give (on a
+        // level whose count is no power of two, so the references above keep their width).
         let mut b = blocks.clone();
         let first = b[3][..8].to_vec();
         b[3][8..16].copy_from_slice(&first);
@@ -641,12 +769,32 @@ mod tests {
         let mut b = blocks.clone();
         b[3].extend_from_slice(&u64::MAX.to_le_bytes());
         assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+        let l = (1..=3).find(|&l| !counts[l].is_power_of_two()).unwrap();
         let mut c = counts.clone();
-        c[2] += 1;
+        c[l] += 1;
         assert_eq!(check(&blocks, &c), Some(Check::NodeOrder));
         // 16: an empty root above nodes.
         let mut b = blocks.clone();
-        b[0] = 0u32.to_le_bytes().to_vec();
+        b[0] = vec![0];
         assert_eq!(check(&b, &counts), Some(Check::NodeOrder));
+    }
+
+    /// A reference takes the fewest bits that hold every index of the level below, at least
+    /// one; the blocks are that long.
+    #[test]
+    fn references_take_the_bits_the_level_below_needs() {
+        assert_eq!(
+            [0, 1, 2, 3, 4, 5, 256, 257, 1 << 32].map(ref_bits),
+            [1, 1, 1, 2, 2, 3, 8, 9, 32]
+        );
+        let t = tree(
+            4,
+            (0..64u32).map(|i| UVec3::new(i % 4, i / 4 % 4, i / 16) * 4),
+        );
+        let dag = DagLevels::of(&Dag::from_tree(&t));
+        // One node a level: the root's 8 references of 1 bit, then the level-1 node's.
+        assert_eq!(dag.counts(), vec![1, 1, 1]);
+        assert_eq!(dag.blocks()[..2], [vec![0xFF, 0], vec![0xFF, 0]]);
+        assert_eq!(max_block_len(1, 1), Some(2));
     }
 }

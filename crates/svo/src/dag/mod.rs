@@ -2,7 +2,7 @@
 //! once ([`Dag`]). The leaves' values stay in the tree's arrays, in Morton order; each node
 //! of the graph counts the leaves below it, so a walk finds a leaf's index. Files store the
 //! graph as version 4's DAG layout (`docs/format.md`, section 12: the levels above the bricks
-//! as mask words and child offsets, the two lowest levels as 64-bit 4x4x4 bricks).
+//! as bit streams of masks and narrow child indices, the two lowest levels as 64-bit 4x4x4 bricks).
 
 mod build;
 mod expand;

@@ -56,7 +56,7 @@ pub enum DagError {
 pub struct DagTree {
     root: RootCube,
     graph: DagLevels,
-    /// Per level above the bricks, per child word: the leaves below the earlier children.
+    /// Per level above the bricks, per child reference: the leaves below the earlier children.
     before: Vec<Vec<u32>>,
     leaf_count: u64,
     /// The leaves' channels, in Morton order.

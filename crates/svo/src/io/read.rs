@@ -6,7 +6,7 @@
 
 #[cfg(feature = "trace")]
 use crate::dag::DagTree;
-use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES, TreeSize};
+use crate::dag::levels::{DagLevels, MAX_DAG_LEAVES, TreeSize, max_block_len};
 use crate::geometry::grid::RootCube;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
@@ -370,15 +370,15 @@ pub(crate) fn level_lens(h: &Header, l: usize) -> Option<Vec<u64>> {
     let levels = h.levels.as_ref()?;
     let nodes = levels.table.get(l)?.nodes;
     if levels.layout == DAG_LAYOUT {
-        // The bricks' level: 8 bytes a brick; a level above: a mask word and 1 to 8 child
-        // words a node (check 21 made the layout's depth at least 2).
+        // The bricks' level: 8 bytes a brick; a level above: a mask byte and up to 8
+        // references a node, each as wide as the next level's count needs (check 21 made the
+        // layout's depth at least 2, so a node level has one below it).
         let len = levels.table[l].block.len;
         let fits = if l + 2 == usize::from(h.depth) {
             Some(len) == nodes.checked_mul(8)
         } else {
-            len % 4 == 0
-                && nodes.checked_mul(4).is_some_and(|n| len >= n)
-                && nodes.checked_mul(36).is_some_and(|n| len <= n)
+            let below = levels.table.get(l + 1).map_or(0, |e| e.nodes);
+            len >= nodes && max_block_len(nodes, below).is_some_and(|n| len <= n)
         };
         return fits.then(|| vec![len]);
     }
