@@ -223,6 +223,7 @@ impl DagBuilder {
     }
 
     /// The leaves below node `k` of `level`.
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
     pub(crate) fn leaves(&self, level: usize, k: u32) -> u64 {
         self.levels[level].leaves[k as usize]
     }
@@ -301,6 +302,7 @@ impl DagBuilder {
     /// Adds the levels above `level` over that level's nodes, given as their Morton codes on
     /// `level` with their indices, in increasing code (none: the empty tree). Returns the
     /// root's index (0).
+    #[cfg_attr(not(feature = "io"), allow(dead_code))]
     pub(crate) fn add_top(&mut self, level: usize, mut cells: Vec<(u64, u32)>) -> u32 {
         if cells.is_empty() {
             return self.node(0, 0, &[]);
@@ -340,7 +342,7 @@ impl DagBuilder {
 mod tests {
     use super::*;
     use crate::dag::plain;
-    use crate::octree::{RootCube, Voxel};
+    use crate::octree::{RootCube, Voxel, scattered_tree};
     use glam::{DVec3, UVec3};
 
     /// The graph gives the tree's nodes back, for seeded random trees of depths 1 to 7 (dense
@@ -349,23 +351,14 @@ mod tests {
     #[test]
     fn the_graph_gives_the_tree_back() {
         let mut rnd = svo_tests::seeds::xorshift(0xda6);
-        let root = RootCube {
-            origin: DVec3::ZERO,
-            side: 1.0,
-        };
         for case in 0..80u32 {
             let depth = 1 + (case % 7) as u8;
-            let side = 1u32 << depth;
             let n = match case % 10 {
                 0 => 0,
                 1 => 4000,
                 _ => 1 + rnd() % 300,
             };
-            let cells = (0..n).map(|_| {
-                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
-                (c, Voxel::glass())
-            });
-            let tree = Octree::from_cells(root, depth, cells).unwrap();
+            let tree = scattered_tree(&mut rnd, depth, n);
             let dag = Dag::from_tree(&tree);
             assert_eq!(dag.to_nodes(), plain(&tree.nodes), "case {case}");
             assert_eq!(dag.leaf_count(), u64::from(tree.leaf_count), "case {case}");
@@ -441,13 +434,8 @@ mod tests {
         };
         for case in 0..60u32 {
             let depth = 2 + (case % 6) as u8;
-            let side = 1u32 << depth;
             let n = if case % 7 == 0 { 3000 } else { 1 + rnd() % 200 };
-            let cells = (0..n).map(|_| {
-                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
-                (c, Voxel::glass())
-            });
-            let tree = Octree::from_cells(root, depth, cells).unwrap();
+            let tree = scattered_tree(&mut rnd, depth, n);
             let whole = Dag::from_tree(&tree);
             for level in 1..usize::from(depth) {
                 let mut graph = DagBuilder::new(depth);

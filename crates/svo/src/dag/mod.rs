@@ -11,6 +11,7 @@ pub(crate) mod levels;
 mod walk;
 
 pub use build::Dag;
+#[cfg(feature = "io")]
 pub(crate) use build::DagBuilder;
 #[cfg(feature = "trace")]
 pub use walk::{DagError, DagTree};

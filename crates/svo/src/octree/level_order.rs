@@ -309,19 +309,10 @@ mod tests {
     #[test]
     fn level_order_round_trips() {
         let mut rnd = svo_tests::seeds::xorshift(0x1e7e1);
-        let root = RootCube {
-            origin: DVec3::ZERO,
-            side: 1.0,
-        };
         for case in 0..60u32 {
             let depth = 1 + (case % 6) as u8;
-            let side = 1u32 << depth;
             let n = if case % 10 == 0 { 0 } else { 1 + rnd() % 200 };
-            let cells = (0..n).map(|_| {
-                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
-                (c, Voxel::glass())
-            });
-            let tree = Octree::from_cells(root, depth, cells).unwrap();
+            let tree = crate::octree::scattered_tree(&mut rnd, depth, n);
             let lo = level_order(&tree.nodes, depth);
             assert_eq!(lo.counts.iter().sum::<u64>(), tree.nodes.len() as u64);
             check_level_order(

@@ -29,3 +29,23 @@ pub use query::Leaf;
 pub use tree::{
     Channel, ChannelKind, ChannelStorage, LeafAttributes, LeafValue, NO_NORMAL, Node, Octree,
 };
+
+/// A tree in the unit cube of `n` cells drawn by `rnd` uniformly from the `2^depth` grid (a
+/// cell drawn twice is one leaf; none drawn, the empty tree): what the seeded random tests of
+/// the node orders and the graphs build.
+#[cfg(test)]
+pub(crate) fn scattered_tree(rnd: &mut impl FnMut() -> u64, depth: u8, n: u64) -> Octree {
+    use glam::{DVec3, UVec3};
+    let side = 1u32 << depth;
+    let cells: Vec<_> = (0..n)
+        .map(|_| {
+            let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
+            (c, Voxel::glass())
+        })
+        .collect();
+    let root = RootCube {
+        origin: DVec3::ZERO,
+        side: 1.0,
+    };
+    Octree::from_cells(root, depth, cells).unwrap()
+}
