@@ -385,7 +385,8 @@ mod tests {
     }
 
     /// A full grid of 2^12 cells a side (2^36 leaves, one node a level as a graph) as a file:
-    /// its tree is refused as too large, its top levels and level sizes read, and its graph
+    /// its tree is refused as too large, its top levels and level sizes read, it is described
+    /// from its graph, and its graph
     /// walked, each leaf met with its Morton index modulo 2^32; with a channel stored per leaf
     /// the graph is refused.
     #[test]
@@ -417,6 +418,13 @@ mod tests {
         let sizes = crate::io::read_level_sizes(&path).unwrap().unwrap();
         let want: Vec<u64> = (0..=depth).map(|l| 8u64.pow(u32::from(l))).collect();
         assert_eq!(sizes.counts, want);
+        // `svo-view --info` describes it from the graph.
+        let text = crate::io::describe_file(&path).unwrap();
+        assert!(text.contains("leaves         68719476736"), "{text}");
+        assert!(
+            text.contains(&format!("nodes/level    {:?}", &want[..12])),
+            "{text}"
+        );
         let (top, _) = crate::io::read_file_to_depth(&path, 4).unwrap();
         assert_eq!((top.depth, top.leaf_count), (4, 4096));
         let (dag, _) = crate::io::read_dag_file(&path).unwrap();

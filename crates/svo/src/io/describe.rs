@@ -3,7 +3,9 @@
 //! level and its channels.
 
 use crate::io::header::{NodeStorage, PREAMBLE_LEN, Storage};
-use crate::io::read::{ChunksRead, Preamble, check_chunks_file, read_file_with_header};
+use crate::io::read::{
+    ChunksRead, FileRead, Preamble, check_chunks_file, read_dag_sizes, read_file_with_header,
+};
 use crate::io::write::FormatError;
 use crate::octree::format_check::DAG_LAYOUT;
 use crate::octree::tree::{Channel, ChannelKind, Octree};
@@ -24,15 +26,53 @@ fn channel<T: Copy>(name: &str, c: &Channel<T>, show: impl Fn(T) -> String, out:
 /// in one pass ([`crate::io::read_file`]): no copy of it is held beside the tree. An invalid
 /// file gives the reader's error, which names the check it failed. A version-3 file whose tree is larger than one tree in
 /// memory holds ([`FormatError::TooLarge`]) is checked one chunk at a time instead (every
-/// check but the values') and described from its header and chunk table.
+/// check but the values') and described from its header and chunk table; a file of the DAG
+/// layout whose tree is too large to make ([`FormatError::DagTooLarge`]) is read with every
+/// check and described from its graph.
 pub fn describe_file(path: impl AsRef<Path>) -> Result<String, FormatError> {
     match read_file_with_header(path.as_ref()) {
         Ok(r) => Ok(describe_read(&r.tree, &r.preamble, r.checksum, r.len)),
         Err(FormatError::TooLarge { .. }) => {
             check_chunks_file(path.as_ref()).map(|r| describe_chunks(&r))
         }
+        Err(FormatError::DagTooLarge { .. }) => {
+            read_dag_sizes(path.as_ref()).map(|(counts, r)| describe_dag(&counts, &r))
+        }
         Err(e) => Err(e),
     }
+}
+
+/// A graph whose tree is too large to make: its header, and the tree's counts per level as
+/// the graph gives them.
+fn describe_dag(counts: &[u64], r: &FileRead) -> String {
+    let h = &r.preamble.header;
+    let mut out = describe_header(&r.preamble, r.checksum);
+    describe_root(&mut out, &h.build, r.tree.root, h.depth);
+    let (levels, leaves) = counts.split_at(counts.len().saturating_sub(1));
+    let nodes = levels.iter().fold(0u64, |a, &c| a.saturating_add(c));
+    let _ = writeln!(
+        out,
+        "nodes          {nodes} in the tree the graph stands for"
+    );
+    let _ = writeln!(
+        out,
+        "leaves         {}",
+        leaves.first().copied().unwrap_or(0)
+    );
+    let _ = writeln!(out, "nodes/level    {levels:?}");
+    let _ = writeln!(
+        out,
+        "checked        every check; the tree is not made: it is larger than one tree in memory \
+         holds (2^31 leaves and nodes)"
+    );
+    describe_channels(&mut out, &r.tree.attributes);
+    let per_leaf = r.len as f64 / (h.leaf_count.max(1)) as f64;
+    let _ = write!(
+        out,
+        "file           {} bytes, {per_leaf:.2} bytes per leaf",
+        r.len
+    );
+    out
 }
 
 fn describe_read(tree: &Octree, p: &Preamble, checksum: u64, len: u64) -> String {
@@ -246,8 +286,21 @@ fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, 
         level = next;
     }
     let _ = writeln!(out, "nodes/level    {counts:?}");
+    describe_channels(out, &tree.attributes);
+    let per_leaf = if tree.leaf_count > 0 {
+        file_bytes as f64 / f64::from(tree.leaf_count)
+    } else {
+        0.0
+    };
+    let _ = write!(
+        out,
+        "file           {file_bytes} bytes, {per_leaf:.2} bytes per leaf"
+    );
+}
+
+/// The channels' lines of [`describe`]: each channel absent, constant or per leaf.
+fn describe_channels(out: &mut String, a: &crate::octree::tree::LeafAttributes) {
     let _ = writeln!(out, "channels");
-    let a = &tree.attributes;
     channel(
         "normal",
         &a.normal,
@@ -283,14 +336,5 @@ fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, 
         &a.ior,
         |v| format!("{:.4}", crate::octree::encoding::ior_decode(v)),
         out,
-    );
-    let per_leaf = if tree.leaf_count > 0 {
-        file_bytes as f64 / f64::from(tree.leaf_count)
-    } else {
-        0.0
-    };
-    let _ = write!(
-        out,
-        "file           {file_bytes} bytes, {per_leaf:.2} bytes per leaf"
     );
 }

@@ -1027,6 +1027,27 @@ pub(crate) fn read_file_with_header(path: &Path) -> Result<FileRead, FormatError
     })
 }
 
+/// A file of the DAG layout read whole with every check, its graph kept: the tree's level
+/// sizes counted on the graph (the root's level first, the leaves last), the file's leaves'
+/// channels (in a tree without nodes), the header, the checksum and the file's length.
+pub(crate) fn read_dag_sizes(path: &Path) -> Result<(Vec<u64>, FileRead), FormatError> {
+    read_path(path, &mut |raw, p| {
+        let (graph, _, tree) = dag_of_raw(raw, &p)?;
+        Ok(((graph.tree_counts(), tree), p))
+    })
+    .map(|((counts, tree), preamble, checksum, len)| {
+        (
+            counts,
+            FileRead {
+                tree,
+                preamble,
+                checksum,
+                len,
+            },
+        )
+    })
+}
+
 /// What [`read_stream`]'s caller makes of the arrays read and the header.
 type Finish<'a, X> = dyn FnMut(Raw, Preamble) -> Result<(X, Preamble), FormatError> + 'a;
 

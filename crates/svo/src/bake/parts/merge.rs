@@ -33,7 +33,7 @@ pub struct MergeReport {
     /// Bytes of the `.svo` file.
     pub bytes: u64,
     /// Its format version: 2, 3 when its tree is stored in chunks, 4 with inner-node
-    /// attributes.
+    /// attributes or in the DAG layout.
     pub version: u32,
     /// Chunks (version 3), else 0.
     pub chunks: u64,
