@@ -66,12 +66,7 @@ fn describe_dag(counts: &[u64], r: &FileRead) -> String {
          holds (2^31 leaves and nodes)"
     );
     describe_channels(&mut out, &r.tree.attributes);
-    let per_leaf = r.len as f64 / (h.leaf_count.max(1)) as f64;
-    let _ = write!(
-        out,
-        "file           {} bytes, {per_leaf:.2} bytes per leaf",
-        r.len
-    );
+    describe_file_size(&mut out, r.len, h.leaf_count);
     out
 }
 
@@ -112,12 +107,7 @@ fn describe_chunks(r: &ChunksRead) -> String {
         "checked        checks 1 to 17 and 19, one chunk at a time; the values (check 18) not read: \
          the tree is larger than one tree in memory holds (2^31 leaves and nodes)"
     );
-    let per_leaf = r.len as f64 / (h.leaf_count.max(1)) as f64;
-    let _ = write!(
-        out,
-        "file           {} bytes, {per_leaf:.2} bytes per leaf",
-        r.len
-    );
+    describe_file_size(&mut out, r.len, h.leaf_count);
     out
 }
 
@@ -287,14 +277,19 @@ fn describe_tree(out: &mut String, tree: &Octree, build: &crate::io::BuildInfo, 
     }
     let _ = writeln!(out, "nodes/level    {counts:?}");
     describe_channels(out, &tree.attributes);
-    let per_leaf = if tree.leaf_count > 0 {
-        file_bytes as f64 / f64::from(tree.leaf_count)
+    describe_file_size(out, file_bytes, u64::from(tree.leaf_count));
+}
+
+/// The last line of [`describe`]: the file's bytes, in all and a leaf.
+fn describe_file_size(out: &mut String, bytes: u64, leaves: u64) {
+    let per_leaf = if leaves > 0 {
+        bytes as f64 / leaves as f64
     } else {
         0.0
     };
     let _ = write!(
         out,
-        "file           {file_bytes} bytes, {per_leaf:.2} bytes per leaf"
+        "file           {bytes} bytes, {per_leaf:.2} bytes per leaf"
     );
 }
 

@@ -1469,11 +1469,7 @@ pub fn read_level_sizes(path: impl AsRef<Path>) -> Result<Option<LevelSizes>, Fo
     let counts = if levels.layout == DAG_LAYOUT {
         // The tree's levels, which the graph gives.
         drop(start);
-        let path = path.as_ref();
-        read_path(path, &mut |raw, p| {
-            Ok((dag_of_raw(raw, &p)?.0.tree_counts(), p))
-        })?
-        .0
+        read_dag_sizes(path.as_ref())?.0
     } else {
         let mut counts: Vec<u64> = levels.table.iter().map(|e| e.nodes).collect();
         counts.push(p.header.leaf_count);

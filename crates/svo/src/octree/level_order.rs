@@ -229,8 +229,6 @@ pub(crate) fn check_level_order(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::octree::{RootCube, Voxel};
-    use glam::{DVec3, UVec3};
 
     /// `tree` with inner-node channels of its leaves' kinds (zeros, or the leaves' constants).
     fn with_node_channels(mut tree: Octree) -> Octree {
@@ -259,19 +257,11 @@ mod tests {
     #[test]
     fn trees_with_node_channels_are_checked_in_level_order() {
         let mut rnd = svo_tests::seeds::xorshift(0x1e7e2);
-        let root = RootCube {
-            origin: DVec3::ZERO,
-            side: 1.0,
-        };
         let (mut refused, mut valid) = (0, 0);
         for case in 0..40u32 {
             let depth = 3 + (case % 4) as u8;
-            let side = 1u32 << depth;
-            let cells = (0..1 + rnd() % 300).map(|_| {
-                let c = UVec3::new(rnd() as u32, rnd() as u32, rnd() as u32) % side;
-                (c, Voxel::glass())
-            });
-            let plain = Octree::from_cells(root, depth, cells).unwrap();
+            let n = 1 + rnd() % 300;
+            let plain = crate::octree::scattered_tree(&mut rnd, depth, n);
             let depth_first = with_node_channels(plain.clone());
             let mut tree = depth_first.clone();
             into_level_order(&mut tree);

@@ -185,15 +185,9 @@ impl Surfaces for DagSurfaces<'_> {
 
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
         if q.medium.is_some() || q.skip.is_some() {
-            return std::array::from_fn(|l| {
-                if l < n {
-                    self.closest(&rays[l], q).into()
-                } else {
-                    FirstHit::MISS
-                }
-            });
+            return FirstHit::first_n(n, |l| self.closest(&rays[l], q).into());
         }
-        let active = ((1u16 << n.min(LANES)) - 1) as u8;
+        let active = FirstHit::lanes_mask(n);
         let walks = self.packet::<true, _>(
             rays,
             [q.tmin; LANES],

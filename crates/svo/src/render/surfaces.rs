@@ -159,6 +159,17 @@ impl FirstHit {
         capped: false,
     };
 
+    /// The first `n` lanes' outcomes, `each(lane)`, the lanes from `n` on missed without a
+    /// step.
+    pub(crate) fn first_n(n: usize, each: impl Fn(usize) -> Self) -> [Self; LANES] {
+        std::array::from_fn(|l| if l < n { each(l) } else { Self::MISS })
+    }
+
+    /// The mask of the first `n` of [`LANES`] lanes (bit `l` for lane `l`).
+    pub(crate) fn lanes_mask(n: usize) -> u8 {
+        ((1u16 << n.min(LANES)) - 1) as u8
+    }
+
     /// A ray cast's outcome from its walk, whose hits are `(id, t)`.
     pub(crate) fn of(r: &Traversal<(u32, f32)>) -> Self {
         Self {
@@ -327,12 +338,8 @@ pub trait Surfaces: Sync {
     /// on are missed without a step.
     #[doc(hidden)]
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
-        std::array::from_fn(|l| {
-            if l < n {
-                self.first_hit(&rays[l], q, &PrimaryStart::From(q.tmin))
-            } else {
-                FirstHit::MISS
-            }
+        FirstHit::first_n(n, |l| {
+            self.first_hit(&rays[l], q, &PrimaryStart::From(q.tmin))
         })
     }
 
@@ -649,15 +656,9 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
 
     fn first_hits(&self, rays: &[GridRay; LANES], n: usize, q: &Query) -> [FirstHit; LANES] {
         if q.medium.is_some() || q.skip.is_some() {
-            return std::array::from_fn(|l| {
-                if l < n {
-                    self.closest(&rays[l], q).into()
-                } else {
-                    FirstHit::MISS
-                }
-            });
+            return FirstHit::first_n(n, |l| self.closest(&rays[l], q).into());
         }
-        let active = ((1u16 << n.min(LANES)) - 1) as u8;
+        let active = FirstHit::lanes_mask(n);
         let walks = traverse_packet_with::<true, _>(
             self.tree,
             rays,

@@ -114,19 +114,8 @@ pub(crate) fn merge_with(
                 "the DAG layout needs a tree of depth 2 or more".into(),
             ));
         }
-        let merged = merge_dag(plan, &headers, channels.clone(), &copied, leaves, output)?;
-        let layout = Layout {
-            root_origin: plan.root_origin,
-            root_side: plan.root_side,
-            depth: plan.depth,
-            node_count: merged.nodes,
-            leaf_count: leaves,
-            channels,
-            build: &plan.build,
-            chunks: None,
-            levels: None,
-        };
-        return Ok(report(plan, &headers, &layout, merged.bytes, 4, 0, t0));
+        let (layout, bytes) = merge_dag(plan, &headers, channels, &copied, leaves, output)?;
+        return Ok(report(plan, &headers, &layout, bytes, 4, 0, t0));
     }
     if plan.node_attributes && leaves > 0 {
         if format == MergeFormat::Chunked {

@@ -16,23 +16,17 @@ use crate::octree::tree::Node;
 use std::io::Write;
 use std::path::Path;
 
-/// What the DAG merge wrote: the file's bytes and its graph's nodes.
-pub(crate) struct DagMerged {
-    pub bytes: u64,
-    pub nodes: u64,
-}
-
 /// Merges the parts (`headers`, checked) of `plan` into `output` as the DAG layout: the
 /// channels as the merge stores them (`channels`; `copied` are the parts' channel indices
-/// copied per leaf), `leaves` in all.
-pub(crate) fn merge_dag(
-    plan: &BakePlan,
+/// copied per leaf), `leaves` in all. Returns the layout written and its bytes.
+pub(crate) fn merge_dag<'a>(
+    plan: &'a BakePlan,
     headers: &[Header],
     channels: Vec<(u8, Stored)>,
     copied: &[usize],
     leaves: u64,
     output: &Path,
-) -> Result<DagMerged, PartsError> {
+) -> Result<(Layout<'a>, u64), PartsError> {
     let level = usize::from(plan.level);
     let mut graph = DagBuilder::new(plan.depth);
     // Each subtree's code and index on the parts' level, in increasing code.
@@ -84,12 +78,11 @@ pub(crate) fn merge_dag(
     let dag = graph.finish();
     debug_assert_eq!(dag.leaf_count(), leaves);
     let (levels, blocks) = dag_blocks(&dag);
-    let nodes = levels.counts.iter().sum();
     let layout = Layout {
         root_origin: plan.root_origin,
         root_side: plan.root_side,
         depth: plan.depth,
-        node_count: nodes,
+        node_count: levels.counts.iter().sum(),
         leaf_count: leaves,
         channels,
         build: &plan.build,
@@ -106,5 +99,5 @@ pub(crate) fn merge_dag(
         }
         Ok(())
     })?;
-    Ok(DagMerged { bytes, nodes })
+    Ok((layout, bytes))
 }
