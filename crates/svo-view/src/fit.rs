@@ -5,7 +5,7 @@
 //! ([`prefix_depth`]): the levels below are never read.
 
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::{GpuLayout, arena_bytes, arena_capacity};
+use crate::gpu_render::{GpuLayout, adapter_capacity, arena_bytes};
 use crate::gpu_types::ShaderVariant;
 use crate::job::{JobError, RenderJob, prepare};
 use std::fmt;
@@ -47,21 +47,32 @@ pub fn fit_scene(
     layout: &GpuLayout,
 ) -> Result<Option<Prefix>, GpuError> {
     let lights = scene.lights.len();
-    let limit = arena_capacity(layout.chunk_limit.unwrap_or_else(|| ctx.binding_limit()));
+    fit_tree(ctx, &mut scene.tree, lights, trace, layout)
+}
+
+/// [`fit_scene`] of a tree rendered with `lights` lights.
+pub fn fit_tree(
+    ctx: &GpuContext,
+    tree: &mut Octree,
+    lights: usize,
+    trace: &TraceOptions,
+    layout: &GpuLayout,
+) -> Result<Option<Prefix>, GpuError> {
+    let limit = adapter_capacity(ctx, layout);
     let needs = |t: &Octree| arena_bytes(t, &ShaderVariant::for_scene(t, trace, lights));
-    let needed = needs(&scene.tree);
-    let of = scene.tree.depth;
+    let needed = needs(tree);
+    let of = tree.depth;
     if needed <= limit || layout.wide_view || of <= 1 {
         return Ok(None);
     }
     // From the deepest prefix the level counts allow down, until one fits. The leaf parents
     // keep no values, so where the inner nodes carry attributes a prefix that ends on their
     // level would draw bare cubes: the level above is shown instead.
-    let levels = OctreeSurfaces::new(&scene.tree, trace.mode).level_of_detail();
+    let levels = OctreeSurfaces::new(tree, trace.mode).level_of_detail();
     let usable = |k: usize| !(levels && k + 1 == usize::from(of) && k > 1);
-    let counts = level_counts(&scene.tree);
-    let per_leaf = needed.saturating_sub(8 * scene.tree.nodes.len() as u64)
-        / u64::from(scene.tree.leaf_count.max(1));
+    let counts = level_counts(tree);
+    let per_leaf =
+        needed.saturating_sub(8 * tree.nodes.len() as u64) / u64::from(tree.leaf_count.max(1));
     let estimate = |k: usize| 8 * counts[..k].iter().sum::<u64>() + per_leaf * counts[k];
     let mut k = (1..usize::from(of))
         .rev()
@@ -72,12 +83,11 @@ pub fn fit_scene(
             k -= 1;
             continue;
         }
-        let top = scene
-            .tree
+        let top = tree
             .top_levels(k as u8)
             .map_err(|e| GpuError::Unsupported(format!("cutting the tree to fit: {e}")))?;
         if needs(&top) <= limit || k == 1 {
-            scene.tree = top;
+            *tree = top;
             return Ok(Some(Prefix {
                 depth: k as u8,
                 of,

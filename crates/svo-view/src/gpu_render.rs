@@ -10,17 +10,21 @@
 //! [`GpuLayout::wide_view`] asks for it ([`crate::wide_view`]), then, where the variant has a
 //! level of detail, the inner nodes' channels it reads per node; the shader finds each array
 //! by its word offset.
-//! The arena is split into up to [`MAX_ARENA_CHUNKS`] bindings of `2^k` words, `2^k` the
-//! largest power of two the adapter's per-binding limit allows (lavapipe: 128 MiB), so a tree
-//! larger than one binding still fits; with one chunk the shader's chunk selection compiles
-//! away. It also keeps the storage buffers per stage at 7 (the WebGPU default allows 8).
+//! The arena is split into bindings of `2^k` words, `2^k` the largest power of two the
+//! adapter's per-binding limit allows (lavapipe: 128 MiB), so a tree larger than one binding
+//! still fits: up to [`BASE_ARENA_CHUNKS`], which keeps the storage buffers per stage at 7
+//! (the WebGPU default allows 8), or, where the arena needs more and the adapter allows 19
+//! storage buffers a stage, up to [`MAX_ARENA_CHUNKS`] (the shader linked with its feature
+//! `many_bindings`). With one chunk the shader's chunk selection compiles away.
 
 use crate::gpu_context::{GpuContext, GpuError};
+use crate::gpu_tree::GpuTree;
 use crate::gpu_types::{GpuPixel, GpuRay, GpuRayHit, GpuUniforms, ShaderVariant};
 use crate::shader::{ShaderLink, WORKGROUP, trace_source};
 use glam::Vec3;
+use std::borrow::Cow;
 use std::time::{Duration, Instant};
-use svo::octree::{Channel, Octree};
+use svo::octree::Channel;
 use svo::render::{Frame, NO_LEAF, RenderStats};
 
 /// How the renderer lays its work out on the device: the defaults suit every adapter; the
@@ -36,22 +40,46 @@ pub struct GpuLayout {
     pub wide_view: bool,
 }
 
-/// The most bindings the arena is split over (`arena0` to `arena3` in the shader).
-pub const MAX_ARENA_CHUNKS: usize = 4;
+/// The bindings the arena is split over on any adapter (`arena0` to `arena3` in the shader):
+/// with the pixels and the two ray batches, 7 storage buffers, within WebGPU's default of 8.
+pub const BASE_ARENA_CHUNKS: usize = 4;
+
+/// The most bindings the arena is split over (`arena0` to `arena15`), on adapters that allow
+/// 19 storage buffers a stage or more (lavapipe allows 32), where the arena needs more than
+/// [`BASE_ARENA_CHUNKS`].
+pub const MAX_ARENA_CHUNKS: usize = 16;
+
+/// The most bindings an adapter with `limits` lets the arena take.
+pub fn arena_bindings(limits: &wgpu::Limits) -> usize {
+    if limits.max_storage_buffers_per_shader_stage as usize >= MAX_ARENA_CHUNKS + 3 {
+        MAX_ARENA_CHUNKS
+    } else {
+        BASE_ARENA_CHUNKS
+    }
+}
 
 /// Where the tree's arrays sit in the arena.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct ArenaLayout {
-    /// Word offsets: nodes, then the six channels in `ChannelKind` order, then the 64-ary
-    /// view, then the inner nodes' six channels (with a level of detail).
-    at: [u32; 14],
+    /// Word offsets: nodes (a graph's node records), then the six channels in `ChannelKind`
+    /// order, then the 64-ary view, then the inner nodes' six channels (with a level of
+    /// detail), then a graph's references, bricks and leaf parents' box codes.
+    at: [u32; PARTS],
     /// Whether the 64-ary view is there ([`GpuLayout::wide_view`], where the tree has one).
     wide: bool,
+    /// Whether the nodes are a graph's ([`GpuTree::Dag`]), which the walk then follows.
+    dag: bool,
     /// log2 of the words per chunk.
     shift: u32,
     /// Chunks in use.
     chunks: u32,
+    /// Bindings declared for them: [`BASE_ARENA_CHUNKS`], or [`MAX_ARENA_CHUNKS`] where more
+    /// chunks are in use.
+    bindings: u32,
 }
+
+/// The arrays of the arena.
+const PARTS: usize = 17;
 
 impl ArenaLayout {
     fn apply(&self, p: &mut crate::gpu_types::GpuParams) {
@@ -69,23 +97,27 @@ impl ArenaLayout {
         p.node_reflectivity_at = self.at[11];
         p.node_refractivity_at = self.at[12];
         p.node_ior_at = self.at[13];
+        p.dag_refs_at = self.at[14];
+        p.dag_bricks_at = self.at[15];
+        p.dag_boxes_at = self.at[16];
         p.arena_shift = self.shift;
     }
 }
 
 /// The arena of `tree` for `variant` (constant channels expanded when it reads them per
 /// leaf), with the 64-ary view after them when `wide` asks for it and the tree has one, in
-/// chunks of at most `chunk_limit` bytes: the layout and the chunks' bytes.
+/// chunks of at most `chunk_limit` bytes over at most `bindings` bindings: the layout and the
+/// chunks' bytes.
 fn build_arena(
-    tree: &Octree,
+    tree: GpuTree<'_>,
     variant: &ShaderVariant,
     chunk_limit: u64,
+    bindings: usize,
     wide: bool,
 ) -> Result<(ArenaLayout, Vec<Vec<u8>>), GpuError> {
-    let view = if wide {
-        crate::wide_view::build(tree)
-    } else {
-        None
+    let view = match tree {
+        GpuTree::Tree(t) if wide => crate::wide_view::build(t),
+        _ => None,
     };
     // Checked before anything is copied.
     let view_bytes = view
@@ -95,56 +127,100 @@ fn build_arena(
     let shift = chunk_shift(chunk_limit);
     let chunk_bytes = 4u64 << shift;
     let chunks = total.div_ceil(chunk_bytes).max(1);
-    if total > arena_capacity(chunk_limit) {
+    if total > arena_capacity(chunk_limit, bindings) {
         return Err(GpuError::TooLarge {
-            what: format!(
-                "the tree ({} nodes, {} leaves, in {MAX_ARENA_CHUNKS} bindings at most)",
-                tree.nodes.len(),
-                tree.leaf_count
-            ),
+            what: match tree {
+                GpuTree::Tree(t) => format!(
+                    "the tree ({} nodes, {} leaves, in {bindings} bindings at most)",
+                    t.nodes.len(),
+                    t.leaf_count
+                ),
+                GpuTree::Dag(d) => format!(
+                    "the graph ({} words, {} leaves, in {bindings} bindings at most)",
+                    d.flat_words(),
+                    d.leaf_count()
+                ),
+            },
             bytes: total,
-            limit: chunk_bytes * MAX_ARENA_CHUNKS as u64,
+            limit: arena_capacity(chunk_limit, bindings),
         });
     }
-    let (a, na) = (&tree.attributes, &tree.node_attributes);
-    let (n, nodes) = (tree.leaf_count as usize, tree.nodes.len());
+    let flat = match tree {
+        GpuTree::Dag(d) => Some(d.flat()),
+        GpuTree::Tree(_) => None,
+    };
+    let nodes: Cow<'_, [u8]> = match (tree, &flat) {
+        (GpuTree::Tree(t), _) => Cow::Borrowed(bytemuck::cast_slice(&t.nodes)),
+        (GpuTree::Dag(_), f) => words(f.as_ref().map(|f| f.nodes.as_slice())),
+    };
+    let a = tree.attributes();
+    let none = svo::octree::LeafAttributes::default();
+    let na = tree.node_attributes().unwrap_or(&none);
+    let n = tree.leaf_count() as usize;
+    let m = tree.tree().map_or(0, |t| t.nodes.len());
     let per_leaf = |k: usize| variant.channels[k] == 2;
     let per_node = |k: usize| variant.node_channels[k] == 2;
-    let parts: [Vec<u8>; 14] = [
-        bytemuck::cast_slice(&tree.nodes).to_vec(),
+    let parts: [Cow<'_, [u8]>; PARTS] = [
+        nodes,
         channel_bytes(&a.normal, per_leaf(0), n),
         channel_bytes(&a.contour, per_leaf(1), n),
         channel_bytes(&a.colour, per_leaf(2), n),
         channel_bytes(&a.reflectivity, per_leaf(3), n),
         channel_bytes(&a.refractivity, per_leaf(4), n),
         channel_bytes(&a.ior, per_leaf(5), n),
-        view.as_ref()
-            .map(|v| bytemuck::cast_slice(v).to_vec())
-            .unwrap_or_default(),
-        node_bytes(&na.normal, per_node(0), nodes),
-        node_bytes(&na.contour, per_node(1), nodes),
-        node_bytes(&na.colour, per_node(2), nodes),
-        node_bytes(&na.reflectivity, per_node(3), nodes),
-        node_bytes(&na.refractivity, per_node(4), nodes),
-        node_bytes(&na.ior, per_node(5), nodes),
+        view.as_ref().map_or(Cow::Borrowed(&[][..]), |v| {
+            Cow::Borrowed(bytemuck::cast_slice(v))
+        }),
+        node_bytes(&na.normal, per_node(0), m),
+        node_bytes(&na.contour, per_node(1), m),
+        node_bytes(&na.colour, per_node(2), m),
+        node_bytes(&na.reflectivity, per_node(3), m),
+        node_bytes(&na.refractivity, per_node(4), m),
+        node_bytes(&na.ior, per_node(5), m),
+        words(flat.as_ref().map(|f| f.refs.as_slice())),
+        words(flat.as_ref().map(|f| f.bricks.as_slice())),
+        words(flat.as_ref().map(|f| f.leaf_parent_boxes.as_slice())),
     ];
     debug_assert_eq!(parts.iter().map(|p| p.len() as u64).sum::<u64>(), total);
     let mut layout = ArenaLayout {
         shift,
         chunks: chunks as u32,
+        bindings: if chunks > BASE_ARENA_CHUNKS as u64 {
+            MAX_ARENA_CHUNKS as u32
+        } else {
+            BASE_ARENA_CHUNKS as u32
+        },
         wide: view.is_some(),
+        dag: tree.is_dag(),
         ..ArenaLayout::default()
     };
-    let mut arena = Vec::with_capacity(total as usize);
+    // The parts one after another, cut into chunks as they are copied.
+    let mut out: Vec<Vec<u8>> = Vec::with_capacity(chunks as usize);
+    let mut at = 0u64;
     for (k, p) in parts.iter().enumerate() {
-        layout.at[k] = (arena.len() / 4) as u32;
-        arena.extend_from_slice(p);
+        layout.at[k] = (at / 4) as u32;
+        let mut rest: &[u8] = p;
+        while !rest.is_empty() {
+            if out.last().is_none_or(|c| c.len() as u64 == chunk_bytes) {
+                let left = total - at;
+                out.push(Vec::with_capacity(left.min(chunk_bytes) as usize));
+            }
+            let Some(c) = out.last_mut() else { break };
+            let n = rest.len().min((chunk_bytes - c.len() as u64) as usize);
+            c.extend_from_slice(&rest[..n]);
+            rest = &rest[n..];
+            at += n as u64;
+        }
     }
-    let out = arena
-        .chunks(chunk_bytes as usize)
-        .map(<[u8]>::to_vec)
-        .collect();
+    if out.is_empty() {
+        out.push(Vec::new());
+    }
     Ok((layout, out))
+}
+
+/// An array of words as bytes (none for `None`).
+fn words(w: Option<&[u32]>) -> Cow<'_, [u8]> {
+    Cow::Borrowed(bytemuck::cast_slice(w.unwrap_or(&[])))
 }
 
 /// log2 of the words of an arena chunk of at most `chunk_limit` bytes: the largest power of
@@ -154,16 +230,23 @@ fn chunk_shift(chunk_limit: u64) -> u32 {
     63 - words_limit.leading_zeros()
 }
 
-/// The most bytes an arena of chunks of at most `chunk_limit` bytes holds: its bindings, and
-/// what 32-bit word offsets reach.
-pub fn arena_capacity(chunk_limit: u64) -> u64 {
-    (MAX_ARENA_CHUNKS as u64 * (4u64 << chunk_shift(chunk_limit))).min(4 * u64::from(u32::MAX))
+/// The most bytes the arena holds on `ctx`'s adapter laid out as `layout` says (its chunk
+/// limit, else the adapter's; the bindings the adapter allows).
+pub fn adapter_capacity(ctx: &GpuContext, layout: &GpuLayout) -> u64 {
+    let chunk_limit = layout.chunk_limit.unwrap_or_else(|| ctx.binding_limit());
+    arena_capacity(chunk_limit, arena_bindings(&ctx.limits))
+}
+
+/// The most bytes an arena of chunks of at most `chunk_limit` bytes holds in `bindings`
+/// bindings, and what 32-bit word offsets reach.
+pub fn arena_capacity(chunk_limit: u64, bindings: usize) -> u64 {
+    (bindings as u64 * (4u64 << chunk_shift(chunk_limit))).min(4 * u64::from(u32::MAX))
 }
 
 /// The bytes of the arena of `tree` for `variant`, without the 64-ary view: what
 /// [`GpuRenderer::new`] uploads (and checks against [`arena_capacity`] before it copies
 /// anything), worked out without copying anything.
-pub fn arena_bytes(tree: &Octree, variant: &ShaderVariant) -> u64 {
+pub fn arena_bytes<'a>(tree: impl Into<GpuTree<'a>>, variant: &ShaderVariant) -> u64 {
     fn len<T>(c: &Channel<T>, expand: bool, n: usize) -> u64 {
         let b = match c {
             Channel::PerLeaf(v) => size_of_val(v.as_slice()),
@@ -172,19 +255,26 @@ pub fn arena_bytes(tree: &Octree, variant: &ShaderVariant) -> u64 {
         };
         b.next_multiple_of(4) as u64
     }
-    let (a, na) = (&tree.attributes, &tree.node_attributes);
-    let n = tree.leaf_count as usize;
-    let m = tree.nodes.len();
+    let tree = tree.into();
+    let a = tree.attributes();
+    let n = tree.leaf_count() as usize;
     let leaf = |k: usize| variant.channels[k] == 2;
-    let node = |k: usize| variant.node_channels[k] == 2;
-    let node_len = |k: usize, b: u64| if node(k) { b } else { 0 };
-    8 * m as u64
-        + len(&a.normal, leaf(0), n)
+    let leaves = len(&a.normal, leaf(0), n)
         + len(&a.contour, leaf(1), n)
         + len(&a.colour, leaf(2), n)
         + len(&a.reflectivity, leaf(3), n)
         + len(&a.refractivity, leaf(4), n)
-        + len(&a.ior, leaf(5), n)
+        + len(&a.ior, leaf(5), n);
+    let t = match tree {
+        GpuTree::Dag(d) => return 4 * d.flat_words() + leaves,
+        GpuTree::Tree(t) => t,
+    };
+    let na = &t.node_attributes;
+    let m = t.nodes.len();
+    let node = |k: usize| variant.node_channels[k] == 2;
+    let node_len = |k: usize, b: u64| if node(k) { b } else { 0 };
+    8 * m as u64
+        + leaves
         + node_len(0, len(&na.normal, true, m))
         + node_len(1, len(&na.contour, true, m))
         + node_len(2, len(&na.colour, true, m))
@@ -195,31 +285,39 @@ pub fn arena_bytes(tree: &Octree, variant: &ShaderVariant) -> u64 {
 
 /// The bytes of an inner-node channel the shader reads per node (`on`), constants expanded;
 /// nothing otherwise.
-fn node_bytes<T: bytemuck::Pod>(c: &Channel<T>, on: bool, nodes: usize) -> Vec<u8> {
+fn node_bytes<T: bytemuck::Pod>(c: &Channel<T>, on: bool, nodes: usize) -> Cow<'_, [u8]> {
     if on {
         channel_bytes(c, true, nodes)
     } else {
-        Vec::new()
+        Cow::Borrowed(&[])
     }
 }
 
 /// The bytes of a channel as the shader reads them: per-leaf arrays as stored, padded to a
 /// whole `u32`; nothing for constant or absent channels, unless `expand` asks for a constant
 /// as a per-leaf array (`ShaderVariant::everything`).
-fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) -> Vec<u8> {
-    let mut b = match c {
-        Channel::PerLeaf(v) => bytemuck::cast_slice::<T, u8>(v).to_vec(),
-        Channel::Constant(v) if expand => bytemuck::cast_slice::<T, u8>(&vec![*v; leaves]).to_vec(),
-        _ => Vec::new(),
+fn channel_bytes<T: bytemuck::Pod>(c: &Channel<T>, expand: bool, leaves: usize) -> Cow<'_, [u8]> {
+    let b: &[u8] = match c {
+        Channel::PerLeaf(v) => bytemuck::cast_slice::<T, u8>(v),
+        Channel::Constant(v) if expand => {
+            let mut b = bytemuck::cast_slice::<T, u8>(&vec![*v; leaves]).to_vec();
+            b.resize(b.len().next_multiple_of(4), 0);
+            return Cow::Owned(b);
+        }
+        _ => &[],
     };
-    let padded = b.len().next_multiple_of(4);
-    b.resize(padded, 0);
-    b
+    if b.len().is_multiple_of(4) {
+        Cow::Borrowed(b)
+    } else {
+        let mut b = b.to_vec();
+        b.resize(b.len().next_multiple_of(4), 0);
+        Cow::Owned(b)
+    }
 }
 
 /// Bindings 0-7 of the shader (uniforms, four arena chunks, pixels, batch rays in and out),
 /// declared once for every entry point.
-fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
+fn bind_group_layout(dev: &wgpu::Device, bindings: u32) -> wgpu::BindGroupLayout {
     let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -237,6 +335,8 @@ fn bind_group_layout(dev: &wgpu::Device) -> wgpu::BindGroupLayout {
     entries.push(entry(5, write));
     entries.push(entry(6, read));
     entries.push(entry(7, write));
+    let more = bindings.saturating_sub(BASE_ARENA_CHUNKS as u32);
+    entries.extend((8..8 + more).map(|b| entry(b, read)));
     dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("trace"),
         entries: &entries,
@@ -296,9 +396,9 @@ fn frame_buffers(
 
 impl GpuRenderer {
     /// Uploads `tree` and builds the pipeline for `variant` and `width` x `height` images.
-    pub fn new(
+    pub fn new<'a>(
         ctx: &GpuContext,
-        tree: &Octree,
+        tree: impl Into<GpuTree<'a>>,
         variant: ShaderVariant,
         width: u32,
         height: u32,
@@ -308,20 +408,27 @@ impl GpuRenderer {
 
     /// [`Self::new`] laid out as `gpu_layout` says: arena chunks of at most its `chunk_limit`
     /// bytes (the adapter's limit, or less to test the split), and the walk.
-    pub fn with_options(
+    pub fn with_options<'a>(
         ctx: &GpuContext,
-        tree: &Octree,
+        tree: impl Into<GpuTree<'a>>,
         variant: ShaderVariant,
         width: u32,
         height: u32,
         gpu_layout: &GpuLayout,
     ) -> Result<Self, GpuError> {
+        let tree = tree.into();
         let dev = &ctx.device;
         let chunk_limit = gpu_layout
             .chunk_limit
             .unwrap_or_else(|| ctx.binding_limit());
-        if tree.nodes.is_empty() {
+        if tree.tree().is_some_and(|t| t.nodes.is_empty()) {
             return Err(GpuError::Unsupported("the tree has no nodes".into()));
+        }
+        if tree.is_dag() && gpu_layout.wide_view {
+            return Err(GpuError::Unsupported(
+                "a DAG file's graph is walked as an octree: the 64-ary view is made from a tree"
+                    .into(),
+            ));
         }
         if variant.lod && gpu_layout.wide_view {
             return Err(GpuError::Unsupported(
@@ -329,7 +436,9 @@ impl GpuRenderer {
                     .into(),
             ));
         }
-        let (arena, chunks) = build_arena(tree, &variant, chunk_limit, gpu_layout.wide_view)?;
+        let bindings = arena_bindings(&ctx.limits);
+        let (arena, chunks) =
+            build_arena(tree, &variant, chunk_limit, bindings, gpu_layout.wide_view)?;
         for c in &chunks {
             ctx.fits("an arena chunk", c.len() as u64)?;
         }
@@ -356,11 +465,11 @@ impl GpuRenderer {
         // Chunks not in use are bound to a placeholder (one for all: read-only bindings may
         // share a buffer, a read-write one may not share it with anything).
         let unused_chunk = dummy_buffer(dev);
-        while tree_buffers.len() < 1 + MAX_ARENA_CHUNKS {
+        while tree_buffers.len() < 1 + arena.bindings as usize {
             tree_buffers.push(unused_chunk.clone());
         }
 
-        let layout = bind_group_layout(dev);
+        let layout = bind_group_layout(dev, arena.bindings);
         let pipeline_layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("trace"),
             bind_group_layouts: &[Some(&layout)],
@@ -368,8 +477,10 @@ impl GpuRenderer {
         });
         let placement = Placement {
             chunks: arena.chunks,
-            depth: u32::from(tree.depth),
+            depth: u32::from(tree.depth()),
             wide_view: arena.wide,
+            dag: arena.dag,
+            many_bindings: arena.bindings > BASE_ARENA_CHUNKS as u32,
         };
         let pipeline = compute_pipeline(dev, &pipeline_layout, "main", &variant, &placement)?;
         ctx.check()?;
@@ -616,6 +727,10 @@ struct Placement {
     depth: u32,
     /// Whether the arena holds the 64-ary view, which the traversal then walks.
     wide_view: bool,
+    /// Whether the arena holds a graph, which the traversal then walks.
+    dag: bool,
+    /// Whether the arena takes more than [`BASE_ARENA_CHUNKS`] bindings.
+    many_bindings: bool,
 }
 
 /// The pipeline of `entry` for `variant` with the renderer's `placement`.
@@ -628,6 +743,8 @@ fn compute_pipeline(
 ) -> Result<wgpu::ComputePipeline, GpuError> {
     let source = trace_source(&ShaderLink {
         wide_view: placement.wide_view,
+        dag: placement.dag,
+        many_bindings: placement.many_bindings,
         depth: placement.depth,
         ray_stack: variant.ray_stack,
     })?;
@@ -684,9 +801,13 @@ fn bind_group(
     tree: &[wgpu::Buffer],
     rest: [&wgpu::Buffer; 3],
 ) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry<'_>> = tree
+    // Bindings 0-4 (uniforms, the first four chunks), 5-7 (`rest`), then the other chunks
+    // from 8.
+    let base = 1 + BASE_ARENA_CHUNKS;
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = tree[..base]
         .iter()
         .chain(rest)
+        .chain(&tree[base..])
         .enumerate()
         .map(|(i, b)| wgpu::BindGroupEntry {
             binding: i as u32,

@@ -5,8 +5,9 @@
 //! `tests/it/gpu_layout.rs` parses the linked WGSL with naga and checks every struct's size and
 //! member offsets against these (and [`svo::octree::Node`] against the shader's `Node`).
 
+use crate::gpu_tree::GpuTree;
 use bytemuck::{Pod, Zeroable};
-use svo::octree::{Channel, Octree};
+use svo::octree::{Channel, LeafAttributes};
 use svo::render::{
     Camera, CameraError, FresnelMode, MAX_BOUNCES, OctreeSurfaces, Phong, PointLight, ShadowMode,
     Sky, Surfaces, TraceOptions,
@@ -124,8 +125,17 @@ pub struct GpuParams {
     pub node_ior_at: u32,
     /// The primary rays' cone spread (`Camera::pixel_cone`) under the level of detail.
     pub lod_spread: f32,
+    /// Word offset of a graph's child references ([`svo::dag::FlatDag::refs`]; its node
+    /// records are at `nodes_at`).
+    pub dag_refs_at: u32,
+    /// Word offset of a graph's bricks.
+    pub dag_bricks_at: u32,
+    /// Word offset of a graph's leaf parents' box codes.
+    pub dag_boxes_at: u32,
     /// Padding.
     pub pad: u32,
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// A point light in grid space (WGSL `Light`).
@@ -287,10 +297,20 @@ pub struct ShaderVariant {
 
 impl ShaderVariant {
     /// The variant for `tree` rendered with `opts` and `n_lights` lights.
-    pub fn for_scene(tree: &Octree, opts: &TraceOptions, n_lights: usize) -> Self {
-        let a = &tree.attributes;
-        let lod = opts.lod > 0.0 && OctreeSurfaces::new(tree, opts.mode).level_of_detail();
-        let na = &tree.node_attributes;
+    pub fn for_scene<'a>(
+        tree: impl Into<GpuTree<'a>>,
+        opts: &TraceOptions,
+        n_lights: usize,
+    ) -> Self {
+        let tree = tree.into();
+        let a = tree.attributes();
+        // A graph keeps no inner-node values: it has no level of detail.
+        let lod = opts.lod > 0.0
+            && tree
+                .tree()
+                .is_some_and(|t| OctreeSurfaces::new(t, opts.mode).level_of_detail());
+        let none = LeafAttributes::default();
+        let na = tree.node_attributes().unwrap_or(&none);
         let reflective = any_nonzero(&a.reflectivity);
         let refractive = any_nonzero(&a.refractivity);
         let bounces = opts.max_path_bounces > 0
@@ -437,11 +457,12 @@ impl ShaderVariant {
 
 /// The uniforms that depend on the tree and settings alone (no camera, lights or sky):
 /// enough for the ray-batch entry point.
-pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
-    let depth = tree.depth;
-    let a = &tree.attributes;
+pub fn tree_uniforms<'a>(tree: impl Into<GpuTree<'a>>, opts: &TraceOptions) -> GpuUniforms {
+    let tree = tree.into();
+    let depth = tree.depth();
+    let a = tree.attributes();
     let params = GpuParams {
-        scale: ((1u64 << depth) as f64 / tree.root.side) as f32,
+        scale: ((1u64 << depth) as f64 / tree.root().side) as f32,
         bias: opts.bias_cells,
         depth: u32::from(depth),
         // Below u32::MAX, so that the shader's step counter always passes it (its loops run
@@ -450,7 +471,8 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
         max_reflections: u32::from(opts.max_reflections),
         max_refractions: u32::from(opts.max_refractions),
         max_path_bounces: u32::from(opts.max_path_bounces),
-        n_nodes: tree.nodes.len() as u32,
+        // A graph's walk has no node count to check (its references were checked on reading).
+        n_nodes: tree.tree().map_or(0, |t| t.nodes.len() as u32),
         const_normal: channel_const(&a.normal),
         const_contour: channel_const(&a.contour),
         const_colour: channel_const(&a.colour),
@@ -473,22 +495,23 @@ pub fn tree_uniforms(tree: &Octree, opts: &TraceOptions) -> GpuUniforms {
 
 /// The uniforms of a frame: `tree` seen through `camera`, with the lights (at most
 /// [`MAX_LIGHTS`]), sky and Phong factors; an error for invalid camera settings.
-pub fn uniforms(
-    tree: &Octree,
+pub fn uniforms<'a>(
+    tree: impl Into<GpuTree<'a>>,
     camera: &Camera,
     lights: &[PointLight],
     sky: &Sky,
     phong: &Phong,
     opts: &TraceOptions,
 ) -> Result<GpuUniforms, CameraError> {
+    let tree = tree.into();
     let rays = camera.rays()?;
     let mut u = tree_uniforms(tree, opts);
     let (basis, px_scale, half) = rays.f32_basis();
     let p = &mut u.params;
     // The eye in grid space, as the CPU renderer converts it.
     p.eye = tree
-        .root
-        .to_grid(camera.eye, tree.depth)
+        .root()
+        .to_grid(camera.eye, tree.depth())
         .as_vec3()
         .to_array();
     p.forward = basis[0].to_array();
@@ -518,8 +541,8 @@ pub fn uniforms(
     for (g, l) in u.lights.iter_mut().zip(lights) {
         *g = GpuLight {
             position: tree
-                .root
-                .to_grid(l.position, tree.depth)
+                .root()
+                .to_grid(l.position, tree.depth())
                 .as_vec3()
                 .to_array(),
             intensity: l.intensity,

@@ -3,17 +3,22 @@
 //! frame is traced by [`crate::gpu_render::GpuRenderer`], and the image or AOV is written by
 //! the CPU path's writer, so `--headless` and `--cpu` give the same files and the same
 //! [`FrameReport`]. A tree larger than the adapter is shown from the deepest prefix of its
-//! levels that fits ([`crate::fit`]). With `vs_cpu` the CPU reference renders the same frame and the two are
+//! levels that fits ([`crate::fit`]). A DAG file is rendered on its graph (the walk of the
+//! shader's feature `dag`), its tree never made, where the graph fits the adapter. With `vs_cpu` the CPU reference renders the same frame and the two are
 //! compared.
 
 use crate::fit::{fit_scene, level_sizes, open_fitting, said_of_file};
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::{GpuLayout, GpuRenderer, arena_capacity};
+use crate::gpu_render::{GpuLayout, GpuRenderer, adapter_capacity, arena_bytes};
+use crate::gpu_tree::GpuTree;
 use crate::gpu_types::{MAX_LIGHTS, ShaderVariant, uniforms};
 use crate::job::{JobError, RenderJob, write_output};
 use crate::report::{CameraReport, FrameReport, FrameTiming, GpuRun, VsCpu};
 use crate::timing::render_timed;
-use svo::render::{OctreeSurfaces, RenderScene, Tracer, compare};
+use svo::render::{
+    Camera, DagSurfaces, OctreeSurfaces, Phong, PointLight, RenderScene, SetupError, Sky, Stage,
+    Surfaces, Tracer, compare,
+};
 use svo::trace::HitMode;
 use thiserror::Error;
 
@@ -79,6 +84,8 @@ pub struct GpuFrame {
     pub tree_bytes: u64,
     /// Whether the traversal walked the 64-ary view.
     pub wide_view: bool,
+    /// Whether the traversal walked a graph (a DAG file's).
+    pub dag: bool,
 }
 
 /// Renders `scene` on `ctx` with `trace`'s settings: one untimed frame (pipeline compilation
@@ -92,14 +99,54 @@ pub fn render_scene(
     opts: &HeadlessOptions,
     frames: Option<u32>,
 ) -> Result<GpuFrame, HeadlessError> {
-    let RenderScene {
-        tree,
+    let stage = Staged::of(scene);
+    render_on(ctx, (&scene.tree).into(), &stage, trace, opts, frames)
+}
+
+/// What a frame is rendered with besides the tree: a [`RenderScene`]'s or a [`Stage`]'s.
+#[derive(Clone, Copy)]
+struct Staged<'a> {
+    camera: &'a Camera,
+    lights: &'a [PointLight],
+    sky: &'a Sky,
+    phong: Phong,
+}
+
+impl<'a> Staged<'a> {
+    fn of(s: &'a RenderScene) -> Self {
+        Self {
+            camera: &s.camera,
+            lights: &s.lights,
+            sky: &s.sky,
+            phong: s.phong,
+        }
+    }
+
+    fn of_stage(s: &'a Stage) -> Self {
+        Self {
+            camera: &s.camera,
+            lights: &s.lights,
+            sky: &s.sky,
+            phong: s.phong,
+        }
+    }
+}
+
+/// [`render_scene`] of `tree` (a tree or a graph) with `stage`.
+fn render_on(
+    ctx: &GpuContext,
+    tree: GpuTree<'_>,
+    stage: &Staged<'_>,
+    trace: &svo::render::TraceOptions,
+    opts: &HeadlessOptions,
+    frames: Option<u32>,
+) -> Result<GpuFrame, HeadlessError> {
+    let Staged {
         camera,
         lights,
         sky,
         phong,
-        ..
-    } = scene;
+    } = *stage;
     check_gpu_support(trace, sky.cube_map.is_some(), lights.len())?;
     let mut variant = ShaderVariant::for_scene(tree, trace, lights.len());
     if opts.everything {
@@ -113,7 +160,7 @@ pub fn render_scene(
         camera.height,
         &opts.layout,
     )?;
-    let u = uniforms(tree, camera, lights, sky, phong, trace).map_err(JobError::from)?;
+    let u = uniforms(tree, camera, lights, sky, &phong, trace).map_err(JobError::from)?;
     renderer.render(ctx, &u)?;
     let mut times = Vec::new();
     for _ in 0..frames.unwrap_or(1) {
@@ -129,6 +176,7 @@ pub fn render_scene(
         variant,
         tree_bytes: renderer.tree_bytes,
         wide_view: renderer.wide_view(),
+        dag: tree.is_dag(),
     })
 }
 
@@ -145,24 +193,90 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
     }
     // Checks the settings (bench frames, bounces, bias, output path) before loading.
     job.setup()?;
+    let graph = renders_as_graph(job, opts)?;
     // The file's level table, if it has one, is read before the adapter is opened: a file
     // that cannot be read fails first.
-    let sizes = level_sizes(job, &opts.layout)?;
+    let sizes = if graph {
+        None
+    } else {
+        level_sizes(job, &opts.layout)?
+    };
     let ctx = GpuContext::new()?;
-    let limit = arena_capacity(
-        opts.layout
-            .chunk_limit
-            .unwrap_or_else(|| ctx.binding_limit()),
-    );
+    let limit = adapter_capacity(&ctx, &opts.layout);
+    if graph {
+        let (dag, build) =
+            svo::io::read_dag_file(&job.input).map_err(|e| JobError::from(SetupError::from(e)))?;
+        let (lo, hi) = dag.occupied_bounds();
+        let stage = job
+            .setup()?
+            .stage(dag.depth(), lo, hi, &build.scene)
+            .map_err(JobError::from)?;
+        let variant = ShaderVariant::for_scene(&dag, &job.trace, stage.lights.len());
+        if arena_bytes(&dag, &variant) <= limit {
+            let staged = Staged::of_stage(&stage);
+            let r = render_on(
+                &ctx,
+                (&dag).into(),
+                &staged,
+                &job.trace,
+                opts,
+                job.bench_frames,
+            )?;
+            let vs_cpu = if opts.vs_cpu {
+                Some(vs_cpu(
+                    job,
+                    DagSurfaces::new(&dag, job.trace.mode),
+                    &staged,
+                    &r.frame,
+                )?)
+            } else {
+                None
+            };
+            let size = (dag.depth(), dag.leaf_count());
+            return finish(job, &ctx, &r, vs_cpu, &stage.camera, size, None, start);
+        }
+        // The graph does not fit either: the tree's top levels that do, as for a tree.
+    }
+    let sizes = if graph {
+        level_sizes(job, &opts.layout)?
+    } else {
+        sizes
+    };
     let (mut scene, read) = open_fitting(job, sizes, limit)?;
     let shown = said_of_file(fit_scene(&ctx, &mut scene, &job.trace, &opts.layout)?, read);
     let r = render_scene(&ctx, &scene, &job.trace, opts, job.bench_frames)?;
-    let startup_ms = (start.elapsed().as_secs_f64() - r.times.iter().sum::<f64>()) * 1e3;
     let vs_cpu = if opts.vs_cpu {
-        Some(vs_cpu(job, &scene, &r.frame)?)
+        let s = OctreeSurfaces::new(&scene.tree, job.trace.mode);
+        Some(vs_cpu(job, s, &Staged::of(&scene), &r.frame)?)
     } else {
         None
     };
+    let size = (scene.tree.depth, u64::from(scene.tree.leaf_count));
+    finish(job, &ctx, &r, vs_cpu, &scene.camera, size, shown, start)
+}
+
+/// Whether the job renders a DAG file as its graph on the GPU (its tree never made): a DAG
+/// file, whole, on the octree walk (the 64-ary view is made from a tree).
+fn renders_as_graph(job: &RenderJob, opts: &HeadlessOptions) -> Result<bool, JobError> {
+    if job.max_depth.is_some() || opts.layout.wide_view {
+        return Ok(false);
+    }
+    Ok(svo::io::is_dag_file(&job.input).map_err(SetupError::from)?)
+}
+
+/// Writes the frame `r` of a tree of `size` (depth, leaves) and makes the report.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    job: &RenderJob,
+    ctx: &GpuContext,
+    r: &GpuFrame,
+    vs_cpu: Option<VsCpu>,
+    camera: &Camera,
+    size: (u8, u64),
+    shown: Option<crate::fit::Prefix>,
+    start: std::time::Instant,
+) -> Result<FrameReport, HeadlessError> {
+    let startup_ms = (start.elapsed().as_secs_f64() - r.times.iter().sum::<f64>()) * 1e3;
     let s = r.frame.stats;
     let output = match &job.output {
         Some(out) => {
@@ -172,27 +286,29 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
         }
         None => None,
     };
-    let tree = &scene.tree;
+    let (depth, leaves) = size;
     Ok(FrameReport {
-        width: scene.camera.width,
-        height: scene.camera.height,
-        depth: tree.depth,
-        leaves: u64::from(tree.leaf_count),
+        width: camera.width,
+        height: camera.height,
+        depth,
+        leaves,
         hit: job.trace.mode.name(),
         timing: FrameTiming::new(&r.times, &s),
         stats: s,
         output,
-        camera: CameraReport::of(&scene.camera),
+        camera: CameraReport::of(camera),
         cpu: None,
         gpu: Some(GpuRun {
             adapter: ctx.adapter_name(),
             variant: format!(
                 "{}; stacks: ancestors {}, pending rays {}{}",
                 r.variant.describe(),
-                tree.depth,
+                depth,
                 r.variant.ray_stack,
                 if r.wide_view {
                     "; walks the 64-ary view"
+                } else if r.dag {
+                    "; walks the graph"
                 } else {
                     ""
                 }
@@ -205,20 +321,22 @@ pub fn run(job: &RenderJob, opts: &HeadlessOptions) -> Result<FrameReport, Headl
     })
 }
 
-/// The CPU reference's frame of `scene`, timed as `job` asks, against the GPU's `frame`.
-fn vs_cpu(
+/// The CPU reference's frame of `surfaces` seen as `stage` says, timed as `job` asks,
+/// against the GPU's `frame`.
+fn vs_cpu<S: Surfaces>(
     job: &RenderJob,
-    scene: &RenderScene,
+    surfaces: S,
+    stage: &Staged<'_>,
     frame: &svo::render::Frame,
 ) -> Result<VsCpu, JobError> {
     let tracer = Tracer::new(
-        OctreeSurfaces::new(&scene.tree, job.trace.mode),
-        &scene.lights,
-        scene.sky.clone(),
-        scene.phong,
+        surfaces,
+        stage.lights,
+        stage.sky.clone(),
+        stage.phong,
         job.trace,
     );
-    let (cpu, cpu_times) = render_timed(&tracer, &scene.camera, job.bench_frames)?;
+    let (cpu, cpu_times) = render_timed(&tracer, stage.camera, job.bench_frames)?;
     let diff = compare(frame, &cpu)
         .ok_or_else(|| JobError::Invalid("the two renders differ in size".into()))?;
     let leaf_mismatch = frame

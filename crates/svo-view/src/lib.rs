@@ -10,6 +10,7 @@
 //! - [`gpu_types`]: the structs shared with the WGSL shader and the shader variant
 //!   (pipeline-overridable constants that leave out what a scene does not need);
 //! - [`gpu_context`]: the adapter and device, and [`gpu_context::GpuError`];
+//! - [`gpu_tree`]: what the GPU traces, a tree or its graph (a DAG file read as one);
 //! - [`gpu_render`]: the tree's buffers, the compute pipeline, a frame and its read-back;
 //! - [`fit`]: a tree larger than the adapter shown from the deepest prefix of its levels that
 //!   fits;
@@ -32,6 +33,7 @@ pub mod cpu_render;
 pub mod fit;
 pub mod gpu_context;
 pub mod gpu_render;
+pub mod gpu_tree;
 pub mod gpu_types;
 pub mod headless;
 pub mod job;

@@ -21,7 +21,7 @@ use thiserror::Error;
 use wesl::{CompileOptions, ManglerKind, ModulePath, VirtualResolver, Wesl};
 
 /// The shader's modules by name, the root (`trace`) first.
-const MODULES: [(&str, &str); 10] = [
+const MODULES: [(&str, &str); 11] = [
     ("trace", include_str!("shaders/trace/trace.wesl")),
     ("variant", include_str!("shaders/trace/variant.wesl")),
     ("bindings", include_str!("shaders/trace/bindings.wesl")),
@@ -33,6 +33,7 @@ const MODULES: [(&str, &str); 10] = [
         include_str!("shaders/trace/octree_walk.wesl"),
     ),
     ("wide_walk", include_str!("shaders/trace/wide_walk.wesl")),
+    ("dag_walk", include_str!("shaders/trace/dag_walk.wesl")),
     ("traverse", include_str!("shaders/trace/traverse.wesl")),
     ("shading", include_str!("shaders/trace/shading.wesl")),
 ];
@@ -55,6 +56,12 @@ pub const MAX_RAY_STACK: u32 = 2 * (MAX_BOUNCES as u32) + 2;
 pub struct ShaderLink {
     /// Walk the tree's 64-ary view instead of the octree (the WESL feature `wide_view`).
     pub wide_view: bool,
+    /// Walk a tree's graph ([`svo::dag::FlatDag`]) instead of its node array (the WESL
+    /// feature `dag`; not with `wide_view`).
+    pub dag: bool,
+    /// Declare the arena's sixteen bindings instead of four (the WESL feature
+    /// `many_bindings`: [`crate::gpu_render::MAX_ARENA_CHUNKS`]).
+    pub many_bindings: bool,
     /// The tree's depth, which sizes the ancestor stack (1 to [`svo::MAX_DEPTH`]).
     pub depth: u32,
     /// Pending rays a pixel can have (1 to [`MAX_RAY_STACK`]).
@@ -140,6 +147,8 @@ fn link_modules(link: &ShaderLink) -> Result<String, ShaderError> {
         ..CompileOptions::default()
     });
     compiler.set_feature("wide_view", link.wide_view);
+    compiler.set_feature("dag", link.dag);
+    compiler.set_feature("many_bindings", link.many_bindings);
     compiler
         .compile(&path("trace")?)
         .map(|r| r.to_string())

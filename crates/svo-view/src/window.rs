@@ -12,7 +12,11 @@
 
 use crate::camera_control::{CameraControl, CameraMode};
 use crate::gpu_context::{GpuContext, GpuError};
-use crate::gpu_render::{GpuLayout, GpuRenderer, arena_capacity, read_buffer};
+use crate::gpu_render::{
+    BASE_ARENA_CHUNKS, GpuLayout, GpuRenderer, adapter_capacity, arena_bytes, arena_capacity,
+    read_buffer,
+};
+use crate::gpu_tree::GpuTree;
 use crate::gpu_types::{ShaderVariant, uniforms};
 use crate::headless::check_gpu_support;
 use crate::job::{JobError, RenderJob, write_output};
@@ -20,7 +24,9 @@ use crate::window_blit::{Blit, BlitParams};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
-use svo::render::{Aov, MAX_BOUNCES, RenderScene, ShadowMode, TraceOptions};
+use svo::Octree;
+use svo::dag::DagTree;
+use svo::render::{Aov, MAX_BOUNCES, RenderScene, ShadowMode, Stage, TraceOptions};
 use svo::trace::HitMode;
 use thiserror::Error;
 use winit::application::ApplicationHandler;
@@ -88,18 +94,31 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
     // is measured again once it is open).
     let sizes = crate::fit::level_sizes(job, &GpuLayout::default())?;
     let lod = job.trace.lod > 0.0;
-    let smallest = arena_capacity(128 << 20);
+    let smallest = arena_capacity(128 << 20, BASE_ARENA_CHUNKS);
     let limit = match &sizes {
         Some(s) if crate::fit::prefix_depth(s, smallest, lod).is_some() => {
-            GpuContext::new().map_or(smallest, |c| arena_capacity(c.binding_limit()))
+            GpuContext::new().map_or(smallest, |c| adapter_capacity(&c, &GpuLayout::default()))
         }
         _ => u64::MAX,
     };
-    let (scene, read) = crate::fit::open_fitting(job, sizes, limit)?;
-    check_gpu_support(&job.trace, false, scene.lights.len())?;
+    let (shown, stage, read) = if job.max_depth.is_none() && is_dag(job)? {
+        // A DAG file: its graph, walked on the GPU as its tree would be.
+        let (dag, build) = svo::io::read_dag_file(&job.input).map_err(setup_error)?;
+        let (lo, hi) = dag.occupied_bounds();
+        let stage = job
+            .setup()?
+            .stage(dag.depth(), lo, hi, &build.scene)
+            .map_err(JobError::from)?;
+        (Shown::Graph(dag), stage, None)
+    } else {
+        let (scene, read) = crate::fit::open_fitting(job, sizes, limit)?;
+        let (tree, stage) = split(scene);
+        (Shown::Tree(tree), stage, read)
+    };
+    check_gpu_support(&job.trace, false, stage.lights.len())?;
     let event_loop = EventLoop::new().map_err(|e| WindowError::NoWindow(e.to_string()))?;
-    let (lo, hi) = scene.tree.occupied_bounds();
-    let control = CameraControl::from_camera(&scene.camera, (hi - lo).length());
+    let (lo, hi) = shown.gpu().occupied_bounds();
+    let control = CameraControl::from_camera(&stage.camera, (hi - lo).length());
     let mut app = App {
         title: format!("svo-view: {}", job.input.display()),
         size: (job.width, job.height),
@@ -110,7 +129,9 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
             overlay: true,
         },
         control,
-        scene,
+        shown,
+        stage,
+        job: job.clone(),
         read,
         view: 0,
         opts: opts.clone(),
@@ -144,6 +165,50 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
     })
 }
 
+/// Whether `job`'s file is of the DAG layout.
+fn is_dag(job: &RenderJob) -> Result<bool, JobError> {
+    svo::io::is_dag_file(&job.input).map_err(setup_error)
+}
+
+fn setup_error(e: svo::io::FormatError) -> JobError {
+    JobError::from(svo::render::SetupError::from(e))
+}
+
+/// A scene's tree and its stage.
+fn split(scene: RenderScene) -> (Octree, Stage) {
+    let RenderScene {
+        tree,
+        camera,
+        lights,
+        sky,
+        phong,
+        views,
+    } = scene;
+    let stage = Stage {
+        camera,
+        lights,
+        sky,
+        phong,
+        views,
+    };
+    (tree, stage)
+}
+
+/// What the window traces: a tree, or a DAG file's graph (its tree never made).
+enum Shown {
+    Tree(Octree),
+    Graph(DagTree),
+}
+
+impl Shown {
+    fn gpu(&self) -> GpuTree<'_> {
+        match self {
+            Self::Tree(t) => t.into(),
+            Self::Graph(d) => d.into(),
+        }
+    }
+}
+
 /// Buttons and keys held down.
 #[derive(Default)]
 struct Held {
@@ -172,7 +237,10 @@ struct App {
     size: (u32, u32),
     settings: Settings,
     control: CameraControl,
-    scene: RenderScene,
+    shown: Shown,
+    stage: Stage,
+    /// The job, to read the file's top levels where its graph does not fit the adapter.
+    job: RenderJob,
     /// What of the file was left unread because the adapter would not hold it.
     read: Option<crate::fit::Prefix>,
     /// Which stored view `V` showed last.
@@ -199,14 +267,14 @@ impl App {
 
     fn lights(&self) -> Vec<svo::render::PointLight> {
         if self.settings.lights_on {
-            self.scene.lights.clone()
+            self.stage.lights.clone()
         } else {
             Vec::new()
         }
     }
 
     fn variant(&self) -> ShaderVariant {
-        ShaderVariant::for_scene(&self.scene.tree, &self.settings.trace, self.lights().len())
+        ShaderVariant::for_scene(self.shown.gpu(), &self.settings.trace, self.lights().len())
     }
 
     fn frame_size(&self, r: &Running) -> (u32, u32) {
@@ -249,17 +317,31 @@ impl App {
         if ctx.is_software() {
             self.settings.render_scale = 2;
         }
-        // A tree larger than the adapter: the deepest prefix of its levels that fits.
+        // A graph larger than the adapter: the tree's top levels that fit, as for a tree.
         let layout = GpuLayout::default();
-        let cut = crate::fit::fit_scene(&ctx, &mut self.scene, &self.settings.trace, &layout)?;
-        if let Some(p) = crate::fit::said_of_file(cut, self.read.take()) {
-            eprintln!("svo-view: {p}");
+        let limit = adapter_capacity(&ctx, &layout);
+        if matches!(self.shown, Shown::Graph(_))
+            && arena_bytes(self.shown.gpu(), &self.variant()) > limit
+        {
+            let sizes = crate::fit::level_sizes(&self.job, &layout)?;
+            let (scene, read) = crate::fit::open_fitting(&self.job, sizes, limit)?;
+            self.shown = Shown::Tree(scene.tree);
+            self.read = read;
+        }
+        // A tree larger than the adapter: the deepest prefix of its levels that fits.
+        let lights = self.stage.lights.len();
+        if let Shown::Tree(tree) = &mut self.shown {
+            let trace = &self.settings.trace;
+            let cut = crate::fit::fit_tree(&ctx, tree, lights, trace, &layout)?;
+            if let Some(p) = crate::fit::said_of_file(cut, self.read.take()) {
+                eprintln!("svo-view: {p}");
+            }
         }
         let variant = self.variant();
         let s = self.settings.render_scale;
         let renderer = GpuRenderer::new(
             &ctx,
-            &self.scene.tree,
+            self.shown.gpu(),
             variant,
             (config.width / s).max(1),
             (config.height / s).max(1),
@@ -316,13 +398,13 @@ impl App {
             KeyCode::Escape => el.exit(),
             KeyCode::Tab => self.control.toggle_mode(),
             KeyCode::KeyR => self.control.reset(),
-            KeyCode::KeyV if !self.scene.views.is_empty() => {
+            KeyCode::KeyV if !self.stage.views.is_empty() => {
                 // The next camera view stored in the file.
-                self.view = (self.view + 1) % self.scene.views.len();
-                let (lo, hi) = self.scene.tree.occupied_bounds();
+                self.view = (self.view + 1) % self.stage.views.len();
+                let (lo, hi) = self.shown.gpu().occupied_bounds();
                 let mode = self.control.mode;
                 self.control =
-                    CameraControl::from_camera(&self.scene.views[self.view].1, (hi - lo).length());
+                    CameraControl::from_camera(&self.stage.views[self.view].1, (hi - lo).length());
                 self.control.mode = mode;
             }
             KeyCode::F1 => self.settings.overlay = !self.settings.overlay,
@@ -406,13 +488,13 @@ impl App {
         };
         let (fw, fh) = r.renderer.size();
         let camera = self.control.camera(fw, fh);
-        let tree = &self.scene.tree;
+        let tree = self.shown.gpu();
         let u = uniforms(
             tree,
             &camera,
             &lights,
-            &self.scene.sky,
-            &self.scene.phong,
+            &self.stage.sky,
+            &self.stage.phong,
             &trace,
         )
         .map_err(JobError::from)?;
@@ -424,8 +506,8 @@ impl App {
             adapter: r.ctx.adapter_name(),
             ms: self.frame_ms.last().copied().unwrap_or(0.0),
             size: (fw, fh),
-            depth: tree.depth,
-            leaves: tree.leaf_count,
+            depth: tree.depth(),
+            leaves: tree.leaf_count(),
             settings: self.settings,
             variant: r.renderer.variant().describe(),
         };
@@ -503,7 +585,7 @@ struct Overlay {
     /// The frame size.
     size: (u32, u32),
     depth: u8,
-    leaves: u32,
+    leaves: u64,
     settings: Settings,
     /// The shader variant's paths.
     variant: String,

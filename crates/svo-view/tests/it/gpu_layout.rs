@@ -35,6 +35,8 @@ fn linked(link: &ShaderLink) -> (String, naga::Module) {
 fn default_link() -> ShaderLink {
     ShaderLink {
         wide_view: false,
+        dag: false,
+        many_bindings: false,
         depth: 30,
         ray_stack: MAX_RAY_STACK,
     }
@@ -55,11 +57,17 @@ fn every_wgsl_file_parses_and_validates() {
         }
     }
     assert!(n >= 1, "no shaders found");
-    // The tracer's modules, linked for both walks: each link keeps its walk's pieces alone
-    // and both entry points.
-    for wide_view in [false, true] {
+    // The tracer's modules, linked for the three walks (the octree, the 64-ary view, the
+    // graph): each link keeps its walk's pieces alone and both entry points.
+    // Each with the arena's four bindings, and with its sixteen.
+    let walks = [(false, false), (true, false), (false, true)];
+    for (wide_view, dag, many_bindings) in
+        walks.map(|(w, d)| [(w, d, false), (w, d, true)]).concat()
+    {
         let (src, m) = linked(&ShaderLink {
             wide_view,
+            dag,
+            many_bindings,
             ..default_link()
         });
         let has = |name: &str| {
@@ -69,6 +77,9 @@ fn every_wgsl_file_parses_and_validates() {
         };
         assert_eq!(has("wstack"), wide_view, "{src}");
         assert_eq!(has("tstack"), !wide_view, "{src}");
+        assert_eq!(has("bstack"), dag, "{src}");
+        assert!(has("arena3"), "{src}");
+        assert_eq!(has("arena15"), many_bindings, "{src}");
         for entry in ["main", "cast_rays"] {
             assert!(m.entry_points.iter().any(|e| e.name == entry), "{entry}");
         }
@@ -124,7 +135,7 @@ fn shared_structs_match_the_wgsl() {
                 nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
                 ior_at, arena_shift, max_path_bounces, view_at, node_normal_at, node_contour_at,
                 node_colour_at, node_reflectivity_at, node_refractivity_at, node_ior_at,
-                lod_spread, pad),
+                lod_spread, dag_refs_at, dag_bricks_at, dag_boxes_at, pad, pad2),
         ),
         (
             "Light",
@@ -234,9 +245,11 @@ fn stacks_sized_for_the_scene_still_validate() {
     // The link sizes the two private stacks for the scene (function arrays cannot be sized
     // by pipeline constants): each size must land, and the result must still validate.
     for (rays, depth) in [(1, 1), (4, 8), (8, 10), (MAX_RAY_STACK, 30)] {
-        for wide_view in [false, true] {
+        for (wide_view, dag) in [(false, false), (true, false), (false, true)] {
             let (_, m) = linked(&ShaderLink {
                 wide_view,
+                dag,
+                many_bindings: false,
                 depth,
                 ray_stack: rays,
             });

@@ -1,5 +1,5 @@
 //! `svo-view --headless` end to end: the colour image and the depth AOV written by the GPU,
-//! the benchmark line with the adapter's name, `--vs-cpu`, and one-line errors (before any
+//! the benchmark line with the adapter's name, `--vs-cpu`, a DAG file on its graph, and one-line errors (before any
 //! adapter is needed) for what the GPU path does not do, or when no mode is given.
 //! Without an adapter the harness reports the rendering test ignored (under CI: failed).
 
@@ -106,7 +106,32 @@ fn headless_renders_on_the_gpu() {
         assert_eq!(out.contains("walks the 64-ary view"), wide, "{out}");
         std::fs::read(&png).unwrap()
     };
-    assert_eq!(render(false), render(true));
+    let octree_walk = render(false);
+    assert_eq!(octree_walk, render(true));
+
+    // The same tree as a DAG file: rendered on its graph (the report says so), the image
+    // byte for byte the tree's, and the CPU's walk of the graph agreeing with it.
+    let (tree, build) = svo::io::read_file(&even).unwrap();
+    let dag_file = e.path().join("dag.svo");
+    svo::io::write_dag_file(&tree, &build, &dag_file).unwrap();
+    let png = e.path().join("dag.png");
+    let o = view(&[
+        dag_file.to_str().unwrap(),
+        "--headless",
+        "--size",
+        "48x36",
+        "--vs-cpu",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("walks the graph"), "{out}");
+    assert!(
+        out.contains("hit/miss differs on 0.0000% of pixels"),
+        "{out}"
+    );
+    assert_eq!(std::fs::read(&png).unwrap(), octree_walk);
 }
 
 fn what_the_gpu_does_not_do_is_a_clear_error() {

@@ -1,5 +1,6 @@
 //! The window under Xvfb with lavapipe: `svo-view FILE` opens a window, renders a few frames
-//! (trace, blit, overlay), captures the window and exits. Without Xvfb or an adapter the
+//! (trace, blit, overlay), captures the window and exits; a DAG file's graph shows the frame
+//! of its tree. Without Xvfb or an adapter the
 //! harness reports the test ignored, except under CI (`CI` set), where both are installed by
 //! `.ci/run` and their absence fails it.
 #![cfg(feature = "window")]
@@ -62,8 +63,42 @@ fn window_opens_renders_and_captures() {
     let d = tempfile::tempdir().unwrap();
     let svo = torus_svo(d.path());
     let shot = d.path().join("shot.png");
-    let runtime = d.path().join("xdg");
-    std::fs::create_dir(&runtime).unwrap();
+    let Some(out) = open_window(&x, &svo, &shot) else {
+        return;
+    };
+    assert!(out.contains("frames, first after"), "{out}");
+    let img = image::open(&shot).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (160, 120), "the window's size");
+    // The torus is in the middle of the window: some pixel there differs from the bottom
+    // corner's sky (the overlay is at the top left).
+    let corner = *img.get_pixel(159, 119);
+    assert!(
+        (40..120).any(|x| *img.get_pixel(x, 90) != corner),
+        "no torus in the capture"
+    );
+    // The same tree as a DAG file, shown on its graph: the same capture up to the overlay,
+    // whose frame-rate line and fade-in differ from run to run (by at most 16 levels a channel
+    // here; the torus against the sky differs by far more).
+    let (tree, build) = svo::io::read_file(&svo).unwrap();
+    let dag_file = d.path().join("dag.svo");
+    svo::io::write_dag_file(&tree, &build, &dag_file).unwrap();
+    let dag_shot = d.path().join("dag.png");
+    open_window(&x, &dag_file, &dag_shot).unwrap();
+    let on_graph = image::open(&dag_shot).unwrap().to_rgb8();
+    let off = |a: &image::Rgb<u8>, b: &image::Rgb<u8>| (0..3).map(|k| a[k].abs_diff(b[k])).max();
+    let worst = img
+        .pixels()
+        .zip(on_graph.pixels())
+        .filter_map(|(a, b)| off(a, b))
+        .max();
+    assert!(worst.is_some_and(|w| w <= 24), "{worst:?}");
+}
+
+/// Opens `svo` in a 160x120 window on `x`, quits after three frames, the last saved to
+/// `shot`: what the run printed, `None` (reported) without an adapter.
+fn open_window(x: &Xvfb, svo: &Path, shot: &Path) -> Option<String> {
+    let runtime = shot.with_extension("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_svo-view"))
         .args([
             svo.to_str().unwrap(),
@@ -81,20 +116,10 @@ fn window_opens_renders_and_captures() {
     let err = String::from_utf8_lossy(&o.stderr);
     if !o.status.success() && err.contains("no GPU adapter found") {
         skip_or_fail(&err);
-        return;
+        return None;
     }
     assert!(o.status.success(), "{err}");
-    let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("frames, first after"), "{out}");
-    let img = image::open(&shot).unwrap().to_rgb8();
-    assert_eq!((img.width(), img.height()), (160, 120), "the window's size");
-    // The torus is in the middle of the window: some pixel there differs from the bottom
-    // corner's sky (the overlay is at the top left).
-    let corner = *img.get_pixel(159, 119);
-    assert!(
-        (40..120).any(|x| *img.get_pixel(x, 90) != corner),
-        "no torus in the capture"
-    );
+    Some(String::from_utf8_lossy(&o.stdout).into_owned())
 }
 
 /// This module's tests, with what each needs of the machine.

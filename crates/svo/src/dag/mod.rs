@@ -6,6 +6,8 @@
 
 mod build;
 mod expand;
+#[cfg(feature = "trace")]
+mod flat;
 pub(crate) mod levels;
 #[cfg(feature = "trace")]
 mod walk;
@@ -13,6 +15,8 @@ mod walk;
 pub use build::Dag;
 #[cfg(feature = "io")]
 pub(crate) use build::DagBuilder;
+#[cfg(feature = "trace")]
+pub use flat::FlatDag;
 #[cfg(feature = "trace")]
 pub use walk::{DagError, DagTree};
 

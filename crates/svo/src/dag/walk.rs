@@ -55,15 +55,15 @@ pub enum DagError {
 #[derive(Clone, Debug)]
 pub struct DagTree {
     root: RootCube,
-    graph: DagLevels,
+    pub(super) graph: DagLevels,
     /// Per level above the bricks, per child reference: the leaves below the earlier children.
-    before: Vec<Vec<u32>>,
+    pub(super) before: Vec<Vec<u32>>,
     leaf_count: u64,
     /// The leaves' channels, in Morton order.
     pub(crate) attributes: LeafAttributes,
     /// The codes of the boxes of the nodes' leaves: per level above the bricks, and per brick.
-    boxes: Vec<Vec<u32>>,
-    brick_boxes: Vec<u32>,
+    pub(super) boxes: Vec<Vec<u32>>,
+    pub(super) brick_boxes: Vec<u32>,
 }
 
 impl DagTree {
