@@ -69,6 +69,8 @@ struct ArenaLayout {
     wide: bool,
     /// Whether the nodes are a graph's ([`GpuTree::Dag`]), which the walk then follows.
     dag: bool,
+    /// Which nodes a graph's leaf indices count ([`svo::dag::FlatDag::values`]).
+    dag_values: u32,
     /// log2 of the words per chunk.
     shift: u32,
     /// Chunks in use.
@@ -100,6 +102,7 @@ impl ArenaLayout {
         p.dag_refs_at = self.at[14];
         p.dag_bricks_at = self.at[15];
         p.dag_boxes_at = self.at[16];
+        p.dag_values = self.dag_values;
         p.arena_shift = self.shift;
     }
 }
@@ -192,6 +195,7 @@ fn build_arena(
         },
         wide: view.is_some(),
         dag: tree.is_dag(),
+        dag_values: flat.as_ref().map_or(0, |f| f.values),
         ..ArenaLayout::default()
     };
     // The parts one after another, cut into chunks as they are copied.

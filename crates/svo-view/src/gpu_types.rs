@@ -132,10 +132,10 @@ pub struct GpuParams {
     pub dag_bricks_at: u32,
     /// Word offset of a graph's leaf parents' box codes.
     pub dag_boxes_at: u32,
+    /// Which nodes a graph's leaf indices count ([`svo::dag::FlatDag::values`]).
+    pub dag_values: u32,
     /// Padding.
     pub pad: u32,
-    /// Padding.
-    pub pad2: u32,
 }
 
 /// A point light in grid space (WGSL `Light`).

@@ -135,7 +135,7 @@ fn shared_structs_match_the_wgsl() {
                 nodes_at, normal_at, contour_at, colour_at, reflectivity_at, refractivity_at,
                 ior_at, arena_shift, max_path_bounces, view_at, node_normal_at, node_contour_at,
                 node_colour_at, node_reflectivity_at, node_refractivity_at, node_ior_at,
-                lod_spread, dag_refs_at, dag_bricks_at, dag_boxes_at, pad, pad2),
+                lod_spread, dag_refs_at, dag_bricks_at, dag_boxes_at, dag_values, pad),
         ),
         (
             "Light",

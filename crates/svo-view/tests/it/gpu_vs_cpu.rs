@@ -618,6 +618,68 @@ fn a_graph_renders_the_frames_of_its_tree() {
     );
 }
 
+/// A graph whose leaves take their values from a level above (the inner nodes' normals,
+/// `DagValues`), on the GPU as on the CPU: the copper torus at depth 7 (reflections, product
+/// shadows) with values on levels 5 (the bricks'), 6 (the leaf parents') and 4, normals in 16
+/// and 32 bits: the same hit mask, the same leaves (values' indices) and nearly the same
+/// colours; the leaves' indices are fewer than the leaves.
+fn a_graph_with_values_above_its_leaves_renders_the_same() {
+    let Some(ctx) = gpu() else {
+        return;
+    };
+    let mut tree = torus_with_levels(None, 7);
+    tree.attributes.contour = svo::octree::Channel::Absent;
+    let s = scene(tree.clone());
+    let trace = TraceOptions {
+        mode: HitMode::Cube,
+        ..TraceOptions::default()
+    };
+    for (level, normal_bits) in [(5u8, 16u8), (4, 32), (7, 16)] {
+        let values = svo::dag::DagValues {
+            level: Some(level),
+            normal_bits,
+        };
+        let dag = DagTree::from_tree_with(&tree, &values).unwrap();
+        let variant = ShaderVariant::for_scene(&dag, &trace, s.lights.len());
+        let (w, h) = (s.camera.width, s.camera.height);
+        let r = GpuRenderer::new(&ctx, &dag, variant, w, h).unwrap();
+        let u = svo_view::gpu_types::uniforms(&dag, &s.camera, &s.lights, &s.sky, &s.phong, &trace)
+            .unwrap();
+        r.render(&ctx, &u).unwrap();
+        let g = r.read_frame(&ctx, std::time::Duration::ZERO).unwrap();
+        let t = Tracer::new(
+            DagSurfaces::new(&dag, trace.mode),
+            &s.lights,
+            s.sky.clone(),
+            s.phong,
+            trace,
+        );
+        let c = render(&t, &s.camera).unwrap();
+        let diff = svo::render::compare(&g, &c).unwrap();
+        let what = format!("level {level}, {normal_bits} bits");
+        assert_eq!(diff.hit_mismatch, 0.0, "{what}");
+        let differ = g.leaf.iter().zip(&c.leaf).filter(|(a, b)| a != b).count();
+        assert!(
+            differ <= allowed(&ctx, c.leaf.len(), 200),
+            "{what}: {differ} leaves differ"
+        );
+        assert!(diff.rmse <= 0.5, "{what}: RMSE {}", diff.rmse);
+        let most = c
+            .leaf
+            .iter()
+            .filter(|&&l| l != NO_LEAF)
+            .max()
+            .copied()
+            .unwrap();
+        if level < 7 {
+            assert!(
+                u64::from(most) * 8 < dag.leaf_count(),
+                "{what}: index {most}"
+            );
+        }
+    }
+}
+
 /// The 2015 thesis's own scene (`examples/scenes/pool.toml`: the Stanford bunny from
 /// `../shared/models` in a pool of water) at depth 7, its three views with its settings
 /// (contours, no shadow rays, one bounce a path): the GPU against the CPU (the same hit/miss
@@ -1181,6 +1243,10 @@ pub(crate) fn trials() -> Vec<Test> {
         ),
         trial!(the_wide_view_renders_the_same, common::gpu_need()),
         trial!(a_graph_renders_the_frames_of_its_tree, common::gpu_need()),
+        trial!(
+            a_graph_with_values_above_its_leaves_renders_the_same,
+            common::gpu_need()
+        ),
         trial!(a_level_of_detail_renders_the_same, common::gpu_need()),
         trial!(
             a_tree_too_large_for_the_adapter_shows_its_top_levels,

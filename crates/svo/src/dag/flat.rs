@@ -17,8 +17,14 @@ use crate::octree::bounds::leaf_parent_code;
 /// `depth - 3` the brick; the child's first leaf is the node's plus the reference's leaves
 /// before. A brick's child `real` is the leaf parent of mask `(brick >> 8 * real) & 0xFF`,
 /// whose first leaf is the brick's plus the brick's set bits below bit `8 * real`, and whose
-/// box code is `leaf_parent_boxes[mask]`. Leaf indices add with wrapping (a tree past 2^32
-/// leaves has no per-leaf arrays to index).
+/// box code is `leaf_parent_boxes[mask]`; its leaf of rank `r` is its first leaf plus `r`.
+/// Leaf indices add with wrapping (a tree past 2^32 leaves has no per-leaf arrays to index).
+///
+/// Where the leaves take their values from a level above ([`DagTree::values_level`]), the
+/// indices count that level's nodes instead of leaves (`values`): the references' counts are
+/// of them, and inside a brick a leaf parent's first index adds the nonzero bytes below its
+/// own (`values` 1: the leaf parents hold the values) or nothing (2: a level above the
+/// bricks' children), and a leaf's index is its leaf parent's.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FlatDag {
     /// The levels above the bricks' nodes, level after level from the root, two words a
@@ -35,6 +41,9 @@ pub struct FlatDag {
     pub bricks: Vec<u32>,
     /// The code of the box of a leaf parent's leaves, by its child mask (256 entries).
     pub leaf_parent_boxes: Vec<u32>,
+    /// Which nodes the indices count: 0 the leaves, 1 the leaf parents, 2 nodes of a level
+    /// above them.
+    pub values: u32,
 }
 
 impl FlatDag {
@@ -102,6 +111,7 @@ impl DagTree {
             refs,
             bricks,
             leaf_parent_boxes,
+            values: u32::from((self.depth() - self.values_level()).min(2)),
         }
     }
 }

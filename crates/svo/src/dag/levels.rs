@@ -449,24 +449,37 @@ impl DagLevels {
         TreeSize { leaves, nodes }
     }
 
-    /// For each level above the bricks, for each child reference of its nodes in order: the leaves
-    /// below the node's earlier children (what a walk adds to its leaf index when it enters
-    /// that child).
+    /// For each level above the bricks, for each child reference of its nodes in order: the
+    /// nodes of the tree on level `values` (`depth`: the leaves) below the node's earlier
+    /// children (what a walk adds to the index of the values it finds when it enters that
+    /// child), and the tree's nodes on that level. A node below level `values` counts none:
+    /// its leaves take its ancestor's values.
     #[cfg(feature = "trace")]
-    pub(crate) fn leaves_before(&self) -> Vec<Vec<u64>> {
-        let mut before = vec![Vec::new(); usize::from(self.depth) - 2];
-        self.bottom_up(
-            |b| u64::from(b.count_ones()),
+    pub(crate) fn values_before(&self, values: u8) -> (Vec<Vec<u64>>, u64) {
+        let depth = self.depth;
+        let mut before = vec![Vec::new(); usize::from(depth) - 2];
+        let (levels, bricks) = self.bottom_up(
+            |b| match depth - values.min(depth) {
+                0 => u64::from(b.count_ones()),
+                1 => u64::from(brick_mask(b).count_ones()),
+                2 => 1,
+                _ => 0,
+            },
             |l, _, kids| {
                 let mut sum = 0u64;
                 for &k in kids {
                     before[l].push(sum);
                     sum = sum.saturating_add(k);
                 }
-                sum
+                match l.cmp(&usize::from(values)) {
+                    std::cmp::Ordering::Less => sum,
+                    std::cmp::Ordering::Equal => 1,
+                    std::cmp::Ordering::Greater => 0,
+                }
             },
         );
-        before
+        let root = levels.first().map_or(bricks.first(), |l| l.first());
+        (before, root.copied().unwrap_or(0))
     }
 
     /// The codes of the boxes of the nodes' leaves (`crate::octree::bounds`), which the tree

@@ -9,6 +9,7 @@ mod expand;
 #[cfg(feature = "trace")]
 mod flat;
 pub(crate) mod levels;
+mod values;
 #[cfg(feature = "trace")]
 mod walk;
 
@@ -17,6 +18,7 @@ pub use build::Dag;
 pub(crate) use build::DagBuilder;
 #[cfg(feature = "trace")]
 pub use flat::FlatDag;
+pub use values::{DagValues, ValuesError};
 #[cfg(feature = "trace")]
 pub use walk::{DagError, DagTree};
 

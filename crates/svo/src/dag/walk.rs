@@ -5,6 +5,7 @@
 
 use super::build::Dag;
 use super::levels::{DagLevels, brick_mask};
+use super::values::DagValues;
 use crate::octree::RootCube;
 use crate::octree::bounds::leaf_parent_code;
 use crate::octree::tree::{LeafAttributes, Octree};
@@ -23,6 +24,9 @@ pub enum DagError {
     /// A tree of depth 1: a graph's lowest nodes are 4x4x4 bricks, two levels.
     #[error("a DAG needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)")]
     TooShallow,
+    /// The values cannot be kept as asked.
+    #[error(transparent)]
+    Values(#[from] super::values::ValuesError),
     /// More leaves than a leaf index holds, with channels stored per leaf (which the index
     /// reads).
     #[error("{0} leaves with channels stored per leaf: more than 2^31, which a leaf index holds")]
@@ -56,9 +60,12 @@ pub enum DagError {
 pub struct DagTree {
     root: RootCube,
     pub(super) graph: DagLevels,
-    /// Per level above the bricks, per child reference: the leaves below the earlier children.
+    /// Per level above the bricks, per child reference: the values below the earlier children
+    /// (the leaves', or the nodes' of level `values`).
     pub(super) before: Vec<Vec<u32>>,
     leaf_count: u64,
+    /// The level whose nodes hold the leaves' values (`depth`: each leaf its own).
+    values: u8,
     /// The leaves' channels, in Morton order.
     pub(crate) attributes: LeafAttributes,
     /// The codes of the boxes of the nodes' leaves: per level above the bricks, and per brick.
@@ -79,6 +86,60 @@ impl DagTree {
         Ok(dag)
     }
 
+    /// The graph of `tree`'s geometry with its leaves' values kept as `values` says: each
+    /// leaf's own, or its ancestor's on a level above (the tree's inner-node attributes,
+    /// [`crate::BakeOptions::node_attributes`]; a walk then finds that ancestor's index among
+    /// its level's nodes as a leaf's index, and the channels hold one value for each of them),
+    /// with normals in fewer bits where asked.
+    ///
+    /// ```
+    /// use svo::dag::{DagTree, DagValues};
+    /// use svo::{BakeOptions, Mesh, bake_mesh};
+    /// let sphere = Mesh::sphere(glam::DVec3::splat(0.5), 0.4, 24);
+    /// let opts = BakeOptions { depth: 6, node_attributes: true, ..Default::default() };
+    /// let mut tree = bake_mesh(&sphere, &opts)?.0;
+    /// tree.attributes.contour = svo::octree::Channel::Absent;
+    /// let coarse = DagValues { level: Some(4), normal_bits: 16 };
+    /// let dag = DagTree::from_tree_with(&tree, &coarse)?;
+    /// assert_eq!(dag.values_level(), 4);
+    /// // One normal for each node of level 4, far fewer than the leaves.
+    /// let normals = match &dag.attributes().normal {
+    ///     svo::octree::Channel::PerLeaf(v) => v.len() as u64,
+    ///     _ => 0,
+    /// };
+    /// assert!(normals > 0 && 8 * normals < dag.leaf_count());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn from_tree_with(tree: &Octree, values: &DagValues) -> Result<Self, DagError> {
+        if tree.depth < 2 {
+            return Err(DagError::TooShallow);
+        }
+        let attributes = values.of(tree)?;
+        let graph = DagLevels::of(&Dag::from_tree(tree));
+        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count), false)?;
+        let per_node = attributes.per_leaf_bytes() > 0;
+        dag = dag.with_values_at(values.level_for(tree.depth), per_node)?;
+        dag.attributes = attributes;
+        Ok(dag)
+    }
+
+    /// The graph whose leaves take their values from their ancestors on level `values` (1 to
+    /// the depth, which is each leaf its own): the walk's index of a leaf is its ancestor's
+    /// index among that level's nodes, in Morton order. `per_node`: the values include an
+    /// array, which refuses more than 2^31 such nodes.
+    pub(crate) fn with_values_at(mut self, values: u8, per_node: bool) -> Result<Self, DagError> {
+        let (before, count) = self.graph.values_before(values);
+        if count > MAX_LEAVES && per_node {
+            return Err(DagError::TooManyLeaves(count));
+        }
+        self.before = before
+            .into_iter()
+            .map(|l| l.into_iter().map(|x| x as u32).collect())
+            .collect();
+        self.values = values;
+        Ok(self)
+    }
+
     /// The walkable form of a graph that passed the reader's checks, whose tree has `leaves`
     /// leaves; `per_leaf`: the leaves' channels will include an array, which refuses a tree
     /// past 2^31 leaves.
@@ -93,8 +154,10 @@ impl DagTree {
         }
         // Within 2^31 leaves every partial sum fits; past them, a leaf's index is its Morton
         // index modulo 2^32 (the walk adds with wrapping), which no array is read by.
+        let depth = graph.depth();
         let before = graph
-            .leaves_before()
+            .values_before(depth)
+            .0
             .into_iter()
             .map(|l| l.into_iter().map(|x| x as u32).collect())
             .collect();
@@ -104,6 +167,7 @@ impl DagTree {
             graph,
             before,
             leaf_count: leaves,
+            values: depth,
             attributes: LeafAttributes::default(),
             boxes,
             brick_boxes,
@@ -123,6 +187,14 @@ impl DagTree {
     /// The tree's leaves.
     pub fn leaf_count(&self) -> u64 {
         self.leaf_count
+    }
+
+    /// The level whose nodes hold the leaves' values: the depth where each leaf has its own
+    /// (a walk's leaf index is then the leaf's), or a level above, whose nodes' values their
+    /// leaves take (a walk's leaf index is then the ancestor's on that level, and the channels
+    /// hold one value for each node of that level).
+    pub fn values_level(&self) -> u8 {
+        self.values
     }
 
     /// The leaves' channels, in the tree's Morton order (what [`crate::io::read_dag_file`]
@@ -249,12 +321,15 @@ pub(crate) struct DagNode {
     base: u32,
     /// The code of the box of its leaves.
     boxed: u32,
+    /// Which nodes hold the values: 0 the leaves, 1 the leaf parents, 2 nodes above them.
+    units: u8,
 }
 
 impl DagTree {
     /// Node `k` of level `l`, or brick `k` where `l` is the bricks' level, with first leaf `base`.
     #[inline]
     fn node(&self, l: usize, k: u32, base: u32) -> DagNode {
+        let units = (self.depth() - self.values).min(2);
         if l + 2 == usize::from(self.depth()) {
             DagNode {
                 kind: 1,
@@ -263,6 +338,7 @@ impl DagTree {
                 index: k,
                 base,
                 boxed: self.brick_boxes[k as usize],
+                units,
             }
         } else {
             DagNode {
@@ -272,6 +348,7 @@ impl DagTree {
                 index: k,
                 base,
                 boxed: self.boxes[l][k as usize],
+                units,
             }
         }
     }
@@ -311,16 +388,32 @@ impl WalkNodes for DagTree {
                 let shift = 8 * u32::from(real);
                 let below = b & ((1u64 << shift) - 1);
                 let mask = (b >> shift) as u8;
+                // The values below the earlier leaf parents: their leaves, or themselves.
+                let before = match n.units {
+                    0 => below.count_ones(),
+                    1 => u32::from(brick_mask(below).count_ones()),
+                    _ => 0,
+                };
                 Some(DagNode {
                     kind: 2,
                     mask,
                     level: n.level + 1,
                     index: n.index,
-                    base: n.base.wrapping_add(below.count_ones()),
+                    base: n.base.wrapping_add(before),
                     boxed: leaf_parent_code(mask),
+                    units: n.units,
                 })
             }
             _ => None,
+        }
+    }
+
+    #[inline]
+    fn leaf_of(n: DagNode, base: u32, rank: u32) -> u32 {
+        if n.units == 0 {
+            base.wrapping_add(rank)
+        } else {
+            base
         }
     }
 
@@ -349,6 +442,7 @@ impl WalkNodes for DagTree {
             index: 0,
             base: 0,
             boxed: 0,
+            units: 0,
         },
         0,
         0.0,
@@ -451,6 +545,51 @@ mod tests {
             DagTree::from_levels(dag.root(), graph, 1 << 36, true).unwrap_err(),
             DagError::TooManyLeaves(1 << 36)
         );
+    }
+
+    /// With values on a level above the leaves, a walk hands over, as each leaf's index, its
+    /// ancestor's index among the nodes of that level in Morton order, on every level (the
+    /// leaf parents' and the bricks' included) of random trees; at the depth, the leaf's own.
+    #[test]
+    fn a_leaf_finds_its_ancestors_values() {
+        let mut rnd = svo_tests::seeds::xorshift(0xa11e);
+        for depth in [3u8, 5, 6] {
+            let tree = crate::octree::scattered_tree(&mut rnd, depth, 400);
+            for level in 1..=depth {
+                let dag = DagTree::from_tree(&tree)
+                    .unwrap()
+                    .with_values_at(level, false)
+                    .unwrap();
+                assert_eq!(dag.values_level(), level);
+                let cells: Vec<UVec3> = tree.leaves().map(|l| l.cell).collect();
+                let up = |c: UVec3| c >> u32::from(depth - level);
+                let mut ancestors: Vec<u64> = cells.iter().map(|&c| morton(up(c), level)).collect();
+                ancestors.sort_unstable();
+                ancestors.dedup();
+                // Every leaf, met by rays along x through each row of cells.
+                let n = 1u32 << depth;
+                let mut met = 0;
+                for y in 0..n {
+                    for z in 0..n {
+                        let ray = GridRay {
+                            origin: Vec3::new(-1.0, y as f32 + 0.5, z as f32 + 0.5),
+                            dir: Vec3::X,
+                        };
+                        dag.traverse(&ray, 0.0, f32::INFINITY, MAX_STEPS, |e| {
+                            let want = ancestors.binary_search(&morton(up(e.cell), level)).unwrap();
+                            assert_eq!(
+                                e.leaf as usize, want,
+                                "depth {depth}, level {level}, {}",
+                                e.cell
+                            );
+                            met += 1;
+                            None::<()>
+                        });
+                    }
+                }
+                assert_eq!(met, cells.len());
+            }
+        }
     }
 
     fn dag_full(depth: u8) -> Dag {

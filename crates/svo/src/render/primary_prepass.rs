@@ -554,7 +554,7 @@ impl<'a> PrimaryBand<'a> {
                     if let Some(r) = self.rect(cell, 1) {
                         let planes = (cell, cell + UVec3::ONE);
                         self.test_cell(
-                            (base + rank, cell, 1),
+                            (W::leaf_of(node, base, rank), cell, 1),
                             planes,
                             r,
                             reads_normals,

@@ -425,7 +425,7 @@ fn walk<const STACK: usize, const NORMALS: bool, W: WalkNodes, T>(
                     (Vec3::ZERO, Vec3::ZERO)
                 };
                 let entry = LeafEntry {
-                    leaf: base + rank,
+                    leaf: W::leaf_of(node, base, rank),
                     cell: ray.unmirror_cell(origin),
                     side: 1,
                     t_enter: lane(t_enter, l),

@@ -129,6 +129,13 @@ pub(crate) trait WalkNodes {
     fn mask(n: Self::N) -> u8;
     /// Where a leaf parent's first leaf lies in the leaf arrays (`None` for another node).
     fn leaf_base(n: Self::N) -> Option<u32>;
+    /// The index in the leaf arrays of leaf `rank` of a leaf parent whose [`Self::leaf_base`]
+    /// is `base`: its own (`base + rank`), or where leaves take an ancestor's values, the
+    /// ancestor's.
+    #[inline]
+    fn leaf_of(_n: Self::N, base: u32, rank: u32) -> u32 {
+        base + rank
+    }
     /// Child `real` of `n` (not a leaf parent), the `rank`-th of its existing children.
     fn child(&self, n: Self::N, real: u8, rank: u32) -> Option<Self::N>;
     /// Whether `n` is a leaf parent.
@@ -520,7 +527,7 @@ fn traverse_with<const STACK: usize, W: WalkNodes, T>(
             // The cell's entry planes are its integer low planes: the values a walk that
             // carried them down would have, bit for bit.
             let entry = LeafEntry {
-                leaf: base + rank,
+                leaf: W::leaf_of(node, base, rank),
                 cell: r.unmirror_cell(origin),
                 side: 1,
                 t_enter,
