@@ -21,6 +21,16 @@ pub enum Stored {
     Constant(u32),
     /// `PerLeaf { offset, len }`: variant 1, with the array's bytes.
     PerLeaf(Vec<u8>),
+    /// `Packed { level, bits, offset, len }`: variant 2 (the DAG layout's values on a level),
+    /// with the bit stream's bytes.
+    Packed {
+        /// The level whose nodes hold the values.
+        level: u8,
+        /// The bits of a value.
+        bits: u8,
+        /// The bit stream.
+        bytes: Vec<u8>,
+    },
 }
 
 /// A file's contents, field by field as `docs/format.md` lists them, before encoding.
@@ -259,7 +269,7 @@ impl Parts {
                     h.extend(0u32.to_le_bytes());
                     h.extend(v.to_le_bytes());
                 }
-                Stored::PerLeaf(_) => h.extend(1u32.to_le_bytes()),
+                Stored::PerLeaf(_) | Stored::Packed { .. } => h.extend(1u32.to_le_bytes()),
             }
         }
         self.channels_and_tail(&mut h, refs, 0);
@@ -273,7 +283,7 @@ impl Parts {
             .channels
             .iter()
             .filter_map(|(_, s)| match s {
-                Stored::PerLeaf(b) => Some(b.clone()),
+                Stored::PerLeaf(b) | Stored::Packed { bytes: b, .. } => Some(b.clone()),
                 Stored::Constant(_) => None,
             })
             .collect();
@@ -377,7 +387,7 @@ impl Parts {
         }
         out.push(nodes);
         for (_, s) in &self.channels {
-            if let Stored::PerLeaf(b) = s {
+            if let Stored::PerLeaf(b) | Stored::Packed { bytes: b, .. } = s {
                 out.push(b.clone());
             }
         }
@@ -428,6 +438,14 @@ impl Parts {
                 }
                 Stored::PerLeaf(_) => {
                     h.extend(1u32.to_le_bytes());
+                    u64s(h, refs[next].0);
+                    u64s(h, refs[next].1);
+                    next += 1;
+                }
+                Stored::Packed { level, bits, .. } => {
+                    h.extend(2u32.to_le_bytes());
+                    h.push(*level);
+                    h.push(*bits);
                     u64s(h, refs[next].0);
                     u64s(h, refs[next].1);
                     next += 1;
@@ -1018,6 +1036,81 @@ fn node_values(p: &Parts) -> Vec<(u8, Stored)> {
     ]
 }
 
+/// The tree's nodes on each of levels `0 ..= depth` (the last: its leaves), from its node
+/// array in canonical order (section 4).
+fn tree_level_counts(nodes: &[[u32; 2]], depth: u8) -> Vec<u64> {
+    let mut counts = vec![0u64; usize::from(depth) + 1];
+    let mut level = vec![0usize];
+    for l in 0..usize::from(depth) {
+        counts[l] = level.len() as u64;
+        let mut next = Vec::new();
+        for &i in &level {
+            let [info, first] = nodes[i];
+            let k = (info & 0xFF).count_ones();
+            if (first as i32) < 0 {
+                counts[l + 1] += u64::from(k);
+            } else if info & 0xFF != 0 {
+                next.extend(first as usize..(first + k) as usize);
+            }
+        }
+        if l + 1 < usize::from(depth) {
+            level = next;
+        }
+    }
+    counts
+}
+
+/// `count` made-up values of `bits` bits as section 12's bit stream: for a normal of fewer
+/// than 32 bits, two components in `-m ..= m`; else the element's bits of a varying word.
+fn packed_values(kind: u8, bits: u8, count: u64) -> Vec<u8> {
+    let b = u32::from(bits);
+    let value = |i: u64| -> u64 {
+        if kind == 0 && b < 32 {
+            let h = b / 2;
+            let m = (1i64 << (h - 1)) - 1;
+            let comp = |k: i64| ((i as i64 * k) % (2 * m + 1) - m) as u64 & ((1 << h) - 1);
+            comp(37) | comp(11) << h
+        } else if kind == 0 {
+            // Valid normal words: no 0x8000 half.
+            (i * 1000 % 30_000) | (30_000 - i * 700 % 30_000) << 16
+        } else {
+            (i.wrapping_mul(0x0102_0304)) & ((1u64 << b) - 1)
+        }
+    };
+    let mut bitv = Vec::new();
+    for i in 0..count {
+        let v = value(i);
+        bitv.extend((0..b).map(|k| v >> k & 1 == 1));
+    }
+    pack_bits(&bitv)
+}
+
+/// `p` (of the DAG layout) with the channel `kind` stored on `level` in `bits` bits (made-up
+/// values, `extra` bytes more than its count needs), every other channel that is not a
+/// constant left out, or kept per leaf with `keep_per_leaf`.
+fn on_level(p: &Parts, kind: u8, level: u8, bits: u8, keep_per_leaf: bool) -> Parts {
+    let mut q = p.clone();
+    let count = tree_level_counts(&q.nodes, q.depth)[usize::from(level)];
+    q.channels.retain(|(k, s)| {
+        *k == kind
+            || matches!(s, Stored::Constant(_) | Stored::Packed { .. })
+            || (keep_per_leaf && (*k != 1 || kind == 0))
+    });
+    let packed = Stored::Packed {
+        level,
+        bits,
+        bytes: packed_values(kind, bits, count),
+    };
+    match q.channels.iter_mut().find(|(k, _)| *k == kind) {
+        Some(c) => c.1 = packed,
+        None => {
+            q.channels.push((kind, packed));
+            q.channels.sort_by_key(|c| c.0);
+        }
+    }
+    q
+}
+
 /// The corpus, in manifest order.
 pub fn corpus() -> Vec<Entry> {
     let t = Trees::new();
@@ -1041,7 +1134,92 @@ pub fn corpus() -> Vec<Entry> {
     edge_rules(&t, &mut invalid);
     version_4(&t, &mut invalid);
     dag_layout(&t, &mut invalid);
+    values_on_a_level(&t, &mut invalid);
     out
+}
+
+/// Invalid files of section 12's values on a level.
+fn values_on_a_level(t: &Trees, invalid: &mut Invalid<'_>) {
+    let torus = t.torus.as_dag();
+    let depth = torus.depth;
+    let good = on_level(&torus, 0, depth - 2, 16, false);
+    invalid(
+        10,
+        "values-tree-layout",
+        "a channel stored on a level (variant 2) in a version-2 file",
+        on_level(&t.varied, 2, 2, 32, true).encode(),
+    );
+    invalid(
+        10,
+        "values-odd-bits",
+        "the DAG layout: normals on a level in 15 bits (an odd number)",
+        on_level(&torus, 0, depth - 2, 15, false).encode(),
+    );
+    invalid(
+        10,
+        "values-colour-bits",
+        "the DAG layout: colours on a level in 16 bits (a colour takes its 32)",
+        on_level(&torus, 2, depth - 2, 16, false).encode(),
+    );
+    invalid(
+        10,
+        "values-level-0",
+        "the DAG layout: normals on level 0",
+        on_level(&torus, 0, 0, 16, false).encode(),
+    );
+    invalid(
+        10,
+        "values-contour-above",
+        "the DAG layout: contours on a level above the leaves",
+        on_level(&good, 1, depth - 2, 32, false).encode(),
+    );
+    invalid(
+        10,
+        "values-two-levels",
+        "the DAG layout: colours on a level, normals per leaf",
+        on_level(&t.varied.as_dag(), 2, 2, 32, true).encode(),
+    );
+    invalid(
+        17,
+        "values-length",
+        "the DAG layout: a channel on a level a byte longer than its level's values",
+        from(&good, &|p| {
+            if let Some((_, Stored::Packed { bytes, .. })) =
+                p.channels.iter_mut().find(|c| c.0 == 0)
+            {
+                bytes.push(0);
+            }
+        }),
+    );
+    // A level whose values end inside a byte, for a bit after the last one.
+    // The constant tree's five leaves in 6 bits end inside a byte.
+    let five = t.constant.as_dag();
+    assert_eq!(five.leaf_count * 6 % 8, 6);
+    invalid(
+        18,
+        "values-trailing-bit",
+        "the DAG layout: a bit set after the last value of a channel on a level",
+        from(&on_level(&five, 0, five.depth, 6, true), &|p| {
+            if let Some((_, Stored::Packed { bytes, .. })) =
+                p.channels.iter_mut().find(|c| c.0 == 0)
+            {
+                *bytes.last_mut().expect("values") |= 0x80;
+            }
+        }),
+    );
+    invalid(
+        18,
+        "values-lone-component",
+        "the DAG layout: a normal in 16 bits whose x component alone is -128 (the interior value)",
+        from(&good, &|p| {
+            if let Some((_, Stored::Packed { bytes, .. })) =
+                p.channels.iter_mut().find(|c| c.0 == 0)
+            {
+                bytes[0] = 0x80;
+                bytes[1] = 0x00;
+            }
+        }),
+    );
 }
 
 /// What adds an invalid file: the check it fails, its name, what is wrong, its bytes.
@@ -1250,6 +1428,23 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         "dag-depth-30",
         "version 4's DAG layout: the depth-30 tree, 28 levels of nodes above its bricks",
         &deepest.as_dag(),
+    );
+    let torus_dag = t.torus.as_dag();
+    let d = torus_dag.depth;
+    valid(
+        "dag-values-level",
+        "the DAG layout: the baked torus's normals on level depth - 2, 16 bits each (its other channels constants)",
+        &on_level(&torus_dag, 0, d - 2, 16, false),
+    );
+    valid(
+        "dag-values-leaves",
+        "the DAG layout: the baked torus's normals on the leaves' level in 10 bits, its contours per leaf",
+        &on_level(&torus_dag, 0, d, 10, true),
+    );
+    valid(
+        "dag-values-colour",
+        "the DAG layout: the varied tree's colours on level 2 (32 bits), its other channels left out",
+        &on_level(&t.varied.as_dag(), 2, 2, 32, false),
     );
 
     out

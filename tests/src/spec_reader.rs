@@ -44,6 +44,8 @@ impl<'a> Cursor<'a> {
 enum Storage {
     Constant(u32),
     PerLeaf(u64, u64),
+    /// Section 12, values on a level: `level`, `bits`, `offset`, `len`.
+    Packed(u8, u8, u64, u64),
 }
 
 struct Camera {
@@ -119,6 +121,7 @@ fn decode(raw: &[u8], version: u32) -> Option<Header> {
         let storage = match c.u32()? {
             0 => Storage::Constant(c.u32()?),
             1 => Storage::PerLeaf(c.u64()?, c.u64()?),
+            2 => Storage::Packed(c.u8()?, c.u8()?, c.u64()?, c.u64()?),
             _ => return None,
         };
         channels.push((kind, storage));
@@ -318,6 +321,32 @@ fn header_values(h: &Header) -> Result<(), u8> {
     if has(1) && !has(0) {
         return Err(10);
     }
+    // Values on a level (section 12): the DAG layout only; a level from 1 to the depth; the
+    // element's bits, or a normal's even 4 to 32; a contour on the leaves'; one level for all.
+    let mut on_level = None;
+    for (kind, s) in &h.channels {
+        let level = match *s {
+            Storage::Constant(_) => continue,
+            Storage::PerLeaf(..) => h.depth,
+            Storage::Packed(level, bits, _, _) => {
+                let element = 8 * size(*kind) as u8;
+                let bits_ok =
+                    bits == element || (*kind == 0 && bits % 2 == 0 && (4..=32).contains(&bits));
+                if !dag
+                    || !(1..=h.depth).contains(&level)
+                    || !bits_ok
+                    || (*kind == 1 && level != h.depth)
+                {
+                    return Err(10);
+                }
+                level
+            }
+        };
+        if on_level.is_some_and(|l| l != level) {
+            return Err(10);
+        }
+        on_level = Some(level);
+    }
     if let Some((_, _, node_channels)) = &h.levels
         && !node_channels.is_empty()
     {
@@ -365,8 +394,10 @@ fn layout(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
     }
     arrays.push((h.nodes, h.node_count.checked_mul(8).ok_or(12u8)?));
     for (kind, s) in &h.channels {
-        if let Storage::PerLeaf(o, n) = s {
-            arrays.push(((*o, *n), h.leaf_count * size(*kind)));
+        match s {
+            Storage::PerLeaf(o, n) => arrays.push(((*o, *n), h.leaf_count * size(*kind))),
+            Storage::Packed(_, _, o, n) => arrays.push(((*o, *n), *n)),
+            Storage::Constant(_) => {}
         }
     }
     let e = 16 + hl as u64;
@@ -546,9 +577,20 @@ fn values(b: &[u8], h: &Header, version: u32) -> Result<(), u8> {
         h.channels
             .iter()
             .find(|(k, _)| *k == kind)
-            .map(|(_, s)| match s {
-                Storage::Constant(v) => *v,
-                Storage::PerLeaf(o, _) => u32at(b, *o as usize + 4 * leaf as usize),
+            .and_then(|(_, s)| match s {
+                Storage::Constant(v) => Some(*v),
+                Storage::PerLeaf(o, _) => Some(u32at(b, *o as usize + 4 * leaf as usize)),
+                // On the leaves' level, each leaf's value; above it, checked value by value
+                // in check_dag.
+                Storage::Packed(level, bits, o, _) if *level == h.depth => {
+                    let v = packed_value(b, *o, *bits, leaf);
+                    if kind == 0 && *bits < 32 {
+                        packed_normal(v, *bits)
+                    } else {
+                        Some(v)
+                    }
+                }
+                Storage::Packed(..) => None,
             })
     };
     let constant = |kind: u8| {
@@ -864,6 +906,69 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
     if leaves.first().copied().unwrap_or(0) != h.leaf_count {
         return Err(17);
     }
+    // The tree's nodes on each level: how many paths reach each graph node, from the root.
+    let depth = usize::from(h.depth);
+    let mut per_level = vec![0u64; depth + 1];
+    let mut times = vec![1u64];
+    for (l, level) in node_levels.iter().enumerate() {
+        per_level[l] = times.iter().sum();
+        let mut next = vec![0u64; table[l + 1][0] as usize];
+        for ((_, refs), &t) in level.iter().zip(&times) {
+            for &r in refs {
+                next[r as usize] += t;
+            }
+        }
+        times = next;
+    }
+    let bricks: Vec<u64> = (0..table[bricks_level][0] as usize).map(brick).collect();
+    let over = |f: &dyn Fn(u64) -> u64| {
+        bricks
+            .iter()
+            .zip(&times)
+            .map(|(&x, &t)| t * f(x))
+            .sum::<u64>()
+    };
+    per_level[depth - 2] = times.iter().sum();
+    per_level[depth - 1] = over(&|x| x.to_le_bytes().iter().filter(|&&y| y != 0).count() as u64);
+    per_level[depth] = over(&|x| u64::from(x.count_ones()));
+    for (_, s) in &h.channels {
+        if let Storage::Packed(level, bits, o, n) = *s {
+            let count = per_level[usize::from(level)];
+            let total = count * u64::from(bits);
+            if n != total.div_ceil(8) {
+                return Err(17);
+            }
+            let _ = o;
+        }
+    }
+    // 18 on the values stored on a level: no bit after the last one; normals of fewer than
+    // 32 bits with both components or neither at their interior value, the words (32 bits)
+    // as for leaves.
+    for (kind, s) in &h.channels {
+        if let Storage::Packed(level, bits, o, n) = *s {
+            let count = per_level[usize::from(level)];
+            let total = count * u64::from(bits);
+            if (total..8 * n).any(|at| b[(o + at / 8) as usize] >> (at % 8) & 1 == 1) {
+                return Err(18);
+            }
+            for i in 0..count {
+                let v = packed_value(b, o, bits, i);
+                let word = match (*kind, bits) {
+                    (0, 32) | (1, _) => v,
+                    (0, _) => packed_normal(v, bits).ok_or(18u8)?,
+                    _ => continue,
+                };
+                let bad = if *kind == 0 {
+                    (word & 0xFFFF == 0x8000 || word >> 16 == 0x8000) && word != 0x8000_8000
+                } else {
+                    word & 0xFFFF > word >> 16
+                };
+                if bad {
+                    return Err(18);
+                }
+            }
+        }
+    }
     values(b, h, 4)
 }
 
@@ -874,7 +979,42 @@ fn leaf_arrays(h: &Header) -> Vec<((u64, u64), u64)> {
         .iter()
         .filter_map(|(kind, s)| match s {
             Storage::PerLeaf(o, n) => Some(((*o, *n), h.leaf_count * size(*kind))),
+            // Its length is checked against its level's node count (check 17).
+            Storage::Packed(_, _, o, n) => Some(((*o, *n), *n)),
             Storage::Constant(_) => None,
         })
         .collect()
+}
+
+/// Value `i` of `bits` bits of the little-endian bit stream at `o` in `b`.
+fn packed_value(b: &[u8], o: u64, bits: u8, i: u64) -> u32 {
+    let start = i * u64::from(bits);
+    (0..u64::from(bits)).fold(0u32, |v, k| {
+        let at = start + k;
+        v | u32::from(b[(o + at / 8) as usize] >> (at % 8) & 1) << k
+    })
+}
+
+/// A normal of `bits < 32` bits as the word it stands for (section 12), `None` for a value
+/// with one component alone at `-(m + 1)`.
+fn packed_normal(v: u32, bits: u8) -> Option<u32> {
+    let h = u32::from(bits / 2);
+    let m = (1i64 << (h - 1)) - 1;
+    let comp = |f: u32| {
+        let x = i64::from(f & ((1 << h) - 1));
+        if x > m { x - (1 << h) } else { x }
+    };
+    let (x, y) = (comp(v), comp(v >> h));
+    match (x == -(m + 1), y == -(m + 1)) {
+        (true, true) => Some(0x8000_8000),
+        (false, false) => {
+            // round(c * 32767 / m), halves away from zero.
+            let half = |c: i64| {
+                let q = (2 * c.abs() * 32767 + m) / (2 * m);
+                u32::from((if c < 0 { -q } else { q }) as i16 as u16)
+            };
+            Some(half(x) | half(y) << 16)
+        }
+        _ => None,
+    }
 }

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use svo::bake::parts::{MergeFormat, PartsError, bake_within};
 use svo::bake::{BakeError, BakeOptions, BakeStats, Phase, bake_mesh_with_progress};
+use svo::dag::DagValues;
 use svo::io::{BuildInfo, ExportError, read_file, write_binvox, write_file};
 use svo::mesh::{MeshFormat, SceneInfo};
 use svo::{FormatError, Mesh, MeshError, Octree, ThreadsError};
@@ -164,6 +165,11 @@ pub struct BakeJob {
     /// How an `.svo` output stores its nodes: the tree (the default) or the DAG, which a
     /// bake in memory and the conversion of an `.svo` make (a bake in parts writes the tree).
     pub layout: NodeLayout,
+    /// With the DAG layout: where and how finely the leaves' values are kept (each leaf's
+    /// own by default; on a level above, from the inner nodes' attributes, which a bake then
+    /// makes; normals in fewer bits). A bake in memory or the conversion of an `.svo` with
+    /// inner-node attributes.
+    pub values: DagValues,
 }
 
 /// Which bake options were given explicitly (on the command line), so a scene file's own
@@ -263,7 +269,27 @@ fn run(
         };
         return write_tree(job, format, tree, &build, None, threads, clock);
     }
-    let (mesh, scene, options) = load_input(job, input == Input::Scene)?;
+    let (mesh, scene, mut options) = load_input(job, input == Input::Scene)?;
+    let dag = job.layout == NodeLayout::Dag;
+    let mut values_above = false;
+    if dag && job.values != DagValues::default() {
+        job.values
+            .check(options.depth)
+            .map_err(|e| JobError::Layout(e.to_string()))?;
+        if job.memory.is_some() {
+            return Err(JobError::Layout(
+                "values on a level or normals in fewer bits are made by a bake in memory so \
+                 far: leave out --memory, or --attribute-depth and --normal-bits"
+                    .into(),
+            ));
+        }
+        if job.values.level_for(options.depth) < options.depth {
+            // The values above the leaves are the inner nodes' attributes.
+            options.node_attributes = true;
+            values_above = true;
+            options.channels = options.channels.without(svo::octree::ChannelKind::Contour);
+        }
+    }
     let clock = Clock {
         start,
         load_s: start.elapsed().as_secs_f64(),
@@ -279,11 +305,10 @@ fn run(
             job, &mesh, &options, &build, budget, automatic, threads, clock, progress,
         )
     };
-    let dag = job.layout == NodeLayout::Dag;
     if dag && format != OutputFormat::Svo {
         return Err(JobError::Layout("a node layout is for .svo outputs".into()));
     }
-    if dag && options.node_attributes {
+    if dag && !values_above && options.node_attributes {
         return Err(JobError::Layout(
             "the DAG layout keeps no inner-node attributes: bake with --lod none, or write the \
              tree layout"
@@ -332,7 +357,7 @@ fn write_tree(
     let t = Instant::now();
     let file_bytes = match format {
         OutputFormat::Svo if job.layout == NodeLayout::Dag => {
-            svo::io::write_dag_file(&tree, build, &job.output)?
+            svo::io::write_dag_file_with(&tree, build, &job.values, &job.output)?
         }
         OutputFormat::Svo => write_file(&tree, build, &job.output)?,
         OutputFormat::Binvox => write_binvox(&tree, &job.output)?,
@@ -380,6 +405,14 @@ fn bake_in_parts(
     clock: Clock,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<BakeReport, JobError> {
+    if job.values != DagValues::default() {
+        return Err(JobError::Layout(
+            "values on a level or normals in fewer bits are made by a bake in memory so far, \
+             and this bake needs parts: leave out --attribute-depth and --normal-bits, or bake \
+             less deep"
+                .into(),
+        ));
+    }
     let t = Instant::now();
     let r = bake_within(
         mesh,

@@ -21,6 +21,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use svo::bake::parts::{MergeFormat, bake_part_file, merge_parts, part_path, plan_file};
 use svo::bake::{BakeOptions, ChannelSelection, Phase, SolidMode, Strategy};
+use svo::dag::DagValues;
 use svo_bake::job::{BakeJob, GivenOptions, NodeLayout, bake_file_with_progress, parts_hint};
 use svo_bake::memory::available_memory;
 
@@ -84,6 +85,16 @@ struct Args {
     /// converts it either way.
     #[arg(long, default_value = "tree", value_name = "LAYOUT")]
     layout: LayoutArg,
+    /// With `--layout dag`: keep the leaves' values (normals, colours, materials) on this
+    /// level of the tree, each node's the area-weighted surface in its cell, which the leaves
+    /// below take (1 to depth - 2; the depth, each leaf its own, is the default). The
+    /// contour, measured in its own leaf's cell, is left out.
+    #[arg(long, value_name = "LEVEL")]
+    attribute_depth: Option<u8>,
+    /// With `--layout dag`: keep each normal in this many bits (an even number from 4 to
+    /// 32, half of them a component of its octahedral encoding).
+    #[arg(long, value_name = "BITS", default_value_t = 32)]
+    normal_bits: u8,
 }
 
 /// What `--layout` asks for.
@@ -510,7 +521,14 @@ fn bake(args: &Args) -> anyhow::Result<()> {
             LayoutArg::Tree => NodeLayout::Tree,
             LayoutArg::Dag => NodeLayout::Dag,
         },
+        values: DagValues {
+            level: args.attribute_depth,
+            normal_bits: args.normal_bits,
+        },
     };
+    if job.layout != NodeLayout::Dag && job.values != DagValues::default() {
+        anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
+    }
     let bar = progress_bar(args);
     let last = Mutex::new(None);
     let talk = !(args.quiet || args.json);

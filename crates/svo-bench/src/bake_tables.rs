@@ -262,6 +262,7 @@ pub fn pipeline(
         given: Default::default(),
         memory: None,
         layout: Default::default(),
+        values: Default::default(),
     };
     let mut reports = Vec::new();
     let mut peak = None;

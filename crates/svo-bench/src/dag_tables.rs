@@ -1,10 +1,11 @@
 //! The tree's geometry as a DAG (`svo::dag::Dag`): distinct nodes, pointers and bits a leaf
 //! beside the tree's, the sizes of both layouts' files (geometry alone and with every
-//! channel), and the time to build the graph and write its file beside the bake's.
+//! channel), and the time to build the graph and write its file beside the bake's; and the
+//! normals kept on a level above the leaves, in fewer bits, against the image they give.
 
 use std::time::Instant;
 use svo::dag::Dag;
-use svo::io::{BuildInfo, write_dag_to, write_to};
+use svo::io::{BuildInfo, write_dag_to, write_dag_to_with, write_to};
 use svo::mesh::Mesh;
 use svo::octree::LeafAttributes;
 use svo::{BakeOptions, bake_mesh};
@@ -111,6 +112,135 @@ pub fn measure(
             dag_file: (dag_all, dag_geometry),
             dag_write_s,
         });
+    }
+    Ok(rows)
+}
+
+/// Normals kept on a level (`svo::dag::DagValues`): one mesh at one depth, one setting.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ValuesRow {
+    /// The mesh's file name.
+    pub mesh: String,
+    /// Tree depth.
+    pub depth: u8,
+    /// Leaves.
+    pub leaves: u64,
+    /// The level whose nodes hold the normals (the depth: each leaf its own).
+    pub level: u8,
+    /// Bits a normal.
+    pub bits: u8,
+    /// Bytes of the DAG file: geometry alone, and with the normals so kept.
+    pub file: (u64, u64),
+    /// PSNR (dB) of each view's image against the image with each leaf's own 32-bit normal.
+    pub psnr_own: Vec<f64>,
+    /// PSNR (dB) of each view's image against the triangles'.
+    pub psnr_triangles: Vec<f64>,
+}
+
+impl ValuesRow {
+    /// Bits a leaf of a file of `bytes`.
+    pub fn file_bits(&self, bytes: u64) -> f64 {
+        8.0 * bytes as f64 / self.leaves.max(1) as f64
+    }
+}
+
+/// Bakes `mesh` (named `name`) at each of `depths` with normals alone and its inner nodes'
+/// attributes, and for each setting of (level below the depth, bits) writes the DAG file
+/// with the normals so kept and renders `views` (cube hits, one light, no shadows or
+/// bounces, `width` x `height`) on its graph, against the graph with each leaf's own normal
+/// and against the triangles.
+pub fn measure_values(
+    mesh: &Mesh,
+    name: &str,
+    depths: impl IntoIterator<Item = u8>,
+    settings: &[(u8, u8)],
+    views: &[crate::views::View],
+    (width, height): (u32, u32),
+) -> anyhow::Result<Vec<ValuesRow>> {
+    use svo::dag::{DagTree, DagValues};
+    use svo::render::{
+        DagSurfaces, MeshSurfaces, Phong, ShadowMode, Sky, TraceOptions, Tracer, compare, render,
+    };
+    let (lo, hi) = mesh
+        .bounds()
+        .ok_or_else(|| anyhow::anyhow!("{name}: an empty mesh"))?;
+    let trace = TraceOptions {
+        mode: svo::trace::HitMode::Cube,
+        shadows: ShadowMode::None,
+        max_reflections: 0,
+        max_refractions: 0,
+        ..TraceOptions::default()
+    };
+    let mut rows = Vec::new();
+    for depth in depths {
+        let opts = BakeOptions {
+            depth,
+            node_attributes: true,
+            channels: svo::ChannelSelection::NONE.with(svo::octree::ChannelKind::Normal),
+            ..Default::default()
+        };
+        let tree = bake_mesh(mesh, &opts)?.0;
+        let build = BuildInfo::new();
+        let sink = &mut std::io::sink();
+        let geometry = {
+            let mut t = tree.clone();
+            t.attributes = LeafAttributes::default();
+            write_dag_to_with(&t, &build, &DagValues::default(), sink)?
+        };
+        let own = DagTree::from_tree_with(&tree, &DagValues::default())?;
+        let frame = |dag: &DagTree, view: crate::views::View| -> anyhow::Result<_> {
+            let cam = view.camera(lo, hi, width, height);
+            let light = view.light(lo, hi, &cam);
+            let t = Tracer::new(
+                DagSurfaces::new(dag, trace.mode),
+                &[light],
+                Sky::default(),
+                Phong::default(),
+                trace,
+            );
+            Ok(render(&t, &cam)?)
+        };
+        let mut references = Vec::new();
+        for &view in views {
+            let cam = view.camera(lo, hi, width, height);
+            let light = view.light(lo, hi, &cam);
+            let t = Tracer::new(
+                MeshSurfaces::new(mesh.clone(), tree.root, tree.depth),
+                &[light],
+                Sky::default(),
+                Phong::default(),
+                trace,
+            );
+            references.push((frame(&own, view)?, render(&t, &cam)?));
+        }
+        for &(below, bits) in settings {
+            let Some(level) = depth.checked_sub(below).filter(|&l| l >= 1) else {
+                continue;
+            };
+            let values = DagValues {
+                level: Some(level),
+                normal_bits: bits,
+            };
+            let file = write_dag_to_with(&tree, &build, &values, sink)?;
+            let dag = DagTree::from_tree_with(&tree, &values)?;
+            let (mut psnr_own, mut psnr_triangles) = (Vec::new(), Vec::new());
+            for (&view, (own_frame, triangles)) in views.iter().zip(&references) {
+                let f = frame(&dag, view)?;
+                let db = |a, b| compare(a, b).map_or(f64::NAN, |d| d.psnr_db);
+                psnr_own.push(db(&f, own_frame));
+                psnr_triangles.push(db(&f, triangles));
+            }
+            rows.push(ValuesRow {
+                mesh: name.to_string(),
+                depth,
+                leaves: u64::from(tree.leaf_count),
+                level,
+                bits,
+                file: (geometry, file),
+                psnr_own,
+                psnr_triangles,
+            });
+        }
     }
     Ok(rows)
 }

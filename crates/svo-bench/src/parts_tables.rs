@@ -203,6 +203,7 @@ pub fn child_main(args: &[String]) -> i32 {
         },
         memory: (budget > 0).then_some(budget),
         layout: Default::default(),
+        values: Default::default(),
     };
     let t = Instant::now();
     let (res, peak) = peak_memory::measure(|| bake_file(&job));

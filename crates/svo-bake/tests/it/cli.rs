@@ -467,6 +467,90 @@ fn layout_dag_writes_the_same_tree_and_converts_both_ways() {
     assert!(bytes(&tree) == t);
 }
 
+/// `--layout dag --attribute-depth A --normal-bits B`: the normals kept on level A from the
+/// inner nodes' attributes, in B bits, a much smaller file whose tree reads back with each
+/// leaf holding its ancestor's normal; the conversion of a `--lod filtered` file gives the
+/// same bytes; what cannot be kept so is refused, nothing written.
+fn layout_dag_keeps_values_on_a_level() {
+    let d = tmp();
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let p = |n: &str| d.path().join(n);
+    let base = [s(&torus), "--depth", "8", "--channels", "normal", "-q"];
+    let run = |extra: &[&str], out: &Path| {
+        let mut a = base.to_vec();
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["-o", s(out)]);
+        ok(&a);
+    };
+    run(&["--layout", "dag"], &p("leaves.svo"));
+    run(
+        &[
+            "--layout",
+            "dag",
+            "--attribute-depth",
+            "6",
+            "--normal-bits",
+            "16",
+        ],
+        &p("level6.svo"),
+    );
+    let size = |q: &Path| std::fs::metadata(q).unwrap().len();
+    assert!(
+        3 * size(&p("level6.svo")) < size(&p("leaves.svo")),
+        "{} against {}",
+        size(&p("level6.svo")),
+        size(&p("leaves.svo"))
+    );
+    let (coarse, _) = svo::io::read_dag_file(p("level6.svo")).unwrap();
+    assert_eq!(coarse.values_level(), 6);
+    let (fine, _) = svo::io::read_dag_file(p("leaves.svo")).unwrap();
+    assert_eq!(fine.values_level(), 8);
+    assert_eq!(
+        read_tree(&p("level6.svo")).nodes,
+        read_tree(&p("leaves.svo")).nodes
+    );
+    // The conversion of a file with the inner nodes' attributes: the same bytes.
+    run(&["--lod", "filtered"], &p("filtered.svo"));
+    ok(&[
+        s(&p("filtered.svo")),
+        "--layout",
+        "dag",
+        "--attribute-depth",
+        "6",
+        "--normal-bits",
+        "16",
+        "-q",
+        "-o",
+        s(&p("converted.svo")),
+    ]);
+    assert!(std::fs::read(p("converted.svo")).unwrap() == std::fs::read(p("level6.svo")).unwrap());
+    let no = p("no.svo");
+    let refused = |extra: &[&str], says: &str| {
+        let mut a = base.to_vec();
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["-o", s(&no)]);
+        fails(&a, says);
+        assert!(!no.exists());
+    };
+    refused(&["--attribute-depth", "6"], "for --layout dag");
+    refused(&["--layout", "dag", "--attribute-depth", "7"], "1 to 6");
+    refused(
+        &["--layout", "dag", "--normal-bits", "9"],
+        "9 bits a normal",
+    );
+    refused(
+        &[
+            "--layout",
+            "dag",
+            "--attribute-depth",
+            "6",
+            "--memory",
+            "1GiB",
+        ],
+        "bake in memory",
+    );
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -1218,6 +1302,7 @@ pub(crate) fn trials() -> Vec<Test> {
         trial!(memory_budgets_and_parts_bake_the_same_file_or_refuse_clearly),
         trial!(lod_filtered_writes_version_4_with_the_same_leaves_in_memory_and_in_parts),
         trial!(layout_dag_writes_the_same_tree_and_converts_both_ways),
+        trial!(layout_dag_keeps_values_on_a_level),
         #[cfg(unix)]
         trial!(interrupted_bakes_clean_up_and_killed_ones_resume),
     ]

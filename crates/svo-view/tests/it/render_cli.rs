@@ -458,6 +458,7 @@ fn a_scene_file_is_a_triangle_reference() {
         given: Default::default(),
         memory: None,
         layout: Default::default(),
+        values: Default::default(),
     };
     svo_bake::job::bake_file(&job).unwrap();
     let png = d.path().join("s.png");

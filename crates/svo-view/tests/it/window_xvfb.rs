@@ -77,8 +77,8 @@ fn window_opens_renders_and_captures() {
         "no torus in the capture"
     );
     // The same tree as a DAG file, shown on its graph: the same capture up to the overlay,
-    // whose frame-rate line and fade-in differ from run to run (by at most 16 levels a channel
-    // here; the torus against the sky differs by far more).
+    // whose frame-rate line and fade-in differ from run to run (its text moves a few hundred
+    // pixels at most; a wrong walk moves the torus's thousands).
     let (tree, build) = svo::io::read_file(&svo).unwrap();
     let dag_file = d.path().join("dag.svo");
     svo::io::write_dag_file(&tree, &build, &dag_file).unwrap();
@@ -86,12 +86,15 @@ fn window_opens_renders_and_captures() {
     open_window(&x, &dag_file, &dag_shot).unwrap();
     let on_graph = image::open(&dag_shot).unwrap().to_rgb8();
     let off = |a: &image::Rgb<u8>, b: &image::Rgb<u8>| (0..3).map(|k| a[k].abs_diff(b[k])).max();
-    let worst = img
+    let far = img
         .pixels()
         .zip(on_graph.pixels())
-        .filter_map(|(a, b)| off(a, b))
-        .max();
-    assert!(worst.is_some_and(|w| w <= 24), "{worst:?}");
+        .filter(|(a, b)| off(a, b).is_some_and(|d| d > 24))
+        .count();
+    assert!(
+        far * 50 < 160 * 120,
+        "{far} pixels differ by more than 24 levels"
+    );
 }
 
 /// Opens `svo` in a 160x120 window on `x`, quits after three frames, the last saved to

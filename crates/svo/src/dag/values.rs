@@ -70,7 +70,7 @@ impl DagValues {
     /// Checks the settings for a tree of `depth`.
     pub fn check(&self, depth: u8) -> Result<(), ValuesError> {
         let b = self.normal_bits;
-        if !(4..=32).contains(&b) || b % 2 != 0 {
+        if !(4..=32).contains(&b) || !b.is_multiple_of(2) {
             return Err(ValuesError::NormalBits(b));
         }
         let level = self.level_for(depth);
@@ -83,6 +83,7 @@ impl DagValues {
     /// The values `tree`'s leaves get: its leaves' channels, or its inner nodes' on the
     /// level (one value for each node of that level, in Morton order), constants kept, with
     /// the normals in `normal_bits` bits.
+    #[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
     pub(crate) fn of(&self, tree: &Octree) -> Result<LeafAttributes, ValuesError> {
         self.check(tree.depth)?;
         let level = self.level_for(tree.depth);
@@ -105,6 +106,7 @@ impl DagValues {
 
 /// The inner nodes' values on `level` (above the leaf parents) of a tree with inner-node
 /// attributes (its nodes in level order), for the channels its leaves have.
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 fn level_values(tree: &Octree, level: u8) -> Result<LeafAttributes, ValuesError> {
     let (a, na) = (&tree.attributes, &tree.node_attributes);
     if !matches!(a.contour, Channel::Absent) {

@@ -391,7 +391,7 @@ impl WalkNodes for DagTree {
                 // The values below the earlier leaf parents: their leaves, or themselves.
                 let before = match n.units {
                     0 => below.count_ones(),
-                    1 => u32::from(brick_mask(below).count_ones()),
+                    1 => brick_mask(below).count_ones(),
                     _ => 0,
                 };
                 Some(DagNode {

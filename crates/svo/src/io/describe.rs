@@ -196,6 +196,11 @@ fn describe_header(p: &Preamble, checksum: u64) -> String {
                     r.offset, r.len
                 )
             }
+            Storage::Packed { level, bits, array } => writeln!(
+                out,
+                "               {name} at {} ({} bytes): level {level}'s nodes, {bits} bits each",
+                array.offset, array.len
+            ),
         };
     }
     out

@@ -44,6 +44,17 @@ pub(crate) enum Storage {
     Constant(u32),
     /// One value per leaf, in an array.
     PerLeaf(ArrayRef),
+    /// The DAG layout only: one value for each node of the tree on `level` (the depth: each
+    /// leaf), in Morton order, `bits` bits each in a bit stream (`docs/format.md`, section
+    /// 12); a leaf takes its ancestor's on that level.
+    Packed {
+        /// The level whose nodes hold the values.
+        level: u8,
+        /// The bits of a value.
+        bits: u8,
+        /// The bit stream.
+        array: ArrayRef,
+    },
 }
 
 /// One stored channel.

@@ -27,6 +27,7 @@ pub(crate) mod describe;
 pub(crate) mod header;
 #[cfg(test)]
 mod hostile_tests;
+pub(crate) mod packed;
 pub(crate) mod read;
 #[cfg(feature = "vox")]
 pub(crate) mod vox;
@@ -45,5 +46,6 @@ pub use read::{
 #[cfg(feature = "vox")]
 pub use vox::write_vox;
 pub use write::{
-    FormatError, to_bytes, write_chunked_to, write_dag_file, write_dag_to, write_file, write_to,
+    FormatError, to_bytes, write_chunked_to, write_dag_file, write_dag_file_with, write_dag_to,
+    write_dag_to_with, write_file, write_to,
 };

@@ -12,6 +12,7 @@ use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV1, HeaderV3, HeaderV4,
     Levels, MAGIC, MAX_HEADER_LEN, NodeStorage, PREAMBLE_LEN, Storage, VERSION, bincode_config,
 };
+use crate::io::packed::{self, PackedRaw};
 pub(crate) use crate::io::write::FormatError;
 use crate::io::write::block_hash;
 use crate::octree::format_check::{
@@ -221,6 +222,23 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
         if let Storage::Constant(v) = e.storage {
             constant_fits(e.kind, v, "")?;
         }
+        if let Storage::Packed { level, bits, .. } = e.storage {
+            check_packed(h, e.kind, level, bits)?;
+        }
+    }
+    // Every channel with values per leaf or per node keeps them on one level.
+    let mut levels_used = h.channels.iter().filter_map(|e| match e.storage {
+        Storage::Constant(_) => None,
+        Storage::PerLeaf(_) => Some(h.depth),
+        Storage::Packed { level, .. } => Some(level),
+    });
+    if let Some(first) = levels_used.next()
+        && let Some(other) = levels_used.find(|&l| l != first)
+    {
+        return Err(corrupt(
+            Check::Channels,
+            format!("channels on levels {first} and {other}: every channel's values on one level"),
+        ));
     }
     if h.channels.iter().any(|e| e.kind == 1) && !h.channels.iter().any(|e| e.kind == 0) {
         return Err(corrupt(
@@ -262,13 +280,18 @@ fn check_layout(h: &Header, header_end: u64, len: u64) -> Result<Vec<(u64, u64)>
         refs.push((h.nodes, node_bytes));
     }
     for e in &h.channels {
-        if let Storage::PerLeaf(r) = e.storage {
-            let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
-            let bytes = h
-                .leaf_count
-                .checked_mul(size)
-                .ok_or_else(|| overflows("channel array's size"))?;
-            refs.push((r, bytes));
+        match e.storage {
+            Storage::PerLeaf(r) => {
+                let size = ChannelKind::ALL[usize::from(e.kind)].element_size() as u64;
+                let bytes = h
+                    .leaf_count
+                    .checked_mul(size)
+                    .ok_or_else(|| overflows("channel array's size"))?;
+                refs.push((r, bytes));
+            }
+            // Its length is checked against the graph's count on its level (check 17).
+            Storage::Packed { array, .. } => refs.push((array, array.len)),
+            Storage::Constant(_) => {}
         }
     }
     let pad8 = |x: u64| x.div_ceil(8) * 8;
@@ -417,6 +440,36 @@ fn check_node_channel_list(h: &Header, l: &Levels) -> Result<(), FormatError> {
 }
 
 /// Check 10 on a constant `v` of channel `kind` (known): it fits the channel's element.
+/// Check 10 on a channel stored on a level: the DAG layout only, a level from 1 to the depth,
+/// bits its element's (a normal's: even, 4 to 32), and a contour only on the leaves'.
+fn check_packed(h: &Header, kind: u8, level: u8, bits: u8) -> Result<(), FormatError> {
+    let name = ChannelKind::ALL[usize::from(kind)].name();
+    let fail = |detail: String| Err(corrupt(Check::Channels, detail));
+    if !is_dag(h) {
+        return fail(format!(
+            "the {name} channel is stored on a level, which only the DAG layout allows"
+        ));
+    }
+    if level == 0 || level > h.depth {
+        return fail(format!(
+            "the {name} channel on level {level}: levels 1 to the depth {}",
+            h.depth
+        ));
+    }
+    if !packed::bits_allowed(kind, bits) {
+        return fail(format!(
+            "the {name} channel in {bits} bits: its element's {} (a normal: an even number from 4 to 32)",
+            packed::element_bits(kind)
+        ));
+    }
+    if kind == 1 && level != h.depth {
+        return fail(format!(
+            "a contour channel on level {level}: a contour is measured in its leaf's cell"
+        ));
+    }
+    Ok(())
+}
+
 fn constant_fits(kind: u8, v: u32, what: &str) -> Result<(), FormatError> {
     let size = ChannelKind::ALL[usize::from(kind)].element_size();
     if size < 4 && v >> (8 * size) != 0 {
@@ -506,7 +559,7 @@ fn dag_nodes(
     h: &Header,
     levels: &Levels,
     blocks: &[Vec<Vec<u8>>],
-) -> Result<Vec<Node>, FormatError> {
+) -> Result<DagLevels, FormatError> {
     let (dag, size) = dag_levels(h, levels, blocks)?;
     if size.leaves > MAX_LEAVES || size.nodes > MAX_LEAVES {
         return Err(FormatError::DagTooLarge {
@@ -514,7 +567,48 @@ fn dag_nodes(
             nodes: size.nodes,
         });
     }
-    Ok(dag.to_nodes())
+    Ok(dag)
+}
+
+/// The channels stored on a level, unpacked into `attributes` (one value for each node of
+/// that level of `graph`'s tree): checks 17 and 18 on each. Returns the level, if a channel
+/// has one.
+fn unpack_packed(
+    attributes: &mut LeafAttributes,
+    packed: &[PackedRaw],
+    graph: &DagLevels,
+) -> Result<Option<u8>, FormatError> {
+    let Some(first) = packed.first() else {
+        return Ok(None);
+    };
+    let counts = graph.tree_counts();
+    for p in packed {
+        let count = counts.get(usize::from(p.level)).copied().unwrap_or(0);
+        let one = packed::unpack_channel(p, count).map_err(|(c, d)| corrupt(c, d))?;
+        take_channel(attributes, one, p.kind);
+    }
+    Ok(Some(first.level))
+}
+
+/// Each leaf given its ancestor's values on `level`, where the channels hold one value for
+/// each node of that level (a tree's nodes in canonical order).
+fn spread_values(tree: &mut Octree, level: u8) {
+    if level == tree.depth {
+        return;
+    }
+    fn one<T: Copy>(c: &mut Channel<T>, nodes: &[Node], depth: u8, level: u8) {
+        if let Channel::PerLeaf(v) = c {
+            *v = packed::spread(v, nodes, depth, level);
+        }
+    }
+    let (n, d) = (&tree.nodes, tree.depth);
+    let a = &mut tree.attributes;
+    one(&mut a.normal, n, d, level);
+    one(&mut a.contour, n, d, level);
+    one(&mut a.colour, n, d, level);
+    one(&mut a.reflectivity, n, d, level);
+    one(&mut a.refractivity, n, d, level);
+    one(&mut a.ior, n, d, level);
 }
 
 /// The graph the blocks of a file of the DAG layout hold, and the size of its tree: checks 14
@@ -630,7 +724,23 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         None => (array(h.nodes, fetch)?, Vec::new()),
         Some(levels) => (Vec::new(), read_blocks(h, levels.table.len(), fetch)?),
     };
-    let attributes = read_channels(&h.channels, fetch)?;
+    let mut attributes = LeafAttributes::default();
+    let mut packed = Vec::new();
+    for e in &h.channels {
+        if let Storage::Packed { level, bits, array } = e.storage {
+            let mut bytes = vec![0u8; array.len as usize];
+            fetch(array, &mut bytes)?;
+            packed.push(PackedRaw {
+                kind: e.kind,
+                level,
+                bits,
+                bytes,
+            });
+        } else {
+            let one = read_channels(std::slice::from_ref(e), fetch)?;
+            take_channel(&mut attributes, one, e.kind);
+        }
+    }
     let tree = Octree {
         root: RootCube {
             origin: DVec3::from_array(h.root_origin),
@@ -648,6 +758,7 @@ fn arrays_into_tree(h: &Header, fetch: &mut Fetch<'_>) -> Result<Raw, FormatErro
         tree,
         table,
         blocks,
+        packed,
     })
 }
 
@@ -714,6 +825,8 @@ struct Raw {
     table: Option<Vec<ChunkRecord>>,
     /// Version 4: each level's arrays, as read (the tree's nodes are then empty).
     blocks: Vec<Vec<Vec<u8>>>,
+    /// The DAG layout: the channels stored on a level, unpacked once the graph is read.
+    packed: Vec<PackedRaw>,
 }
 
 /// Checks 14 to 18 (the node words, the tree's shape, the node and leaf order, the values;
@@ -724,6 +837,7 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
         mut tree,
         table,
         blocks,
+        packed,
     } = raw;
     match (table, p.header.chunks, &p.header.levels) {
         (Some(table), Some(c), _) => {
@@ -733,7 +847,11 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
         }
         (_, _, Some(levels)) if levels.layout == DAG_LAYOUT => {
             check_level_hashes(levels, &blocks)?;
-            tree.nodes = dag_nodes(&p.header, levels, &blocks)?;
+            let graph = dag_nodes(&p.header, levels, &blocks)?;
+            tree.nodes = graph.to_nodes();
+            if let Some(level) = unpack_packed(&mut tree.attributes, &packed, &graph)? {
+                spread_values(&mut tree, level);
+            }
             check_renumbered(&tree, p.version)
         }
         (_, _, Some(levels)) => {
@@ -1032,7 +1150,7 @@ pub(crate) fn read_file_with_header(path: &Path) -> Result<FileRead, FormatError
 /// channels (in a tree without nodes), the header, the checksum and the file's length.
 pub(crate) fn read_dag_sizes(path: &Path) -> Result<(Vec<u64>, FileRead), FormatError> {
     read_path(path, &mut |raw, p| {
-        let (graph, _, tree) = dag_of_raw(raw, &p)?;
+        let (graph, _, tree, _) = dag_of_raw(raw, &p)?;
         Ok(((graph.tree_counts(), tree), p))
     })
     .map(|((counts, tree), preamble, checksum, len)| {
@@ -1134,9 +1252,15 @@ pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), For
             dag.attributes = attributes;
             return Ok((dag, p));
         }
-        let (graph, size, tree) = dag_of_raw(raw, &p)?;
+        let (graph, size, tree, level) = dag_of_raw(raw, &p)?;
         let per_leaf = tree.attributes.per_leaf_bytes() > 0;
-        let mut dag = DagTree::from_levels(tree.root, graph, size.leaves, per_leaf)?;
+        let mut dag = match level {
+            Some(l) if l < tree.depth => {
+                DagTree::from_levels(tree.root, graph, size.leaves, false)?
+                    .with_values_at(l, per_leaf)?
+            }
+            _ => DagTree::from_levels(tree.root, graph, size.leaves, per_leaf)?,
+        };
         dag.attributes = tree.attributes;
         Ok((dag, p))
     })?;
@@ -1249,15 +1373,27 @@ pub fn read_file_to_depth(
 
 /// The graph a DAG-layout file's blocks hold (checks 22, 14 to 17), the size of its tree, and
 /// the file's tree without nodes (its root cube and leaves' channels, check 18 applied).
-fn dag_of_raw(raw: Raw, p: &Preamble) -> Result<(DagLevels, TreeSize, Octree), FormatError> {
-    let Raw { tree, blocks, .. } = raw;
+/// The graph of a file of the DAG layout, its tree's size, and a tree without nodes holding
+/// its root, depth and values: per leaf, or one for each node of the level the file keeps
+/// them on (returned).
+fn dag_of_raw(
+    raw: Raw,
+    p: &Preamble,
+) -> Result<(DagLevels, TreeSize, Octree, Option<u8>), FormatError> {
+    let Raw {
+        mut tree,
+        blocks,
+        packed,
+        ..
+    } = raw;
     let Some(levels) = &p.header.levels else {
         return Err(corrupt(Check::Header, "a version-4 header without levels"));
     };
     check_level_hashes(levels, &blocks)?;
     let (graph, size) = dag_levels(&p.header, levels, &blocks)?;
+    let level = unpack_packed(&mut tree.attributes, &packed, &graph)?;
     check_values(&tree, p.version).map_err(|(c, d)| corrupt(c, d))?;
-    Ok((graph, size, tree))
+    Ok((graph, size, tree, level))
 }
 
 /// The top `max_depth` levels (fewer than the file's) of the tree that the DAG-layout file at
@@ -1267,7 +1403,7 @@ fn dag_of_raw(raw: Raw, p: &Preamble) -> Result<(DagLevels, TreeSize, Octree), F
 fn dag_file_to_depth(path: &Path, max_depth: u8) -> Result<(Octree, BuildInfo), FormatError> {
     let k = usize::from(max_depth);
     let (tree, p, ..) = read_path(path, &mut |raw, p| {
-        let (graph, _, file) = dag_of_raw(raw, &p)?;
+        let (graph, _, file, _) = dag_of_raw(raw, &p)?;
         let counts = graph.tree_counts();
         let (nodes, leaves) = (counts[..k].iter().sum::<u64>(), counts[k]);
         if leaves > MAX_LEAVES || nodes > MAX_LEAVES {

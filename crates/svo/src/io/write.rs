@@ -1,13 +1,14 @@
 //! Writing `.svo` files (see [`crate::io::header`] and `docs/format.md`).
 
-use crate::dag::Dag;
 use crate::dag::levels::DagLevels;
+use crate::dag::{Dag, DagValues};
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::{
     ArrayRef, BuildInfo, ChannelEntry, ChunkRecord, Chunking, Header, HeaderV3, HeaderV4,
     LevelEntry, Levels, MAGIC, NodeChannelEntry, NodeStorage, PREAMBLE_LEN, Storage,
     bincode_config,
 };
+use crate::io::packed;
 use crate::octree::format_check::{
     CHUNKED_VERSION, Check, DAG_LAYOUT, LEVELS_VERSION, MAX_CHUNK_LEVEL, PLAIN_VERSION,
 };
@@ -200,6 +201,47 @@ pub fn write_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io:
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std::io::Result<u64> {
+    if !tree.node_attributes.stored().is_empty() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "the DAG layout keeps no inner-node attributes: write the tree layout, keep the \
+             leaves' values on a level above them (write_dag_to_with), or write a tree \
+             without them",
+        ));
+    }
+    write_dag_to_with(tree, build, &DagValues::default(), w)
+}
+
+/// [`write_dag_to`] with the leaves' values kept as `values` says (`docs/format.md`, section
+/// 12, "Values on a level"): each leaf's own, or one for each node of a level above, taken
+/// from the tree's inner-node attributes (which the file keeps only as those values), and
+/// normals in fewer bits. With the defaults, the bytes of [`write_dag_to`] (a tree's
+/// inner-node attributes are then left out).
+///
+/// ```
+/// use svo::dag::DagValues;
+/// use svo::io::{BuildInfo, read_dag_file, write_dag_file_with};
+/// use svo::{BakeOptions, ChannelSelection, Mesh, bake_mesh, octree::ChannelKind};
+/// let sphere = Mesh::sphere(glam::DVec3::splat(0.5), 0.4, 24);
+/// let normals = ChannelSelection::NONE.with(ChannelKind::Normal);
+/// let opts = BakeOptions { depth: 7, node_attributes: true, channels: normals, ..Default::default() };
+/// let tree = bake_mesh(&sphere, &opts)?.0;
+/// let path = std::env::temp_dir().join("svo-doc-values.svo");
+/// let coarse = DagValues { level: Some(5), normal_bits: 16 };
+/// let bytes = write_dag_file_with(&tree, &BuildInfo::new(), &coarse, &path)?;
+/// // Less than a byte a leaf, normals included (each leaf's own would take 4).
+/// assert!(bytes < u64::from(tree.leaf_count));
+/// let (dag, _) = read_dag_file(&path)?;
+/// assert_eq!(dag.values_level(), 5);
+/// # std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn write_dag_to_with(
+    tree: &Octree,
+    build: &BuildInfo,
+    values: &DagValues,
+    w: &mut dyn Write,
+) -> std::io::Result<u64> {
     let refuse = |m: &str| {
         Err(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
@@ -211,13 +253,44 @@ pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std:
             "the DAG layout needs a tree of depth 2 or more (its lowest nodes are 4x4x4 bricks)",
         );
     }
-    if !tree.node_attributes.stored().is_empty() {
-        return refuse(
-            "the DAG layout keeps no inner-node attributes: write the tree layout, or a tree \
-             without them",
-        );
+    let level = values.level_for(tree.depth);
+    let invalid = |e: crate::dag::ValuesError| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string())
+    };
+    let attributes = values.of(tree).map_err(invalid)?;
+    // The tree's own checks, on its geometry and leaf channels.
+    checked_channels(tree)?;
+    let bits = values.normal_bits;
+    let mut channels: Vec<(u8, Stored)> = Vec::new();
+    let mut arrays: Vec<Vec<u8>> = Vec::new();
+    for (kind, c) in attributes.stored() {
+        match c {
+            StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
+            StoredChannel::PerLeaf { bytes, size } => {
+                let kind_bits = if kind == 0 { bits } else { (8 * size) as u8 };
+                if level == tree.depth && kind_bits == (8 * size) as u8 {
+                    channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
+                    arrays.push(bytes.to_vec());
+                    continue;
+                }
+                let words = bytes.chunks_exact(size).map(|b| {
+                    let mut w = [0u8; 4];
+                    w[..size].copy_from_slice(b);
+                    u32::from_le_bytes(w)
+                });
+                let packed = packed::pack(kind, kind_bits, words);
+                channels.push((
+                    kind,
+                    Stored::Packed {
+                        level,
+                        bits: kind_bits,
+                        len: packed.len() as u64,
+                    },
+                ));
+                arrays.push(packed);
+            }
+        }
     }
-    let (channels, arrays) = checked_channels(tree)?;
     let (plan, blocks) = dag_blocks(&Dag::from_tree(tree));
     let layout = Layout {
         root_origin: tree.root.origin.to_array(),
@@ -230,7 +303,11 @@ pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std:
         chunks: None,
         levels: Some(plan),
     };
-    let all: Vec<&[u8]> = blocks.iter().map(Vec::as_slice).chain(arrays).collect();
+    let all: Vec<&[u8]> = blocks
+        .iter()
+        .map(Vec::as_slice)
+        .chain(arrays.iter().map(Vec::as_slice))
+        .collect();
     write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
 }
 
@@ -259,6 +336,18 @@ pub fn write_dag_file(
     path: impl AsRef<Path>,
 ) -> Result<u64, FormatError> {
     written_atomically(path.as_ref(), &mut |w| write_dag_to(tree, build, w))
+}
+
+/// [`write_dag_to_with`] into the file at `path`, atomically (as [`write_file`]).
+pub fn write_dag_file_with(
+    tree: &Octree,
+    build: &BuildInfo,
+    values: &DagValues,
+    path: impl AsRef<Path>,
+) -> Result<u64, FormatError> {
+    written_atomically(path.as_ref(), &mut |w| {
+        write_dag_to_with(tree, build, values, w)
+    })
 }
 
 /// What `write` streams, written to `path` atomically: the bytes written.
@@ -469,6 +558,9 @@ pub(crate) enum Stored {
     Constant(u32),
     /// An array of this many bytes.
     PerLeaf(u64),
+    /// The DAG layout: a bit stream of this many bytes, values of `bits` bits for the nodes of
+    /// `level`.
+    Packed { level: u8, bits: u8, len: u64 },
 }
 
 /// Everything a file's header says but where its arrays sit: what [`write_layout`] needs to
@@ -552,6 +644,14 @@ pub(crate) fn write_layout(
                         lens.push(len);
                         Storage::PerLeaf(ArrayRef::default())
                     }
+                    Stored::Packed { level, bits, len } => {
+                        lens.push(len);
+                        Storage::Packed {
+                            level,
+                            bits,
+                            array: ArrayRef::default(),
+                        }
+                    }
                 },
             })
             .collect(),
@@ -612,8 +712,11 @@ pub(crate) fn write_layout(
         }
     }
     for e in &mut header.channels {
-        if let Storage::PerLeaf(r) = &mut e.storage {
-            *r = refs.next().unwrap_or_default();
+        match &mut e.storage {
+            Storage::PerLeaf(r) | Storage::Packed { array: r, .. } => {
+                *r = refs.next().unwrap_or_default();
+            }
+            Storage::Constant(_) => {}
         }
     }
     let hbytes = encode(&header)?;

@@ -45,15 +45,18 @@ pub(crate) fn decode(e: u32) -> Vec3 {
 }
 
 /// The interior-leaf word (no surface).
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 const INTERIOR: u32 = crate::octree::tree::NO_NORMAL;
 
 /// `v * num / den` rounded to the nearest integer, halves away from zero (`den > 0`).
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 fn scale_round(v: i64, num: i64, den: i64) -> i64 {
     let q = (2 * v.abs() * num + den) / (2 * den);
     if v < 0 { -q } else { q }
 }
 
 /// The largest magnitude of a component of `bits / 2` bits (`2^(bits/2 - 1) - 1`).
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 fn steps(bits: u32) -> i64 {
     (1i64 << (bits / 2 - 1)) - 1
 }
@@ -63,6 +66,7 @@ fn steps(bits: u32) -> i64 {
 /// components packed (`x` in the low `bits / 2` bits, each two's complement) and the word they
 /// stand for (each half `round(c * 32767 / m)`). The interior word packs as both components
 /// `-(m + 1)`. At 32 bits the word is unchanged.
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 pub(crate) fn quantize(e: u32, bits: u32) -> (u32, u32) {
     let half = bits / 2;
     let field = |c: i64| (c as u32) & ((1u64 << half) - 1) as u32;
@@ -82,6 +86,7 @@ pub(crate) fn quantize(e: u32, bits: u32) -> (u32, u32) {
 
 /// The word a packed normal of `bits` bits stands for (see [`quantize`]); `None` where one
 /// component alone is `-(m + 1)`, which stands for no normal.
+#[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 pub(crate) fn unpack(p: u32, bits: u32) -> Option<u32> {
     let half = bits / 2;
     if half == 16 {
@@ -96,7 +101,7 @@ pub(crate) fn unpack(p: u32, bits: u32) -> Option<u32> {
     match (cx == -(m + 1), cy == -(m + 1)) {
         (true, true) => Some(INTERIOR),
         (false, false) => {
-            let a = |c: i64| (scale_round(c, 32767, m) as i16 as u16) as u32;
+            let a = |c: i64| u32::from(scale_round(c, 32767, m) as i16 as u16);
             Some(a(cx) | a(cy) << 16)
         }
         _ => None,

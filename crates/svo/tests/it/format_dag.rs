@@ -208,3 +208,172 @@ fn a_dag_file_reads_as_the_graph_rays_walk() {
     }
     assert!(met > 2000, "{met} leaves met");
 }
+
+/// Values on a level above the leaves (`svo::dag::DagValues`): a bake with its inner nodes'
+/// attributes (normals and colours) written with its values on levels 2 to `depth - 2` and
+/// on the leaves', normals in 32, 16 and 10 bits, reads back as the tree whose every leaf
+/// holds its ancestor's values on that level (the normal kept in those bits), and as a graph
+/// that rays walk to the same values; what cannot be kept so is refused.
+#[test]
+fn values_on_a_level_read_back_as_each_leafs_ancestors() {
+    use svo::dag::{DagTree, DagValues};
+    use svo::octree::{Channel, ChannelKind};
+    use svo::render::{DagSurfaces, OctreeSurfaces, RenderScene, SceneSetup, Tracer, render};
+    let mut mesh = Mesh::sphere(DVec3::splat(0.5), 0.4, 24);
+    // Two materials, so that colours vary.
+    mesh.materials = vec![
+        svo::mesh::Material::default(),
+        svo::mesh::Material {
+            colour: [0.9, 0.2, 0.1, 1.0],
+            ..svo::mesh::Material::default()
+        },
+    ];
+    mesh.triangle_materials = (0..mesh.triangles.len()).map(|i| (i % 2) as u32).collect();
+    let depth = 7u8;
+    let channels = svo::ChannelSelection::NONE
+        .with(ChannelKind::Normal)
+        .with(ChannelKind::Colour);
+    let opts = BakeOptions {
+        depth,
+        node_attributes: true,
+        channels,
+        ..BakeOptions::default()
+    };
+    let tree = bake_mesh(&mesh, &opts).unwrap().0;
+    assert!(tree.attributes.colour.is_per_leaf());
+    // The same leaves without the inner nodes' attributes, for values on the leaves' level.
+    let per_leaf = bake_mesh(
+        &mesh,
+        &BakeOptions {
+            node_attributes: false,
+            ..opts.clone()
+        },
+    )
+    .unwrap()
+    .0;
+    assert_eq!(per_leaf.attributes, tree.attributes);
+    let dir = tempfile::tempdir().unwrap();
+    let leaves: Vec<UVec3> = tree.leaves().map(|l| l.cell).collect();
+    let morton = |c: UVec3, levels: u8| {
+        (0..levels).rev().fold(0u64, |code, l| {
+            code << 3
+                | u64::from(c.x >> l & 1) << 2
+                | u64::from(c.y >> l & 1) << 1
+                | u64::from(c.z >> l & 1)
+        })
+    };
+    for level in [2u8, 4, 5, depth] {
+        for bits in [32u8, 16, 10] {
+            let values = DagValues {
+                level: Some(level),
+                normal_bits: bits,
+            };
+            let path = dir.path().join(format!("v{level}-{bits}.svo"));
+            let tree = if level == depth { &per_leaf } else { &tree };
+            svo::io::write_dag_file_with(tree, &BuildInfo::new(), &values, &path).unwrap();
+            // The values each leaf should get: its ancestor's on the level, in Morton order
+            // among that level's nodes (the inner nodes' attributes), the normal kept in
+            // `bits` bits.
+            let up = |c: UVec3| c >> u32::from(depth - level);
+            let mut ancestors: Vec<u64> = leaves.iter().map(|&c| morton(up(c), level)).collect();
+            ancestors.sort_unstable();
+            ancestors.dedup();
+            let kept = DagTree::from_tree_with(tree, &values).unwrap();
+            let (read, _) = read_file(&path).unwrap();
+            assert_eq!(read.nodes.len(), tree.nodes.len());
+            for (i, &c) in leaves.iter().enumerate() {
+                // `leaves` follows the tree's depth-first leaf order, which the read tree's
+                // leaf arrays follow too.
+                let k = if level == depth {
+                    i
+                } else {
+                    ancestors.binary_search(&morton(up(c), level)).unwrap()
+                };
+                assert_eq!(
+                    read.attributes.normal.get(i),
+                    kept.attributes().normal.get(k),
+                    "level {level}, {bits} bits, leaf {i}"
+                );
+                assert_eq!(
+                    read.attributes.colour.get(i),
+                    kept.attributes().colour.get(k)
+                );
+            }
+            // On the graph, rays find the same values as on the tree read back.
+            let (dag, _) = read_dag_file(&path).unwrap();
+            assert_eq!(dag.values_level(), level);
+            assert_eq!(dag.attributes(), kept.attributes());
+            let setup = SceneSetup {
+                width: 64,
+                height: 48,
+                ..SceneSetup::default()
+            };
+            let trace = svo::render::TraceOptions {
+                mode: svo::trace::HitMode::Cube,
+                shadows: svo::render::ShadowMode::None,
+                ..Default::default()
+            };
+            let s = RenderScene::new(read.clone(), &Default::default(), &setup).unwrap();
+            let a = render(
+                &Tracer::new(
+                    OctreeSurfaces::new(&s.tree, trace.mode),
+                    &s.lights,
+                    s.sky.clone(),
+                    s.phong,
+                    trace,
+                ),
+                &s.camera,
+            )
+            .unwrap();
+            let b = render(
+                &Tracer::new(
+                    DagSurfaces::new(&dag, trace.mode),
+                    &s.lights,
+                    s.sky.clone(),
+                    s.phong,
+                    trace,
+                ),
+                &s.camera,
+            )
+            .unwrap();
+            assert!(a.stats.primary_hits > 100);
+            assert_eq!(a.colour, b.colour, "level {level}, {bits} bits");
+            let normals = match &dag.attributes().normal {
+                Channel::PerLeaf(v) => v.len(),
+                _ => 0,
+            };
+            assert_eq!(
+                normals,
+                if level == depth {
+                    leaves.len()
+                } else {
+                    ancestors.len()
+                }
+            );
+        }
+    }
+    // Refused: a contour above the leaves, the leaf parents' level, odd bits; and values
+    // above the leaves from a tree without inner-node attributes.
+    let with_contours = bake_mesh(
+        &mesh,
+        &BakeOptions {
+            depth: 5,
+            node_attributes: true,
+            ..BakeOptions::default()
+        },
+    )
+    .unwrap()
+    .0;
+    let refuse = |t: &Octree, level: u8, bits: u8, says: &str| {
+        let v = DagValues {
+            level: Some(level),
+            normal_bits: bits,
+        };
+        let e = svo::io::write_dag_to_with(t, &BuildInfo::new(), &v, &mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains(says), "{e}");
+    };
+    refuse(&with_contours, 3, 32, "contour");
+    refuse(&tree, depth - 1, 32, "levels that hold values are 1 to 5");
+    refuse(&tree, 3, 11, "11 bits a normal");
+    refuse(&per_leaf, 3, 32, "inner nodes' attributes");
+}

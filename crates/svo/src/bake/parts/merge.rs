@@ -350,6 +350,7 @@ fn channel_names(channels: &[(u8, Stored)]) -> Vec<(String, String)> {
             let storage = match s {
                 Stored::Constant(_) => "constant",
                 Stored::PerLeaf(_) => "per-leaf",
+                Stored::Packed { .. } => "on a level",
             };
             (name.to_string(), storage.to_string())
         })

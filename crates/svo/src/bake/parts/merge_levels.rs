@@ -74,7 +74,7 @@ fn node_channels(channels: &[(u8, Stored)], normals: Uniform) -> Vec<NodeChannel
                 }
                 _ if kind == ChannelKind::Contour as u8 => NodeStorage::PerNode,
                 Stored::Constant(v) => NodeStorage::Constant(v),
-                Stored::PerLeaf(_) => NodeStorage::PerNode,
+                Stored::PerLeaf(_) | Stored::Packed { .. } => NodeStorage::PerNode,
             };
             NodeChannelEntry { kind, storage }
         })
