@@ -129,8 +129,10 @@ pub struct ValuesRow {
     pub level: u8,
     /// Bits a normal.
     pub bits: u8,
-    /// Bytes of the DAG file: geometry alone, and with the normals so kept.
-    pub file: (u64, u64),
+    /// The normals stored (one for each node of `level`).
+    pub normals: u64,
+    /// Bytes of the DAG file, geometry and normals.
+    pub file: u64,
     /// PSNR (dB) of each view's image against the image with each leaf's own 32-bit normal.
     pub psnr_own: Vec<f64>,
     /// PSNR (dB) of each view's image against the triangles'.
@@ -182,11 +184,6 @@ pub fn measure_values(
         let tree = bake_mesh(mesh, &opts)?.0;
         let build = BuildInfo::new();
         let sink = &mut std::io::sink();
-        let geometry = {
-            let mut t = tree.clone();
-            t.attributes = LeafAttributes::default();
-            write_dag_to_with(&t, &build, &DagValues::default(), sink)?
-        };
         let own = DagTree::from_tree_with(&tree, &DagValues::default())?;
         let frame = |dag: &DagTree, view: crate::views::View| -> anyhow::Result<_> {
             let cam = view.camera(lo, hi, width, height);
@@ -230,13 +227,18 @@ pub fn measure_values(
                 psnr_own.push(db(&f, own_frame));
                 psnr_triangles.push(db(&f, triangles));
             }
+            let normals = match &dag.attributes().normal {
+                svo::octree::Channel::PerLeaf(v) => v.len() as u64,
+                _ => 0,
+            };
             rows.push(ValuesRow {
                 mesh: name.to_string(),
                 depth,
                 leaves: u64::from(tree.leaf_count),
                 level,
                 bits,
-                file: (geometry, file),
+                normals,
+                file,
                 psnr_own,
                 psnr_triangles,
             });

@@ -991,8 +991,11 @@ fn deep_and_parts_section(r: &mut Report, opts: &Options, m: &Measured) {
                     format!("level {}", v.level)
                 },
                 v.bits.to_string(),
-                f(v.file_bits(v.file.1 - v.file.0), 2),
-                f(v.file_bits(v.file.1), 2),
+                f(
+                    v.normals as f64 * f64::from(v.bits) / v.leaves.max(1) as f64,
+                    2,
+                ),
+                f(v.file_bits(v.file), 2),
                 db(&v.psnr_own),
                 db(&v.psnr_triangles),
             ]
