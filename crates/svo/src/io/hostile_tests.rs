@@ -304,3 +304,74 @@ fn hostile_dag_levels_with_valid_hashes_are_refused() {
     reseal(&mut b, &h, g.header_len);
     assert_eq!(check_of(&b), Some(Check::LeafOrder));
 }
+
+/// Values on a level (`docs/format.md`, section 12) edited with every checksum made right:
+/// the packed values' bytes changed (read back, or refused at check 18), and the header's
+/// level and bits (refused at check 10 or 17, or read back): never a panic, as a tree or as a
+/// graph.
+#[cfg(feature = "trace")]
+#[test]
+fn hostile_values_on_a_level_are_refused() {
+    use crate::dag::DagValues;
+    use crate::io::header::{HeaderV4, Storage};
+    use crate::io::write::write_dag_to_with;
+    let sphere = crate::Mesh::sphere(DVec3::splat(0.5), 0.4, 16);
+    let opts = crate::BakeOptions {
+        depth: 6,
+        node_attributes: true,
+        channels: crate::ChannelSelection::NONE.with(crate::octree::ChannelKind::Normal),
+        ..Default::default()
+    };
+    let tree = crate::bake_mesh(&sphere, &opts).unwrap().0;
+    let values = DagValues {
+        level: Some(4),
+        normal_bits: 10,
+    };
+    let mut bytes = Vec::new();
+    write_dag_to_with(&tree, &info(), &values, &mut bytes).unwrap();
+    from_bytes(&bytes).unwrap();
+    let p = read_header(&bytes).unwrap();
+    let Storage::Packed { array, .. } = p.header.channels[0].storage else {
+        panic!("normals on a level");
+    };
+    let reseal = |b: &mut Vec<u8>, h: &crate::io::header::Header, hlen: usize| {
+        let l = h.levels.as_ref().unwrap();
+        let hb = bincode::serde::encode_to_vec(HeaderV4::of(h, l), bincode_config()).unwrap();
+        assert_eq!(hb.len(), hlen);
+        b[16..16 + hlen].copy_from_slice(&hb);
+        let s = xxhash_rust::xxh3::xxh3_64(&b[..16 + hlen]);
+        b[16 + hlen..24 + hlen].copy_from_slice(&s.to_le_bytes());
+        rechecksum(b);
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("h.svo");
+    let mut r = Rng::new(0x7a1);
+    let mut failed = std::collections::BTreeMap::new();
+    for round in 0..600 {
+        let mut b = bytes.clone();
+        if round % 2 == 0 {
+            let (at, len) = (array.offset as usize, array.len as usize);
+            for _ in 0..r.in_range(1..4) {
+                let i = at + r.below(len);
+                b[i] ^= 1 << r.below(8);
+            }
+            rechecksum(&mut b);
+        } else {
+            let mut h = p.header.clone();
+            if let Storage::Packed { level, bits, .. } = &mut h.channels[0].storage {
+                *level = r.below(9) as u8;
+                *bits = r.below(40) as u8;
+            }
+            reseal(&mut b, &h, p.header_len);
+        }
+        match from_bytes(&b) {
+            Ok((t, _)) => t.validate().unwrap(),
+            Err(e) => *failed.entry(e.check()).or_insert(0) += 1,
+        }
+        std::fs::write(&path, &b).unwrap();
+        let _ = crate::io::read_dag_file(&path);
+    }
+    for c in [Check::Channels, Check::LeafOrder, Check::Values] {
+        assert!(failed.get(&Some(c)).is_some_and(|&n| n > 5), "{failed:?}");
+    }
+}

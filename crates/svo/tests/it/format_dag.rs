@@ -299,6 +299,10 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
                     kept.attributes().colour.get(k)
                 );
             }
+            // `svo-view --info` says where they are kept.
+            let text = svo::io::describe_file(&path).unwrap();
+            let says = format!("level {level}'s nodes, {bits} bits each");
+            assert_eq!(text.contains(&says), level < depth || bits < 32, "{text}");
             // On the graph, rays find the same values as on the tree read back.
             let (dag, _) = read_dag_file(&path).unwrap();
             assert_eq!(dag.values_level(), level);
