@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use svo::Octree;
 use svo::dag::DagTree;
-use svo::render::{Aov, MAX_BOUNCES, RenderScene, ShadowMode, Stage, TraceOptions};
+use svo::render::{Aov, MAX_BOUNCES, ShadowMode, Stage, TraceOptions};
 use svo::trace::HitMode;
 use thiserror::Error;
 use winit::application::ApplicationHandler;
@@ -112,7 +112,7 @@ pub fn run(job: &RenderJob, opts: &WindowOptions) -> Result<WindowReport, Window
         (Shown::Graph(dag), stage, None)
     } else {
         let (scene, read) = crate::fit::open_fitting(job, sizes, limit)?;
-        let (tree, stage) = split(scene);
+        let (tree, stage) = scene.into_parts();
         (Shown::Tree(tree), stage, read)
     };
     check_gpu_support(&job.trace, false, stage.lights.len())?;
@@ -172,26 +172,6 @@ fn is_dag(job: &RenderJob) -> Result<bool, JobError> {
 
 fn setup_error(e: svo::io::FormatError) -> JobError {
     JobError::from(svo::render::SetupError::from(e))
-}
-
-/// A scene's tree and its stage.
-fn split(scene: RenderScene) -> (Octree, Stage) {
-    let RenderScene {
-        tree,
-        camera,
-        lights,
-        sky,
-        phong,
-        views,
-    } = scene;
-    let stage = Stage {
-        camera,
-        lights,
-        sky,
-        phong,
-        views,
-    };
-    (tree, stage)
 }
 
 /// What the window traces: a tree, or a DAG file's graph (its tree never made).

@@ -440,6 +440,23 @@ fn scenes_of_every_path(glass_depth: u8) -> Vec<(&'static str, Octree, TraceOpti
     ]
 }
 
+/// [`scenes_of_every_path`] at depth 6, and glass at depths 5 and 7 and a mirror at 2 and 3
+/// (opaque shadows).
+fn every_path_and_depth() -> Vec<(&'static str, Octree, TraceOptions)> {
+    let opaque_shadows = TraceOptions {
+        shadows: ShadowMode::Opaque,
+        ..TraceOptions::default()
+    };
+    let mut cases = scenes_of_every_path(6);
+    for depth in [5, 7] {
+        let name = ["glass torus, depth 5", "glass torus, depth 7"][usize::from(depth == 7)];
+        cases.push((name, torus(Some(GLASS_MTL), depth), TraceOptions::default()));
+    }
+    cases.push(("copper torus, depth 2", torus(None, 2), opaque_shadows));
+    cases.push(("copper torus, depth 3", torus(None, 3), opaque_shadows));
+    cases
+}
+
 /// The traversal through the tree's 64-ary view (`GpuLayout::wide_view`) against the
 /// octree's walk: the same frames bit for bit (colour, depth, normal, leaf) and the same rays
 /// of each kind, on glass (contours and cubes, shadow rays traced between the hit and its
@@ -455,19 +472,7 @@ fn the_wide_view_renders_the_same() {
         shadows: ShadowMode::Opaque,
         ..TraceOptions::default()
     };
-    let mut cases = scenes_of_every_path(6);
-    cases.push((
-        "glass torus, depth 5",
-        torus(Some(GLASS_MTL), 5),
-        TraceOptions::default(),
-    ));
-    cases.push((
-        "glass torus, depth 7",
-        torus(Some(GLASS_MTL), 7),
-        TraceOptions::default(),
-    ));
-    cases.push(("copper torus, depth 2", torus(None, 2), opaque_shadows));
-    cases.push(("copper torus, depth 3", torus(None, 3), opaque_shadows));
+    let mut cases = every_path_and_depth();
     cases.push(("copper torus, depth 1", torus(None, 1), opaque_shadows));
     let mut walked = 0;
     for (name, tree, trace) in cases {
@@ -538,20 +543,8 @@ fn a_graph_renders_the_frames_of_its_tree() {
     let Some(ctx) = gpu() else {
         return;
     };
-    let opaque_shadows = TraceOptions {
-        shadows: ShadowMode::Opaque,
-        ..TraceOptions::default()
-    };
-    let mut cases = scenes_of_every_path(6);
-    cases.push((
-        "glass torus, depth 7",
-        torus(Some(GLASS_MTL), 7),
-        TraceOptions::default(),
-    ));
-    cases.push(("copper torus, depth 2", torus(None, 2), opaque_shadows));
-    cases.push(("copper torus, depth 3", torus(None, 3), opaque_shadows));
     let mut walked = 0;
-    for (name, tree, trace) in cases {
+    for (name, tree, trace) in every_path_and_depth() {
         let s = scene(tree);
         let dag = DagTree::from_tree(&s.tree).unwrap();
         for full in [false, true] {

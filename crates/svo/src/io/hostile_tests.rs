@@ -242,9 +242,21 @@ fn the_writer_refuses_a_tree_the_reader_would_refuse() {
 /// and checksum were then fixed, so that the checks of the levels themselves must catch the
 /// edit: every edit is refused at a check or reads as a valid tree, never a panic; and a
 /// header that claims more leaves than the graph holds fails check 17.
+/// Writes the version-4 header `h` (of the length `b`'s has, `hlen`) into `b`, then its
+/// checksum and the file's.
+fn reseal(b: &mut [u8], h: &crate::io::header::Header, hlen: usize) {
+    let l = h.levels.as_ref().unwrap();
+    let v4 = crate::io::header::HeaderV4::of(h, l);
+    let hb = bincode::serde::encode_to_vec(v4, bincode_config()).unwrap();
+    assert_eq!(hb.len(), hlen);
+    b[16..16 + hlen].copy_from_slice(&hb);
+    let s = xxhash_rust::xxh3::xxh3_64(&b[..16 + hlen]);
+    b[16 + hlen..24 + hlen].copy_from_slice(&s.to_le_bytes());
+    rechecksum(b);
+}
+
 #[test]
 fn hostile_dag_levels_with_valid_hashes_are_refused() {
-    use crate::io::header::HeaderV4;
     use crate::io::write::write_dag_to;
     let tree = small_tree();
     let mut bytes = Vec::new();
@@ -252,16 +264,6 @@ fn hostile_dag_levels_with_valid_hashes_are_refused() {
     assert_eq!(from_bytes(&bytes).unwrap().0, tree);
     let p = read_header(&bytes).unwrap();
     let levels = p.header.levels.clone().unwrap();
-    // Writes header `h` (of the length `b`'s has) into `b`, then its checksum and the file's.
-    let reseal = |b: &mut Vec<u8>, h: &crate::io::header::Header, hlen: usize| {
-        let l = h.levels.as_ref().unwrap();
-        let hb = bincode::serde::encode_to_vec(HeaderV4::of(h, l), bincode_config()).unwrap();
-        assert_eq!(hb.len(), hlen);
-        b[16..16 + hlen].copy_from_slice(&hb);
-        let s = xxhash_rust::xxh3::xxh3_64(&b[..16 + hlen]);
-        b[16 + hlen..24 + hlen].copy_from_slice(&s.to_le_bytes());
-        rechecksum(b);
-    };
     let mut r = Rng::new(0xda9);
     let mut failed = std::collections::BTreeMap::new();
     for _ in 0..3000 {
@@ -313,7 +315,7 @@ fn hostile_dag_levels_with_valid_hashes_are_refused() {
 #[test]
 fn hostile_values_on_a_level_are_refused() {
     use crate::dag::DagValues;
-    use crate::io::header::{HeaderV4, Storage};
+    use crate::io::header::Storage;
     use crate::io::write::write_dag_to_with;
     let sphere = crate::Mesh::sphere(DVec3::splat(0.5), 0.4, 16);
     let opts = crate::BakeOptions {
@@ -333,15 +335,6 @@ fn hostile_values_on_a_level_are_refused() {
     let p = read_header(&bytes).unwrap();
     let Storage::Packed { array, .. } = p.header.channels[0].storage else {
         panic!("normals on a level");
-    };
-    let reseal = |b: &mut Vec<u8>, h: &crate::io::header::Header, hlen: usize| {
-        let l = h.levels.as_ref().unwrap();
-        let hb = bincode::serde::encode_to_vec(HeaderV4::of(h, l), bincode_config()).unwrap();
-        assert_eq!(hb.len(), hlen);
-        b[16..16 + hlen].copy_from_slice(&hb);
-        let s = xxhash_rust::xxh3::xxh3_64(&b[..16 + hlen]);
-        b[16 + hlen..24 + hlen].copy_from_slice(&s.to_le_bytes());
-        rechecksum(b);
     };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("h.svo");

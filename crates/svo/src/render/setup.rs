@@ -153,21 +153,47 @@ impl RenderScene {
     /// and the stored lights.
     pub fn new(tree: Octree, stored: &SceneInfo, setup: &SceneSetup) -> Result<Self, SetupError> {
         let (lo, hi) = tree.occupied_bounds();
+        let stage = setup.stage(tree.depth, lo, hi, stored)?;
+        Ok(Self::from_parts(tree, stage))
+    }
+
+    /// The scene of `tree` on `stage`.
+    pub fn from_parts(tree: Octree, stage: Stage) -> Self {
         let Stage {
             camera,
             lights,
             sky,
             phong,
             views,
-        } = setup.stage(tree.depth, lo, hi, stored)?;
-        Ok(Self {
+        } = stage;
+        Self {
             tree,
             camera,
             lights,
             sky,
             phong,
             views,
-        })
+        }
+    }
+
+    /// The tree and its stage.
+    pub fn into_parts(self) -> (Octree, Stage) {
+        let Self {
+            tree,
+            camera,
+            lights,
+            sky,
+            phong,
+            views,
+        } = self;
+        let stage = Stage {
+            camera,
+            lights,
+            sky,
+            phong,
+            views,
+        };
+        (tree, stage)
     }
 
     /// Reads the `.svo` file at `path` (checked) and sets up its scene with the lights and
