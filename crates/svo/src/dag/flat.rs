@@ -56,25 +56,26 @@ impl FlatDag {
 impl DagTree {
     /// The words [`Self::flat`] makes ([`FlatDag::words`]), counted without making them.
     pub fn flat_words(&self) -> u64 {
-        let levels = usize::from(self.depth()) - 2;
-        let nodes: u64 = (0..levels)
-            .map(|l| u64::from(self.graph.level_len(l)))
-            .sum();
-        let refs: u64 = (0..levels)
+        // The distinct nodes of each level, the bricks last.
+        let counts = self.graph.counts();
+        let (bricks, levels) = counts.split_last().unwrap_or((&0, &[]));
+        let refs: u64 = (0..levels.len())
             .map(|l| self.graph.kids_of(l).len() as u64)
             .sum();
-        2 * nodes + 2 * refs + 3 * u64::from(self.graph.brick_count()) + 256
+        2 * levels.iter().sum::<u64>() + 2 * refs + 3 * bricks + 256
     }
 
     /// The graph as [`FlatDag`]'s words.
     pub fn flat(&self) -> FlatDag {
-        let levels = usize::from(self.depth()) - 2;
+        let counts = self.graph.counts();
+        let (&brick_count, level_counts) = counts.split_last().unwrap_or((&0, &[]));
+        let levels = level_counts.len();
         // Each level's first record over all levels.
-        let mut base = Vec::with_capacity(levels + 1);
+        let mut base = Vec::with_capacity(levels);
         let mut total = 0u32;
-        for l in 0..levels {
+        for &n in level_counts {
             base.push(total);
-            total += self.graph.level_len(l);
+            total += n as u32;
         }
         let refs_len: usize = (0..levels).map(|l| self.graph.kids_of(l).len()).sum();
         let mut nodes = Vec::with_capacity(2 * total as usize);
@@ -82,7 +83,7 @@ impl DagTree {
         let mut slot = 0u32;
         for l in 0..levels {
             let kids = self.graph.kids_of(l);
-            for k in 0..self.graph.level_len(l) {
+            for k in 0..level_counts[l] as u32 {
                 let (_, first) = self.graph.start_of(l, k);
                 nodes.push(u32::from(self.graph.mask_of(l, k)) | self.boxes[l][k as usize] << 8);
                 nodes.push(slot + first);
@@ -95,7 +96,7 @@ impl DagTree {
             }
             slot += kids.len() as u32;
         }
-        let bricks = (0..self.graph.brick_count())
+        let bricks = (0..brick_count as u32)
             .flat_map(|b| {
                 let v = self.graph.brick(b);
                 [

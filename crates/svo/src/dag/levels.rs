@@ -527,18 +527,6 @@ impl DagLevels {
         &self.kids[l]
     }
 
-    /// The nodes of level `l` (above the bricks).
-    #[cfg(feature = "trace")]
-    pub(crate) fn level_len(&self, l: usize) -> u32 {
-        self.starts[l].len() as u32
-    }
-
-    /// The bricks.
-    #[cfg(feature = "trace")]
-    pub(crate) fn brick_count(&self) -> u32 {
-        self.bricks.len() as u32
-    }
-
     /// Brick `b`.
     #[inline]
     #[cfg(feature = "trace")]

@@ -77,13 +77,7 @@ impl DagTree {
     /// The graph of `tree`'s geometry, with a copy of its leaves' channels (its inner nodes'
     /// are not kept: shared subtrees hold no values of their own).
     pub fn from_tree(tree: &Octree) -> Result<Self, DagError> {
-        if tree.depth < 2 {
-            return Err(DagError::TooShallow);
-        }
-        let graph = DagLevels::of(&Dag::from_tree(tree));
-        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count), false)?;
-        dag.attributes = tree.attributes.clone();
-        Ok(dag)
+        Self::from_tree_with(tree, &DagValues::default())
     }
 
     /// The graph of `tree`'s geometry with its leaves' values kept as `values` says: each
@@ -116,48 +110,33 @@ impl DagTree {
         }
         let attributes = values.of(tree)?;
         let graph = DagLevels::of(&Dag::from_tree(tree));
-        let mut dag = Self::from_levels(tree.root, graph, u64::from(tree.leaf_count), false)?;
-        let per_node = attributes.per_leaf_bytes() > 0;
-        dag = dag.with_values_at(values.level_for(tree.depth), per_node)?;
+        let per_value = attributes.per_leaf_bytes() > 0;
+        let level = values.level_for(tree.depth);
+        let leaves = u64::from(tree.leaf_count);
+        let mut dag = Self::from_levels(tree.root, graph, leaves, level, per_value)?;
         dag.attributes = attributes;
         Ok(dag)
     }
 
-    /// The graph whose leaves take their values from their ancestors on level `values` (1 to
-    /// the depth, which is each leaf its own): the walk's index of a leaf is its ancestor's
-    /// index among that level's nodes, in Morton order. `per_node`: the values include an
-    /// array, which refuses more than 2^31 such nodes.
-    pub(crate) fn with_values_at(mut self, values: u8, per_node: bool) -> Result<Self, DagError> {
-        let (before, count) = self.graph.values_before(values);
-        if count > MAX_LEAVES && per_node {
-            return Err(DagError::TooManyLeaves(count));
-        }
-        self.before = before
-            .into_iter()
-            .map(|l| l.into_iter().map(|x| x as u32).collect())
-            .collect();
-        self.values = values;
-        Ok(self)
-    }
-
     /// The walkable form of a graph that passed the reader's checks, whose tree has `leaves`
-    /// leaves; `per_leaf`: the leaves' channels will include an array, which refuses a tree
-    /// past 2^31 leaves.
+    /// leaves, each taking its values from its ancestor on level `values` (1 to the depth,
+    /// which is each leaf its own): a walk's index of a leaf is that ancestor's index among
+    /// its level's nodes, in Morton order. `per_value`: the channels will include an array,
+    /// which refuses more than 2^31 such nodes.
     pub(crate) fn from_levels(
         root: RootCube,
         graph: DagLevels,
         leaves: u64,
-        per_leaf: bool,
+        values: u8,
+        per_value: bool,
     ) -> Result<Self, DagError> {
-        if leaves > MAX_LEAVES && per_leaf {
-            return Err(DagError::TooManyLeaves(leaves));
+        let (before, count) = graph.values_before(values);
+        if count > MAX_LEAVES && per_value {
+            return Err(DagError::TooManyLeaves(count));
         }
-        // Within 2^31 leaves every partial sum fits; past them, a leaf's index is its Morton
-        // index modulo 2^32 (the walk adds with wrapping), which no array is read by.
-        let depth = graph.depth();
-        let before = graph
-            .values_before(depth)
-            .0
+        // Within 2^31 values every partial sum fits; past them, an index is the Morton index
+        // modulo 2^32 (the walk adds with wrapping), which no array is read by.
+        let before = before
             .into_iter()
             .map(|l| l.into_iter().map(|x| x as u32).collect())
             .collect();
@@ -167,7 +146,7 @@ impl DagTree {
             graph,
             before,
             leaf_count: leaves,
-            values: depth,
+            values,
             attributes: LeafAttributes::default(),
             boxes,
             brick_boxes,
@@ -542,7 +521,7 @@ mod tests {
         // A per-leaf channel's index would pass 32 bits: refused.
         let graph = DagLevels::of(&dag_full(depth));
         assert_eq!(
-            DagTree::from_levels(dag.root(), graph, 1 << 36, true).unwrap_err(),
+            DagTree::from_levels(dag.root(), graph, 1 << 36, depth, true).unwrap_err(),
             DagError::TooManyLeaves(1 << 36)
         );
     }
@@ -556,10 +535,9 @@ mod tests {
         for depth in [3u8, 5, 6] {
             let tree = crate::octree::scattered_tree(&mut rnd, depth, 400);
             for level in 1..=depth {
-                let dag = DagTree::from_tree(&tree)
-                    .unwrap()
-                    .with_values_at(level, false)
-                    .unwrap();
+                let graph = DagLevels::of(&Dag::from_tree(&tree));
+                let leaves = u64::from(tree.leaf_count);
+                let dag = DagTree::from_levels(tree.root, graph, leaves, level, false).unwrap();
                 assert_eq!(dag.values_level(), level);
                 let cells: Vec<UVec3> = tree.leaves().map(|l| l.cell).collect();
                 let up = |c: UVec3| c >> u32::from(depth - level);

@@ -439,7 +439,6 @@ fn check_node_channel_list(h: &Header, l: &Levels) -> Result<(), FormatError> {
     Ok(())
 }
 
-/// Check 10 on a constant `v` of channel `kind` (known): it fits the channel's element.
 /// Check 10 on a channel stored on a level: the DAG layout only, a level from 1 to the depth,
 /// bits its element's (a normal's: even, 4 to 32), and a contour only on the leaves'.
 fn check_packed(h: &Header, kind: u8, level: u8, bits: u8) -> Result<(), FormatError> {
@@ -470,6 +469,7 @@ fn check_packed(h: &Header, kind: u8, level: u8, bits: u8) -> Result<(), FormatE
     Ok(())
 }
 
+/// Check 10 on a constant `v` of channel `kind` (known): it fits the channel's element.
 fn constant_fits(kind: u8, v: u32, what: &str) -> Result<(), FormatError> {
     let size = ChannelKind::ALL[usize::from(kind)].element_size();
     if size < 4 && v >> (8 * size) != 0 {
@@ -552,10 +552,10 @@ fn check_dag_counts(h: &Header, origin: DVec3) -> Result<(), (Check, String)> {
     Ok(())
 }
 
-/// The canonical node array of the tree that the blocks of a file of the DAG layout stand
-/// for (`docs/format.md`, section 12): checks 14 to 16 on its levels, 17 on its leaves, and
-/// the tree's size against what one tree in memory holds.
-fn dag_nodes(
+/// The graph the blocks of a file of the DAG layout hold (`docs/format.md`, section 12),
+/// whose tree the reader will make: checks 14 to 16 on its levels, 17 on its leaves, and the
+/// tree's size against what one tree in memory holds.
+fn dag_within_limits(
     h: &Header,
     levels: &Levels,
     blocks: &[Vec<Vec<u8>>],
@@ -847,7 +847,7 @@ fn finish_tree(raw: Raw, p: Preamble) -> Result<(Octree, Preamble), FormatError>
         }
         (_, _, Some(levels)) if levels.layout == DAG_LAYOUT => {
             check_level_hashes(levels, &blocks)?;
-            let graph = dag_nodes(&p.header, levels, &blocks)?;
+            let graph = dag_within_limits(&p.header, levels, &blocks)?;
             tree.nodes = graph.to_nodes();
             if let Some(level) = unpack_packed(&mut tree.attributes, &packed, &graph)? {
                 spread_values(&mut tree, level);
@@ -1254,13 +1254,8 @@ pub fn read_dag_file(path: impl AsRef<Path>) -> Result<(DagTree, BuildInfo), For
         }
         let (graph, size, tree, level) = dag_of_raw(raw, &p)?;
         let per_leaf = tree.attributes.per_leaf_bytes() > 0;
-        let mut dag = match level {
-            Some(l) if l < tree.depth => {
-                DagTree::from_levels(tree.root, graph, size.leaves, false)?
-                    .with_values_at(l, per_leaf)?
-            }
-            _ => DagTree::from_levels(tree.root, graph, size.leaves, per_leaf)?,
-        };
+        let values = level.unwrap_or(tree.depth);
+        let mut dag = DagTree::from_levels(tree.root, graph, size.leaves, values, per_leaf)?;
         dag.attributes = tree.attributes;
         Ok((dag, p))
     })?;
@@ -1372,10 +1367,8 @@ pub fn read_file_to_depth(
 }
 
 /// The graph a DAG-layout file's blocks hold (checks 22, 14 to 17), the size of its tree, and
-/// the file's tree without nodes (its root cube and leaves' channels, check 18 applied).
-/// The graph of a file of the DAG layout, its tree's size, and a tree without nodes holding
-/// its root, depth and values: per leaf, or one for each node of the level the file keeps
-/// them on (returned).
+/// the file's tree without nodes (its root cube and values, checks 17 and 18 applied): per
+/// leaf, or one for each node of the level the file keeps them on (returned).
 fn dag_of_raw(
     raw: Raw,
     p: &Preamble,

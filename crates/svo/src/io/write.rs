@@ -16,6 +16,7 @@ use crate::octree::level_order::{depth_first, keeps_level_order, level_order};
 use crate::octree::stitch;
 use crate::octree::tree::{ChannelKind, Node, Octree, StoredChannel};
 use crate::octree::validate::{InfoBits, check_tree};
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::Path;
 use thiserror::Error;
@@ -257,37 +258,41 @@ pub fn write_dag_to_with(
     let invalid = |e: crate::dag::ValuesError| {
         std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string())
     };
-    let attributes = values.of(tree).map_err(invalid)?;
-    // The tree's own checks, on its geometry and leaf channels.
-    checked_channels(tree)?;
-    let bits = values.normal_bits;
-    let mut channels: Vec<(u8, Stored)> = Vec::new();
-    let mut arrays: Vec<Vec<u8>> = Vec::new();
-    for (kind, c) in attributes.stored() {
-        match c {
-            StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
-            StoredChannel::PerLeaf { bytes, size } => {
-                let kind_bits = if kind == 0 { bits } else { (8 * size) as u8 };
-                if level == tree.depth && kind_bits == (8 * size) as u8 {
-                    channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
-                    arrays.push(bytes.to_vec());
-                    continue;
+    values.check(tree.depth).map_err(invalid)?;
+    // The tree's own checks, on its geometry and leaf channels; with each leaf's own values
+    // at their own width, its arrays are written as they are.
+    let (mut channels, borrowed) = checked_channels(tree)?;
+    let mut arrays: Vec<Cow<'_, [u8]>> = borrowed.into_iter().map(Cow::Borrowed).collect();
+    if level < tree.depth || values.normal_bits < 32 {
+        let attributes = values.of(tree).map_err(invalid)?;
+        let bits = values.normal_bits;
+        (channels, arrays) = (Vec::new(), Vec::new());
+        for (kind, c) in attributes.stored() {
+            match c {
+                StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
+                StoredChannel::PerLeaf { bytes, size } => {
+                    let kind_bits = if kind == 0 { bits } else { (8 * size) as u8 };
+                    if level == tree.depth && kind_bits == (8 * size) as u8 {
+                        channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
+                        arrays.push(Cow::Owned(bytes.to_vec()));
+                        continue;
+                    }
+                    let words = bytes.chunks_exact(size).map(|b| {
+                        let mut w = [0u8; 4];
+                        w[..size].copy_from_slice(b);
+                        u32::from_le_bytes(w)
+                    });
+                    let packed = packed::pack(kind, kind_bits, words);
+                    channels.push((
+                        kind,
+                        Stored::Packed {
+                            level,
+                            bits: kind_bits,
+                            len: packed.len() as u64,
+                        },
+                    ));
+                    arrays.push(Cow::Owned(packed));
                 }
-                let words = bytes.chunks_exact(size).map(|b| {
-                    let mut w = [0u8; 4];
-                    w[..size].copy_from_slice(b);
-                    u32::from_le_bytes(w)
-                });
-                let packed = packed::pack(kind, kind_bits, words);
-                channels.push((
-                    kind,
-                    Stored::Packed {
-                        level,
-                        bits: kind_bits,
-                        len: packed.len() as u64,
-                    },
-                ));
-                arrays.push(packed);
             }
         }
     }
@@ -306,7 +311,7 @@ pub fn write_dag_to_with(
     let all: Vec<&[u8]> = blocks
         .iter()
         .map(Vec::as_slice)
-        .chain(arrays.iter().map(Vec::as_slice))
+        .chain(arrays.iter().map(|a| &**a))
         .collect();
     write_layout(&layout, w, &mut |i, out| out.write_all(all[i]))
 }
