@@ -1,10 +1,7 @@
 //! The machine's memory as Linux reports it in `/proc`: what a new process may use, and the
 //! most this process has held. Elsewhere both are unknown (`None`).
 
-/// Bytes of memory available to a new process (Linux `MemAvailable`), if known.
-pub fn available_memory() -> Option<u64> {
-    proc_bytes("/proc/meminfo", "MemAvailable:")
-}
+pub use svo::bake::available_memory;
 
 /// The process's peak resident set (Linux `VmHWM`), in bytes, if known.
 pub fn peak_resident() -> Option<u64> {

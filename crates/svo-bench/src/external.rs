@@ -37,6 +37,14 @@ pub const EMBREE: Baseline = Baseline {
     install: "pip install embreex trimesh",
 };
 
+/// This repository's Python package, for the report's Python section
+/// (`docs/bench/python_package.py`).
+pub const PYTHON_PACKAGE: Baseline = Baseline {
+    name: "the Python package",
+    modules: &["svo", "numpy"],
+    install: "pip install ./crates/svo-py open3d trimesh embreex",
+};
+
 impl Baseline {
     /// Whether its modules import here.
     pub fn available(&self) -> bool {

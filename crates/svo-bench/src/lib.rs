@@ -21,6 +21,7 @@ pub mod machine;
 pub mod parts_tables;
 pub mod peak_memory;
 pub mod plots;
+pub mod python_tables;
 pub mod report;
 pub mod side_by_side;
 pub mod views;
@@ -189,6 +190,18 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         size,
     )?;
     let open3d = s.has_open3d.then(|| measure_open3d(opts, &s, &lg));
+    let python = s.has_python.then(|| {
+        lg("the Python package against Rust, open3d, trimesh and Embree");
+        python_tables::measure(
+            &opts.mesh,
+            &s.mesh,
+            &[8, 10],
+            |d| if d <= 8 { 11 } else { 5 },
+            (1_000_000, 10, 5),
+            s.tmp.path(),
+            &lg,
+        )
+    });
     let (gpu, gpu_note) = gpu(opts, &lg);
     let depths = measure_depths(&s, gpu.as_ref(), &lg)?;
     lg(&format!(
@@ -240,6 +253,7 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
         dag,
         values,
         open3d,
+        python,
         per_depth: depths.per_depth,
         image_rows: depths.image_rows,
         lod,
@@ -276,6 +290,7 @@ struct Setup {
     external: bool,
     has_open3d: bool,
     has_embree: bool,
+    has_python: bool,
 }
 
 impl Setup {
@@ -303,7 +318,12 @@ impl Setup {
         // Which external baselines run, asked once and said at the start, not only in the
         // report: without them the report is shorter.
         let external = !opts.quick && !opts.no_external;
-        let [has_open3d, has_embree] = [external::OPEN3D, external::EMBREE].map(|b| {
+        let [has_open3d, has_embree, has_python] = [
+            external::OPEN3D,
+            external::EMBREE,
+            external::PYTHON_PACKAGE,
+        ]
+        .map(|b| {
             let has = external && b.available();
             if external && !has {
                 lg(&format!(
@@ -323,6 +343,7 @@ impl Setup {
             external,
             has_open3d,
             has_embree,
+            has_python,
         })
     }
 
@@ -677,6 +698,9 @@ struct Measured {
     values: Vec<dag_tables::ValuesRow>,
     #[serde(serialize_with = "named_results")]
     open3d: Option<Vec<(String, Open3dRun)>>,
+    /// The Python package against Rust and other tools.
+    #[serde(serialize_with = "result")]
+    python: Option<anyhow::Result<python_tables::PythonTables>>,
     per_depth: Vec<DepthResults>,
     image_rows: Vec<ImageRow>,
     lod: Vec<lod_tables::LodRow>,
@@ -750,6 +774,7 @@ fn write_report(r: &mut Report, opts: &Options, m: &Measured) {
     bake_section(r, opts, m);
     pipeline_section(r, opts, m);
     open3d_section(r, opts, m);
+    python_section(r, opts, m);
     deep_and_parts_section(r, opts, m);
     geometry_section(r, opts, m);
     images_section(r, opts, m);
@@ -786,6 +811,20 @@ fn intro(r: &mut Report, opts: &Options, m: &Measured) {
             "This is the **quick** variant (shallow depths, tiny images, one run, no external \
              tools): it checks that the generator works, its figures are not the report's.",
         );
+    }
+}
+
+/// The Python package: its calls against Rust's, other voxelizers, Embree.
+fn python_section(r: &mut Report, opts: &Options, m: &Measured) {
+    r.heading(3, "The Python package, side by side");
+    match &m.python {
+        Some(Ok(t)) => python_tables::write(r, t),
+        Some(Err(e)) => r.para(&format!("The Python package's measurements failed: {e:#}.")),
+        None if opts.quick => r.para("Not measured in the quick variant."),
+        None => r.para(&format!(
+            "Not measured: `python3` cannot import the package here (`{}`).",
+            external::PYTHON_PACKAGE.install
+        )),
     }
 }
 

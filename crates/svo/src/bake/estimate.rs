@@ -27,6 +27,17 @@ pub(crate) const NODE_BYTES_PER_LEAF: f64 = 8.0;
 /// Peak bytes per input triangle (grid-space setup and attribute inputs).
 pub(crate) const BYTES_PER_TRIANGLE: f64 = 240.0;
 
+/// Bytes of memory available to a new process (Linux's `MemAvailable` in `/proc/meminfo`),
+/// if known: the limit a program that bakes meshes of any size gives
+/// [`crate::BakeOptions::max_memory`], so a depth that the machine cannot hold is refused
+/// before it starts. `None` elsewhere.
+pub fn available_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// A bake's size, estimated before baking ([`crate::bake::estimate_bake`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {

@@ -21,4 +21,4 @@ pub use bake_mesh::{
     BakeError, BakeOptions, BakeStats, Phase, bake_mesh, bake_mesh_with_progress, estimate_bake,
     voxelize_mesh,
 };
-pub use estimate::Estimate;
+pub use estimate::{Estimate, available_memory};

@@ -55,16 +55,30 @@ impl Octree {
         self.leaf_cells().map(|l| self.leaf(l.index, l.cell))
     }
 
-    /// The grid cell that contains the scene point `p` (cells are half-open here: a point
-    /// on a face shared by two cells is in the upper one), or `None` outside the root cube.
+    /// The grid cell that contains the scene point `p`, or `None` outside the (closed) root
+    /// cube. Cells are half-open here: a point on a face shared by two cells is in the upper
+    /// one, and a point on one of the root cube's upper faces in the cell below that face.
+    ///
+    /// ```
+    /// use glam::{DVec3, UVec3};
+    /// use svo::{Octree, RootCube, Voxel};
+    /// let root = RootCube { origin: DVec3::ZERO, side: 4.0 };
+    /// let tree = Octree::from_cells(root, 2, [(UVec3::new(3, 0, 0), Voxel::default())])?;
+    /// assert_eq!(tree.cell_at_point(DVec3::new(1.0, 0.5, 0.5)), Some(UVec3::new(1, 0, 0)));
+    /// assert_eq!(tree.cell_at_point(DVec3::new(4.0, 0.5, 0.5)), Some(UVec3::new(3, 0, 0)));
+    /// assert!(tree.contains(DVec3::new(4.0, 0.0, 0.0)));
+    /// assert_eq!(tree.cell_at_point(DVec3::new(4.0 + 1e-9, 0.5, 0.5)), None);
+    /// assert_eq!(tree.cell_at_point(DVec3::new(f64::NAN, 0.5, 0.5)), None);
+    /// # Ok::<(), svo::OctreeError>(())
+    /// ```
     pub fn cell_at_point(&self, p: DVec3) -> Option<UVec3> {
         let g = self.root.to_grid(p, self.depth);
         let n = (1u64 << self.depth) as f64;
         // NaN fails both comparisons.
-        if !(g.cmpge(DVec3::ZERO).all() && g.cmplt(DVec3::splat(n)).all()) {
+        if !(g.cmpge(DVec3::ZERO).all() && g.cmple(DVec3::splat(n)).all()) {
             return None;
         }
-        Some(g.floor().as_uvec3())
+        Some(g.floor().min(DVec3::splat(n - 1.0)).as_uvec3())
     }
 
     /// The leaf whose cell contains the scene point `p`, with its bounds and attributes.

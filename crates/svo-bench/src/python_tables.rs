@@ -1,0 +1,412 @@
+//! The Python package side by side, in one sitting: `docs/bench/python_package.py` (kept
+//! loaded, fed one command at a time over its pipes) times `svo.bake` and `Octree.cast` from
+//! Python, open3d's and trimesh's voxelizers (each set compared with the exact one) and
+//! Embree on the same rays; between its runs this module times the same bake and cast from
+//! Rust (`bake_mesh`, `Octree::cast_many`) on the same mesh and rays.
+
+use crate::external::{PYTHON_PACKAGE, scripts};
+use crate::report::{Report, f, median, ms};
+use serde_json::Value;
+use std::io::{BufRead, BufReader, Lines, Write};
+use std::path::Path;
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::Instant;
+use svo::mesh::Mesh;
+use svo::trace::HitMode;
+use svo::{BakeOptions, Ray, bake_mesh};
+
+/// One call made from Python and from Rust, alternating.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CallRow {
+    /// What was called.
+    pub what: String,
+    /// Rounds (one call from each side a round).
+    pub rounds: usize,
+    /// Median milliseconds from Python.
+    pub python_ms: f64,
+    /// Median milliseconds from Rust.
+    pub rust_ms: f64,
+    /// What it made (leaves, hits).
+    pub result: String,
+}
+
+/// Another voxelizer's set against the exact one.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct VoxelizerRow {
+    /// The tool.
+    pub tool: String,
+    /// Depth (grid `2^depth`).
+    pub depth: u8,
+    /// Median milliseconds, or why it did not run.
+    pub ms: Result<f64, String>,
+    /// Its voxels, the exact cells it missed and the cells it added.
+    pub voxels: usize,
+    /// Exact cells absent from its set.
+    pub missed: usize,
+    /// Cells of its set that no triangle touches.
+    pub extra: usize,
+    /// `svo.bake`'s median milliseconds at the same depth.
+    pub svo_ms: f64,
+}
+
+/// Embree's closest hits on the same rays.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EmbreeRow {
+    /// Milliseconds (one run, one thread).
+    pub ms: f64,
+    /// Rays that hit.
+    pub hits: u64,
+    /// The fraction of rays on which Embree and `Octree.cast` agree (hit or miss).
+    pub agree: f64,
+    /// The median distance between their hits, in cells of the tree.
+    pub median_t_cells: f64,
+}
+
+/// Everything the section shows.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PythonTables {
+    /// The versions the script reported.
+    pub versions: Value,
+    /// Calls from Python against Rust.
+    pub calls: Vec<CallRow>,
+    /// Voxelizers against the exact set.
+    pub voxelizers: Vec<VoxelizerRow>,
+    /// Embree, where it ran.
+    pub embree: Result<EmbreeRow, String>,
+    /// The rays cast.
+    pub rays: usize,
+    /// The tree's depth they were cast through.
+    pub cast_depth: u8,
+}
+
+/// The script, kept loaded.
+struct Server {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Lines<BufReader<ChildStdout>>,
+}
+
+impl Server {
+    fn start(mesh: &Path, rays: &Path) -> anyhow::Result<(Self, Value)> {
+        let mut child = Command::new("python3")
+            .arg(scripts().join("python_package.py"))
+            .arg(mesh)
+            .arg(rays)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()?;
+        let (Some(stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
+            anyhow::bail!("python_package.py started without its pipes");
+        };
+        let mut server = Self {
+            child,
+            stdin: Some(stdin),
+            lines: BufReader::new(stdout).lines(),
+        };
+        let head = server.read()?;
+        Ok((server, head))
+    }
+
+    fn read(&mut self) -> anyhow::Result<Value> {
+        let line = match self.lines.next() {
+            Some(line) => line?,
+            None => anyhow::bail!("python_package.py ended early"),
+        };
+        Ok(serde_json::from_str(&line)?)
+    }
+
+    /// Sends `command` and returns its answer, or the error the script reported.
+    fn ask(&mut self, command: &str) -> anyhow::Result<Value> {
+        let stdin = self
+            .stdin
+            .as_mut()
+            .ok_or_else(|| anyhow::anyhow!("python_package.py is closed"))?;
+        writeln!(stdin, "{command}")?;
+        stdin.flush()?;
+        let v = self.read()?;
+        if let Some(e) = v.get("error") {
+            anyhow::bail!("python_package.py {command}: {e}");
+        }
+        Ok(v)
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        drop(self.stdin.take());
+        let _ = self.child.wait();
+    }
+}
+
+/// A number field of an answer.
+fn num(v: &Value, key: &str) -> anyhow::Result<f64> {
+    v.get(key)
+        .and_then(Value::as_f64)
+        .ok_or_else(|| anyhow::anyhow!("no {key} in {v}"))
+}
+
+/// Milliseconds `f` takes.
+fn time_ms<T>(f: impl FnOnce() -> T) -> (f64, T) {
+    let t = Instant::now();
+    let out = f();
+    (t.elapsed().as_secs_f64() * 1e3, out)
+}
+
+/// The rays the script wrote: little-endian `f64` rows of origin and direction.
+fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
+    let bytes = std::fs::read(path)?;
+    let v: Vec<f64> = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or_default()))
+        .collect();
+    Ok(v.chunks_exact(6)
+        .map(|r| {
+            Ray::new(
+                glam::DVec3::new(r[0], r[1], r[2]),
+                glam::DVec3::new(r[3], r[4], r[5]),
+            )
+        })
+        .collect())
+}
+
+/// Whether `python3` imports the package and NumPy.
+pub fn available() -> bool {
+    PYTHON_PACKAGE.available()
+}
+
+/// Measures the section on `mesh` (loaded from `path`): bakes at `depths` (`rounds(depth)`
+/// rounds each), `rays` rays cast through the depth-`cast_depth` tree (`cast_rounds` rounds).
+pub fn measure(
+    path: &Path,
+    mesh: &Mesh,
+    depths: &[u8],
+    rounds: impl Fn(u8) -> usize,
+    (rays, cast_depth, cast_rounds): (usize, u8, usize),
+    dir: &Path,
+    lg: &dyn Fn(&str),
+) -> anyhow::Result<PythonTables> {
+    let rays_path = dir.join("rays.bin");
+    let (mut py, head) = Server::start(path, &rays_path)?;
+    let versions = head.get("versions").cloned().unwrap_or(Value::Null);
+    lg(&format!("the Python package: {versions}"));
+    let options = |depth| BakeOptions {
+        depth,
+        ..BakeOptions::default()
+    };
+    let mut calls = Vec::new();
+    let mut voxelizers = Vec::new();
+    for &depth in depths {
+        // One untimed call from each side first.
+        py.ask(&format!("bake {depth}"))?;
+        let (_, first) = time_ms(|| bake_mesh(mesh, &options(depth)));
+        let leaves = first?.0.leaf_count;
+        let (mut p, mut r) = (Vec::new(), Vec::new());
+        for _ in 0..rounds(depth) {
+            p.push(num(&py.ask(&format!("bake {depth}"))?, "ms")?);
+            let (t, tree) = time_ms(|| bake_mesh(mesh, &options(depth)));
+            drop(tree?);
+            r.push(t);
+        }
+        let svo_ms = median(&p);
+        calls.push(CallRow {
+            what: format!("`svo.bake(mesh, depth={depth})`"),
+            rounds: p.len(),
+            python_ms: svo_ms,
+            rust_ms: median(&r),
+            result: format!("{leaves} leaves"),
+        });
+        for tool in ["open3d", "trimesh"] {
+            let runs = if depth <= 8 { 3 } else { 1 };
+            let mut times = Vec::new();
+            let mut last = Value::Null;
+            let mut failed = None;
+            for _ in 0..runs {
+                match py.ask(&format!("{tool} {depth}")) {
+                    Ok(v) => {
+                        times.push(num(&v, "ms")?);
+                        last = v;
+                    }
+                    Err(e) => {
+                        failed = Some(format!("{e:#}"));
+                        break;
+                    }
+                }
+            }
+            let count = |k: &str| last.get(k).and_then(Value::as_u64).unwrap_or(0) as usize;
+            voxelizers.push(VoxelizerRow {
+                tool: tool.to_string(),
+                depth,
+                ms: failed.map_or_else(|| Ok(median(&times)), Err),
+                voxels: count("voxels"),
+                missed: count("missed"),
+                extra: count("extra"),
+                svo_ms,
+            });
+        }
+        lg(&format!("the Python package: depth {depth} done"));
+    }
+    py.ask(&format!("rays {rays}"))?;
+    let ray_list = read_rays(&rays_path)?;
+    let tree = bake_mesh(mesh, &options(cast_depth))?.0;
+    py.ask(&format!("cast {cast_depth}"))?;
+    let (_, hits) = time_ms(|| tree.cast_many(&ray_list, HitMode::Contour));
+    let rust_hits = hits.iter().filter(|h| h.is_some()).count();
+    drop(hits);
+    let (mut p, mut r) = (Vec::new(), Vec::new());
+    let mut py_hits = 0.0;
+    for _ in 0..cast_rounds {
+        let v = py.ask(&format!("cast {cast_depth}"))?;
+        p.push(num(&v, "ms")?);
+        py_hits = num(&v, "hits")?;
+        let (t, hits) = time_ms(|| tree.cast_many(&ray_list, HitMode::Contour));
+        drop(hits);
+        r.push(t);
+    }
+    anyhow::ensure!(
+        py_hits as usize == rust_hits,
+        "Octree.cast hit {py_hits} rays, Octree::cast_many {rust_hits}"
+    );
+    calls.push(CallRow {
+        what: format!(
+            "`Octree.cast`, {} M rays, depth {cast_depth}",
+            f(rays as f64 / 1e6, 1)
+        ),
+        rounds: p.len(),
+        python_ms: median(&p),
+        rust_ms: median(&r),
+        result: format!("{rust_hits} hits"),
+    });
+    let embree = py
+        .ask("embree")
+        .and_then(|v| {
+            Ok(EmbreeRow {
+                ms: num(&v, "ms")?,
+                hits: num(&v, "hits")? as u64,
+                agree: num(&v, "agree")?,
+                median_t_cells: num(&v, "median_t_cells")?,
+            })
+        })
+        .map_err(|e| format!("{e:#}"));
+    Ok(PythonTables {
+        versions,
+        calls,
+        voxelizers,
+        embree,
+        rays,
+        cast_depth,
+    })
+}
+
+/// The section: the calls from Python against Rust, the voxelizers against the exact set,
+/// Embree on the same rays.
+pub fn write(r: &mut Report, t: &PythonTables) {
+    let v = |k: &str| {
+        t.versions
+            .get(k)
+            .and_then(Value::as_str)
+            .unwrap_or("?")
+            .to_string()
+    };
+    r.para(&format!(
+        "`docs/bench/python_package.py` (Python {}, NumPy {}; open3d {}, trimesh {}, embreex \
+         {}), kept loaded and fed one command at a time; between its calls this program makes \
+         the same call from Rust on the same mesh (and, for the rays, the same rays, read from \
+         the file the script wrote), so each round has one call from each side. Medians over \
+         the rounds; the package is a release build (`pip install ./crates/svo-py`), the GIL \
+         released for the calls, both sides on all cores.",
+        v("python"),
+        v("numpy"),
+        v("open3d"),
+        v("trimesh"),
+        v("embreex")
+    ));
+    let rows: Vec<Vec<String>> = t
+        .calls
+        .iter()
+        .map(|c| {
+            vec![
+                c.what.clone(),
+                c.rounds.to_string(),
+                ms(c.python_ms / 1e3),
+                ms(c.rust_ms / 1e3),
+                format!("{}x", f(c.python_ms / c.rust_ms, 3)),
+                c.result.clone(),
+            ]
+        })
+        .collect();
+    r.table(
+        &[
+            "call",
+            "rounds",
+            "from Python",
+            "from Rust",
+            "Python / Rust",
+            "result",
+        ],
+        &rows,
+    );
+    r.para(
+        "Other voxelizers from Python on the same root cube and grid as `svo.bake` (each set \
+         compared cell by cell with the exact one: *missed* are cells a triangle touches that \
+         the set lacks, *extra* cells no triangle touches): open3d's \
+         `VoxelGrid.create_from_triangle_mesh_within_bounds` (the voxel set only, vertices \
+         read as 32-bit floats) and trimesh's `voxelize_subdivide` (the mesh subdivided until \
+         its edges are shorter than a cell, then the cells of its vertices: it misses the \
+         cells that a triangle only crosses between them). Medians of 3 runs at depth 8, one \
+         run at depth 10. CudaVox 1.7.0 (the Python bindings of a fork of cuda_voxelizer, with \
+         an OpenMP path for CPUs) installs from PyPI but was compiled against NumPy 1 and \
+         does not import beside NumPy 2 (`_ARRAY_API not found`), so it has no row.",
+    );
+    let rows: Vec<Vec<String>> = t
+        .voxelizers
+        .iter()
+        .map(|x| match &x.ms {
+            Ok(t) => vec![
+                x.tool.clone(),
+                format!("{}^3", 1u64 << x.depth),
+                ms(t / 1e3),
+                format!("{}x", f(t / x.svo_ms, 2)),
+                x.voxels.to_string(),
+                x.missed.to_string(),
+                x.extra.to_string(),
+            ],
+            Err(e) => vec![
+                x.tool.clone(),
+                format!("{}^3", 1u64 << x.depth),
+                format!("failed: {e}"),
+                String::new(),
+                String::new(),
+                String::new(),
+                String::new(),
+            ],
+        })
+        .collect();
+    r.table(
+        &[
+            "voxelizer",
+            "grid",
+            "time",
+            "time / svo.bake",
+            "voxels",
+            "missed",
+            "extra",
+        ],
+        &rows,
+    );
+    match &t.embree {
+        Ok(e) => r.para(&format!(
+            "The same {} rays through Embree (embreex, closest hits on the mesh's triangles, \
+             one thread, BVH built beforehand): {}, {} hits; it and `Octree.cast` (depth {}, \
+             contours) agree on hit or miss for {}% of the rays, and where both hit their \
+             distances differ by a median of {:.1e} cells.",
+            t.rays,
+            ms(e.ms / 1e3),
+            e.hits,
+            t.cast_depth,
+            f(e.agree * 100.0, 2),
+            e.median_t_cells
+        )),
+        Err(e) => r.para(&format!("Embree on the same rays did not run: {e}.")),
+    }
+}
