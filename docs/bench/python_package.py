@@ -14,7 +14,8 @@ Each command line is answered with one JSON line:
     trimesh DEPTH     trimesh.voxel.creation.voxelize_subdivide on svo's grid: the same
     rays N            N rays (seeded) written to RAYS.bin as little-endian float64 rows
                       (origin, direction) for the Rust side
-    cast DEPTH        one Octree.cast of those rays through the depth-DEPTH tree: ms, hits
+    cast DEPTH        one Octree.cast of those rays through the depth-DEPTH tree: ms, hits;
+                      the leaf each ray hit (-1 for none) written to RAYS.bin.leaf
     embree            one embreex closest-hit run of those rays (one thread): ms, hits, and
                       its agreement with the last cast (hit or miss, and the distance)
 
@@ -114,6 +115,7 @@ class Bench:
         tree = self.tree(depth)
         ms, hits = timed(lambda: tree.cast(*self.rays))
         self.last_cast = (depth, hits)
+        hits.leaf.astype("<i8").tofile(self.rays_path + ".leaf")
         return {"ms": ms, "hits": int(hits.hit.sum())}
 
     def embree(self):
