@@ -1,5 +1,6 @@
 //! `Octree.cast`: many rays from NumPy arrays through the library's traversal
-//! (`Octree::cast_many`), in parallel with the GIL released, the hits back as arrays.
+//! (`Octree::cast_with`, as `Octree::cast_many` casts them), in parallel with the GIL
+//! released, each hit written straight into its rows of the output arrays.
 
 use crate::arrays;
 use crate::errors::threads_error;
@@ -75,35 +76,32 @@ pub(crate) fn cast(
         }
     };
     let pick = |v: &[glam::DVec3], i: usize| if v.len() == 1 { v[0] } else { v[i] };
-    let rays: Vec<Ray> = (0..n).map(|i| Ray::new(pick(&o, i), pick(&d, i))).collect();
-    let (t, point, normal, leaf) = py
-        .detach(|| {
-            svo::with_threads(threads, |_| {
-                let hits = tree.cast_many(&rays, mode);
-                let mut t = Vec::with_capacity(n);
-                let mut point = Vec::with_capacity(n);
-                let mut normal = Vec::with_capacity(n);
-                let mut leaf = Vec::with_capacity(n);
-                for h in hits {
-                    match h.filter(|h| h.t <= t_max) {
-                        Some(h) => {
-                            t.push(h.t);
-                            point.push(h.point.to_array());
-                            normal.push(h.normal.to_array());
-                            leaf.push(i64::from(h.leaf));
-                        }
-                        None => {
-                            t.push(f64::NAN);
-                            point.push([f64::NAN; 3]);
-                            normal.push([f64::NAN; 3]);
-                            leaf.push(-1);
-                        }
+    // Each ray cast straight into its rows of the output arrays, in parallel: no list of
+    // rays or of hits in between.
+    let mut t = vec![f64::NAN; n];
+    let mut point = vec![[f64::NAN; 3]; n];
+    let mut normal = vec![[f64::NAN; 3]; n];
+    let mut leaf = vec![-1i64; n];
+    py.detach(|| {
+        svo::with_threads(threads, |_| {
+            use rayon::prelude::*;
+            t.par_iter_mut()
+                .zip(point.par_iter_mut())
+                .zip(normal.par_iter_mut())
+                .zip(leaf.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, (((t, p), nm), l))| {
+                    let ray = Ray::new(pick(&o, i), pick(&d, i));
+                    if let Some(h) = tree.cast_with(ray, mode).filter(|h| h.t <= t_max) {
+                        *t = h.t;
+                        *p = h.point.to_array();
+                        *nm = h.normal.to_array();
+                        *l = i64::from(h.leaf);
                     }
-                }
-                (t, point, normal, leaf)
-            })
+                });
         })
-        .map_err(threads_error)?;
+    })
+    .map_err(threads_error)?;
     let hit = leaf.iter().map(|&l| l >= 0).collect();
     Ok(PyHits {
         t: arrays::vector(py, t).unbind(),
