@@ -41,6 +41,18 @@ impl PyHits {
     }
 }
 
+/// The hit mode named `mode`: `contour` or `cube` (the library's `exact` needs the mesh,
+/// which a tree does not keep).
+pub(crate) fn hit_mode(mode: &str) -> PyResult<HitMode> {
+    match mode {
+        "contour" => Ok(HitMode::Contour),
+        "cube" => Ok(HitMode::Cube),
+        _ => Err(PyValueError::new_err(format!(
+            "unknown hit mode {mode:?} (expected contour or cube)"
+        ))),
+    }
+}
+
 /// Casts `origins` along `directions` through `tree` (see `Octree.cast` for the rules).
 pub(crate) fn cast(
     tree: &Octree,
@@ -51,15 +63,7 @@ pub(crate) fn cast(
     mode: &str,
     threads: Option<usize>,
 ) -> PyResult<PyHits> {
-    let mode = match mode {
-        "contour" => HitMode::Contour,
-        "cube" => HitMode::Cube,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "unknown hit mode {mode:?} (expected contour or cube)"
-            )));
-        }
-    };
+    let mode = hit_mode(mode)?;
     if t_max.is_nan() {
         return Err(PyValueError::new_err("t_max must be a number, not NaN"));
     }

@@ -7,7 +7,6 @@ use crate::octree::PyOctree;
 use glam::DVec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use svo::HitMode;
 use svo::render::{
     Frame, LightSpec, OctreeSurfaces, SceneSetup, ShadowMode, TraceOptions, Tracer, render,
 };
@@ -40,15 +39,7 @@ pub(crate) fn frame(py: Python<'_>, tree: &PyOctree, args: RenderArgs) -> PyResu
     let side = |v: i64, what: &str| {
         u32::try_from(v).map_err(|_| value_error(format!("{what} {v} is not a pixel count")))
     };
-    let mode = match args.mode.as_str() {
-        "contour" => HitMode::Contour,
-        "cube" => HitMode::Cube,
-        m => {
-            return Err(value_error(format!(
-                "unknown hit mode {m:?} (expected contour or cube)"
-            )));
-        }
-    };
+    let mode = crate::rays::hit_mode(&args.mode)?;
     if !(args.lod.is_finite() && args.lod >= 0.0) {
         return Err(value_error(format!(
             "lod {} must be 0 (the exact walk) or a positive number of pixels",
