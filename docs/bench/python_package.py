@@ -9,8 +9,9 @@ the Rust calls between this script's runs) against the same calls from Rust.
 Each command line is answered with one JSON line:
 
     bake DEPTH        one svo.bake (default options, all cores): ms, leaves
-    open3d DEPTH      VoxelGrid.create_from_triangle_mesh_within_bounds on svo's grid: ms,
-                      voxels, cells missed and extra against svo's exact set at DEPTH
+    open3d DEPTH [C]  VoxelGrid.create_from_triangle_mesh_within_bounds on svo's grid: ms,
+                      and unless C is 0, its voxels and the cells missed and extra against
+                      svo's exact set at DEPTH
     trimesh DEPTH     trimesh.voxel.creation.voxelize_subdivide on svo's grid: the same
     rays N            N rays (seeded) written to RAYS.bin as little-endian float64 rows
                       (origin, direction) for the Rust side
@@ -73,7 +74,7 @@ class Bench:
         self.trees.setdefault(depth, tree)
         return {"ms": ms, "leaves": tree.leaf_count}
 
-    def open3d(self, depth):
+    def open3d(self, depth, compare=1):
         import open3d as o3d
 
         tree = self.tree(depth)
@@ -83,6 +84,8 @@ class Bench:
             o3d.utility.Vector3dVector(self.v), o3d.utility.Vector3iVector(self.f))
         ms, grid = timed(lambda: o3d.geometry.VoxelGrid.create_from_triangle_mesh_within_bounds(
             mesh, tree.cell_size, lo, lo + side))
+        if not compare:
+            return {"ms": ms}
         cells = np.array([v.grid_index for v in grid.get_voxels()]).reshape(-1, 3)
         return {"ms": ms, **self.compare(depth, cells)}
 

@@ -276,13 +276,6 @@ fn run(
         job.values
             .check(options.depth)
             .map_err(|e| JobError::Layout(e.to_string()))?;
-        if job.memory.is_some() {
-            return Err(JobError::Layout(
-                "values on a level or normals in fewer bits are made by a bake in memory so \
-                 far: leave out --memory, or --attribute-depth and --normal-bits"
-                    .into(),
-            ));
-        }
         if job.values.level_for(options.depth) < options.depth {
             // The values above the leaves are the inner nodes' attributes.
             options.node_attributes = true;
@@ -405,14 +398,6 @@ fn bake_in_parts(
     clock: Clock,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<BakeReport, JobError> {
-    if job.values != DagValues::default() {
-        return Err(JobError::Layout(
-            "values on a level or normals in fewer bits are made by a bake in memory so far, \
-             and this bake needs parts: leave out --attribute-depth and --normal-bits, or bake \
-             less deep"
-                .into(),
-        ));
-    }
     let t = Instant::now();
     let r = bake_within(
         mesh,
@@ -422,7 +407,7 @@ fn bake_in_parts(
         build,
         &job.output,
         if job.layout == NodeLayout::Dag {
-            MergeFormat::Dag
+            MergeFormat::DagWith(job.values)
         } else {
             MergeFormat::Auto
         },

@@ -85,16 +85,34 @@ struct Args {
     /// converts it either way.
     #[arg(long, default_value = "tree", value_name = "LAYOUT")]
     layout: LayoutArg,
+    #[command(flatten)]
+    values: ValuesArgs,
+}
+
+/// Where a DAG file keeps its leaves' values, for a bake and for `merge`.
+#[derive(clap::Args, Debug, Clone, Copy)]
+struct ValuesArgs {
     /// With `--layout dag`: keep the leaves' values (normals, colours, materials) on this
     /// level of the tree, each node's the area-weighted surface in its cell, which the leaves
     /// below take (1 to depth - 2; the depth, each leaf its own, is the default). The
-    /// contour, measured in its own leaf's cell, is left out.
+    /// contour, measured in its own leaf's cell, is left out. For `merge`, the plan must
+    /// have been made with `--lod filtered --no-contours`.
     #[arg(long, value_name = "LEVEL")]
     attribute_depth: Option<u8>,
     /// With `--layout dag`: keep each normal in this many bits (an even number from 4 to
     /// 32, half of them a component of its octahedral encoding).
     #[arg(long, value_name = "BITS", default_value_t = 32)]
     normal_bits: u8,
+}
+
+impl ValuesArgs {
+    /// The library's settings.
+    fn values(self) -> DagValues {
+        DagValues {
+            level: self.attribute_depth,
+            normal_bits: self.normal_bits,
+        }
+    }
 }
 
 /// What `--layout` asks for.
@@ -210,6 +228,8 @@ enum Command {
         /// attributes).
         #[arg(long, default_value = "tree", value_name = "LAYOUT")]
         layout: LayoutArg,
+        #[command(flatten)]
+        values: ValuesArgs,
         /// Print the summary as JSON on stdout.
         #[arg(long)]
         json: bool,
@@ -338,8 +358,9 @@ fn real_main() -> anyhow::Result<()> {
             output,
             chunked,
             layout,
+            values,
             json,
-        }) => merge(plan, output, *chunked, *layout, *json),
+        }) => merge(plan, output, *chunked, *layout, values.values(), *json),
         None => bake(&args),
     }
 }
@@ -424,10 +445,14 @@ fn merge(
     output: &std::path::Path,
     chunked: bool,
     layout: LayoutArg,
+    values: DagValues,
     json: bool,
 ) -> anyhow::Result<()> {
+    if layout != LayoutArg::Dag && values != DagValues::default() {
+        anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
+    }
     let format = match (chunked, layout) {
-        (_, LayoutArg::Dag) => MergeFormat::Dag,
+        (_, LayoutArg::Dag) => MergeFormat::DagWith(values),
         (true, LayoutArg::Tree) => MergeFormat::Chunked,
         (false, LayoutArg::Tree) => MergeFormat::Auto,
     };
@@ -521,10 +546,7 @@ fn bake(args: &Args) -> anyhow::Result<()> {
             LayoutArg::Tree => NodeLayout::Tree,
             LayoutArg::Dag => NodeLayout::Dag,
         },
-        values: DagValues {
-            level: args.attribute_depth,
-            normal_bits: args.normal_bits,
-        },
+        values: args.values.values(),
     };
     if job.layout != NodeLayout::Dag && job.values != DagValues::default() {
         anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");

@@ -196,7 +196,10 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
             &opts.mesh,
             &s.mesh,
             &[8, 10],
-            |d| if d <= 8 { 11 } else { 5 },
+            (
+                |d| if d <= 8 { 9 } else { 5 },
+                |d| if d <= 8 { 3 } else { 1 },
+            ),
             (1_000_000, 10, 5),
             s.tmp.path(),
             &lg,
@@ -1394,6 +1397,9 @@ fn targets_section(r: &mut Report, opts: &Options, m: &Measured) {
     t.extend(ray_targets(m));
     if !opts.quick {
         t.extend(lod_targets(m));
+    }
+    if let Some(Ok(p)) = &m.python {
+        t.extend(python_tables::targets(p));
     }
     if !opts.quick {
         let minutes = m.seconds / 60.0;

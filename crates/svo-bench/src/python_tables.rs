@@ -20,12 +20,15 @@ use svo::{BakeOptions, Ray, bake_mesh};
 /// to half a cell held 24 GB and was killed on the 24 GiB VM.
 const TRIMESH_MAX_DEPTH: u8 = 8;
 
+/// trimesh's runs (after the rounds of `svo.bake` and open3d; their median is its time).
+const TRIMESH_RUNS: usize = 3;
+
 /// One call made from Python and from Rust, alternating.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct CallRow {
     /// What was called.
     pub what: String,
-    /// Rounds (one call from each side a round).
+    /// Rounds (the same number of calls from each side a round).
     pub rounds: usize,
     /// Median milliseconds from Python.
     pub python_ms: f64,
@@ -52,6 +55,41 @@ pub struct VoxelizerRow {
     pub extra: usize,
     /// `svo.bake`'s median milliseconds at the same depth.
     pub svo_ms: f64,
+    /// Where the tool ran in alternation with `svo.bake`: the rounds' ratios of its time to
+    /// `svo.bake`'s, median, lowest and highest.
+    pub ratios: Option<(f64, f64, f64)>,
+}
+
+impl VoxelizerRow {
+    /// A row from the tool's time and the counts of its compared run `v`.
+    fn new(tool: &str, depth: u8, ms: Result<f64, String>, v: &Value, svo_ms: f64) -> Self {
+        let count = |k: &str| v.get(k).and_then(Value::as_u64).unwrap_or(0) as usize;
+        Self {
+            tool: tool.to_string(),
+            depth,
+            ms,
+            voxels: count("voxels"),
+            missed: count("missed"),
+            extra: count("extra"),
+            svo_ms,
+            ratios: None,
+        }
+    }
+
+    /// The row with the rounds' ratios to `svo.bake` (none if there were no rounds).
+    fn with_ratios(mut self, ratios: &[f64]) -> Self {
+        let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        self.ratios = (!ratios.is_empty()).then(|| (median(ratios), lo, hi));
+        self
+    }
+
+    /// Its time over `svo.bake`'s: the median of the rounds' ratios where it alternated,
+    /// else the ratio of the medians.
+    pub fn ratio(&self) -> Option<f64> {
+        let t = self.ms.as_ref().ok()?;
+        Some(self.ratios.map_or(t / self.svo_ms, |r| r.0))
+    }
 }
 
 /// Embree's closest hits on the same rays.
@@ -181,12 +219,12 @@ pub fn available() -> bool {
 }
 
 /// Measures the section on `mesh` (loaded from `path`): bakes at `depths` (`rounds(depth)`
-/// rounds each), `rays` rays cast through the depth-`cast_depth` tree (`cast_rounds` rounds).
+/// rounds of `runs(depth)` runs of each call), `rays` rays cast through the depth-`cast_depth` tree (`cast_rounds` rounds).
 pub fn measure(
     path: &Path,
     mesh: &Mesh,
     depths: &[u8],
-    rounds: impl Fn(u8) -> usize,
+    (rounds, runs): (impl Fn(u8) -> usize, impl Fn(u8) -> usize),
     (rays, cast_depth, cast_rounds): (usize, u8, usize),
     dir: &Path,
     lg: &dyn Fn(&str),
@@ -202,16 +240,33 @@ pub fn measure(
     let mut calls = Vec::new();
     let mut voxelizers = Vec::new();
     for &depth in depths {
-        // One untimed call from each side first.
+        // One untimed call of each first; open3d's also compares its set with the exact one.
         py.ask(&format!("bake {depth}"))?;
         let (_, first) = time_ms(|| bake_mesh(mesh, &options(depth)));
         let leaves = first?.0.leaf_count;
-        let (mut p, mut r) = (Vec::new(), Vec::new());
+        let open3d_first = py.ask(&format!("open3d {depth} 1"));
+        let (mut p, mut r, mut o) = (Vec::new(), Vec::new(), Vec::new());
+        let runs = runs(depth);
         for _ in 0..rounds(depth) {
-            p.push(num(&py.ask(&format!("bake {depth}"))?, "ms")?);
-            let (t, tree) = time_ms(|| bake_mesh(mesh, &options(depth)));
-            drop(tree?);
-            r.push(t);
+            let mut py_round = Vec::new();
+            for _ in 0..runs {
+                py_round.push(num(&py.ask(&format!("bake {depth}"))?, "ms")?);
+            }
+            p.push(median(&py_round));
+            let mut rust_round = Vec::new();
+            for _ in 0..runs {
+                let (t, tree) = time_ms(|| bake_mesh(mesh, &options(depth)));
+                drop(tree?);
+                rust_round.push(t);
+            }
+            r.push(median(&rust_round));
+            if open3d_first.is_ok() {
+                let mut o3d_round = Vec::new();
+                for _ in 0..runs {
+                    o3d_round.push(num(&py.ask(&format!("open3d {depth} 0"))?, "ms")?);
+                }
+                o.push(median(&o3d_round));
+            }
         }
         let svo_ms = median(&p);
         calls.push(CallRow {
@@ -221,19 +276,23 @@ pub fn measure(
             rust_ms: median(&r),
             result: format!("{leaves} leaves"),
         });
-        // trimesh's subdivision of the bunny to half a cell at depth 10 passes 24 GiB.
-        let tools: &[&str] = if depth <= TRIMESH_MAX_DEPTH {
-            &["open3d", "trimesh"]
-        } else {
-            &["open3d"]
-        };
-        for &tool in tools {
-            let runs = if depth <= 8 { 3 } else { 1 };
+        let ratios: Vec<f64> = o.iter().zip(&p).map(|(o, p)| o / p).collect();
+        voxelizers.push(match open3d_first {
+            Ok(v) => {
+                VoxelizerRow::new("open3d", depth, Ok(median(&o)), &v, svo_ms).with_ratios(&ratios)
+            }
+            Err(e) => {
+                VoxelizerRow::new("open3d", depth, Err(format!("{e:#}")), &Value::Null, svo_ms)
+            }
+        });
+        // trimesh's subdivision of the bunny to half a cell at depth 10 passes 24 GiB; at
+        // 8 it takes seconds a run and hundreds of times svo.bake's time, so it runs apart.
+        if depth <= TRIMESH_MAX_DEPTH {
             let mut times = Vec::new();
             let mut last = Value::Null;
             let mut failed = None;
-            for _ in 0..runs {
-                match py.ask(&format!("{tool} {depth}")) {
+            for _ in 0..TRIMESH_RUNS {
+                match py.ask(&format!("trimesh {depth}")) {
                     Ok(v) => {
                         times.push(num(&v, "ms")?);
                         last = v;
@@ -244,16 +303,8 @@ pub fn measure(
                     }
                 }
             }
-            let count = |k: &str| last.get(k).and_then(Value::as_u64).unwrap_or(0) as usize;
-            voxelizers.push(VoxelizerRow {
-                tool: tool.to_string(),
-                depth,
-                ms: failed.map_or_else(|| Ok(median(&times)), Err),
-                voxels: count("voxels"),
-                missed: count("missed"),
-                extra: count("extra"),
-                svo_ms,
-            });
+            let ms = failed.map_or_else(|| Ok(median(&times)), Err);
+            voxelizers.push(VoxelizerRow::new("trimesh", depth, ms, &last, svo_ms));
         }
         lg(&format!("the Python package: depth {depth} done"));
     }
@@ -336,11 +387,12 @@ pub fn write(r: &mut Report, t: &PythonTables) {
         "`docs/bench/python_package.py` (Python {}, NumPy {}; open3d {}, trimesh {}, embreex \
          {}), kept loaded and fed one command at a time; between its calls this program makes \
          the same call from Rust on the same mesh (and, for the rays, the same rays, read from \
-         the file the script wrote), so each round has one call from each side; every ray hits \
-         the same leaf from both sides (checked). Medians over the rounds; the package is a release build (`pip install ./crates/svo-py`), the GIL \
-         released for the calls, both sides on all cores. The Rust calls run in this program, \
-         which links mimalloc (as `svo-bake` does); the package uses the interpreter's system \
-         allocator.",
+         the file the script wrote): each round makes the same number of calls from each side \
+         (3 at depth 8, else 1) and gives the median of each side's; every ray hits the same \
+         leaf from both sides (checked). Medians over the rounds; the package is a \
+         release build (`pip install ./crates/svo-py`), the GIL released for the calls, both \
+         sides on all cores and on mimalloc (this program links it as `svo-bake` does, the \
+         package for its own allocations).",
         v("python"),
         v("numpy"),
         v("open3d"),
@@ -381,27 +433,36 @@ pub fn write(r: &mut Report, t: &PythonTables) {
          its edges are shorter than a cell, then the cells of its vertices: it misses the \
          cells that a triangle only crosses between them; at depth 10 its subdivision of the \
          bunny held 24 GB and was killed on this 24 GiB machine, so it runs at depth 8 only). \
-         Medians of 3 runs at depth 8, one run at depth 10. CudaVox 1.7.0 (the Python bindings of a fork of cuda_voxelizer, with \
+         open3d runs as often as each bake in every round of the `svo.bake` rows above, after \
+         them, so that both see the same state of the machine: its time is the median over the \
+         rounds, and its ratio the median of the rounds' ratios to `svo.bake` (lowest and \
+         highest in brackets). trimesh runs 3 times after the rounds (median; the ratio of \
+         the medians). Each set is compared once, in an untimed run. CudaVox 1.7.0 (the Python bindings of a fork of cuda_voxelizer, with \
          an OpenMP path for CPUs) installs from PyPI but was compiled against NumPy 1 and \
          does not import beside NumPy 2 (`_ARRAY_API not found`), so it has no row.",
     );
     let rows: Vec<Vec<String>> = t
         .voxelizers
         .iter()
-        .map(|x| match &x.ms {
-            Ok(t) => vec![
+        .map(|x| match (&x.ms, x.ratio()) {
+            (Ok(t), Some(ratio)) => vec![
                 x.tool.clone(),
                 format!("{}^3", 1u64 << x.depth),
                 ms(t / 1e3),
-                format!("{}x", f(t / x.svo_ms, 2)),
+                match x.ratios {
+                    Some((_, lo, hi)) => {
+                        format!("{}x ({}-{})", f(ratio, 2), f(lo, 1), f(hi, 1))
+                    }
+                    None => format!("{}x", f(ratio, 0)),
+                },
                 x.voxels.to_string(),
                 x.missed.to_string(),
                 x.extra.to_string(),
             ],
-            Err(e) => vec![
+            (e, _) => vec![
                 x.tool.clone(),
                 format!("{}^3", 1u64 << x.depth),
-                format!("failed: {e}"),
+                format!("failed: {}", e.as_ref().err().map_or("", String::as_str)),
                 String::new(),
                 String::new(),
                 String::new(),
@@ -436,4 +497,54 @@ pub fn write(r: &mut Report, t: &PythonTables) {
         )),
         Err(e) => r.para(&format!("Embree on the same rays did not run: {e}.")),
     }
+}
+
+/// The package's targets: each call within 10% of Rust's, the bake at least 5x open3d at
+/// depth 8 and 10x at depth 10 with no cell missed.
+pub fn targets(t: &PythonTables) -> Vec<Vec<String>> {
+    let met = |ok: bool| if ok { "met" } else { "**not met**" };
+    let mut rows: Vec<Vec<String>> = t
+        .calls
+        .iter()
+        .map(|c| {
+            let ratio = c.python_ms / c.rust_ms;
+            vec![
+                format!(
+                    "{} from Python within 10% of the same call from Rust",
+                    c.what
+                ),
+                format!(
+                    "{} against {} ({}x): {}",
+                    ms(c.python_ms / 1e3),
+                    ms(c.rust_ms / 1e3),
+                    f(ratio, 3),
+                    met(ratio <= 1.1)
+                ),
+            ]
+        })
+        .collect();
+    for x in t.voxelizers.iter().filter(|x| x.tool == "open3d") {
+        let want = if x.depth <= 8 { 5.0 } else { 10.0 };
+        let (Ok(o3d), Some(ratio)) = (&x.ms, x.ratio()) else {
+            continue;
+        };
+        rows.push(vec![
+            format!(
+                "`svo.bake` at depth {} at least {want}x open3d from Python, no cell missed",
+                x.depth
+            ),
+            format!(
+                "{} against {} (median ratio {}x{}), {} missed: {}",
+                ms(x.svo_ms / 1e3),
+                ms(o3d / 1e3),
+                f(ratio, 2),
+                x.ratios
+                    .map(|(_, lo, hi)| format!(", rounds {}-{}x", f(lo, 1), f(hi, 1)))
+                    .unwrap_or_default(),
+                x.missed,
+                met(ratio >= want && x.missed == 0)
+            ),
+        ]);
+    }
+    rows
 }

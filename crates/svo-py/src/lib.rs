@@ -18,6 +18,13 @@ mod render;
 
 use pyo3::prelude::*;
 
+/// The module's Rust allocations on mimalloc (feature `mimalloc`, on by default): a bake's
+/// freed buffers are kept for its next allocations, where the system allocator hands large
+/// ones back to the kernel and every bake faults them in again (`docs/performance.md`).
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static ALLOC: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The compiled module, `svo._svo`; `svo` re-exports it.
 #[pymodule(name = "_svo")]
 fn svo_module(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -538,17 +538,46 @@ fn layout_dag_keeps_values_on_a_level() {
         &["--layout", "dag", "--normal-bits", "9"],
         "9 bits a normal",
     );
-    refused(
-        &[
-            "--layout",
-            "dag",
-            "--attribute-depth",
-            "6",
-            "--memory",
-            "1GiB",
-        ],
-        "bake in memory",
-    );
+    // Within a memory budget (parts baked with the inner nodes' attributes, the graph and
+    // the level's values made by the merge), and by a plan's parts merged: the same bytes.
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    let on_level = [
+        "--layout",
+        "dag",
+        "--attribute-depth",
+        "6",
+        "--normal-bits",
+        "16",
+    ];
+    let mut within = on_level.to_vec();
+    within.extend(["--memory", "16MiB"]);
+    run(&within, &p("level6parts.svo"));
+    assert!(bytes(&p("level6parts.svo")) == bytes(&p("level6.svo")));
+    let plan = p("level6.svoplan");
+    let plan_with = |extra: &[&str]| {
+        let mut a = vec!["plan", s(&torus), "--parts", "3", "--depth", "8"];
+        a.extend_from_slice(&["--channels", "normal", "-o", s(&plan)]);
+        a.extend_from_slice(extra);
+        ok(&a);
+        for i in ["0", "1", "2"] {
+            ok(&["part", s(&plan), i]);
+        }
+    };
+    plan_with(&["--lod", "filtered", "--no-contours"]);
+    let merged = p("level6merged.svo");
+    let mut merge = vec!["merge", s(&plan), "-o", s(&merged)];
+    merge.extend_from_slice(&on_level);
+    ok(&merge);
+    assert!(bytes(&merged) == bytes(&p("level6.svo")));
+    let merge_fails = |extra: &[&str], says: &str| {
+        let mut a = vec!["merge", s(&plan), "-o", s(&no)];
+        a.extend_from_slice(extra);
+        fails(&a, says);
+        assert!(!no.exists());
+    };
+    merge_fails(&["--attribute-depth", "6"], "for --layout dag");
+    plan_with(&[]);
+    merge_fails(&on_level, "node attributes");
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {

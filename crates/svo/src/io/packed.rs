@@ -39,27 +39,59 @@ pub(crate) fn packed_len(count: u64, bits: u8) -> Option<u64> {
 /// Packs `values` (of a channel of `kind`, as words) in `bits` bits each: a normal in fewer
 /// than 32 bits as its two octahedral components ([`quantize`]), any other value as it is.
 pub(crate) fn pack(kind: u8, bits: u8, values: impl Iterator<Item = u32>) -> Vec<u8> {
-    let b = u32::from(bits);
     let mut out = Vec::new();
-    let (mut pending, mut held) = (0u64, 0u32);
+    let mut packer = Packer::new(kind, bits);
     for v in values {
-        let v = if kind == 0 && b < 32 {
+        packer.push(v, &mut out);
+    }
+    packer.finish(&mut out);
+    out
+}
+
+/// [`pack`] a value at a time, for a writer that streams a channel: each value's whole bytes
+/// appended as they fill, the last partial byte by [`Packer::finish`].
+pub(crate) struct Packer {
+    kind: u8,
+    bits: u32,
+    pending: u64,
+    held: u32,
+}
+
+impl Packer {
+    /// A packer of values of a channel of `kind` in `bits` bits each.
+    pub(crate) fn new(kind: u8, bits: u8) -> Self {
+        Self {
+            kind,
+            bits: u32::from(bits),
+            pending: 0,
+            held: 0,
+        }
+    }
+
+    /// Appends value `v` (a word), its full bytes to `out`.
+    #[inline]
+    pub(crate) fn push(&mut self, v: u32, out: &mut Vec<u8>) {
+        let b = self.bits;
+        let v = if self.kind == 0 && b < 32 {
             quantize(v, b).0
         } else {
             v
         };
-        pending |= (u64::from(v) & ((1u64 << b) - 1)) << held;
-        held += b;
-        while held >= 8 {
-            out.push(pending as u8);
-            pending >>= 8;
-            held -= 8;
+        self.pending |= (u64::from(v) & ((1u64 << b) - 1)) << self.held;
+        self.held += b;
+        while self.held >= 8 {
+            out.push(self.pending as u8);
+            self.pending >>= 8;
+            self.held -= 8;
         }
     }
-    if held > 0 {
-        out.push(pending as u8);
+
+    /// Appends the last partial byte, if any.
+    pub(crate) fn finish(self, out: &mut Vec<u8>) {
+        if self.held > 0 {
+            out.push(self.pending as u8);
+        }
     }
-    out
 }
 
 /// The values of a channel stored on a level whose tree has `count` nodes: check 17 (the

@@ -6,7 +6,7 @@
 
 use crate::bake::bake_mesh::{BakeOptions, Phase, estimate_bake};
 use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE, NODE_BYTES_PER_LEAF};
-use crate::bake::parts::merge::{MergeFormat, MergeReport, merge_with};
+use crate::bake::parts::merge::{MergeFormat, MergeReport, dag_values, merge_with};
 use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
     BakePlan, MAX_PARTS, PART_LEAVES, PartsError, least_parts, plan_bake, plan_to_bytes,
@@ -64,7 +64,10 @@ pub fn bake_within(
         max_memory: None,
         ..opts.clone()
     };
-    let plan = plan_for_budget(mesh, mesh_path, &opts, budget, build)?;
+    let dag = matches!(format, MergeFormat::Dag | MergeFormat::DagWith(_));
+    let plan = plan_for_budget(mesh, mesh_path, &opts, (budget, dag), build)?;
+    // What the merge would refuse, refused before the first part.
+    dag_values(format, plan.depth, plan.node_attributes)?;
     let p = bake_planned(mesh, &plan, output, format, progress)?;
     Ok(PartsReport {
         plan,
@@ -81,12 +84,12 @@ pub fn bake_within(
 /// The plan of `mesh`'s bake for a memory budget: enough parts that each one's peak for the
 /// most leaves it can make, with the setup of its own triangles, fits in `budget` bytes beside
 /// the mesh and the lists that bin its triangles to the parts, and that none can make more
-/// than 2^31 leaves.
+/// than 2^31 leaves (`dag`: the parts are for a DAG, as [`plan_bake`] takes it).
 pub(crate) fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
     opts: &BakeOptions,
-    budget: u64,
+    (budget, dag): (u64, bool),
     build: &BuildInfo,
 ) -> Result<BakePlan, PartsError> {
     let est = estimate_bake(mesh, opts)?;
@@ -127,7 +130,7 @@ pub(crate) fn plan_for_budget(
             mesh_path,
             0,
             opts,
-            parts.min(MAX_PARTS),
+            (parts.min(MAX_PARTS), dag),
             build.clone(),
         )?;
         let largest = plan

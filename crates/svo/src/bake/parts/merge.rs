@@ -16,6 +16,7 @@ use crate::bake::parts::merge_levels::LevelMerge;
 use crate::bake::parts::part::{PartHeader, PartStorage, PartSubtree, read_part_header};
 use crate::bake::parts::part_levels::node_kinds;
 use crate::bake::parts::plan::{BakePlan, PartsError, part_path, read_plan};
+use crate::dag::DagValues;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::ChunkRecord;
 use crate::io::write::{Layout, Stored, write_layout};
@@ -70,6 +71,12 @@ pub enum MergeFormat {
     /// [`crate::io::write_dag_to`] writes of the tree baked in memory. Refused for a bake with
     /// inner-node attributes and for a tree of depth 1.
     Dag,
+    /// [`MergeFormat::Dag`] with the leaves' values kept as [`DagValues`] says: the bytes
+    /// [`crate::io::write_dag_to_with`] writes of the tree baked in memory. Values on a level
+    /// above the leaves are that level's inner-node attributes, so the plan must make them
+    /// ([`crate::BakeOptions::node_attributes`], without contours); values on the leaves
+    /// need a plan without them.
+    DagWith(DagValues),
 }
 
 /// Merges the parts of the plan at `plan_path` (each at [`part_path`]) into `output`.
@@ -80,6 +87,44 @@ pub fn merge_parts(
 ) -> Result<MergeReport, PartsError> {
     let (plan, hash) = read_plan(plan_path)?;
     merge_with(&plan, hash, &|i| part_path(plan_path, i), output, format)
+}
+
+/// Where a merge into the DAG layout keeps the leaves' values (`None`: the merge is not into
+/// the DAG layout), checked against a plan of `depth` whose parts have the inner nodes'
+/// attributes or not: values above the leaves are those attributes, values on the leaves
+/// leave them out.
+pub(crate) fn dag_values(
+    format: MergeFormat,
+    depth: u8,
+    node_attributes: bool,
+) -> Result<Option<DagValues>, PartsError> {
+    let values = match format {
+        MergeFormat::Dag => DagValues::default(),
+        MergeFormat::DagWith(v) => v,
+        _ => return Ok(None),
+    };
+    if depth < 2 {
+        return Err(PartsError::Unsupported(
+            "the DAG layout needs a tree of depth 2 or more".into(),
+        ));
+    }
+    values
+        .check(depth)
+        .map_err(|e| PartsError::Unsupported(e.to_string()))?;
+    let on_leaves = values.level_for(depth) == depth;
+    if on_leaves && node_attributes {
+        return Err(PartsError::Unsupported(
+            "the DAG layout keeps no inner-node attributes but as the values of a level: bake \
+             without them, or keep the values on a level"
+                .into(),
+        ));
+    }
+    if !on_leaves && !node_attributes {
+        return Err(PartsError::Unsupported(
+            crate::dag::ValuesError::NoNodeValues.to_string(),
+        ));
+    }
+    Ok(Some(values))
 }
 
 /// A subtree and where its part is.
@@ -103,18 +148,10 @@ pub(crate) fn merge_with(
     let headers = read_headers(plan, plan_hash, path_of)?;
     let (subs, leaf_off, leaves) = subtrees(&headers);
     let (channels, copied) = channels(&headers, leaves);
-    if format == MergeFormat::Dag {
-        if plan.node_attributes {
-            return Err(PartsError::Unsupported(
-                "the DAG layout keeps no inner-node attributes: bake without them".into(),
-            ));
-        }
-        if plan.depth < 2 {
-            return Err(PartsError::Unsupported(
-                "the DAG layout needs a tree of depth 2 or more".into(),
-            ));
-        }
-        let (layout, bytes) = merge_dag(plan, &headers, channels, &copied, leaves, output)?;
+    if let Some(values) = dag_values(format, plan.depth, plan.node_attributes)? {
+        let (layout, bytes) = merge_dag(
+            plan, &headers, &subs, &channels, &copied, leaves, values, output,
+        )?;
         return Ok(report(plan, &headers, &layout, bytes, 4, 0, t0));
     }
     if plan.node_attributes && leaves > 0 {

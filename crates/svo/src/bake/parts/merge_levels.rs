@@ -27,11 +27,11 @@ use std::path::Path;
 
 /// A node of the levels made here (above the parts' and the parts' own): its code on its
 /// level, children, sums, values and contour.
-struct TopNode {
+pub(crate) struct TopNode {
     code: u64,
     mask: u8,
     sums: SurfaceSums,
-    value: NodeValue,
+    pub value: NodeValue,
     contour: u32,
 }
 
@@ -304,7 +304,7 @@ impl<'a> LevelMerge<'a> {
 
 /// The levels from the root down to the parts' level (the subtrees' roots, from the parts'
 /// headers), each in code order, with their values.
-fn top_levels(
+pub(crate) fn top_levels(
     plan: &BakePlan,
     headers: &[Header],
     subs: &[Sub],

@@ -274,13 +274,15 @@ fn parts_level(depth: u8, parts: u32) -> u8 {
 /// `parts` parts: checks the options as the bake does, estimates each subtree's leaves, and
 /// deals the subtrees into ranges of about equal estimates. Solid fills are refused (a part
 /// cannot tell inside from outside alone), and so are the inner nodes' attributes for trees
-/// estimated past version 4's 2^31 leaves (which those attributes need).
+/// estimated past version 4's 2^31 leaves (which those attributes need in the tree layout),
+/// unless the parts are for a DAG (`dag`: the graph keeps those attributes only as the values
+/// of a level, and has no such bound).
 pub(crate) fn plan_bake(
     mesh: &Mesh,
     mesh_path: &Path,
     mesh_hash: u64,
     opts: &BakeOptions,
-    parts: u32,
+    (parts, dag): (u32, bool),
     build: BuildInfo,
 ) -> Result<BakePlan, PartsError> {
     if opts.solid.is_some() {
@@ -300,7 +302,7 @@ pub(crate) fn plan_bake(
             ..opts.clone()
         },
     )?;
-    if opts.node_attributes && est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
+    if opts.node_attributes && !dag && est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
         return Err(PartsError::Unsupported(format!(
             "depth {} makes about {:.3e} leaves, more than format version 4 holds (2^31), and \
              the inner nodes' attributes need version 4: bake without them",
@@ -432,7 +434,7 @@ pub fn plan_file(
         scene: mesh.scene.clone(),
         ..BuildInfo::new()
     };
-    let plan = plan_bake(&mesh, &abs, hash, opts, parts, build)?;
+    let plan = plan_bake(&mesh, &abs, hash, opts, (parts, false), build)?;
     let plan_hash = write_plan(&plan, output)?;
     let bins = if bins {
         Some(crate::bake::parts::bins::write_bins(

@@ -38,7 +38,7 @@ fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -
     let mesh = crate::Mesh::load(mesh_path).unwrap();
     let build = build_of(&mesh, opts);
     let hash = hash_file(mesh_path).unwrap();
-    let plan = plan_bake(&mesh, mesh_path, hash, opts, parts, build).unwrap();
+    let plan = plan_bake(&mesh, mesh_path, hash, opts, (parts, false), build).unwrap();
     let plan_path = dir.join(format!("job{parts}.svoplan"));
     let plan_hash = write_plan(&plan, &plan_path).unwrap();
     // Each part alone, as `svo-bake part` bakes it (setting up only the triangles that may
@@ -673,4 +673,127 @@ fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
         nodes_normal(&cases[0].0),
         crate::octree::tree::Channel::PerLeaf(_)
     ));
+}
+
+/// The DAG merge with the leaves' values on a level (the parts baked with inner-node
+/// attributes, without contours) or with normals in fewer bits: the bytes the DAG writer
+/// makes of the tree baked in memory, whatever the number of parts, for levels above, at and
+/// below the parts' level, on the torus, the bunny, a textured mesh (per-node colours and
+/// optics) and the flat square (one normal for every leaf); read back, each leaf has its
+/// ancestor's values. Values above the leaves need the inner nodes' attributes, values on
+/// the leaves a plan without them; a contour cannot sit on a level.
+#[test]
+fn parts_merge_into_a_dag_with_values_on_a_level() {
+    use crate::dag::DagValues;
+    let dir = tempfile::tempdir().unwrap();
+    let square = dir.path().join("square.obj");
+    std::fs::write(
+        &square,
+        "v 0 0 0.3\nv 1 0 0.3\nv 1 1 0.3\nv 0 1 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let mut cases: Vec<(PathBuf, u8, &str)> = Vec::new();
+    for mesh in meshes() {
+        cases.push((mesh.clone(), 8, "normal"));
+        cases.push((mesh, 6, "normal,colour"));
+    }
+    cases.push((
+        textured_mesh(dir.path()),
+        7,
+        "normal,colour,reflectivity,ior",
+    ));
+    cases.push((square, 7, "normal"));
+    let mut levels_seen = std::collections::BTreeSet::new();
+    let mut checked = 0;
+    for (mesh, depth, channels) in &cases {
+        let m = crate::Mesh::load(mesh).unwrap();
+        for node_attributes in [true, false] {
+            let opts = BakeOptions {
+                depth: *depth,
+                channels: channels.parse().unwrap(),
+                node_attributes,
+                ..BakeOptions::default()
+            };
+            let tree = bake_mesh(&m, &opts).unwrap().0;
+            let build = build_of(&m, &opts);
+            for parts in [1u32, 3, 16] {
+                let plan_path = plan_and_bake(mesh, &opts, parts, dir.path());
+                let plan_level = read_plan(&plan_path).unwrap().0.level;
+                let values: Vec<DagValues> = if node_attributes {
+                    [1, plan_level, plan_level + 1, depth - 2]
+                        .into_iter()
+                        .filter(|&l| (1..=depth - 2).contains(&l))
+                        .flat_map(|l| {
+                            [32, 16, 6].map(|normal_bits| DagValues {
+                                level: Some(l),
+                                normal_bits,
+                            })
+                        })
+                        .collect()
+                } else {
+                    [16, 10]
+                        .map(|normal_bits| DagValues {
+                            level: None,
+                            normal_bits,
+                        })
+                        .to_vec()
+                };
+                for v in values {
+                    let mut want = Vec::new();
+                    crate::io::write_dag_to_with(&tree, &build, &v, &mut want).unwrap();
+                    let got = merged_as(&plan_path, dir.path(), MergeFormat::DagWith(v)).unwrap();
+                    assert!(
+                        got == want,
+                        "{} depth {depth} {channels}, {parts} parts, {v:?} (parts' level \
+                         {plan_level}): {} bytes against {}",
+                        mesh.display(),
+                        got.len(),
+                        want.len()
+                    );
+                    let level = v.level_for(*depth);
+                    levels_seen.insert(level.cmp(&plan_level));
+                    checked += 1;
+                }
+                // The wrong plan for the values asked.
+                let other = if node_attributes {
+                    DagValues {
+                        level: None,
+                        normal_bits: 16,
+                    }
+                } else {
+                    DagValues {
+                        level: Some(1),
+                        normal_bits: 32,
+                    }
+                };
+                let e = merged_as(&plan_path, dir.path(), MergeFormat::DagWith(other)).unwrap_err();
+                assert!(
+                    e.to_string().contains("inner-node attributes")
+                        || e.to_string().contains("node attributes"),
+                    "{e}"
+                );
+            }
+        }
+    }
+    assert_eq!(
+        levels_seen.len(),
+        3,
+        "levels above, at and below the parts'"
+    );
+    assert!(checked >= 60, "{checked}");
+    // A contour cannot sit on a level: a plan with contours is refused.
+    let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 6,
+        node_attributes: true,
+        ..BakeOptions::default()
+    };
+    let plan = plan_and_bake(&torus, &opts, 3, dir.path());
+    let v = DagValues {
+        level: Some(3),
+        normal_bits: 32,
+    };
+    let e = merged_as(&plan, dir.path(), MergeFormat::DagWith(v)).unwrap_err();
+    assert!(e.to_string().contains("contour"), "{e}");
+    assert!(!dir.path().join("merged.svo").exists());
 }
