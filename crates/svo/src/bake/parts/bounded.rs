@@ -9,8 +9,10 @@ use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE, NODE_BYTES_PER_L
 use crate::bake::parts::merge::{MergeFormat, MergeReport, dag_values, merge_with};
 use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
-    BakePlan, MAX_PARTS, PART_LEAVES, PartsError, least_parts, plan_bake, plan_to_bytes,
+    BakePlan, MAX_PARTS, PART_LEAVES, PartsError, channel_names, least_parts, plan_bake,
+    plan_to_bytes,
 };
+use crate::dag::DagValues;
 use crate::io::atomic_write::{parent_dir, remove_stale};
 use crate::io::header::BuildInfo;
 use crate::mesh::triangle_mesh::Mesh;
@@ -64,10 +66,13 @@ pub fn bake_within(
         max_memory: None,
         ..opts.clone()
     };
-    let dag = matches!(format, MergeFormat::Dag | MergeFormat::DagWith(_));
-    let plan = plan_for_budget(mesh, mesh_path, &opts, (budget, dag), build)?;
     // What the merge would refuse, refused before the first part.
-    dag_values(format, plan.depth, plan.node_attributes)?;
+    let dag = dag_values(
+        format,
+        opts.depth,
+        opts.node_attributes && channel_names(&opts) != "none",
+    )?;
+    let plan = plan_for_budget(mesh, mesh_path, &opts, (budget, dag), build)?;
     let p = bake_planned(mesh, &plan, output, format, progress)?;
     Ok(PartsReport {
         plan,
@@ -89,7 +94,7 @@ pub(crate) fn plan_for_budget(
     mesh: &Mesh,
     mesh_path: &Path,
     opts: &BakeOptions,
-    (budget, dag): (u64, bool),
+    (budget, dag): (u64, Option<DagValues>),
     build: &BuildInfo,
 ) -> Result<BakePlan, PartsError> {
     let est = estimate_bake(mesh, opts)?;

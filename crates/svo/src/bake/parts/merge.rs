@@ -148,7 +148,17 @@ pub(crate) fn merge_with(
     let headers = read_headers(plan, plan_hash, path_of)?;
     let (subs, leaf_off, leaves) = subtrees(&headers);
     let (channels, copied) = channels(&headers, leaves);
-    if let Some(values) = dag_values(format, plan.depth, plan.node_attributes)? {
+    let dag = dag_values(format, plan.depth, plan.node_attributes)?;
+    let above = dag.is_some_and(|v| v.level_for(plan.depth) < plan.depth);
+    if !plan.leaf_arrays && !above {
+        return Err(PartsError::Unsupported(
+            "the plan's parts keep no per-leaf values (they were baked for a DAG whose leaves \
+             take their values from a level above): merge them so, with the DAG layout and \
+             the values on a level"
+                .into(),
+        ));
+    }
+    if let Some(values) = dag {
         let (layout, bytes) = merge_dag(
             plan, &headers, &subs, &channels, &copied, leaves, values, output,
         )?;
@@ -567,6 +577,11 @@ fn check_part(
             lens
         }
         _ => return Err((true, "its inner-node attributes are not the plan's".into())),
+    };
+    let per_leaf = if plan.leaf_arrays {
+        per_leaf
+    } else {
+        Vec::new()
     };
     if h.arrays.len() != node_lens.len() + per_leaf.len() {
         return bad("its arrays do not match its channels".into());

@@ -124,6 +124,8 @@ pub(crate) struct PartData {
     /// The levels' arrays (with inner-node attributes).
     level_arrays: Vec<Vec<u8>>,
     attributes: LeafAttributes,
+    /// Whether the file gets the per-leaf channels' arrays ([`BakePlan::leaf_arrays`]).
+    leaf_arrays: bool,
 }
 
 /// Bakes the parts `indices` of `plan` from its mesh, one after another, handing each to
@@ -390,6 +392,7 @@ fn bake_one(
         nodes,
         level_arrays,
         attributes,
+        leaf_arrays: plan.leaf_arrays,
     })
 }
 
@@ -559,16 +562,18 @@ fn part_file_inner(plan_path: &Path, index: u32) -> Result<PartReport, PartsErro
 }
 
 /// The part's arrays as bytes: the nodes (bits 8-31 of `info` zero) or the levels' arrays,
-/// then each per-leaf channel in kind order.
+/// then each per-leaf channel in kind order (where the plan keeps them).
 fn arrays(part: &PartData) -> Vec<&[u8]> {
     let mut out: Vec<&[u8]> = if part.header.levels.is_some() {
         part.level_arrays.iter().map(Vec::as_slice).collect()
     } else {
         vec![bytemuck::cast_slice(&part.nodes)]
     };
-    for (_, c) in part.attributes.stored() {
-        if let StoredChannel::PerLeaf { bytes, .. } = c {
-            out.push(bytes);
+    if part.leaf_arrays {
+        for (_, c) in part.attributes.stored() {
+            if let StoredChannel::PerLeaf { bytes, .. } = c {
+                out.push(bytes);
+            }
         }
     }
     out

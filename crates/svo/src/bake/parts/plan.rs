@@ -16,6 +16,7 @@
 
 use crate::bake::bake_mesh::{BakeError, BakeOptions, prepare};
 use crate::bake::estimate::triangle_cells_bound;
+use crate::dag::DagValues;
 use crate::geometry::grid::RootCube;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::BuildInfo;
@@ -30,7 +31,7 @@ use thiserror::Error;
 /// The first bytes of a plan file.
 const PLAN_MAGIC: [u8; 8] = *b"\x89SVOPLN\n";
 /// The plan file's version.
-const PLAN_VERSION: u32 = 3;
+const PLAN_VERSION: u32 = 4;
 /// The fewest parts for at most `max_leaves` leaves ([`crate::bake::Estimate::max_leaves`]):
 /// a part holds at most 2^31 leaves.
 pub(crate) fn least_parts(max_leaves: f64) -> f64 {
@@ -188,6 +189,10 @@ pub struct BakePlan {
     pub root_side: f64,
     /// The parts' level: each part bakes subtrees of nodes at this level.
     pub level: u8,
+    /// Whether the parts write their leaves' per-leaf channels. Not for a DAG whose leaves
+    /// take their values from a level above ([`crate::bake::parts::MergeFormat::DagWith`]):
+    /// its merge reads none, and at depth 15 they would be most of the parts' bytes.
+    pub leaf_arrays: bool,
     /// The parts, in Morton order; their ranges cover `0..8^level` in order.
     pub(crate) parts: Vec<PlanPart>,
     /// What the merged file's header says of its source.
@@ -247,7 +252,7 @@ pub(crate) fn hash_file(path: &Path) -> Result<u64, PartsError> {
 }
 
 /// The channels of a selection, as `--channels` takes them.
-fn channel_names(opts: &BakeOptions) -> String {
+pub(crate) fn channel_names(opts: &BakeOptions) -> String {
     let names: Vec<&str> = ChannelKind::ALL
         .iter()
         .filter(|&&k| opts.channels.has(k))
@@ -275,14 +280,14 @@ fn parts_level(depth: u8, parts: u32) -> u8 {
 /// deals the subtrees into ranges of about equal estimates. Solid fills are refused (a part
 /// cannot tell inside from outside alone), and so are the inner nodes' attributes for trees
 /// estimated past version 4's 2^31 leaves (which those attributes need in the tree layout),
-/// unless the parts are for a DAG (`dag`: the graph keeps those attributes only as the values
-/// of a level, and has no such bound).
+/// unless the parts are for a DAG (`dag`, with the values it keeps: the graph keeps those
+/// attributes only as the values of a level, and has no such bound).
 pub(crate) fn plan_bake(
     mesh: &Mesh,
     mesh_path: &Path,
     mesh_hash: u64,
     opts: &BakeOptions,
-    (parts, dag): (u32, bool),
+    (parts, dag): (u32, Option<DagValues>),
     build: BuildInfo,
 ) -> Result<BakePlan, PartsError> {
     if opts.solid.is_some() {
@@ -302,7 +307,10 @@ pub(crate) fn plan_bake(
             ..opts.clone()
         },
     )?;
-    if opts.node_attributes && !dag && est.leaves > crate::octree::validate::MAX_LEAVES as f64 {
+    if opts.node_attributes
+        && dag.is_none()
+        && est.leaves > crate::octree::validate::MAX_LEAVES as f64
+    {
         return Err(PartsError::Unsupported(format!(
             "depth {} makes about {:.3e} leaves, more than format version 4 holds (2^31), and \
              the inner nodes' attributes need version 4: bake without them",
@@ -328,6 +336,7 @@ pub(crate) fn plan_bake(
         pad: opts.pad,
         // Without channels the nodes have none either: the bake writes version 2.
         node_attributes: opts.node_attributes && channel_names(opts) != "none",
+        leaf_arrays: dag.is_none_or(|v| v.level_for(opts.depth) >= opts.depth),
         root_origin: root.origin.to_array(),
         root_side: root.side,
         level,
@@ -434,7 +443,7 @@ pub fn plan_file(
         scene: mesh.scene.clone(),
         ..BuildInfo::new()
     };
-    let plan = plan_bake(&mesh, &abs, hash, opts, (parts, false), build)?;
+    let plan = plan_bake(&mesh, &abs, hash, opts, (parts, None), build)?;
     let plan_hash = write_plan(&plan, output)?;
     let bins = if bins {
         Some(crate::bake::parts::bins::write_bins(

@@ -35,10 +35,21 @@ fn in_memory(mesh: &Path, opts: &BakeOptions, _dir: &Path) -> Vec<u8> {
 
 /// Plans `parts` parts, bakes each into its file and returns the plan's path.
 fn plan_and_bake(mesh_path: &Path, opts: &BakeOptions, parts: u32, dir: &Path) -> PathBuf {
+    plan_and_bake_for(mesh_path, opts, parts, dir, None)
+}
+
+/// [`plan_and_bake`] for a merge into a DAG that keeps the values `dag`.
+fn plan_and_bake_for(
+    mesh_path: &Path,
+    opts: &BakeOptions,
+    parts: u32,
+    dir: &Path,
+    dag: Option<crate::dag::DagValues>,
+) -> PathBuf {
     let mesh = crate::Mesh::load(mesh_path).unwrap();
     let build = build_of(&mesh, opts);
     let hash = hash_file(mesh_path).unwrap();
-    let plan = plan_bake(&mesh, mesh_path, hash, opts, (parts, false), build).unwrap();
+    let plan = plan_bake(&mesh, mesh_path, hash, opts, (parts, dag), build).unwrap();
     let plan_path = dir.join(format!("job{parts}.svoplan"));
     let plan_hash = write_plan(&plan, &plan_path).unwrap();
     // Each part alone, as `svo-bake part` bakes it (setting up only the triangles that may
@@ -390,21 +401,38 @@ fn refuses_bad_parts(node_attributes: bool, format: MergeFormat) {
 fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
     let dir = tempfile::tempdir().unwrap();
     let mesh_path = svo_tests::repo_root().join("fixtures/torus.obj");
+    // Values on level 5 (below the parts' level): parts without per-leaf arrays.
+    let on_level = crate::dag::DagValues {
+        level: Some(5),
+        normal_bits: 16,
+    };
     for (node_attributes, format, version) in [
         (false, MergeFormat::Auto, 2),
         (true, MergeFormat::Auto, 4),
         (false, MergeFormat::Dag, 4),
+        (true, MergeFormat::DagWith(on_level), 4),
     ] {
         let opts = BakeOptions {
             depth: 9,
             node_attributes,
+            channels: if node_attributes && format != MergeFormat::Auto {
+                "normal,colour".parse().unwrap()
+            } else {
+                BakeOptions::default().channels
+            },
             ..BakeOptions::default()
         };
         let mut whole = in_memory(&mesh_path, &opts, dir.path());
-        if format == MergeFormat::Dag {
-            let (tree, build) = crate::io::from_bytes(&whole).unwrap();
+        if let MergeFormat::Dag | MergeFormat::DagWith(_) = format {
+            let values = match format {
+                MergeFormat::DagWith(v) => v,
+                _ => crate::dag::DagValues::default(),
+            };
+            let mesh = crate::Mesh::load(&mesh_path).unwrap();
+            let tree = bake_mesh(&mesh, &opts).unwrap().0;
             whole.clear();
-            crate::io::write_dag_to(&tree, &build, &mut whole).unwrap();
+            crate::io::write_dag_to_with(&tree, &build_of(&mesh, &opts), &values, &mut whole)
+                .unwrap();
         }
         let out = dir.path().join("limited.svo");
         let mesh = crate::Mesh::load(&mesh_path).unwrap();
@@ -422,7 +450,11 @@ fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
         assert!(report.plan.part_count() > 1, "{report:?}");
         assert_eq!(report.part_seconds.len() as u32, report.plan.part_count());
         assert_eq!(report.merge.version, version);
-        assert!(std::fs::read(out).unwrap() == whole);
+        assert_eq!(
+            report.plan.leaf_arrays,
+            format != MergeFormat::DagWith(on_level)
+        );
+        assert!(std::fs::read(&out).unwrap() == whole);
     }
 }
 
@@ -781,8 +813,45 @@ fn parts_merge_into_a_dag_with_values_on_a_level() {
         "levels above, at and below the parts'"
     );
     assert!(checked >= 60, "{checked}");
-    // A contour cannot sit on a level: a plan with contours is refused.
+    // Parts planned for values on a level keep no per-leaf arrays: the same DAG, and no
+    // other merge.
     let torus = svo_tests::repo_root().join("fixtures/torus.obj");
+    let opts = BakeOptions {
+        depth: 7,
+        channels: "normal".parse().unwrap(),
+        node_attributes: true,
+        ..BakeOptions::default()
+    };
+    let v = DagValues {
+        level: Some(4),
+        normal_bits: 12,
+    };
+    let size = |plan: &Path| -> u64 {
+        (0..3)
+            .map(|i| std::fs::metadata(part_path(plan, i)).unwrap().len())
+            .sum()
+    };
+    // (Both plans are written to the same path: the second replaces the first's parts.)
+    let full = plan_and_bake(&torus, &opts, 3, dir.path());
+    let want = merged_as(&full, dir.path(), MergeFormat::DagWith(v)).unwrap();
+    let full_bytes = size(&full);
+    let lean = plan_and_bake_for(&torus, &opts, 3, dir.path(), Some(v));
+    assert!(!read_plan(&lean).unwrap().0.leaf_arrays);
+    assert!(
+        size(&lean) < full_bytes,
+        "{} against {full_bytes}",
+        size(&lean)
+    );
+    assert!(merged_as(&lean, dir.path(), MergeFormat::DagWith(v)).unwrap() == want);
+    for (format, says) in [
+        (MergeFormat::Auto, "no per-leaf values"),
+        (MergeFormat::Chunked, "no per-leaf values"),
+        (MergeFormat::Dag, "inner-node attributes"),
+    ] {
+        let e = merged_as(&lean, dir.path(), format).unwrap_err();
+        assert!(e.to_string().contains(says), "{e}");
+    }
+    // A contour cannot sit on a level: a plan with contours is refused.
     let opts = BakeOptions {
         depth: 6,
         node_attributes: true,
