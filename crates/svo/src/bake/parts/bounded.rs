@@ -162,8 +162,11 @@ pub(crate) fn plan_for_budget(
 /// removed) would not fit in the space free in `dir`, by the plan's estimate of the leaves:
 /// the nodes (about 3 bytes a leaf), the normals and contours, and the material channels
 /// where the mesh has more than one material or a texture (else they are constants in the
-/// header). Where the free space is unknown, nothing is refused.
-fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError> {
+/// header); the parts without their leaves' channels where the plan keeps none. A DAG's
+/// file, its shared subtrees unknown before the merge, is not counted (the merge reports a
+/// full disk as it writes, and the parts stay for the next run). Where the free space is
+/// unknown, nothing is refused.
+fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path, dag: bool) -> Result<(), PartsError> {
     use crate::octree::ChannelKind;
     let varied = mesh.materials.len() > 1 || !mesh.textures.is_empty();
     let channels: f64 = plan
@@ -173,7 +176,9 @@ fn check_disk(mesh: &Mesh, plan: &BakePlan, dir: &Path) -> Result<(), PartsError
         .filter(|k| varied || matches!(k, ChannelKind::Normal | ChannelKind::Contour))
         .map(|k| k.element_size() as f64)
         .sum();
-    let need = 2.0 * plan.estimated_leaves * (3.0 + channels);
+    let parts = 3.0 + if plan.leaf_arrays { channels } else { 0.0 };
+    let file = if dag { 0.0 } else { 3.0 + channels };
+    let need = plan.estimated_leaves * (parts + file);
     #[cfg(unix)]
     let free = rustix::fs::statvfs(dir)
         .ok()
@@ -330,7 +335,8 @@ pub(crate) fn bake_planned(
     format: MergeFormat,
     progress: &(dyn Fn(Phase, f64) + Sync),
 ) -> Result<Planned, PartsError> {
-    check_disk(mesh, plan, parent_dir(output))?;
+    let dag = matches!(format, MergeFormat::Dag | MergeFormat::DagWith(_));
+    check_disk(mesh, plan, parent_dir(output), dag)?;
     let hash = xxhash_rust::xxh3::xxh3_64(&plan_to_bytes(plan));
     let Folder {
         path,
