@@ -482,18 +482,16 @@ fn layout_dag_keeps_values_on_a_level() {
         a.extend_from_slice(&["-o", s(out)]);
         ok(&a);
     };
+    let on_level = [
+        "--layout",
+        "dag",
+        "--attribute-depth",
+        "6",
+        "--normal-bits",
+        "16",
+    ];
     run(&["--layout", "dag"], &p("leaves.svo"));
-    run(
-        &[
-            "--layout",
-            "dag",
-            "--attribute-depth",
-            "6",
-            "--normal-bits",
-            "16",
-        ],
-        &p("level6.svo"),
-    );
+    run(&on_level, &p("level6.svo"));
     let size = |q: &Path| std::fs::metadata(q).unwrap().len();
     assert!(
         3 * size(&p("level6.svo")) < size(&p("leaves.svo")),
@@ -511,18 +509,11 @@ fn layout_dag_keeps_values_on_a_level() {
     );
     // The conversion of a file with the inner nodes' attributes: the same bytes.
     run(&["--lod", "filtered"], &p("filtered.svo"));
-    ok(&[
-        s(&p("filtered.svo")),
-        "--layout",
-        "dag",
-        "--attribute-depth",
-        "6",
-        "--normal-bits",
-        "16",
-        "-q",
-        "-o",
-        s(&p("converted.svo")),
-    ]);
+    let (filtered, converted) = (p("filtered.svo"), p("converted.svo"));
+    let mut convert = vec![s(&filtered)];
+    convert.extend_from_slice(&on_level);
+    convert.extend_from_slice(&["-q", "-o", s(&converted)]);
+    ok(&convert);
     assert!(std::fs::read(p("converted.svo")).unwrap() == std::fs::read(p("level6.svo")).unwrap());
     let no = p("no.svo");
     let refused = |extra: &[&str], says: &str| {
@@ -541,14 +532,6 @@ fn layout_dag_keeps_values_on_a_level() {
     // Within a memory budget (parts baked with the inner nodes' attributes, the graph and
     // the level's values made by the merge), and by a plan's parts merged: the same bytes.
     let bytes = |p: &Path| std::fs::read(p).unwrap();
-    let on_level = [
-        "--layout",
-        "dag",
-        "--attribute-depth",
-        "6",
-        "--normal-bits",
-        "16",
-    ];
     let mut within = on_level.to_vec();
     within.extend(["--memory", "16MiB"]);
     run(&within, &p("level6parts.svo"));

@@ -19,7 +19,7 @@ use crate::bake::parts::plan::{BakePlan, PartsError, part_path, read_plan};
 use crate::dag::DagValues;
 use crate::io::atomic_write::write_atomic;
 use crate::io::header::ChunkRecord;
-use crate::io::write::{Layout, Stored, write_layout};
+use crate::io::write::{Layout, LevelPlan, Stored, write_layout};
 use crate::octree::stitch::{self, Piece, Stub};
 use crate::octree::tree::Node;
 use crate::octree::validate::MAX_LEAVES;
@@ -127,6 +127,27 @@ pub(crate) fn dag_values(
     Ok(Some(values))
 }
 
+/// The layout of a version-4 file of `plan` (the tree's or the DAG's levels `levels`) with
+/// `leaves` leaves and the leaf `channels`.
+pub(crate) fn level_layout(
+    plan: &BakePlan,
+    levels: LevelPlan,
+    leaves: u64,
+    channels: Vec<(u8, Stored)>,
+) -> Layout<'_> {
+    Layout {
+        root_origin: plan.root_origin,
+        root_side: plan.root_side,
+        depth: plan.depth,
+        node_count: levels.counts.iter().sum(),
+        leaf_count: leaves,
+        channels,
+        build: &plan.build,
+        chunks: None,
+        levels: Some(levels),
+    }
+}
+
 /// A subtree and where its part is.
 pub(crate) struct Sub {
     pub part: u32,
@@ -174,17 +195,7 @@ pub(crate) fn merge_with(
         }
         let (merge, levels) =
             LevelMerge::new(plan, &headers, &subs, &leaf_off, &channels, &copied, leaves)?;
-        let layout = Layout {
-            root_origin: plan.root_origin,
-            root_side: plan.root_side,
-            depth: plan.depth,
-            node_count: levels.counts.iter().sum(),
-            leaf_count: leaves,
-            channels,
-            build: &plan.build,
-            chunks: None,
-            levels: Some(levels),
-        };
+        let layout = level_layout(plan, levels, leaves, channels);
         let bytes = merge.write(&layout, output)?;
         return Ok(report(plan, &headers, &layout, bytes, 4, 0, t0));
     }

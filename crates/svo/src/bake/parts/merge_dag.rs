@@ -16,7 +16,7 @@
 
 use crate::attributes::surface_sums::NodeRule;
 use crate::bake::parts::merge::{
-    Header, Sub, copy_array, corrupt, per_leaf_rank, read_array, write_streamed,
+    Header, Sub, copy_array, corrupt, level_layout, per_leaf_rank, read_array, write_streamed,
 };
 use crate::bake::parts::merge_levels::top_levels;
 use crate::bake::parts::part_levels::push_value;
@@ -90,17 +90,7 @@ pub(crate) fn merge_dag<'a>(
             },
         ));
     }
-    let layout = Layout {
-        root_origin: plan.root_origin,
-        root_side: plan.root_side,
-        depth: plan.depth,
-        node_count: levels.counts.iter().sum(),
-        leaf_count: leaves,
-        channels: stored,
-        build: &plan.build,
-        chunks: None,
-        levels: Some(levels),
-    };
+    let layout = level_layout(plan, levels, leaves, stored);
     // The arrays after the graph's blocks: one for each channel not constant, in order.
     let arrays: Vec<(u8, Stored)> = layout
         .channels

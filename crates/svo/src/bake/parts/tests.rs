@@ -634,6 +634,18 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
     bake_part_file(&plan, 2, None).unwrap();
 }
 
+/// A flat square (and two points that pin its bounds to a cube) as an OBJ file in `dir`: every
+/// leaf has one normal.
+fn flat_square(dir: &Path) -> PathBuf {
+    let square = dir.join("square.obj");
+    std::fs::write(
+        &square,
+        "v 0 0 0.3\nv 1 0 0.3\nv 1 1 0.3\nv 0 1 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    square
+}
+
 /// With the inner nodes' attributes, the merge writes version 4 with the in-memory bake's
 /// bytes, whatever the number of parts (the levels above the parts' made from their roots),
 /// on the torus, the bunny, a textured mesh with materials (per-node colours and optics), a
@@ -643,12 +655,7 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
 #[test]
 fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
-    let square = dir.path().join("square.obj");
-    std::fs::write(
-        &square,
-        "v 0 0 0.3\nv 1 0 0.3\nv 1 1 0.3\nv 0 1 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\nf 1 3 4\n",
-    )
-    .unwrap();
+    let square = flat_square(dir.path());
     let mut cases: Vec<(PathBuf, u8, &str)> = Vec::new();
     for mesh in meshes() {
         cases.push((mesh.clone(), 7, "all"));
@@ -711,19 +718,15 @@ fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
 /// attributes, without contours) or with normals in fewer bits: the bytes the DAG writer
 /// makes of the tree baked in memory, whatever the number of parts, for levels above, at and
 /// below the parts' level, on the torus, the bunny, a textured mesh (per-node colours and
-/// optics) and the flat square (one normal for every leaf); read back, each leaf has its
-/// ancestor's values. Values above the leaves need the inner nodes' attributes, values on
-/// the leaves a plan without them; a contour cannot sit on a level.
+/// optics) and the flat square (one normal for every leaf). Parts planned for values on a
+/// level keep no leaf channels and merge into the same file, and into no other. Values above
+/// the leaves need the inner nodes' attributes, values on the leaves a plan without them; a
+/// contour cannot sit on a level.
 #[test]
 fn parts_merge_into_a_dag_with_values_on_a_level() {
     use crate::dag::DagValues;
     let dir = tempfile::tempdir().unwrap();
-    let square = dir.path().join("square.obj");
-    std::fs::write(
-        &square,
-        "v 0 0 0.3\nv 1 0 0.3\nv 1 1 0.3\nv 0 1 0.3\nv 0 0 0\nv 1 1 1\nf 1 2 3\nf 1 3 4\n",
-    )
-    .unwrap();
+    let square = flat_square(dir.path());
     let mut cases: Vec<(PathBuf, u8, &str)> = Vec::new();
     for mesh in meshes() {
         cases.push((mesh.clone(), 8, "normal"));
