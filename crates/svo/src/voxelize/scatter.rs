@@ -12,7 +12,8 @@
 //!   ([`CellTest`]).
 //! * [`scatter_sliced`] (the bake, attributes included): the triangle is sliced through the
 //!   block ([`crate::geometry::grid_slice`]), which yields its part in every cell at once; those parts
-//!   are the leaves' area weights and contour points. A part whose centroid is well inside
+//!   are the leaves' area weights and contour points (a bake without channels slices too,
+//!   faster than testing each candidate, and keeps no weights). A part whose centroid is well inside
 //!   its cell proves the contact; the other parts (including those slicing gives the cells
 //!   that the triangle touches only on their boundary or misses by a hair) are decided by
 //!   [`CellTest`], so the cells are those of [`scatter_pairs`] (tested against the brute
@@ -314,9 +315,14 @@ pub(crate) fn scatter_sliced<S: BakeSums>(
     for &ti in list {
         let t = &ctx.tris[ti as usize];
         // Exactly degenerate triangles, and those whose slicing fails, take the cell tests.
-        let sliced = geometry
-            && t.n != DVec3::ZERO
-            && slice_triangle(&b, t, ti, inputs.unit_normal(ti), scratch, tests);
+        // Without geometry the slicing still finds the cells (faster than testing each
+        // candidate); its parts' areas are then not wanted.
+        let unit = if geometry {
+            inputs.unit_normal(ti)
+        } else {
+            DVec3::ZERO
+        };
+        let sliced = t.n != DVec3::ZERO && slice_triangle(&b, t, ti, unit, scratch, tests);
         if !sliced {
             cell_tested(
                 &b,

@@ -2,8 +2,9 @@
 //! decide the doubtful cells with the exact test; the voxelizer alone tests every candidate
 //! cell. Both must give the same cells and contacts: against the exact integer brute force
 //! on lattice meshes (where contacts on faces, edges and corners are exact ties), against
-//! each other on generic, axis-aligned, huge and offset meshes at depths up to 9, and the
-//! leaves' normals against per-contact clipping (the tests' own clipping).
+//! each other on generic, axis-aligned, huge and offset meshes at depths up to 9, with and
+//! without channels, and the leaves' normals against per-contact clipping (the tests' own
+//! clipping).
 
 use crate::common;
 use common::*;
@@ -50,6 +51,7 @@ fn check_against_voxelizer(mesh: &Mesh, depth: u8, what: &str) -> usize {
         leaves.tris.len(),
         "{what}: contacts differ at depth {depth}"
     );
+    assert_voxel_set_alone(mesh, depth, &got, stats.leaf_triangle_pairs, what);
     // Normals: clip each contact to its cell and weigh the unit normals by the areas.
     let mut worst = 0.0f64;
     for leaf in tree.leaves() {
@@ -109,6 +111,33 @@ fn check_lattice(tris: &[[I3; 3]], depth: u8, what: &str) {
     );
     let pairs: usize = expect.values().map(BTreeSet::len).sum();
     assert_eq!(stats.leaf_triangle_pairs, pairs, "{what} depth {depth}");
+    assert_voxel_set_alone(&mesh, depth, &want, pairs, what);
+}
+
+/// The bake without channels (which slices without keeping the parts' areas or points)
+/// makes the cells `cells` and `pairs` contacts too.
+fn assert_voxel_set_alone(
+    mesh: &Mesh,
+    depth: u8,
+    cells: &BTreeSet<[u32; 3]>,
+    pairs: usize,
+    what: &str,
+) {
+    let opts = BakeOptions {
+        depth,
+        channels: svo::ChannelSelection::NONE,
+        ..Default::default()
+    };
+    let (tree, stats) = bake_mesh(mesh, &opts).unwrap();
+    let got: BTreeSet<[u32; 3]> = tree.leaves().map(|l| l.cell.to_array()).collect();
+    assert!(
+        &got == cells,
+        "{what} depth {depth}: the bake without channels differs"
+    );
+    assert_eq!(
+        stats.leaf_triangle_pairs, pairs,
+        "{what} depth {depth}, no channels"
+    );
 }
 
 /// Two contacts that an earlier slicing lost (found by fuzzing and by the tree-structure
