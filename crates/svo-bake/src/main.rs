@@ -196,6 +196,14 @@ enum Command {
         bins: bool,
         #[command(flatten)]
         settings: Settings,
+        /// The layout the parts will be merged into: `tree`, or `dag` (with
+        /// `--attribute-depth`, the parts are baked with the inner nodes' attributes,
+        /// without contours, and keep no leaf channels: `merge --layout dag
+        /// --attribute-depth` is then the one merge of them).
+        #[arg(long, default_value = "tree", value_name = "LAYOUT")]
+        layout: LayoutArg,
+        #[command(flatten)]
+        values: ValuesArgs,
     },
     /// Bake part INDEX of a plan into its file beside the plan (stateless: run it on any
     /// machine that sees the plan and the mesh; run twice, the same bytes).
@@ -346,7 +354,16 @@ fn real_main() -> anyhow::Result<()> {
             output,
             bins,
             settings,
-        }) => plan(mesh, *parts, output, *bins, settings),
+            layout,
+            values,
+        }) => plan(
+            mesh,
+            *parts,
+            output,
+            *bins,
+            settings,
+            (*layout, values.values()),
+        ),
         Some(Command::Part {
             plan,
             index,
@@ -377,8 +394,24 @@ fn plan(
     output: &std::path::Path,
     bins: bool,
     settings: &Settings,
+    (layout, values): (LayoutArg, DagValues),
 ) -> anyhow::Result<()> {
-    let (plan, binned) = plan_file(mesh, &settings.options()?, parts, output, bins)
+    let mut opts = settings.options()?;
+    let format = match layout {
+        LayoutArg::Tree if values != DagValues::default() => {
+            anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag")
+        }
+        LayoutArg::Tree => MergeFormat::Auto,
+        LayoutArg::Dag => {
+            // Values above the leaves are the inner nodes' attributes, as a bake makes them.
+            if values.level_for(opts.depth) < opts.depth {
+                opts.node_attributes = true;
+                opts.channels = opts.channels.without(svo::ChannelKind::Contour);
+            }
+            MergeFormat::DagWith(values)
+        }
+    };
+    let (plan, binned) = plan_file(mesh, &opts, parts, format, output, bins)
         .map_err(|e| with_hint(&e))
         .with_context(|| format!("planning the bake of {}", mesh.display()))?;
     say!(

@@ -546,19 +546,39 @@ fn layout_dag_keeps_values_on_a_level() {
             ok(&["part", s(&plan), i]);
         }
     };
-    plan_with(&["--lod", "filtered", "--no-contours"]);
     let merged = p("level6merged.svo");
     let mut merge = vec!["merge", s(&plan), "-o", s(&merged)];
     merge.extend_from_slice(&on_level);
-    ok(&merge);
-    assert!(bytes(&merged) == bytes(&p("level6.svo")));
     let merge_fails = |extra: &[&str], says: &str| {
         let mut a = vec!["merge", s(&plan), "-o", s(&no)];
         a.extend_from_slice(extra);
         fails(&a, says);
         assert!(!no.exists());
     };
+    // Planned for the DAG with values on a level: parts without leaf channels, one merge.
+    plan_with(&on_level);
+    ok(&merge);
+    assert!(bytes(&merged) == bytes(&p("level6.svo")));
+    merge_fails(&[], "no per-leaf values");
+    // Planned with the inner nodes' attributes and no contours: the same file.
+    plan_with(&["--lod", "filtered", "--no-contours"]);
+    std::fs::remove_file(&merged).unwrap();
+    ok(&merge);
+    assert!(bytes(&merged) == bytes(&p("level6.svo")));
     merge_fails(&["--attribute-depth", "6"], "for --layout dag");
+    fails(
+        &[
+            "plan",
+            s(&torus),
+            "--parts",
+            "3",
+            "--attribute-depth",
+            "6",
+            "-o",
+            s(&plan),
+        ],
+        "for --layout dag",
+    );
     plan_with(&[]);
     merge_fails(&on_level, "node attributes");
 }

@@ -16,6 +16,7 @@
 
 use crate::bake::bake_mesh::{BakeError, BakeOptions, prepare};
 use crate::bake::estimate::triangle_cells_bound;
+use crate::bake::parts::merge::{MergeFormat, dag_values};
 use crate::dag::DagValues;
 use crate::geometry::grid::RootCube;
 use crate::io::atomic_write::write_atomic;
@@ -420,11 +421,15 @@ fn deal(weights: &[(u64, f64)], level: u8, parts: u32) -> Vec<PlanPart> {
 /// `output` (what `svo-bake plan` does). The plan names the mesh by its absolute path and
 /// the hash of its bytes. With `bins`, each part's triangles are also written to a file of
 /// their own beside the plan (`NAME.IIIII.svobin`), which the part then loads instead
-/// of the mesh. Returns the plan, and what writing the bins did.
+/// of the mesh. `format` is the merge the parts are for: a DAG with its values on a level
+/// ([`MergeFormat::DagWith`]) needs the inner nodes' attributes in `opts`, and its parts then
+/// keep no leaf channels (any other merge of them is refused). Returns the plan, and what
+/// writing the bins did.
 pub fn plan_file(
     mesh_path: &Path,
     opts: &BakeOptions,
     parts: u32,
+    format: MergeFormat,
     output: &Path,
     bins: bool,
 ) -> Result<(BakePlan, Option<crate::bake::parts::bins::BinsReport>), PartsError> {
@@ -434,6 +439,11 @@ pub fn plan_file(
             mesh_path.display()
         )));
     }
+    let dag = dag_values(
+        format,
+        opts.depth,
+        opts.node_attributes && channel_names(opts) != "none",
+    )?;
     let abs = std::path::absolute(mesh_path).map_err(|e| PartsError::io(mesh_path, e))?;
     let hash = hash_file(&abs)?;
     let mesh = crate::import::load_mesh(&abs)?;
@@ -443,7 +453,7 @@ pub fn plan_file(
         scene: mesh.scene.clone(),
         ..BuildInfo::new()
     };
-    let plan = plan_bake(&mesh, &abs, hash, opts, (parts, None), build)?;
+    let plan = plan_bake(&mesh, &abs, hash, opts, (parts, dag), build)?;
     let plan_hash = write_plan(&plan, output)?;
     let bins = if bins {
         Some(crate::bake::parts::bins::write_bins(

@@ -254,7 +254,7 @@ fn lattice_soups_on_part_boundaries_merge_into_the_whole_bake() {
         let parts = [2, 3, 5, 8, 16][rng.random_range(0..5)];
         let whole = in_memory(&mesh_path, &opts, dir.path());
         let plan = dir.path().join("soup.svoplan");
-        let (p, _) = plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let (p, _) = plan_file(&mesh_path, &opts, parts, MergeFormat::Auto, &plan, true).unwrap();
         let plan_hash = read_plan(&plan).unwrap().1;
         for i in 0..parts {
             let bin = read_bin(&bin_path(&plan, i), plan_hash, i).unwrap();
@@ -554,7 +554,8 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
         };
         let whole = in_memory(&mesh_path, &opts, d.path());
         let plan = d.path().join("binned.svoplan");
-        let (p, bins) = plan_file(&mesh_path, &opts, parts, &plan, true).unwrap();
+        let (p, bins) =
+            plan_file(&mesh_path, &opts, parts, MergeFormat::Auto, &plan, true).unwrap();
         let bins = bins.unwrap();
         assert_eq!((bins.files, p.part_count()), (parts, parts));
         let triangles = crate::Mesh::load(&mesh_path).unwrap().triangles.len();
@@ -583,7 +584,7 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
             mesh_path.display()
         );
         // The same parts from the whole mesh (the plan again without bins removes them).
-        plan_file(&mesh_path, &opts, parts, &plan, false).unwrap();
+        plan_file(&mesh_path, &opts, parts, MergeFormat::Auto, &plan, false).unwrap();
         assert!(!bin_path(&plan, 0).exists());
         for (i, bytes) in from_bins.iter().enumerate() {
             bake_part_file(&plan, i as u32, None).unwrap();
@@ -608,9 +609,9 @@ fn bins_bake_the_same_parts_and_bad_bins_are_refused() {
         ..BakeOptions::default()
     };
     let plan = d.path().join("bad.svoplan");
-    plan_file(&mesh_path, &opts, 3, &plan, true).unwrap();
+    plan_file(&mesh_path, &opts, 3, MergeFormat::Auto, &plan, true).unwrap();
     let other = d.path().join("other.svoplan");
-    plan_file(&mesh_path, &opts, 4, &other, true).unwrap();
+    plan_file(&mesh_path, &opts, 4, MergeFormat::Auto, &other, true).unwrap();
     let bin = |p: &Path, i: u32| bin_path(p, i);
     let good = std::fs::read(bin(&plan, 2)).unwrap();
     let refused = |bytes: &[u8], what: &str| {
