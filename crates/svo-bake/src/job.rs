@@ -199,6 +199,18 @@ enum Input {
     Mesh,
 }
 
+/// Sets `options` for a DAG that keeps its leaves' values as `values` says: values above the
+/// leaves are the inner nodes' attributes, and a contour (measured in its own leaf's cell)
+/// cannot be kept there. Returns whether the values sit above the leaves.
+pub fn options_for_values(options: &mut BakeOptions, values: DagValues) -> bool {
+    let above = values.level_for(options.depth) < options.depth;
+    if above {
+        options.node_attributes = true;
+        options.channels = options.channels.without(svo::octree::ChannelKind::Contour);
+    }
+    above
+}
+
 /// Runs a bake job (what `svo-bake` does): loads the input, bakes it (or reads an `.svo`),
 /// and writes the output atomically.
 pub fn bake_file(job: &BakeJob) -> Result<BakeReport, JobError> {
@@ -276,12 +288,7 @@ fn run(
         job.values
             .check(options.depth)
             .map_err(|e| JobError::Layout(e.to_string()))?;
-        if job.values.level_for(options.depth) < options.depth {
-            // The values above the leaves are the inner nodes' attributes.
-            options.node_attributes = true;
-            values_above = true;
-            options.channels = options.channels.without(svo::octree::ChannelKind::Contour);
-        }
+        values_above = options_for_values(&mut options, job.values);
     }
     let clock = Clock {
         start,

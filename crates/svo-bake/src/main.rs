@@ -22,7 +22,9 @@ use std::sync::Mutex;
 use svo::bake::parts::{MergeFormat, bake_part_file, merge_parts, part_path, plan_file};
 use svo::bake::{BakeOptions, ChannelSelection, Phase, SolidMode, Strategy};
 use svo::dag::DagValues;
-use svo_bake::job::{BakeJob, GivenOptions, NodeLayout, bake_file_with_progress, parts_hint};
+use svo_bake::job::{
+    BakeJob, GivenOptions, NodeLayout, bake_file_with_progress, options_for_values, parts_hint,
+};
 use svo_bake::memory::available_memory;
 
 /// mimalloc keeps the bake's freed buffers for its next allocations; the system allocator
@@ -106,12 +108,16 @@ struct ValuesArgs {
 }
 
 impl ValuesArgs {
-    /// The library's settings.
-    fn values(self) -> DagValues {
-        DagValues {
+    /// The library's settings, refused unless the output is a DAG.
+    fn for_layout(self, layout: LayoutArg) -> anyhow::Result<DagValues> {
+        let values = DagValues {
             level: self.attribute_depth,
             normal_bits: self.normal_bits,
+        };
+        if layout != LayoutArg::Dag && values != DagValues::default() {
+            anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
         }
+        Ok(values)
     }
 }
 
@@ -362,7 +368,7 @@ fn real_main() -> anyhow::Result<()> {
             output,
             *bins,
             settings,
-            (*layout, values.values()),
+            (*layout, values.for_layout(*layout)?),
         ),
         Some(Command::Part {
             plan,
@@ -377,7 +383,14 @@ fn real_main() -> anyhow::Result<()> {
             layout,
             values,
             json,
-        }) => merge(plan, output, *chunked, *layout, values.values(), *json),
+        }) => merge(
+            plan,
+            output,
+            *chunked,
+            *layout,
+            values.for_layout(*layout)?,
+            *json,
+        ),
         None => bake(&args),
     }
 }
@@ -398,16 +411,10 @@ fn plan(
 ) -> anyhow::Result<()> {
     let mut opts = settings.options()?;
     let format = match layout {
-        LayoutArg::Tree if values != DagValues::default() => {
-            anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag")
-        }
         LayoutArg::Tree => MergeFormat::Auto,
         LayoutArg::Dag => {
-            // Values above the leaves are the inner nodes' attributes, as a bake makes them.
-            if values.level_for(opts.depth) < opts.depth {
-                opts.node_attributes = true;
-                opts.channels = opts.channels.without(svo::ChannelKind::Contour);
-            }
+            // As a bake sets them for these values.
+            options_for_values(&mut opts, values);
             MergeFormat::DagWith(values)
         }
     };
@@ -481,9 +488,6 @@ fn merge(
     values: DagValues,
     json: bool,
 ) -> anyhow::Result<()> {
-    if layout != LayoutArg::Dag && values != DagValues::default() {
-        anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
-    }
     let format = match (chunked, layout) {
         (_, LayoutArg::Dag) => MergeFormat::DagWith(values),
         (true, LayoutArg::Tree) => MergeFormat::Chunked,
@@ -579,11 +583,8 @@ fn bake(args: &Args) -> anyhow::Result<()> {
             LayoutArg::Tree => NodeLayout::Tree,
             LayoutArg::Dag => NodeLayout::Dag,
         },
-        values: args.values.values(),
+        values: args.values.for_layout(args.layout)?,
     };
-    if job.layout != NodeLayout::Dag && job.values != DagValues::default() {
-        anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
-    }
     let bar = progress_bar(args);
     let last = Mutex::new(None);
     let talk = !(args.quiet || args.json);

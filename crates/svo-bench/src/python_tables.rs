@@ -196,6 +196,14 @@ fn time_ms<T>(f: impl FnOnce() -> T) -> (f64, T) {
     (t.elapsed().as_secs_f64() * 1e3, out)
 }
 
+/// The median milliseconds of `runs` calls of `f`.
+fn round_median(runs: usize, f: &mut dyn FnMut() -> anyhow::Result<f64>) -> anyhow::Result<f64> {
+    let times = (0..runs)
+        .map(|_| f())
+        .collect::<anyhow::Result<Vec<f64>>>()?;
+    Ok(median(&times))
+}
+
 /// The rays the script wrote: little-endian `f64` rows of origin and direction.
 fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
     let bytes = std::fs::read(path)?;
@@ -248,24 +256,18 @@ pub fn measure(
         let (mut p, mut r, mut o) = (Vec::new(), Vec::new(), Vec::new());
         let runs = runs(depth);
         for _ in 0..rounds(depth) {
-            let mut py_round = Vec::new();
-            for _ in 0..runs {
-                py_round.push(num(&py.ask(&format!("bake {depth}"))?, "ms")?);
-            }
-            p.push(median(&py_round));
-            let mut rust_round = Vec::new();
-            for _ in 0..runs {
+            p.push(round_median(runs, &mut || {
+                num(&py.ask(&format!("bake {depth}"))?, "ms")
+            })?);
+            r.push(round_median(runs, &mut || {
                 let (t, tree) = time_ms(|| bake_mesh(mesh, &options(depth)));
                 drop(tree?);
-                rust_round.push(t);
-            }
-            r.push(median(&rust_round));
+                Ok(t)
+            })?);
             if open3d_first.is_ok() {
-                let mut o3d_round = Vec::new();
-                for _ in 0..runs {
-                    o3d_round.push(num(&py.ask(&format!("open3d {depth} 0"))?, "ms")?);
-                }
-                o.push(median(&o3d_round));
+                o.push(round_median(runs, &mut || {
+                    num(&py.ask(&format!("open3d {depth} 0"))?, "ms")
+                })?);
             }
         }
         let svo_ms = median(&p);

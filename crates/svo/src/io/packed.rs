@@ -23,6 +23,23 @@ pub(crate) fn element_bits(kind: u8) -> u32 {
     8 * ChannelKind::ALL[usize::from(kind)].element_size() as u32
 }
 
+/// The bits a value of a channel of `kind` is stored in on a level: `normal_bits` for a
+/// normal, its element's for any other channel.
+pub(crate) fn stored_bits(kind: u8, normal_bits: u8) -> u8 {
+    if kind == 0 {
+        normal_bits
+    } else {
+        element_bits(kind) as u8
+    }
+}
+
+/// A little-endian element of 1 to 4 bytes as a word.
+pub(crate) fn word(b: &[u8]) -> u32 {
+    let mut w = [0u8; 4];
+    w[..b.len()].copy_from_slice(b);
+    u32::from_le_bytes(w)
+}
+
 /// Whether a channel of `kind` may be stored in `bits` bits: its element's, or for a normal
 /// an even number from 4 to 32.
 pub(crate) fn bits_allowed(kind: u8, bits: u8) -> bool {

@@ -271,17 +271,13 @@ pub fn write_dag_to_with(
             match c {
                 StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
                 StoredChannel::PerLeaf { bytes, size } => {
-                    let kind_bits = if kind == 0 { bits } else { (8 * size) as u8 };
+                    let kind_bits = packed::stored_bits(kind, bits);
                     if level == tree.depth && kind_bits == (8 * size) as u8 {
                         channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
                         arrays.push(Cow::Owned(bytes.to_vec()));
                         continue;
                     }
-                    let words = bytes.chunks_exact(size).map(|b| {
-                        let mut w = [0u8; 4];
-                        w[..size].copy_from_slice(b);
-                        u32::from_le_bytes(w)
-                    });
+                    let words = bytes.chunks_exact(size).map(packed::word);
                     let packed = packed::pack(kind, kind_bits, words);
                     channels.push((
                         kind,

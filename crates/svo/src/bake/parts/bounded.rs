@@ -9,7 +9,7 @@ use crate::bake::estimate::{BYTES_PER_LEAF, BYTES_PER_TRIANGLE, NODE_BYTES_PER_L
 use crate::bake::parts::merge::{MergeFormat, MergeReport, dag_values, merge_with};
 use crate::bake::parts::part::{bake_parts, is_complete_part, touched_counts, write_part};
 use crate::bake::parts::plan::{
-    BakePlan, MAX_PARTS, PART_LEAVES, PartsError, channel_names, least_parts, plan_bake,
+    BakePlan, MAX_PARTS, PART_LEAVES, PartsError, least_parts, makes_node_attributes, plan_bake,
     plan_to_bytes,
 };
 use crate::dag::DagValues;
@@ -67,11 +67,7 @@ pub fn bake_within(
         ..opts.clone()
     };
     // What the merge would refuse, refused before the first part.
-    let dag = dag_values(
-        format,
-        opts.depth,
-        opts.node_attributes && channel_names(&opts) != "none",
-    )?;
+    let dag = dag_values(format, opts.depth, makes_node_attributes(&opts))?;
     let plan = plan_for_budget(mesh, mesh_path, &opts, (budget, dag), build)?;
     let p = bake_planned(mesh, &plan, output, format, progress)?;
     Ok(PartsReport {

@@ -22,7 +22,7 @@ use crate::bake::parts::merge_levels::top_levels;
 use crate::bake::parts::part_levels::push_value;
 use crate::bake::parts::plan::{BakePlan, PartsError};
 use crate::dag::{DagBuilder, DagValues};
-use crate::io::packed::{Packer, pack, packed_len};
+use crate::io::packed::{Packer, pack, packed_len, stored_bits, word};
 use crate::io::write::{Layout, Stored, dag_blocks};
 use crate::octree::ChannelKind;
 use crate::octree::normal_encoding::quantize;
@@ -61,11 +61,7 @@ pub(crate) fn merge_dag<'a>(
     // word), each leaf's own as the parts hold it, or packed on `level`.
     let mut stored = Vec::with_capacity(channels.len());
     for &(kind, s) in channels {
-        let kind_bits = if kind == 0 {
-            bits
-        } else {
-            (8 * ChannelKind::ALL[usize::from(kind)].element_size()) as u8
-        };
+        let kind_bits = stored_bits(kind, bits);
         stored.push((
             kind,
             match s {
@@ -104,7 +100,7 @@ pub(crate) fn merge_dag<'a>(
         }
         let j = i - blocks.len();
         let (kind, s) = arrays[j];
-        if let Some(v) = &level_values {
+        if let (Some(v), Stored::Packed { bits, .. }) = (&level_values, s) {
             let packed = v.packed(kind, bits);
             return out
                 .write_all(&packed)
@@ -139,13 +135,6 @@ pub(crate) fn merge_dag<'a>(
         }
     })?;
     Ok((layout, bytes))
-}
-
-/// A little-endian value of 1 to 4 bytes as a word.
-fn word(b: &[u8]) -> u32 {
-    let mut w = [0u8; 4];
-    w[..b.len()].copy_from_slice(b);
-    u32::from_le_bytes(w)
 }
 
 /// The graph of the parts' subtrees, each part's node array (its subtrees depth-first) read
@@ -289,17 +278,15 @@ struct LevelValues {
 }
 
 impl LevelValues {
-    /// Channel `kind`'s values packed in `bits` bits (a normal; other channels at their
-    /// element's width).
+    /// Channel `kind`'s values packed in `bits` bits each.
     fn packed(&self, kind: u8, bits: u8) -> Vec<u8> {
         let size = ChannelKind::ALL[usize::from(kind)].element_size();
-        let kind_bits = if kind == 0 { bits } else { (8 * size) as u8 };
         let bytes = self
             .bytes
             .iter()
             .find(|(k, _)| *k == kind)
             .map_or(&[][..], |(_, b)| b.as_slice());
-        pack(kind, kind_bits, bytes.chunks_exact(size).map(word))
+        pack(kind, bits, bytes.chunks_exact(size).map(word))
     }
 }
 

@@ -252,6 +252,12 @@ pub(crate) fn hash_file(path: &Path) -> Result<u64, PartsError> {
     }
 }
 
+/// Whether a plan of `opts` gives the inner nodes attributes: where they are asked for and
+/// the leaves have channels (without, the bake writes version 2).
+pub(crate) fn makes_node_attributes(opts: &BakeOptions) -> bool {
+    opts.node_attributes && channel_names(opts) != "none"
+}
+
 /// The channels of a selection, as `--channels` takes them.
 pub(crate) fn channel_names(opts: &BakeOptions) -> String {
     let names: Vec<&str> = ChannelKind::ALL
@@ -335,8 +341,7 @@ pub(crate) fn plan_bake(
         strategy: opts.strategy.name().to_string(),
         channels: channel_names(opts),
         pad: opts.pad,
-        // Without channels the nodes have none either: the bake writes version 2.
-        node_attributes: opts.node_attributes && channel_names(opts) != "none",
+        node_attributes: makes_node_attributes(opts),
         leaf_arrays: dag.is_none_or(|v| v.level_for(opts.depth) >= opts.depth),
         root_origin: root.origin.to_array(),
         root_side: root.side,
@@ -439,11 +444,7 @@ pub fn plan_file(
             mesh_path.display()
         )));
     }
-    let dag = dag_values(
-        format,
-        opts.depth,
-        opts.node_attributes && channel_names(opts) != "none",
-    )?;
+    let dag = dag_values(format, opts.depth, makes_node_attributes(opts))?;
     let abs = std::path::absolute(mesh_path).map_err(|e| PartsError::io(mesh_path, e))?;
     let hash = hash_file(&abs)?;
     let mesh = crate::import::load_mesh(&abs)?;
