@@ -98,7 +98,8 @@ struct ValuesArgs {
     /// level of the tree, each node's the area-weighted surface in its cell, which the leaves
     /// below take (1 to depth - 2; the depth, each leaf its own, is the default). The
     /// contour, measured in its own leaf's cell, is left out. For `merge`, the plan must
-    /// have been made with `--lod filtered --no-contours`.
+    /// have been made with `--layout dag --attribute-depth`, or `--lod filtered
+    /// --no-contours`.
     #[arg(long, value_name = "LEVEL")]
     attribute_depth: Option<u8>,
     /// With `--layout dag`: keep each normal in this many bits (an even number from 4 to
