@@ -1061,8 +1061,20 @@ fn tree_level_counts(nodes: &[[u32; 2]], depth: u8) -> Vec<u64> {
 }
 
 /// `count` made-up values of `bits` bits as section 12's bit stream: for a normal of fewer
-/// than 32 bits, two components in `-m ..= m`; else the element's bits of a varying word.
+/// than 32 bits, two components in `-m ..= m`; for colours in 4 bits, blocks of 16 (64 bits,
+/// a last block of `r` values `32 + 2 r`) of varying bits; else the element's bits of a
+/// varying word.
 fn packed_values(kind: u8, bits: u8, count: u64) -> Vec<u8> {
+    if kind == 2 && bits == 4 {
+        let total = 64 * (count / 16)
+            + if !count.is_multiple_of(16) {
+                32 + 2 * (count % 16)
+            } else {
+                0
+            };
+        let bitv: Vec<bool> = (0..total).map(|i| (i * 7 + i / 5) % 3 == 0).collect();
+        return pack_bits(&bitv);
+    }
     let b = u32::from(bits);
     let value = |i: u64| -> u64 {
         if kind == 0 && b < 32 {
@@ -1158,8 +1170,8 @@ fn values_on_a_level(t: &Trees, invalid: &mut Invalid<'_>) {
     invalid(
         10,
         "values-colour-bits",
-        "the DAG layout: colours on a level in 16 bits (a colour takes its 32)",
-        on_level(&torus, 2, depth - 2, 16, false).encode(),
+        "the DAG layout: colours on a level in 8 bits (a colour takes 32, 16 or 4)",
+        on_level(&torus, 2, depth - 2, 8, false).encode(),
     );
     invalid(
         10,
@@ -1188,6 +1200,23 @@ fn values_on_a_level(t: &Trees, invalid: &mut Invalid<'_>) {
                 p.channels.iter_mut().find(|c| c.0 == 0)
             {
                 bytes.push(0);
+            }
+        }),
+    );
+    // Colours in 4 bits are blocks: a stream of 4 bits a value is too short for a level whose
+    // count is not a multiple of 16.
+    let varied = t.varied.as_dag();
+    let count = tree_level_counts(&varied.nodes, varied.depth)[2];
+    assert_ne!(count % 16, 0);
+    invalid(
+        17,
+        "values-colour-blocks",
+        "the DAG layout: colours on a level in 4 bits, the stream 4 bits a value instead of blocks",
+        from(&on_level(&varied, 2, 2, 4, false), &|p| {
+            if let Some((_, Stored::Packed { bytes, .. })) =
+                p.channels.iter_mut().find(|c| c.0 == 2)
+            {
+                bytes.truncate((count * 4).div_ceil(8) as usize);
             }
         }),
     );
@@ -1445,6 +1474,16 @@ fn valid_files(t: &Trees) -> Vec<Entry> {
         "dag-values-colour",
         "the DAG layout: the varied tree's colours on level 2 (32 bits), its other channels left out",
         &on_level(&t.varied.as_dag(), 2, 2, 32, false),
+    );
+    valid(
+        "dag-values-colour-16",
+        "the DAG layout: the varied tree's colours on level 2 in 16 bits (R5G6B5), its other channels left out",
+        &on_level(&t.varied.as_dag(), 2, 2, 16, false),
+    );
+    valid(
+        "dag-values-colour-4",
+        "the DAG layout: the varied tree's colours on level 2 in 4 bits (one block of fewer than 16), its other channels left out",
+        &on_level(&t.varied.as_dag(), 2, 2, 4, false),
     );
 
     out

@@ -322,7 +322,8 @@ fn header_values(h: &Header) -> Result<(), u8> {
         return Err(10);
     }
     // Values on a level (section 12): the DAG layout only; a level from 1 to the depth; the
-    // element's bits, or a normal's even 4 to 32; a contour on the leaves'; one level for all.
+    // element's bits, a normal's even 4 to 32, or a colour's 16 or 4; a contour on the leaves';
+    // one level for all.
     let mut on_level = None;
     for (kind, s) in &h.channels {
         let level = match *s {
@@ -330,8 +331,9 @@ fn header_values(h: &Header) -> Result<(), u8> {
             Storage::PerLeaf(..) => h.depth,
             Storage::Packed(level, bits, _, _) => {
                 let element = 8 * size(*kind) as u8;
-                let bits_ok =
-                    bits == element || (*kind == 0 && bits % 2 == 0 && (4..=32).contains(&bits));
+                let bits_ok = bits == element
+                    || (*kind == 0 && bits % 2 == 0 && (4..=32).contains(&bits))
+                    || (*kind == 2 && (bits == 16 || bits == 4));
                 if !dag
                     || !(1..=h.depth).contains(&level)
                     || !bits_ok
@@ -931,10 +933,10 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
     per_level[depth - 2] = times.iter().sum();
     per_level[depth - 1] = over(&|x| x.to_le_bytes().iter().filter(|&&y| y != 0).count() as u64);
     per_level[depth] = over(&|x| u64::from(x.count_ones()));
-    for (_, s) in &h.channels {
+    for (kind, s) in &h.channels {
         if let Storage::Packed(level, bits, o, n) = *s {
             let count = per_level[usize::from(level)];
-            let total = count * u64::from(bits);
+            let total = stream_bits(*kind, bits, count);
             if n != total.div_ceil(8) {
                 return Err(17);
             }
@@ -947,7 +949,7 @@ fn check_dag(b: &[u8], h: &Header, hl: usize) -> Result<(), u8> {
     for (kind, s) in &h.channels {
         if let Storage::Packed(level, bits, o, n) = *s {
             let count = per_level[usize::from(level)];
-            let total = count * u64::from(bits);
+            let total = stream_bits(*kind, bits, count);
             if (total..8 * n).any(|at| b[(o + at / 8) as usize] >> (at % 8) & 1 == 1) {
                 return Err(18);
             }
@@ -984,6 +986,22 @@ fn leaf_arrays(h: &Header) -> Vec<((u64, u64), u64)> {
             Storage::Constant(_) => None,
         })
         .collect()
+}
+
+/// The bits of `count` values of a channel of `kind` on a level in `bits` bits: `count * bits`,
+/// except colours in 4 bits, in blocks of 16 values of 64 bits (32 for the two ends, 2 a
+/// value), the last block of `r < 16` values `32 + 2 r`.
+fn stream_bits(kind: u8, bits: u8, count: u64) -> u64 {
+    if kind == 2 && bits == 4 {
+        64 * (count / 16)
+            + if !count.is_multiple_of(16) {
+                32 + 2 * (count % 16)
+            } else {
+                0
+            }
+    } else {
+        count * u64::from(bits)
+    }
 }
 
 /// Value `i` of `bits` bits of the little-endian bit stream at `o` in `b`.

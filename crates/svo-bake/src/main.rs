@@ -106,6 +106,10 @@ struct ValuesArgs {
     /// 32, half of them a component of its octahedral encoding).
     #[arg(long, value_name = "BITS", default_value_t = 32)]
     normal_bits: u8,
+    /// With `--layout dag`: keep each colour in 32 bits (as it is), 16 (R5G6B5) or 4 (blocks
+    /// of 16 colours: two R5G6B5 ends and a 2-bit choice a colour).
+    #[arg(long, value_name = "BITS", default_value_t = 32)]
+    colour_bits: u8,
 }
 
 impl ValuesArgs {
@@ -114,9 +118,12 @@ impl ValuesArgs {
         let values = DagValues {
             level: self.attribute_depth,
             normal_bits: self.normal_bits,
+            colour_bits: self.colour_bits,
         };
         if layout != LayoutArg::Dag && values != DagValues::default() {
-            anyhow::bail!("--attribute-depth and --normal-bits are for --layout dag");
+            anyhow::bail!(
+                "--attribute-depth, --normal-bits and --colour-bits are for --layout dag"
+            );
         }
         Ok(values)
     }

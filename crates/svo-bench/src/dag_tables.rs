@@ -146,6 +146,18 @@ impl ValuesRow {
     }
 }
 
+/// How the values tables render: cube hits, one light, no shadows or bounces (the values
+/// alone make the difference).
+fn values_trace() -> svo::render::TraceOptions {
+    svo::render::TraceOptions {
+        mode: svo::trace::HitMode::Cube,
+        shadows: svo::render::ShadowMode::None,
+        max_reflections: 0,
+        max_refractions: 0,
+        ..Default::default()
+    }
+}
+
 /// Bakes `mesh` (named `name`) at each of `depths` with normals alone and its inner nodes'
 /// attributes, and for each setting of (level below the depth, bits) writes the DAG file
 /// with the normals so kept and renders `views` (cube hits, one light, no shadows or
@@ -160,19 +172,11 @@ pub fn measure_values(
     (width, height): (u32, u32),
 ) -> anyhow::Result<Vec<ValuesRow>> {
     use svo::dag::{DagTree, DagValues};
-    use svo::render::{
-        DagSurfaces, MeshSurfaces, Phong, ShadowMode, Sky, TraceOptions, Tracer, compare, render,
-    };
+    use svo::render::{DagSurfaces, MeshSurfaces, Phong, Sky, Tracer, compare, render};
     let (lo, hi) = mesh
         .bounds()
         .ok_or_else(|| anyhow::anyhow!("{name}: an empty mesh"))?;
-    let trace = TraceOptions {
-        mode: svo::trace::HitMode::Cube,
-        shadows: ShadowMode::None,
-        max_reflections: 0,
-        max_refractions: 0,
-        ..TraceOptions::default()
-    };
+    let trace = values_trace();
     let mut rows = Vec::new();
     for depth in depths {
         let opts = BakeOptions {
@@ -217,6 +221,7 @@ pub fn measure_values(
             let values = DagValues {
                 level: Some(level),
                 normal_bits: bits,
+                colour_bits: 32,
             };
             let file = write_dag_to_with(&tree, &build, &values, sink)?;
             let dag = DagTree::from_tree_with(&tree, &values)?;
@@ -241,6 +246,187 @@ pub fn measure_values(
                 file,
                 psnr_own,
                 psnr_triangles,
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Colours kept on a level in fewer bits, for one setting.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ColourRow {
+    /// The mesh's file name.
+    pub mesh: String,
+    /// Tree depth.
+    pub depth: u8,
+    /// Leaves.
+    pub leaves: u64,
+    /// The level whose nodes hold the values (the depth: each leaf its own).
+    pub level: u8,
+    /// Bits a colour (32, 16 or 4).
+    pub bits: u8,
+    /// The colours stored (one for each node of `level`).
+    pub colours: u64,
+    /// Bytes of the DAG file (geometry, normals in 32 bits and colours) and of the same file
+    /// without its colour channel.
+    pub file: (u64, u64),
+    /// RMS error of the colours kept against the same level's colours in 32 bits, in 8-bit
+    /// sRGB levels (per channel).
+    pub rms: f64,
+    /// PSNR (dB) of each view's image against the image with each leaf's own 32-bit colour
+    /// and normal.
+    pub psnr_own: Vec<f64>,
+    /// PSNR (dB) of each view's image against the same level's values with 32-bit colours
+    /// (the compression's error alone).
+    pub psnr_level: Vec<f64>,
+    /// PSNR (dB) of each view's image against the triangles'.
+    pub psnr_triangles: Vec<f64>,
+}
+
+impl ColourRow {
+    /// Bits a leaf of the colour channel (the file's bytes beyond the file without it).
+    pub fn colour_bits(&self) -> f64 {
+        8.0 * self.file.0.saturating_sub(self.file.1) as f64 / self.leaves.max(1) as f64
+    }
+}
+
+/// The views of the colours table, for a mesh of bounds `lo`..`hi`: the default framing, and
+/// its eye moved to 40% of the distance to the target (a pixel about a leaf wide at depth
+/// 11), each with one light.
+fn colour_views(
+    lo: glam::DVec3,
+    hi: glam::DVec3,
+    (width, height): (u32, u32),
+) -> Vec<(svo::render::Camera, svo::render::PointLight)> {
+    use crate::views::View;
+    let framed = View::Framed.camera(lo, hi, width, height);
+    let close = svo::render::Camera {
+        eye: framed.target + (framed.eye - framed.target) * 0.4,
+        ..framed
+    };
+    [framed, close]
+        .into_iter()
+        .map(|c| (c, View::Framed.light(lo, hi, &c)))
+        .collect()
+}
+
+/// Bakes `mesh` (named `name`, with colours) at `depth` with normals, colours and its inner
+/// nodes' attributes, and for each of `levels` (levels above the leaves: 0 is each leaf its
+/// own) and `bits` writes the DAG file with the colours so kept (normals in 32 bits on the
+/// same level) and renders the framed and a close view (cube hits, one light, no shadows or
+/// bounces, `size`) on its graph, against each leaf's own values, against the same level in
+/// 32 bits and against the triangles.
+pub fn measure_colours(
+    mesh: &Mesh,
+    name: &str,
+    depth: u8,
+    levels: &[u8],
+    bits: &[u8],
+    size: (u32, u32),
+) -> anyhow::Result<Vec<ColourRow>> {
+    use svo::dag::{DagTree, DagValues};
+    use svo::octree::{Channel, ChannelKind};
+    use svo::render::{DagSurfaces, MeshSurfaces, Phong, Sky, Tracer, compare, render};
+    let (lo, hi) = mesh
+        .bounds()
+        .ok_or_else(|| anyhow::anyhow!("{name}: an empty mesh"))?;
+    let trace = values_trace();
+    let opts = BakeOptions {
+        depth,
+        node_attributes: true,
+        channels: svo::ChannelSelection::NONE
+            .with(ChannelKind::Normal)
+            .with(ChannelKind::Colour),
+        ..Default::default()
+    };
+    let tree = bake_mesh(mesh, &opts)?.0;
+    if !tree.attributes.colour.is_per_leaf() {
+        anyhow::bail!("{name}: the bake has one colour");
+    }
+    let mut plain = tree.clone();
+    plain.attributes.colour = Channel::Absent;
+    plain.node_attributes.colour = Channel::Absent;
+    let build = BuildInfo::new();
+    let sink = &mut std::io::sink();
+    let views = colour_views(lo, hi, size);
+    let frames = |dag: &DagTree| -> anyhow::Result<Vec<svo::render::Frame>> {
+        views
+            .iter()
+            .map(|(cam, light)| {
+                let t = Tracer::new(
+                    DagSurfaces::new(dag, trace.mode),
+                    &[*light],
+                    Sky::default(),
+                    Phong::default(),
+                    trace,
+                );
+                Ok(render(&t, cam)?)
+            })
+            .collect()
+    };
+    let own = frames(&DagTree::from_tree_with(&tree, &DagValues::default())?)?;
+    let mut triangles = Vec::new();
+    for (cam, light) in &views {
+        let t = Tracer::new(
+            MeshSurfaces::new(mesh.clone(), tree.root, tree.depth),
+            &[*light],
+            Sky::default(),
+            Phong::default(),
+            trace,
+        );
+        triangles.push(render(&t, cam)?);
+    }
+    let db = |a: &[svo::render::Frame], b: &[svo::render::Frame]| -> Vec<f64> {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| compare(x, y).map_or(f64::NAN, |d| d.psnr_db))
+            .collect()
+    };
+    let rgb = |w: u32| [w & 0xFF, (w >> 8) & 0xFF, (w >> 16) & 0xFF];
+    let mut rows = Vec::new();
+    for &below in levels {
+        let Some(level) = depth.checked_sub(below).filter(|&l| l >= 1) else {
+            continue;
+        };
+        let at = |b: u8| DagValues {
+            level: Some(level),
+            colour_bits: b,
+            ..DagValues::default()
+        };
+        let full = DagTree::from_tree_with(&tree, &at(32))?;
+        let full_frames = frames(&full)?;
+        let without = write_dag_to_with(&plain, &build, &at(32), sink)?;
+        for &b in bits {
+            let values = at(b);
+            let file = write_dag_to_with(&tree, &build, &values, sink)?;
+            let dag = DagTree::from_tree_with(&tree, &values)?;
+            let (kept, whole) = match (&dag.attributes().colour, &full.attributes().colour) {
+                (Channel::PerLeaf(k), Channel::PerLeaf(w)) => (k, w),
+                _ => anyhow::bail!("{name}: colours not kept per value"),
+            };
+            let sq: f64 = kept
+                .iter()
+                .zip(whole)
+                .map(|(&k, &w)| {
+                    let (k, w) = (rgb(k), rgb(w));
+                    (0..3)
+                        .map(|c| f64::from(k[c].abs_diff(w[c])).powi(2))
+                        .sum::<f64>()
+                })
+                .sum();
+            let f = frames(&dag)?;
+            rows.push(ColourRow {
+                mesh: name.to_string(),
+                depth,
+                leaves: u64::from(tree.leaf_count),
+                level,
+                bits: b,
+                colours: kept.len() as u64,
+                file: (file, without),
+                rms: (sq / (3 * kept.len().max(1)) as f64).sqrt(),
+                psnr_own: db(&f, &own),
+                psnr_level: db(&f, &full_frames),
+                psnr_triangles: db(&f, &triangles),
             });
         }
     }

@@ -100,6 +100,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
                     "valid-dag-values-leaves.svo" => Some(DagValues {
                         level: None,
                         normal_bits: 10,
+                        colour_bits: 32,
                     }),
                     name if name.starts_with("valid-dag-values-") => None,
                     _ => Some(DagValues::default()),
@@ -141,7 +142,7 @@ fn the_reader_accepts_exactly_the_valid_files_and_names_each_failed_check() {
             (o, _) => panic!("{}: unknown outcome {o}", f[0]),
         }
     }
-    assert_eq!((valid, chunked, levels, dags), (31, 5, 4, 6));
+    assert_eq!((valid, chunked, levels, dags), (33, 5, 4, 6));
     // Every check has at least one file that fails it.
     let numbers: Vec<u8> = per_check.keys().copied().collect();
     assert_eq!(numbers, (1..=22).collect::<Vec<u8>>());

@@ -529,6 +529,11 @@ fn layout_dag_keeps_values_on_a_level() {
         &["--layout", "dag", "--normal-bits", "9"],
         "9 bits a normal",
     );
+    refused(
+        &["--layout", "dag", "--colour-bits", "8"],
+        "8 bits a colour",
+    );
+    refused(&["--colour-bits", "4"], "for --layout dag");
     // Within a memory budget (parts baked with the inner nodes' attributes, the graph and
     // the level's values made by the merge), and by a plan's parts merged: the same bytes.
     let bytes = |p: &Path| std::fs::read(p).unwrap();

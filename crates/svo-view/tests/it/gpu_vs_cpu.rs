@@ -614,7 +614,7 @@ fn a_graph_renders_the_frames_of_its_tree() {
 /// A graph whose leaves take their values from a level above (the inner nodes' normals,
 /// `DagValues`), on the GPU as on the CPU: the copper torus at depth 7 (reflections, product
 /// shadows) with values on levels 5 (the bricks'), 6 (the leaf parents') and 4, normals in 16
-/// and 32 bits: the same hit mask, the same leaves (values' indices) and nearly the same
+/// and 32 bits, colours in 4, 16 and 32: the same hit mask, the same leaves (values' indices) and nearly the same
 /// colours; the leaves' indices are fewer than the leaves.
 fn a_graph_with_values_above_its_leaves_renders_the_same() {
     let Some(ctx) = gpu() else {
@@ -627,10 +627,11 @@ fn a_graph_with_values_above_its_leaves_renders_the_same() {
         mode: HitMode::Cube,
         ..TraceOptions::default()
     };
-    for (level, normal_bits) in [(5u8, 16u8), (4, 32), (7, 16)] {
+    for (level, normal_bits, colour_bits) in [(5u8, 16u8, 4u8), (4, 32, 32), (7, 16, 16)] {
         let values = svo::dag::DagValues {
             level: Some(level),
             normal_bits,
+            colour_bits,
         };
         let dag = DagTree::from_tree_with(&tree, &values).unwrap();
         let variant = ShaderVariant::for_scene(&dag, &trace, s.lights.len());

@@ -1,9 +1,10 @@
 //! Where a graph's leaves find their values ([`DagValues`]): each leaf its own, or the values
 //! of its ancestor on a level above (a tree's inner-node attributes, area-weighted over the
-//! surface in the ancestor's cell), and normals in fewer bits. A graph shares subtrees but
+//! surface in the ancestor's cell), and normals and colours in fewer bits. A graph shares subtrees but
 //! not values, so the values are what grows with depth: kept on a level `A` above the leaves,
 //! they grow with that level's node count instead.
 
+use crate::octree::colour_encoding::round_trip;
 use crate::octree::level_order::level_counts;
 use crate::octree::normal_encoding::quantize;
 use crate::octree::tree::{Channel, LeafAttributes, Octree};
@@ -20,6 +21,10 @@ pub struct DagValues {
     /// The bits a normal is kept in: an even number from 4 to 32, half of them a component of
     /// its octahedral encoding (`docs/format.md`, section 5); 32 keeps the normals as they are.
     pub normal_bits: u8,
+    /// The bits a colour is kept in: 32 as it is (RGBA8), 16 as R5G6B5, or 4 in blocks of 16
+    /// colours in Morton order, two R5G6B5 ends and a 2-bit choice a colour among four
+    /// (`docs/format.md`, section 12); 16 and 4 keep no alpha.
+    pub colour_bits: u8,
 }
 
 impl Default for DagValues {
@@ -27,6 +32,7 @@ impl Default for DagValues {
         Self {
             level: None,
             normal_bits: 32,
+            colour_bits: 32,
         }
     }
 }
@@ -59,6 +65,9 @@ pub enum ValuesError {
     /// A normal width not allowed.
     #[error("{0} bits a normal: an even number from 4 to 32")]
     NormalBits(u8),
+    /// A colour width not allowed.
+    #[error("{0} bits a colour: 32 (as it is), 16 (R5G6B5) or 4 (blocks of 16)")]
+    ColourBits(u8),
 }
 
 impl DagValues {
@@ -73,6 +82,9 @@ impl DagValues {
         if !(4..=32).contains(&b) || !b.is_multiple_of(2) {
             return Err(ValuesError::NormalBits(b));
         }
+        if ![4, 16, 32].contains(&self.colour_bits) {
+            return Err(ValuesError::ColourBits(self.colour_bits));
+        }
         let level = self.level_for(depth);
         if level != depth && !(1..=depth.saturating_sub(2)).contains(&level) {
             return Err(ValuesError::Level { level, depth });
@@ -82,9 +94,21 @@ impl DagValues {
 
     /// The values `tree`'s leaves get: its leaves' channels, or its inner nodes' on the
     /// level (one value for each node of that level, in Morton order), constants kept, with
-    /// the normals in `normal_bits` bits.
+    /// the normals in `normal_bits` bits and the colours in `colour_bits` (a constant colour
+    /// as it is: a file stores it whole).
     #[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
     pub(crate) fn of(&self, tree: &Octree) -> Result<LeafAttributes, ValuesError> {
+        let mut a = self.packed_values(tree)?;
+        if let Channel::PerLeaf(v) = &mut a.colour {
+            round_trip(v, self.colour_bits);
+        }
+        Ok(a)
+    }
+
+    /// [`Self::of`] before the colours are kept in their bits: what a writer packs (a block
+    /// of colours is encoded from the colours themselves, not from a decoded block).
+    #[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
+    pub(crate) fn packed_values(&self, tree: &Octree) -> Result<LeafAttributes, ValuesError> {
         self.check(tree.depth)?;
         let level = self.level_for(tree.depth);
         let mut a = if level == tree.depth {

@@ -93,7 +93,7 @@ impl DagTree {
     /// let opts = BakeOptions { depth: 6, node_attributes: true, ..Default::default() };
     /// let mut tree = bake_mesh(&sphere, &opts)?.0;
     /// tree.attributes.contour = svo::octree::Channel::Absent;
-    /// let coarse = DagValues { level: Some(4), normal_bits: 16 };
+    /// let coarse = DagValues { level: Some(4), normal_bits: 16, colour_bits: 4 };
     /// let dag = DagTree::from_tree_with(&tree, &coarse)?;
     /// assert_eq!(dag.values_level(), 4);
     /// // One normal for each node of level 4, far fewer than the leaves.

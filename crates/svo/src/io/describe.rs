@@ -198,8 +198,14 @@ fn describe_header(p: &Preamble, checksum: u64) -> String {
             }
             Storage::Packed { level, bits, array } => writeln!(
                 out,
-                "               {name} at {} ({} bytes): level {level}'s nodes, {bits} bits each",
-                array.offset, array.len
+                "               {name} at {} ({} bytes): level {level}'s nodes, {bits} bits each{}",
+                array.offset,
+                array.len,
+                if e.kind == 2 && bits == 4 {
+                    " (blocks of 16)"
+                } else {
+                    ""
+                }
             ),
         };
     }

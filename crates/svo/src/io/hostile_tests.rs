@@ -328,6 +328,7 @@ fn hostile_values_on_a_level_are_refused() {
     let values = DagValues {
         level: Some(4),
         normal_bits: 10,
+        colour_bits: 32,
     };
     let mut bytes = Vec::new();
     write_dag_to_with(&tree, &info(), &values, &mut bytes).unwrap();

@@ -228,7 +228,7 @@ pub fn write_dag_to(tree: &Octree, build: &BuildInfo, w: &mut dyn Write) -> std:
 /// let opts = BakeOptions { depth: 7, node_attributes: true, channels: normals, ..Default::default() };
 /// let tree = bake_mesh(&sphere, &opts)?.0;
 /// let path = std::env::temp_dir().join("svo-doc-values.svo");
-/// let coarse = DagValues { level: Some(5), normal_bits: 16 };
+/// let coarse = DagValues { level: Some(5), normal_bits: 16, colour_bits: 16 };
 /// let bytes = write_dag_file_with(&tree, &BuildInfo::new(), &coarse, &path)?;
 /// // Less than a byte a leaf, normals included (each leaf's own would take 4).
 /// assert!(bytes < u64::from(tree.leaf_count));
@@ -263,15 +263,17 @@ pub fn write_dag_to_with(
     // at their own width, its arrays are written as they are.
     let (mut channels, borrowed) = checked_channels(tree)?;
     let mut arrays: Vec<Cow<'_, [u8]>> = borrowed.into_iter().map(Cow::Borrowed).collect();
-    if level < tree.depth || values.normal_bits < 32 {
-        let attributes = values.of(tree).map_err(invalid)?;
-        let bits = values.normal_bits;
+    if level < tree.depth || values.normal_bits < 32 || values.colour_bits < 32 {
+        // The values before the colours' round trip: the packer encodes them as a merge of
+        // parts does, from the values themselves.
+        let attributes = values.packed_values(tree).map_err(invalid)?;
         (channels, arrays) = (Vec::new(), Vec::new());
         for (kind, c) in attributes.stored() {
             match c {
                 StoredChannel::Constant(v) => channels.push((kind, Stored::Constant(v))),
                 StoredChannel::PerLeaf { bytes, size } => {
-                    let kind_bits = packed::stored_bits(kind, bits);
+                    let kind_bits =
+                        packed::stored_bits(kind, values.normal_bits, values.colour_bits);
                     if level == tree.depth && kind_bits == (8 * size) as u8 {
                         channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
                         arrays.push(Cow::Owned(bytes.to_vec()));

@@ -10,6 +10,7 @@
 
 pub(crate) mod bounds;
 pub(crate) mod builder;
+pub(crate) mod colour_encoding;
 pub(crate) mod contour;
 pub(crate) mod encoding;
 pub(crate) mod format_check;

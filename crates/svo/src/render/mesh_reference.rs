@@ -98,14 +98,7 @@ impl MeshSurfaces {
             m.texture.and_then(|i| self.mesh.textures.get(i)),
             self.mesh.triangle_uvs.get(id as usize),
         ) {
-            let tri = &self.tris[id as usize];
-            let o = Ray::new(
-                Vec3A::from(ray.origin),
-                Vec3A::from(ray.dir),
-                0.0,
-                f32::INFINITY,
-            );
-            let b = tri.compute_barycentric(&o);
+            let b = barycentric(&self.tris[id as usize], ray);
             let uv = |i: u32| self.mesh.uvs.get(i as usize).copied().unwrap_or_default();
             let st = uv(uvi[0]) * (1.0 - b.x - b.y) + uv(uvi[1]) * b.x + uv(uvi[2]) * b.y;
             let s = tex.sample_linear(st);
@@ -186,4 +179,17 @@ impl Surfaces for MeshSurfaces {
             capped: false,
         }
     }
+}
+
+/// The barycentric coordinates `(b1, b2)` (the weights of the second and third vertices) of
+/// where `ray`'s line meets `tri`'s plane. (obvhs 0.4's `Triangle::compute_barycentric`
+/// divides by the unit normal instead of the edges' cross product, which scales both by
+/// twice the triangle's area.)
+fn barycentric(tri: &Triangle, ray: &GridRay) -> glam::Vec2 {
+    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+    let e1 = tri.v0 - tri.v1;
+    let e2 = tri.v2 - tri.v0;
+    let ng = e1.cross(e2);
+    let r = d.cross(tri.v0 - o);
+    glam::Vec2::new(r.dot(e2), r.dot(e1)) / ng.dot(d)
 }

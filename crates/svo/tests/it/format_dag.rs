@@ -263,10 +263,11 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
         })
     };
     for level in [2u8, 4, 5, depth] {
-        for bits in [32u8, 16, 10] {
+        for (bits, colour_bits) in [(32u8, 32u8), (16, 16), (10, 4)] {
             let values = DagValues {
                 level: Some(level),
                 normal_bits: bits,
+                colour_bits,
             };
             let path = dir.path().join(format!("v{level}-{bits}.svo"));
             let tree = if level == depth { &per_leaf } else { &tree };
@@ -372,6 +373,7 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
         let v = DagValues {
             level: Some(level),
             normal_bits: bits,
+            colour_bits: 32,
         };
         let e = svo::io::write_dag_to_with(t, &BuildInfo::new(), &v, &mut Vec::new()).unwrap_err();
         assert!(e.to_string().contains(says), "{e}");
@@ -379,5 +381,12 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
     refuse(&with_contours, 3, 32, "contour");
     refuse(&tree, depth - 1, 32, "levels that hold values are 1 to 5");
     refuse(&tree, 3, 11, "11 bits a normal");
+    let v = DagValues {
+        level: Some(3),
+        colour_bits: 8,
+        ..DagValues::default()
+    };
+    let e = svo::io::write_dag_to_with(&tree, &BuildInfo::new(), &v, &mut Vec::new()).unwrap_err();
+    assert!(e.to_string().contains("8 bits a colour"), "{e}");
     refuse(&per_leaf, 3, 32, "inner nodes' attributes");
 }

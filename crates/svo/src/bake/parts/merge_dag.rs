@@ -3,7 +3,7 @@
 //! order, so that each level's distinct nodes come in the order the reduction of the whole
 //! tree finds them ([`DagBuilder`]); then the levels above the parts' level, made from the
 //! subtrees' roots; then the graph written, with the leaves' channels copied from the parts
-//! in Morton order (normals in fewer bits packed as they are copied). Memory holds the graph
+//! in Morton order (normals and colours in fewer bits packed as they are copied). Memory holds the graph
 //! and one part's nodes, never the tree, so the file is the one `svo::io::write_dag_to_with`
 //! writes of the tree baked in memory, byte for byte.
 //!
@@ -61,7 +61,9 @@ pub(crate) fn merge_dag<'a>(
     // word), each leaf's own as the parts hold it, or packed on `level`.
     let mut stored = Vec::with_capacity(channels.len());
     for &(kind, s) in channels {
-        let kind_bits = stored_bits(kind, bits);
+        let kind_bits = stored_bits(kind, bits, values.colour_bits);
+        let own_width =
+            u32::from(kind_bits) == 8 * ChannelKind::ALL[usize::from(kind)].element_size() as u32;
         stored.push((
             kind,
             match s {
@@ -69,9 +71,7 @@ pub(crate) fn merge_dag<'a>(
                     Stored::Constant(quantize(v, u32::from(bits)).1)
                 }
                 Stored::Constant(v) => Stored::Constant(v),
-                Stored::PerLeaf(len) if level == plan.depth && (kind != 0 || bits == 32) => {
-                    Stored::PerLeaf(len)
-                }
+                Stored::PerLeaf(len) if level == plan.depth && own_width => Stored::PerLeaf(len),
                 Stored::PerLeaf(_) | Stored::Packed { .. } => {
                     let count = match &level_values {
                         Some(v) => v.count,
@@ -80,7 +80,7 @@ pub(crate) fn merge_dag<'a>(
                     Stored::Packed {
                         level,
                         bits: kind_bits,
-                        len: packed_len(count, kind_bits).unwrap_or(u64::MAX),
+                        len: packed_len(kind, count, kind_bits).unwrap_or(u64::MAX),
                     }
                 }
             },

@@ -405,6 +405,7 @@ fn a_bake_within_a_small_budget_writes_the_bytes_of_the_bake_in_memory() {
     let on_level = crate::dag::DagValues {
         level: Some(5),
         normal_bits: 16,
+        colour_bits: 32,
     };
     for (node_attributes, format, version) in [
         (false, MergeFormat::Auto, 2),
@@ -716,7 +717,7 @@ fn parts_with_inner_node_attributes_merge_into_the_bytes_of_the_whole_bake() {
 }
 
 /// The DAG merge with the leaves' values on a level (the parts baked with inner-node
-/// attributes, without contours) or with normals in fewer bits: the bytes the DAG writer
+/// attributes, without contours) or with normals and colours in fewer bits: the bytes the DAG writer
 /// makes of the tree baked in memory, whatever the number of parts, for levels above, at and
 /// below the parts' level, on the torus, the bunny, a textured mesh (per-node colours and
 /// optics) and the flat square (one normal for every leaf). Parts planned for values on a
@@ -760,17 +761,21 @@ fn parts_merge_into_a_dag_with_values_on_a_level() {
                         .into_iter()
                         .filter(|&l| (1..=depth - 2).contains(&l))
                         .flat_map(|l| {
-                            [32, 16, 6].map(|normal_bits| DagValues {
-                                level: Some(l),
-                                normal_bits,
+                            [(32, 32), (16, 16), (6, 4)].map(|(normal_bits, colour_bits)| {
+                                DagValues {
+                                    level: Some(l),
+                                    normal_bits,
+                                    colour_bits,
+                                }
                             })
                         })
                         .collect()
                 } else {
-                    [16, 10]
-                        .map(|normal_bits| DagValues {
+                    [(16, 4), (10, 16)]
+                        .map(|(normal_bits, colour_bits)| DagValues {
                             level: None,
                             normal_bits,
+                            colour_bits,
                         })
                         .to_vec()
                 };
@@ -795,11 +800,13 @@ fn parts_merge_into_a_dag_with_values_on_a_level() {
                     DagValues {
                         level: None,
                         normal_bits: 16,
+                        colour_bits: 32,
                     }
                 } else {
                     DagValues {
                         level: Some(1),
                         normal_bits: 32,
+                        colour_bits: 32,
                     }
                 };
                 let e = merged_as(&plan_path, dir.path(), MergeFormat::DagWith(other)).unwrap_err();
@@ -829,6 +836,7 @@ fn parts_merge_into_a_dag_with_values_on_a_level() {
     let v = DagValues {
         level: Some(4),
         normal_bits: 12,
+        colour_bits: 32,
     };
     let size = |plan: &Path| -> u64 {
         (0..3)
@@ -865,6 +873,7 @@ fn parts_merge_into_a_dag_with_values_on_a_level() {
     let v = DagValues {
         level: Some(3),
         normal_bits: 32,
+        colour_bits: 32,
     };
     let e = merged_as(&plan, dir.path(), MergeFormat::DagWith(v)).unwrap_err();
     assert!(e.to_string().contains("contour"), "{e}");
