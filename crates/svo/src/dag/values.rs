@@ -96,7 +96,7 @@ impl DagValues {
     /// level (one value for each node of that level, in Morton order), constants kept, with
     /// the normals in `normal_bits` bits and the colours in `colour_bits` (a constant colour
     /// as it is: a file stores it whole).
-    #[cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
+    #[cfg_attr(not(feature = "trace"), allow(dead_code))]
     pub(crate) fn of(&self, tree: &Octree) -> Result<LeafAttributes, ValuesError> {
         let mut a = self.packed_values(tree)?;
         if let Channel::PerLeaf(v) = &mut a.colour {

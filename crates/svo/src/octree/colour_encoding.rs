@@ -10,11 +10,13 @@
 //! deterministic function of the block's values (principal axis, then least-squares
 //! refinement of the ends), so a file's bytes do not depend on the thread count or on how
 //! the values were streamed.
+#![cfg_attr(not(any(feature = "io", feature = "trace")), allow(dead_code))]
 
 /// Values in a block of the 4-bit form.
 pub(crate) const BLOCK: usize = 16;
 
 /// The bits of `count` colours in `bits` bits (4: blocks; 16 or 32: each value its bits).
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
 pub(crate) fn stream_bits(count: u64, bits: u8) -> Option<u64> {
     if bits == 4 {
         let (full, rest) = (count / BLOCK as u64, count % BLOCK as u64);
@@ -175,6 +177,7 @@ pub(crate) fn decode_block(ends: u32, choices: u32, count: usize) -> impl Iterat
 }
 
 /// `values` as a reader of `bits` bits (4, 16 or 32) gets them back.
+#[cfg_attr(not(feature = "trace"), allow(dead_code))]
 pub(crate) fn round_trip(values: &mut [u32], bits: u8) {
     match bits {
         4 => {
