@@ -394,12 +394,23 @@ pub fn measure_colours(
             ..DagValues::default()
         };
         let full = DagTree::from_tree_with(&tree, &at(32))?;
-        let full_frames = frames(&full)?;
+        // On the leaves' level, 32 bits are each leaf's own values, already rendered.
+        let full_frames = if level == depth {
+            own.clone()
+        } else {
+            frames(&full)?
+        };
         let without = write_dag_to_with(&plain, &build, &at(32), sink)?;
         for &b in bits {
             let values = at(b);
             let file = write_dag_to_with(&tree, &build, &values, sink)?;
-            let dag = DagTree::from_tree_with(&tree, &values)?;
+            // 32 bits: the graph and frames made above.
+            let built = if b == 32 {
+                None
+            } else {
+                Some(DagTree::from_tree_with(&tree, &values)?)
+            };
+            let dag = built.as_ref().unwrap_or(&full);
             let (kept, whole) = match (&dag.attributes().colour, &full.attributes().colour) {
                 (Channel::PerLeaf(k), Channel::PerLeaf(w)) => (k, w),
                 _ => anyhow::bail!("{name}: colours not kept per value"),
@@ -414,7 +425,10 @@ pub fn measure_colours(
                         .sum::<f64>()
                 })
                 .sum();
-            let f = frames(&dag)?;
+            let f = match &built {
+                Some(d) => frames(d)?,
+                None => full_frames.clone(),
+            };
             rows.push(ColourRow {
                 mesh: name.to_string(),
                 depth,

@@ -274,7 +274,7 @@ pub fn write_dag_to_with(
                 StoredChannel::PerLeaf { bytes, size } => {
                     let kind_bits =
                         packed::stored_bits(kind, values.normal_bits, values.colour_bits);
-                    if level == tree.depth && kind_bits == (8 * size) as u8 {
+                    if level == tree.depth && u32::from(kind_bits) == packed::element_bits(kind) {
                         channels.push((kind, Stored::PerLeaf(bytes.len() as u64)));
                         arrays.push(Cow::Owned(bytes.to_vec()));
                         continue;

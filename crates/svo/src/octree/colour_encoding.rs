@@ -67,7 +67,7 @@ pub(crate) fn from_565(c: u16) -> u32 {
 
 /// The four colours of a block with end values `ends` (`c0` in bits 0-15, `c1` in 16-31):
 /// `c0`, `c1`, `(2 c0 + c1 + 1) / 3` and `(c0 + 2 c1 + 1) / 3`, per channel on the bytes.
-pub(crate) fn palette(ends: u32) -> [u32; 4] {
+fn palette(ends: u32) -> [u32; 4] {
     let (a, b) = (expand(ends as u16), expand((ends >> 16) as u16));
     let mix = |wa: u32, wb: u32| std::array::from_fn(|k| (wa * a[k] + wb * b[k] + 1) / 3);
     [word(a), word(b), word(mix(2, 1)), word(mix(1, 2))]

@@ -22,7 +22,7 @@ use crate::bake::parts::merge_levels::top_levels;
 use crate::bake::parts::part_levels::push_value;
 use crate::bake::parts::plan::{BakePlan, PartsError};
 use crate::dag::{DagBuilder, DagValues};
-use crate::io::packed::{Packer, pack, packed_len, stored_bits, word};
+use crate::io::packed::{Packer, element_bits, pack, packed_len, stored_bits, word};
 use crate::io::write::{Layout, Stored, dag_blocks};
 use crate::octree::ChannelKind;
 use crate::octree::normal_encoding::quantize;
@@ -62,8 +62,7 @@ pub(crate) fn merge_dag<'a>(
     let mut stored = Vec::with_capacity(channels.len());
     for &(kind, s) in channels {
         let kind_bits = stored_bits(kind, bits, values.colour_bits);
-        let own_width =
-            u32::from(kind_bits) == 8 * ChannelKind::ALL[usize::from(kind)].element_size() as u32;
+        let own_width = u32::from(kind_bits) == element_bits(kind);
         stored.push((
             kind,
             match s {
