@@ -12,6 +12,7 @@
 
 pub mod bake_tables;
 pub mod dag_tables;
+pub mod deep_dag_tables;
 pub mod deep_tables;
 pub mod external;
 pub mod geometry_error;
@@ -279,6 +280,44 @@ pub fn run(opts: &Options) -> anyhow::Result<PathBuf> {
     let mut r = Report::default();
     write_report(&mut r, opts, &measured);
     let path = opts.out.join("benchmarks.md");
+    r.write(&path)?;
+    lg(&format!("wrote {} and {}", path.display(), json.display()));
+    Ok(path)
+}
+
+/// `--deep-dag`: bakes the mesh in parts at the depths a bake in memory does not reach, as
+/// the tree, its graph and the graph with normals, renders the graphs, and writes
+/// `benchmarks-deep-dag.md` and `benchmarks-deep-dag.json` into `opts.out`. Returns the page's
+/// path.
+pub fn run_deep_dag(opts: &Options) -> anyhow::Result<PathBuf> {
+    let start = Instant::now();
+    let lg = |m: &str| log(start, m);
+    if !opts.mesh.exists() {
+        anyhow::bail!(
+            "cannot find the benchmark mesh {} (set SVO_MODELS to the shared models folder, or \
+             pass --mesh)",
+            opts.mesh.display()
+        );
+    }
+    std::fs::create_dir_all(&opts.out)?;
+    let plan = deep_dag_tables::DeepDagPlan::new(opts.quick);
+    let machine = Machine::detect();
+    // Beside the output, not in /tmp: the deepest tree's file and parts run to tens of GB.
+    let tmp = tempfile::tempdir_in(&opts.out)?;
+    let (bakes, renders) = deep_dag_tables::measure(&opts.mesh, &plan, tmp.path(), &lg);
+    let measured = deep_dag_tables::DeepDag {
+        machine,
+        mesh: file_name(&opts.mesh),
+        plan,
+        bakes,
+        renders,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    let json = opts.out.join("benchmarks-deep-dag.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&measured)? + "\n")?;
+    let mut r = Report::default();
+    deep_dag_tables::write(&mut r, &measured, opts.quick);
+    let path = opts.out.join("benchmarks-deep-dag.md");
     r.write(&path)?;
     lg(&format!("wrote {} and {}", path.display(), json.display()));
     Ok(path)
@@ -999,7 +1038,8 @@ fn deep_and_parts_section(r: &mut Report, opts: &Options, m: &Measured) {
          Published figures for lossless geometry: Kampe et al. 2013, Epic Citadel at 128K^3, \
          about 0.4 bits a voxel; Villanueva, Marton and Gobbetti 2017 (symmetry-aware DAGs), \
          0.123 bits a voxel at 64K^3. The bunny at depths 14 and 15 takes bakes in parts of \
-         minutes each: its figures are measured by hand in `docs/performance.md`.",
+         minutes each: `svo-bench --deep-dag` measures it into \
+         [benchmarks-deep-dag.md](benchmarks-deep-dag.md).",
     );
     let rows: Vec<Vec<String>> = m
         .dag

@@ -35,12 +35,20 @@ struct Args {
     /// Time a software GPU adapter (lavapipe) too; the quick variant always uses one.
     #[arg(long)]
     software_gpu: bool,
+    /// Instead of the report: bake the mesh in parts at depths 14 and 15 (7 and 8 with
+    /// --quick) as the tree, its graph and the graph with normals, render the graphs, and
+    /// write benchmarks-deep-dag.md (about 20 minutes and 30 GB of disk on 2 cores).
+    #[arg(long)]
+    deep_dag: bool,
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.get(1).map(String::as_str) == Some(svo_bench::parts_tables::CHILD_ARG) {
         std::process::exit(svo_bench::parts_tables::child_main(&args[2..]));
+    }
+    if args.get(1).map(String::as_str) == Some(svo_bench::deep_dag_tables::RENDER_CHILD_ARG) {
+        std::process::exit(svo_bench::deep_dag_tables::render_child_main(&args[2..]));
     }
     let a = Args::parse();
     let opts = svo_bench::Options {
@@ -63,7 +71,12 @@ fn main() {
         no_gpu: a.no_gpu,
         software_gpu: a.software_gpu,
     };
-    if let Err(e) = svo_bench::run(&opts) {
+    let run = if a.deep_dag {
+        svo_bench::run_deep_dag
+    } else {
+        svo_bench::run
+    };
+    if let Err(e) = run(&opts) {
         eprintln!("svo-bench: error: {e:#}");
         std::process::exit(1);
     }

@@ -10,7 +10,8 @@ use crate::report::{Report, f, ms};
 use std::path::Path;
 use std::time::Instant;
 use svo::BakeOptions;
-use svo_bake::job::{BakeJob, GivenOptions, bake_file};
+use svo::dag::DagValues;
+use svo_bake::job::{BakeJob, GivenOptions, NodeLayout, bake_file};
 
 /// One bake.
 #[derive(serde::Serialize)]
@@ -100,7 +101,7 @@ pub fn measure(
                 same: None,
                 error: None,
             };
-            match run_child(mesh, &out, depth, memory) {
+            match run_child(mesh, &out, depth, memory, &ChildBake::default()) {
                 Ok(c) => {
                     let num = |k: &str| c.get(k).and_then(|v| v.first()).copied();
                     row.seconds = num("seconds").unwrap_or(0.0);
@@ -136,17 +137,47 @@ pub fn measure(
 }
 
 /// The argument that makes the benchmark binary run one bake as a child process:
-/// `CHILD_ARG MESH OUTPUT DEPTH BUDGET` (budget in bytes, 0 for the bake in memory).
+/// `CHILD_ARG MESH OUTPUT DEPTH BUDGET [CHANNELS LAYOUT LEVEL NORMAL_BITS]` (budget in bytes,
+/// 0 for the bake in memory; the rest as [`ChildBake`], the default bake without them).
 pub const CHILD_ARG: &str = "--parts-bake-child";
 
+/// What a child bake makes besides its depth and budget: `svo-bake`'s `--channels`,
+/// `--layout`, `--attribute-depth` and `--normal-bits`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChildBake {
+    /// The channels, as `--channels` takes them (`all`, `none`, `normal`, ...).
+    pub channels: &'static str,
+    /// The DAG layout instead of the tree.
+    pub dag: bool,
+    /// With the DAG layout: the level whose nodes keep the values (`None`: the leaves).
+    pub level: Option<u8>,
+    /// With the DAG layout: bits a normal.
+    pub normal_bits: u8,
+}
+
+impl Default for ChildBake {
+    fn default() -> Self {
+        Self {
+            channels: "all",
+            dag: false,
+            level: None,
+            normal_bits: 32,
+        }
+    }
+}
+
+/// What a child bake printed: one line of `key=value[,value...]` pairs.
+pub type ChildLine = std::collections::BTreeMap<String, Vec<f64>>;
+
 /// Runs one bake in a child process (this binary with [`CHILD_ARG`]) and returns what it
-/// printed: one line of `key=value[,value...]` pairs.
-fn run_child(
+/// printed.
+pub fn run_child(
     mesh: &Path,
     out: &Path,
     depth: u8,
     memory: Option<u64>,
-) -> Result<std::collections::BTreeMap<String, Vec<f64>>, String> {
+    bake: &ChildBake,
+) -> Result<ChildLine, String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
     let o = std::process::Command::new(exe)
         .arg(CHILD_ARG)
@@ -154,6 +185,10 @@ fn run_child(
         .arg(out)
         .arg(depth.to_string())
         .arg(memory.unwrap_or(0).to_string())
+        .arg(bake.channels)
+        .arg(if bake.dag { "dag" } else { "tree" })
+        .arg(bake.level.unwrap_or(0).to_string())
+        .arg(bake.normal_bits.to_string())
         .output()
         .map_err(|e| e.to_string())?;
     let text = String::from_utf8_lossy(&o.stdout);
@@ -175,25 +210,25 @@ fn run_child(
         .collect())
 }
 
-/// The child's work ([`CHILD_ARG`]'s arguments after it): bakes, and prints on one line
-/// the job's seconds, leaves, parts, level, each part's seconds, the merge's seconds, the
-/// peak heap beyond what was live before the job and the process's peak resident set.
-/// Returns the exit code.
-pub fn child_main(args: &[String]) -> i32 {
-    let (Some(mesh), Some(out), Some(depth), Some(budget)) = (
-        args.first(),
-        args.get(1),
-        args.get(2).and_then(|d| d.parse::<u8>().ok()),
-        args.get(3).and_then(|b| b.parse::<u64>().ok()),
-    ) else {
-        eprintln!("{CHILD_ARG} MESH OUTPUT DEPTH BUDGET");
-        return 2;
+/// The child's bake from [`CHILD_ARG`]'s arguments after it, `None` where they do not parse.
+fn child_job(args: &[String]) -> Option<BakeJob> {
+    let (mesh, out) = (args.first()?, args.get(1)?);
+    let depth = args.get(2)?.parse::<u8>().ok()?;
+    let budget = args.get(3)?.parse::<u64>().ok()?;
+    let channels: svo::ChannelSelection = args.get(4).map_or("all", String::as_str).parse().ok()?;
+    let dag = match args.get(5).map_or("tree", String::as_str) {
+        "tree" => false,
+        "dag" => true,
+        _ => return None,
     };
-    let job = BakeJob {
+    let level = args.get(6).map_or(Some(0), |l| l.parse::<u8>().ok())?;
+    let normal_bits = args.get(7).map_or(Some(32), |b| b.parse::<u8>().ok())?;
+    Some(BakeJob {
         input: mesh.into(),
         output: out.into(),
         options: BakeOptions {
             depth,
+            channels,
             ..BakeOptions::default()
         },
         threads: None,
@@ -202,8 +237,27 @@ pub fn child_main(args: &[String]) -> i32 {
             solid: false,
         },
         memory: (budget > 0).then_some(budget),
-        layout: Default::default(),
-        values: Default::default(),
+        layout: if dag {
+            NodeLayout::Dag
+        } else {
+            NodeLayout::Tree
+        },
+        values: DagValues {
+            level: (level > 0).then_some(level),
+            normal_bits,
+            ..DagValues::default()
+        },
+    })
+}
+
+/// The child's work ([`CHILD_ARG`]'s arguments after it): bakes, and prints on one line
+/// the job's seconds, leaves, parts, level, each part's seconds, the merge's seconds, the
+/// peak heap beyond what was live before the job and the process's peak resident set.
+/// Returns the exit code.
+pub fn child_main(args: &[String]) -> i32 {
+    let Some(job) = child_job(args) else {
+        eprintln!("{CHILD_ARG} MESH OUTPUT DEPTH BUDGET [CHANNELS tree|dag LEVEL NORMAL_BITS]");
+        return 2;
     };
     let t = Instant::now();
     let (res, peak) = peak_memory::measure(|| bake_file(&job));
