@@ -15,7 +15,7 @@ use std::time::Instant;
 use svo_view::job::RenderJob;
 
 /// What `--deep-dag` measures.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct DeepDagPlan {
     /// The depths baked.
     pub depths: Vec<u8>,
@@ -72,12 +72,12 @@ fn bakes(depth: u8) -> [(&'static str, ChildBake); 3] {
 }
 
 /// One bake in parts.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct DeepBakeRow {
     /// Tree depth.
     pub depth: u8,
     /// What was baked (layout and channels).
-    pub bake: &'static str,
+    pub bake: String,
     /// Leaves.
     pub leaves: u64,
     /// Wall seconds of the whole job (load, parts, merge).
@@ -102,7 +102,7 @@ impl DeepBakeRow {
 }
 
 /// One render of a file in a process of its own.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct DeepRenderRow {
     /// Tree depth.
     pub depth: u8,
@@ -119,12 +119,15 @@ pub struct DeepRenderRow {
     pub gpu_bytes: Option<u64>,
     /// PSNR (dB) of the CPU image against the triangles', same camera and lights.
     pub psnr_triangles: Option<f64>,
+    /// What went wrong comparing with the triangles, if that failed.
+    #[serde(default)]
+    pub compare_error: Option<String>,
     /// What went wrong, if the render failed.
     pub error: Option<String>,
 }
 
 /// Everything `--deep-dag` measured.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct DeepDag {
     /// Where.
     pub machine: Machine,
@@ -220,11 +223,11 @@ fn render_child(
 }
 
 /// The row of one bake's child line.
-fn bake_row(depth: u8, bake: &'static str, c: &ChildLine, file: u64) -> DeepBakeRow {
+fn bake_row(depth: u8, bake: &str, c: &ChildLine, file: u64) -> DeepBakeRow {
     let num = |k: &str| c.get(k).and_then(|v| v.first()).copied();
     DeepBakeRow {
         depth,
-        bake,
+        bake: bake.to_string(),
         leaves: num("leaves").unwrap_or(0.0) as u64,
         seconds: num("seconds").unwrap_or(0.0),
         merge: num("merge_seconds"),
@@ -259,7 +262,7 @@ pub fn measure(
                 ),
                 Err(e) => DeepBakeRow {
                     depth,
-                    bake: name,
+                    bake: name.to_string(),
                     leaves: 0,
                     seconds: 0.0,
                     merge: None,
@@ -300,6 +303,7 @@ fn render_rows(
             resident: None,
             gpu_bytes: None,
             psnr_triangles: None,
+            compare_error: None,
             error: None,
         };
         match render_child(how, file, mesh, size) {
@@ -326,7 +330,7 @@ fn render_rows(
             ));
             match render_child("compare", file, mesh, size) {
                 Ok(v) => row.psnr_triangles = v["report"]["compare"]["diff"]["psnr_db"].as_f64(),
-                Err(e) => row.error = Some(e),
+                Err(e) => row.compare_error = Some(e),
             }
         }
         rows.push(row);
@@ -397,11 +401,7 @@ pub fn write(r: &mut Report, m: &DeepDag, quick: bool) {
         .iter()
         .map(|b| {
             if let Some(e) = &b.error {
-                return vec![
-                    b.depth.to_string(),
-                    b.bake.to_string(),
-                    format!("failed: {e}"),
-                ];
+                return vec![b.depth.to_string(), b.bake.clone(), format!("failed: {e}")];
             }
             let tree = m
                 .bakes
@@ -410,7 +410,7 @@ pub fn write(r: &mut Report, m: &DeepDag, quick: bool) {
                 .map(|t| t.seconds);
             vec![
                 b.depth.to_string(),
-                b.bake.to_string(),
+                b.bake.clone(),
                 format!("{:.1} M", b.leaves as f64 / 1e6),
                 format!("{:.1} s", b.seconds),
                 tree.map_or(String::new(), |t| format!("{}x", f(b.seconds / t, 2))),
@@ -458,8 +458,11 @@ pub fn write(r: &mut Report, m: &DeepDag, quick: bool) {
                 ms(r.frame_ms / 1e3),
                 r.resident.map_or(String::new(), gb),
                 r.gpu_bytes.map_or(String::new(), gb),
-                r.psnr_triangles
-                    .map_or(String::new(), |p| format!("{} dB", f(p, 2))),
+                match (&r.psnr_triangles, &r.compare_error) {
+                    (Some(p), _) => format!("{} dB", f(*p, 2)),
+                    (None, Some(e)) => format!("failed: {e}"),
+                    (None, None) => String::new(),
+                },
             ]
         })
         .collect();

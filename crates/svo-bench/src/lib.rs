@@ -57,6 +57,9 @@ pub struct Options {
     pub no_gpu: bool,
     /// Time a software adapter (lavapipe) in the full variant too.
     pub software_gpu: bool,
+    /// With `--deep-dag`: write its page from the JSON of an earlier run in `out`, measuring
+    /// nothing.
+    pub from_json: bool,
 }
 
 /// The settings a mode implies.
@@ -300,6 +303,19 @@ pub fn run_deep_dag(opts: &Options) -> anyhow::Result<PathBuf> {
         );
     }
     std::fs::create_dir_all(&opts.out)?;
+    let json = opts.out.join("benchmarks-deep-dag.json");
+    let path = opts.out.join("benchmarks-deep-dag.md");
+    if opts.from_json {
+        let text = std::fs::read_to_string(&json)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", json.display()))?;
+        let measured: deep_dag_tables::DeepDag =
+            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", json.display()))?;
+        let mut r = Report::default();
+        deep_dag_tables::write(&mut r, &measured, opts.quick);
+        r.write(&path)?;
+        lg(&format!("wrote {} from {}", path.display(), json.display()));
+        return Ok(path);
+    }
     let plan = deep_dag_tables::DeepDagPlan::new(opts.quick);
     let machine = Machine::detect();
     // Beside the output, not in /tmp: the deepest tree's file and parts run to tens of GB.
@@ -313,11 +329,9 @@ pub fn run_deep_dag(opts: &Options) -> anyhow::Result<PathBuf> {
         renders,
         seconds: start.elapsed().as_secs_f64(),
     };
-    let json = opts.out.join("benchmarks-deep-dag.json");
     std::fs::write(&json, serde_json::to_string_pretty(&measured)? + "\n")?;
     let mut r = Report::default();
     deep_dag_tables::write(&mut r, &measured, opts.quick);
-    let path = opts.out.join("benchmarks-deep-dag.md");
     r.write(&path)?;
     lg(&format!("wrote {} and {}", path.display(), json.display()));
     Ok(path)

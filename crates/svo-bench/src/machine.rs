@@ -4,7 +4,7 @@
 use std::process::Command;
 
 /// The machine and build the report was made on.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Machine {
     /// CPU model (`/proc/cpuinfo`).
     pub cpu: String,

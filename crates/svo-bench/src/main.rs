@@ -40,6 +40,10 @@ struct Args {
     /// write benchmarks-deep-dag.md (about 20 minutes and 30 GB of disk on 2 cores).
     #[arg(long)]
     deep_dag: bool,
+    /// With --deep-dag: write its page again from the benchmarks-deep-dag.json of an earlier
+    /// run in the output folder, measuring nothing.
+    #[arg(long, requires = "deep_dag")]
+    from_json: bool,
 }
 
 fn main() {
@@ -70,6 +74,7 @@ fn main() {
         no_external: a.no_external,
         no_gpu: a.no_gpu,
         software_gpu: a.software_gpu,
+        from_json: a.from_json,
     };
     let run = if a.deep_dag {
         svo_bench::run_deep_dag

@@ -215,13 +215,13 @@ fn render_scene(
 }
 
 /// The job on a version-3 file past what one tree in memory holds: every chunk read as a
-/// tree of its own (all in memory at once) and traced through [`ChunkedSurfaces`]. The
-/// comparisons with the mesh and the exact hit mode are refused.
+/// tree of its own (all in memory at once) and traced through [`ChunkedSurfaces`]. The exact
+/// hit mode (the leaves' triangles) is refused.
 fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError> {
-    if job.reference.is_some() || job.mesh.is_some() || job.trace.mode == HitMode::Exact {
+    if job.mesh.is_some() || job.trace.mode == HitMode::Exact {
         return Err(JobError::Invalid(
             "a tree stored in chunks past 2^31 leaves renders in the cube and contour hit \
-             modes, without --reference or --mesh"
+             modes, without --mesh"
                 .into(),
         ));
     }
@@ -250,28 +250,64 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
         &chunks,
         job.trace.mode,
     )?;
-    render_staged(job, threads, stage, s, (file.depth(), file.leaf_count()))
+    let size = (file.root(), file.depth(), file.leaf_count());
+    render_staged(job, threads, stage, s, size)
 }
 
-/// The job's frames of `surfaces` (a tree of `depth` levels and `leaves` leaves not held as
-/// one tree in memory: in chunks, or as its graph) on `stage`, written and reported.
+/// The job's frames of `surfaces` (a tree in `root` of `depth` levels and `leaves` leaves
+/// not held as one tree in memory: in chunks, or as its graph) on `stage`, beside the
+/// triangle reference's or in its place as the job asks, written and reported.
 fn render_staged<S: Surfaces>(
     job: &RenderJob,
     threads: usize,
     stage: Stage,
     surfaces: S,
-    (depth, leaves): (u8, u64),
+    (root, depth, leaves): (svo::RootCube, u8, u64),
 ) -> Result<FrameReport, JobError> {
+    let reference = job.reference.as_deref().map(load_reference).transpose()?;
+    if job.compare && reference.is_none() {
+        return Err(JobError::Invalid("--compare needs --reference MESH".into()));
+    }
     let lod_applied = surfaces.level_of_detail();
-    let tracer = Tracer::new(surfaces, &stage.lights, stage.sky, stage.phong, job.trace);
-    let shown = timed(job, &tracer, &stage.camera)?;
+    let octree = if reference.is_none() || job.compare {
+        let tracer = Tracer::new(
+            surfaces,
+            &stage.lights,
+            stage.sky.clone(),
+            stage.phong,
+            job.trace,
+        );
+        Some(timed(job, &tracer, &stage.camera)?)
+    } else {
+        None
+    };
+    let reference = reference
+        .map(|mesh| {
+            let s = MeshSurfaces::new(mesh, root, depth);
+            let tracer = Tracer::new(s, &stage.lights, stage.sky.clone(), stage.phong, job.trace);
+            timed(job, &tracer, &stage.camera)
+        })
+        .transpose()?;
+    let (shown, compare) = match (octree, reference) {
+        (Some(s), Some(r)) => {
+            let c = compared(job, &s, &r)?;
+            (s, Some(c))
+        }
+        (Some(s), None) => (s, None),
+        (None, Some(r)) => (r, None),
+        (None, None) => unreachable!("one of the two renders always runs"),
+    };
     let (output, cost_scale) = write_frame(job, &shown)?;
     Ok(FrameReport {
         width: stage.camera.width,
         height: stage.camera.height,
         depth,
         leaves,
-        hit: job.trace.mode.name(),
+        hit: if job.reference.is_some() && !job.compare {
+            "triangles"
+        } else {
+            job.trace.mode.name()
+        },
         timing: FrameTiming::new(&shown.times, &shown.stats),
         stats: shown.stats,
         output,
@@ -279,7 +315,7 @@ fn render_staged<S: Surfaces>(
         cpu: Some(CpuRun {
             threads,
             cost_scale,
-            compare: None,
+            compare,
             lod: job.trace.lod,
             lod_applied,
         }),
@@ -288,12 +324,10 @@ fn render_staged<S: Surfaces>(
 }
 
 /// Whether the job renders a DAG file as its graph, its tree never made: a DAG file, in the
-/// cube or contour hit mode, whole, without the mesh. (Other jobs on it read the tree.)
+/// cube or contour hit mode, whole (beside the triangle reference or not). (Other jobs on it
+/// read the tree.)
 fn renders_as_graph(job: &RenderJob) -> Result<bool, JobError> {
-    let plain = job.reference.is_none()
-        && job.mesh.is_none()
-        && job.max_depth.is_none()
-        && job.trace.mode != HitMode::Exact;
+    let plain = job.mesh.is_none() && job.max_depth.is_none() && job.trace.mode != HitMode::Exact;
     if !plain {
         return Ok(false);
     }
@@ -308,7 +342,7 @@ fn render_graph(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError
     let (lo, hi) = dag.occupied_bounds();
     let stage = job.setup()?.stage(dag.depth(), lo, hi, &build.scene)?;
     let s = DagSurfaces::new(&dag, job.trace.mode);
-    let size = (dag.depth(), dag.leaf_count());
+    let size = (dag.root(), dag.depth(), dag.leaf_count());
     render_staged(job, threads, stage, s, size)
 }
 
@@ -320,7 +354,8 @@ mod tests {
 
     /// The path for files past one tree in memory (every chunk a tree of its own) writes the
     /// image that reading the same version-3 file whole writes, byte for byte, and reports the
-    /// same rays; the comparisons with a mesh are refused there in one line.
+    /// same rays, and beside the triangles the same error and images; the exact hit mode (the
+    /// mesh) is refused there in one line.
     #[test]
     fn a_file_in_chunks_renders_the_image_of_the_whole_tree() {
         let dir = tempfile::tempdir().unwrap();
@@ -370,15 +405,40 @@ mod tests {
         assert_eq!(chunked.leaves, whole.leaves);
         let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
         assert!(read("whole.png") == read("chunks.png"));
+        // Beside a mesh's triangles (the root cube's corners), as the whole tree is.
+        let corners = [
+            root.origin,
+            root.origin + DVec3::new(root.side, 0.0, 0.0),
+            root.origin + DVec3::new(0.0, 0.4, root.side),
+        ];
+        let mut obj: String = corners
+            .iter()
+            .map(|p| format!("v {} {} {}\n", p.x, p.y, p.z))
+            .collect();
+        obj += "f 1 2 3\n";
+        let mesh_path = dir.path().join("m.obj");
+        std::fs::write(&mesh_path, obj).unwrap();
+        let compared = |name: &str| RenderJob {
+            reference: Some(mesh_path.clone()),
+            compare: true,
+            ..job(name)
+        };
+        let whole = render_file(&compared("wc.png")).unwrap();
+        let chunked = svo::with_threads(Some(2), |threads| {
+            render_chunked(&compared("cc.png"), threads)
+        })
+        .unwrap()
+        .unwrap();
+        assert_compared_alike(&whole, &chunked, dir.path(), ("wc", "cc"));
         let e = render_chunked(
             &RenderJob {
-                reference: Some(input.clone()),
+                mesh: Some(input.clone()),
                 ..job("no.png")
             },
             1,
         )
         .unwrap_err();
-        assert!(e.to_string().contains("without --reference"), "{e}");
+        assert!(e.to_string().contains("without --mesh"), "{e}");
     }
 
     /// A DAG file renders on its graph the image its tree layout's file renders, byte for
@@ -428,5 +488,50 @@ mod tests {
         };
         assert!(!renders_as_graph(&prefix).unwrap());
         assert_eq!(render_file(&prefix).unwrap().depth, 5);
+        // Beside the triangles, on the graph as on the tree: the same error, the same
+        // reference image; and the reference alone.
+        let torus_path = svo_tests::repo_root().join("fixtures/torus.obj");
+        let compared = |input: &std::path::Path, name: &str| RenderJob {
+            reference: Some(torus_path.clone()),
+            compare: true,
+            ..job(input, name, svo::render::Aov::Colour)
+        };
+        assert!(renders_as_graph(&compared(&dag_path, "dc.png")).unwrap());
+        let on_tree = render_file(&compared(&tree_path, "tc.png")).unwrap();
+        let on_graph = render_file(&compared(&dag_path, "dc.png")).unwrap();
+        assert_compared_alike(&on_tree, &on_graph, dir.path(), ("tc", "dc"));
+        let alone = RenderJob {
+            compare: false,
+            ..compared(&dag_path, "dr.png")
+        };
+        let r = render_file(&alone).unwrap();
+        assert_eq!(r.hit, "triangles");
+        assert!(
+            std::fs::read(dir.path().join("dr.png")).unwrap()
+                == std::fs::read(dir.path().join("tc.reference.png")).unwrap()
+        );
+    }
+
+    /// Two reports of the same job beside the triangles (written as `a.png` and `b.png`)
+    /// found the same error and wrote the same images.
+    fn assert_compared_alike(
+        a: &FrameReport,
+        b: &FrameReport,
+        dir: &std::path::Path,
+        (na, nb): (&str, &str),
+    ) {
+        let diff = |r: &FrameReport| r.cpu.as_ref().unwrap().compare.as_ref().unwrap().diff;
+        let (da, db) = (diff(a), diff(b));
+        assert!(da.psnr_db.is_finite(), "{da:?}");
+        assert_eq!(da.psnr_db, db.psnr_db);
+        assert_eq!(da.hit_mismatch, db.hit_mismatch);
+        assert_eq!(a.stats.primary_hits, b.stats.primary_hits);
+        let read = |name: String| std::fs::read(dir.join(name)).unwrap();
+        for ext in ["png", "reference.png", "diff.png"] {
+            assert!(
+                read(format!("{na}.{ext}")) == read(format!("{nb}.{ext}")),
+                "{ext}"
+            );
+        }
     }
 }
