@@ -251,7 +251,7 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
         job.trace.mode,
     )?;
     let size = (file.root(), file.depth(), file.leaf_count());
-    render_staged(job, threads, stage, s, size)
+    render_staged(job, threads, &stage, s, size)
 }
 
 /// The job's frames of `surfaces` (a tree in `root` of `depth` levels and `leaves` leaves
@@ -260,7 +260,7 @@ fn render_chunked(job: &RenderJob, threads: usize) -> Result<FrameReport, JobErr
 fn render_staged<S: Surfaces>(
     job: &RenderJob,
     threads: usize,
-    stage: Stage,
+    stage: &Stage,
     surfaces: S,
     (root, depth, leaves): (svo::RootCube, u8, u64),
 ) -> Result<FrameReport, JobError> {
@@ -343,7 +343,7 @@ fn render_graph(job: &RenderJob, threads: usize) -> Result<FrameReport, JobError
     let stage = job.setup()?.stage(dag.depth(), lo, hi, &build.scene)?;
     let s = DagSurfaces::new(&dag, job.trace.mode);
     let size = (dag.root(), dag.depth(), dag.leaf_count());
-    render_staged(job, threads, stage, s, size)
+    render_staged(job, threads, &stage, s, size)
 }
 
 #[cfg(test)]
