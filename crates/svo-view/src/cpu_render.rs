@@ -160,16 +160,49 @@ fn write_frame(job: &RenderJob, timed: &Timed) -> Result<(Option<String>, u32), 
     Ok((Some(out.display().to_string()), cost_scale))
 }
 
+/// The job's triangle reference, loaded, if it asks for one (`--compare` needs it).
+fn reference_mesh(job: &RenderJob) -> Result<Option<svo::Mesh>, JobError> {
+    let reference = job.reference.as_deref().map(load_reference).transpose()?;
+    if job.compare && reference.is_none() {
+        return Err(JobError::Invalid("--compare needs --reference MESH".into()));
+    }
+    Ok(reference)
+}
+
+/// The frames a job shows, from the octree's and the reference's (at least one of them),
+/// with their comparison where both ran.
+fn shown_of(
+    job: &RenderJob,
+    octree: Option<Timed>,
+    reference: Option<Timed>,
+) -> Result<(Timed, Option<CompareReport>), JobError> {
+    Ok(match (octree, reference) {
+        (Some(s), Some(r)) => {
+            let c = compared(job, &s, &r)?;
+            (s, Some(c))
+        }
+        (Some(s), None) => (s, None),
+        (None, Some(r)) => (r, None),
+        (None, None) => unreachable!("one of the two renders always runs"),
+    })
+}
+
+/// The hit mode a job's report names: the triangles when it shows the reference alone.
+fn hit_name(job: &RenderJob) -> &'static str {
+    if job.reference.is_some() && !job.compare {
+        "triangles"
+    } else {
+        job.trace.mode.name()
+    }
+}
+
 /// The job on a tree in memory: the octree, the reference or both.
 fn render_scene(
     job: &RenderJob,
     scene: &RenderScene,
     threads: usize,
 ) -> Result<FrameReport, JobError> {
-    let reference = job.reference.as_deref().map(load_reference).transpose()?;
-    if job.compare && reference.is_none() {
-        return Err(JobError::Invalid("--compare needs --reference MESH".into()));
-    }
+    let reference = reference_mesh(job)?;
     let octree = if reference.is_none() || job.compare {
         Some(octree_frames(job, scene)?)
     } else {
@@ -178,15 +211,7 @@ fn render_scene(
     let reference = reference
         .map(|mesh| reference_frames(job, scene, mesh))
         .transpose()?;
-    let (shown, compare) = match (octree, reference) {
-        (Some(s), Some(r)) => {
-            let c = compared(job, &s, &r)?;
-            (s, Some(c))
-        }
-        (Some(s), None) => (s, None),
-        (None, Some(r)) => (r, None),
-        (None, None) => unreachable!("one of the two renders always runs"),
-    };
+    let (shown, compare) = shown_of(job, octree, reference)?;
     let (output, cost_scale) = write_frame(job, &shown)?;
     let tree = &scene.tree;
     Ok(FrameReport {
@@ -194,11 +219,7 @@ fn render_scene(
         height: scene.camera.height,
         depth: tree.depth,
         leaves: u64::from(tree.leaf_count),
-        hit: if job.reference.is_some() && !job.compare {
-            "triangles"
-        } else {
-            job.trace.mode.name()
-        },
+        hit: hit_name(job),
         timing: FrameTiming::new(&shown.times, &shown.stats),
         stats: shown.stats,
         output,
@@ -264,10 +285,7 @@ fn render_staged<S: Surfaces>(
     surfaces: S,
     (root, depth, leaves): (svo::RootCube, u8, u64),
 ) -> Result<FrameReport, JobError> {
-    let reference = job.reference.as_deref().map(load_reference).transpose()?;
-    if job.compare && reference.is_none() {
-        return Err(JobError::Invalid("--compare needs --reference MESH".into()));
-    }
+    let reference = reference_mesh(job)?;
     let lod_applied = surfaces.level_of_detail();
     let octree = if reference.is_none() || job.compare {
         let tracer = Tracer::new(
@@ -288,26 +306,14 @@ fn render_staged<S: Surfaces>(
             timed(job, &tracer, &stage.camera)
         })
         .transpose()?;
-    let (shown, compare) = match (octree, reference) {
-        (Some(s), Some(r)) => {
-            let c = compared(job, &s, &r)?;
-            (s, Some(c))
-        }
-        (Some(s), None) => (s, None),
-        (None, Some(r)) => (r, None),
-        (None, None) => unreachable!("one of the two renders always runs"),
-    };
+    let (shown, compare) = shown_of(job, octree, reference)?;
     let (output, cost_scale) = write_frame(job, &shown)?;
     Ok(FrameReport {
         width: stage.camera.width,
         height: stage.camera.height,
         depth,
         leaves,
-        hit: if job.reference.is_some() && !job.compare {
-            "triangles"
-        } else {
-            job.trace.mode.name()
-        },
+        hit: hit_name(job),
         timing: FrameTiming::new(&shown.times, &shown.stats),
         stats: shown.stats,
         output,
