@@ -7,7 +7,7 @@
 use crate::geometry::grid::RootCube;
 use crate::octree::builder::Voxel;
 use crate::octree::tree::Octree;
-use crate::render::surfaces::{OctreeSurfaces, Query, SurfaceHit, Surfaces, Traced, Walked};
+use crate::render::surfaces::{OctreeSurfaces, Query, Skip, SurfaceHit, Surfaces, Traced, Walked};
 use crate::render::surfaces_error::SurfacesError;
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
@@ -30,6 +30,8 @@ pub struct ChunkTree {
 struct Chunk<'a> {
     /// The chunk's minimum corner in the whole tree's grid (cells).
     shift: Vec3,
+    /// The same corner as a cell.
+    corner: UVec3,
     first_leaf: u32,
     leaves: u32,
     s: OctreeSurfaces<'a>,
@@ -85,6 +87,7 @@ impl<'a> ChunkedSurfaces<'a> {
             next += u64::from(c.tree.leaf_count);
             out.push(Chunk {
                 shift: corner.as_vec3(),
+                corner: c.cell << below,
                 first_leaf: c.first_leaf as u32,
                 leaves: c.tree.leaf_count,
                 s: OctreeSurfaces::new(&c.tree, mode),
@@ -144,18 +147,23 @@ impl<'a> ChunkedSurfaces<'a> {
     }
 }
 
-/// A chunk's hit numbered as the whole tree's leaf.
+/// A chunk's hit numbered as the whole tree's leaf, in the whole tree's cells.
 fn whole(c: &Chunk<'_>, h: &SurfaceHit) -> SurfaceHit {
     SurfaceHit {
         id: h.id + c.first_leaf,
+        cell: h.cell + c.corner,
         ..*h
     }
 }
 
 /// The whole tree's leaf `skip` as chunk `c`'s, if it is one of its leaves.
-fn local(c: &Chunk<'_>, skip: Option<u32>) -> Option<u32> {
-    skip.and_then(|id| id.checked_sub(c.first_leaf))
-        .filter(|&l| l < c.leaves)
+fn local(c: &Chunk<'_>, skip: Option<Skip>) -> Option<Skip> {
+    let s = skip?;
+    let id = s.id.checked_sub(c.first_leaf).filter(|&l| l < c.leaves)?;
+    Some(Skip {
+        id,
+        cell: s.cell.checked_sub(c.corner)?,
+    })
 }
 
 impl Surfaces for ChunkedSurfaces<'_> {
@@ -187,7 +195,7 @@ impl Surfaces for ChunkedSurfaces<'_> {
         &self,
         ray: &GridRay,
         tmax: f32,
-        skip: Option<u32>,
+        skip: Option<Skip>,
         cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,

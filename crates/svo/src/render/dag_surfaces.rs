@@ -10,7 +10,7 @@ use crate::geometry::grid::RootCube;
 use crate::octree::normal_encoding;
 use crate::render::leaf_values::LeafValues;
 use crate::render::primary_prepass::PrimaryBand;
-use crate::render::surfaces::{FirstHit, Query, SurfaceHit, Surfaces, Traced, Walked, entry_id};
+use crate::render::surfaces::{FirstHit, Query, Skip, SurfaceHit, Surfaces, Traced, Walked};
 use crate::render::whitted::PrimaryStart;
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
@@ -203,7 +203,7 @@ impl Surfaces for DagSurfaces<'_> {
         &self,
         rays: &[GridRay; LANES],
         tmax: [f32; LANES],
-        skip: [Option<u32>; LANES],
+        skip: [Option<Skip>; LANES],
         _cones: [Cone; LANES],
         active: u8,
         max_steps: u32,
@@ -212,7 +212,7 @@ impl Surfaces for DagSurfaces<'_> {
         // The leaves' tests read no entry normals: the walk makes none and the hits carry no
         // shading normal (a walk's hits are for visibility), as on the tree.
         let r = self.packet::<false, _>(rays, [0.0; LANES], tmax, active, max_steps, |l, e| {
-            if Some(entry_id(e)) == skip[l] {
+            if Skip::names(skip[l], e) {
                 return None;
             }
             let h = self.values.hit_of(e, self.hit_t(&rays[l], e)?, Vec3::ZERO);
@@ -225,13 +225,13 @@ impl Surfaces for DagSurfaces<'_> {
         &self,
         ray: &GridRay,
         tmax: f32,
-        skip: Option<u32>,
+        skip: Option<Skip>,
         _cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {
         let r = self.dag.traverse(ray, 0.0, tmax, max_steps, |e| {
-            if Some(entry_id(e)) == skip {
+            if Skip::names(skip, e) {
                 return None;
             }
             let h = self.surface_hit(ray, e)?;

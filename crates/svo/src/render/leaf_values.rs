@@ -5,13 +5,13 @@
 use crate::mesh::triangle_mesh::srgb_to_linear;
 use crate::octree::encoding::ior_decode;
 use crate::octree::tree::LeafAttributes;
-use crate::render::surfaces::{Medium, Query, SurfaceHit, SurfaceMaterial, Traced, entry_id};
+use crate::render::surfaces::{Medium, Query, Skip, SurfaceHit, SurfaceMaterial, Traced};
 use crate::trace::traverse::LeafEntry;
-use glam::Vec3;
+use glam::{UVec3, Vec3};
 
 /// Where a ray inside a medium has come to: the exit parameter and outward normal of the last
-/// cell of the medium's run along it, and that cell's leaf.
-pub(crate) type Run = Option<(f32, Vec3, u32)>;
+/// cell of the medium's run along it, and that cell's leaf and cell.
+pub(crate) type Run = Option<(f32, Vec3, u32, UVec3)>;
 
 /// A tree's leaf channels as the renderer reads them.
 #[derive(Clone, Debug)]
@@ -109,22 +109,23 @@ impl<'a> LeafValues<'a> {
                 return Some(self.medium_exit(q, x));
             }
             if e.side == 1 && self.medium_of(e.leaf) == Some(m) {
-                *run = Some((e.t_exit, e.exit_normal, e.leaf));
+                *run = Some((e.t_exit, e.exit_normal, e.leaf, e.cell));
                 return None;
             }
         }
-        if Some(entry_id(e)) == q.skip {
+        if Skip::names(q.skip, e) {
             return None;
         }
         hit()
     }
 
     /// Where a ray inside `q`'s medium leaves it: the end of the run of its cells.
-    fn medium_exit(&self, q: &Query, (t, n, leaf): (f32, Vec3, u32)) -> SurfaceHit {
+    fn medium_exit(&self, q: &Query, (t, n, leaf, cell): (f32, Vec3, u32, UVec3)) -> SurfaceHit {
         SurfaceHit {
             t,
             t_exit: t,
             id: leaf,
+            cell,
             side: 1,
             normal: n,
             material: self.material(leaf),
@@ -156,6 +157,7 @@ impl<'a> LeafValues<'a> {
             t,
             t_exit: e.t_exit,
             id: e.leaf,
+            cell: e.cell,
             side: 1,
             normal,
             material: self.material(e.leaf),

@@ -8,10 +8,10 @@
 
 use crate::geometry::grid::RootCube;
 use crate::mesh::triangle_mesh::Mesh;
-use crate::render::surfaces::{Query, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked};
+use crate::render::surfaces::{Query, Skip, SurfaceHit, SurfaceMaterial, Surfaces, Traced, Walked};
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
-use glam::{Vec3, Vec3A};
+use glam::{UVec3, Vec3, Vec3A};
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
@@ -108,6 +108,7 @@ impl MeshSurfaces {
             t,
             t_exit: t,
             id,
+            cell: UVec3::ZERO,
             side: 1,
             normal: self.normals[id as usize],
             material,
@@ -122,7 +123,7 @@ impl Surfaces for MeshSurfaces {
     }
 
     fn closest(&self, ray: &GridRay, q: &Query) -> Traced {
-        let skip = q.skip;
+        let skip = q.skip.map(|s| s.id);
         let r = Ray::new(
             Vec3A::from(ray.origin),
             Vec3A::from(ray.dir),
@@ -155,11 +156,12 @@ impl Surfaces for MeshSurfaces {
         &self,
         ray: &GridRay,
         tmax: f32,
-        skip: Option<u32>,
+        skip: Option<Skip>,
         _cone: Cone,
         _max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {
+        let skip = skip.map(|s| s.id);
         let r = Ray::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), 0.0, tmax);
         let mut hits: Vec<(f32, u32)> = Vec::new();
         self.bvh.ray_traverse_anyhit(r, |r, i| {

@@ -67,7 +67,7 @@ pub use setup::{LightSpec, MAX_TRACE_DEPTH, RenderScene, SceneSetup, SetupError,
 pub use shading::{Phong, PointLight};
 pub use sky::{CubeMap, Sky};
 pub use surfaces::{
-    LeafShape, Medium, NODE_ID, OctreeSurfaces, Query, SurfaceHit, SurfaceMaterial, Surfaces,
+    LeafShape, Medium, NODE_ID, OctreeSurfaces, Query, Skip, SurfaceHit, SurfaceMaterial, Surfaces,
     Traced, Walked,
 };
 pub use surfaces_error::SurfacesError;

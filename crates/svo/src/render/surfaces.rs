@@ -13,7 +13,7 @@ use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::{HitMode, LeafTest, leaf_hit};
 use crate::trace::packet::{LANES, traverse_packet_with};
 use crate::trace::traverse::{LeafEntry, Traversal, traverse_cone};
-use glam::Vec3;
+use glam::{UVec3, Vec3};
 
 /// The material at a hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,7 +42,7 @@ pub struct Query {
     /// The parameter range.
     pub tmax: f32,
     /// A primitive to ignore (the one a secondary ray starts on).
-    pub skip: Option<u32>,
+    pub skip: Option<Skip>,
     /// The volumetric medium the ray travels in, if any.
     pub medium: Option<Medium>,
     /// The traversal step cap.
@@ -77,6 +77,35 @@ pub(crate) fn entry_id(e: &LeafEntry) -> u32 {
     if e.side > 1 { NODE_ID | e.leaf } else { e.leaf }
 }
 
+/// The primitive a secondary ray starts on, which it does not hit again: the hit's id and
+/// cell ([`SurfaceHit::id`], [`SurfaceHit::cell`]). Both are compared, because a graph whose
+/// leaves take their values from an ancestor ([`crate::dag::DagTree::values_level`]) gives
+/// the leaves below one ancestor the same id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Skip {
+    /// The hit's id.
+    pub id: u32,
+    /// The hit's cell.
+    pub cell: UVec3,
+}
+
+impl Skip {
+    /// The primitive of hit `h`.
+    #[inline]
+    pub fn of(h: &SurfaceHit) -> Self {
+        Self {
+            id: h.id,
+            cell: h.cell,
+        }
+    }
+
+    /// Whether `skip` names entry `e` (the same id and cell).
+    #[inline]
+    pub(crate) fn names(skip: Option<Self>, e: &LeafEntry) -> bool {
+        skip.is_some_and(|s| s.id == entry_id(e) && s.cell == e.cell)
+    }
+}
+
 /// A ray's hit on a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceHit {
@@ -86,6 +115,8 @@ pub struct SurfaceHit {
     pub t_exit: f32,
     /// Leaf or triangle index; an inner node's index with [`NODE_ID`] set.
     pub id: u32,
+    /// The cell hit, in leaves (an inner node's minimum cell); zero for a triangle.
+    pub cell: UVec3,
     /// The side of the cell hit, in leaves: 1 for a leaf or a triangle, more for an inner
     /// node drawn in place of its subtree. Secondary rays start that many times further off
     /// the surface.
@@ -349,7 +380,7 @@ pub trait Surfaces: Sync {
         &self,
         ray: &GridRay,
         tmax: f32,
-        skip: Option<u32>,
+        skip: Option<Skip>,
         cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
@@ -366,7 +397,7 @@ pub trait Surfaces: Sync {
         &self,
         rays: &[GridRay; LANES],
         tmax: [f32; LANES],
-        skip: [Option<u32>; LANES],
+        skip: [Option<Skip>; LANES],
         cones: [Cone; LANES],
         active: u8,
         max_steps: u32,
@@ -586,6 +617,7 @@ impl<'a, L: LeafShape> OctreeSurfaces<'a, L> {
             t: h.t,
             t_exit: e.t_exit,
             id: entry_id(e),
+            cell: e.cell,
             side: e.side,
             normal,
             material: self.values.material_in(&self.tree.node_attributes, e.leaf),
@@ -717,14 +749,14 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         &self,
         ray: &GridRay,
         tmax: f32,
-        skip: Option<u32>,
+        skip: Option<Skip>,
         cone: Cone,
         max_steps: u32,
         visit: &mut dyn FnMut(&SurfaceHit) -> bool,
     ) -> Walked {
         let cone = self.cone(cone);
         let r = traverse_cone(self.tree, ray, cone, 0.0, tmax, max_steps, |e| {
-            if Some(entry_id(e)) == skip {
+            if Skip::names(skip, e) {
                 return None;
             }
             let h = self.surface_hit(ray, e)?;
@@ -737,7 +769,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         &self,
         rays: &[GridRay; LANES],
         tmax: [f32; LANES],
-        skip: [Option<u32>; LANES],
+        skip: [Option<Skip>; LANES],
         cones: [Cone; LANES],
         active: u8,
         max_steps: u32,
@@ -748,7 +780,7 @@ impl<L: LeafShape> Surfaces for OctreeSurfaces<'_, L> {
         let normals = self.shape.hit_t_reads_normals();
         let cones = cones.map(|c| self.cone(c));
         let on_leaf = |l: usize, e: &LeafEntry| {
-            if Some(entry_id(e)) == skip[l] {
+            if Skip::names(skip[l], e) {
                 return None;
             }
             let h = if normals || e.side > 1 {

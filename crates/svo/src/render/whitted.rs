@@ -42,7 +42,7 @@ use crate::octree::encoding::{ior_decode, ior_encode};
 use crate::render::camera::Camera;
 use crate::render::shading::{Phong, PointLight, fresnel_exact, fresnel_schlick, reflect, refract};
 use crate::render::sky::Sky;
-use crate::render::surfaces::{Medium, Query, SurfaceHit, Surfaces, Traced, Walked};
+use crate::render::surfaces::{Medium, Query, Skip, SurfaceHit, Surfaces, Traced, Walked};
 use crate::trace::cone::Cone;
 use crate::trace::grid_ray::GridRay;
 use crate::trace::leaf_hit::HitMode;
@@ -269,8 +269,8 @@ struct Task {
     weight: Vec3,
     refl: u8,
     refr: u8,
-    /// The leaf or triangle the ray starts on, [`NO_SKIP`] for none.
-    skip: u32,
+    /// The leaf or triangle the ray starts on.
+    skip: Option<Skip>,
     /// The volumetric medium the ray travels in, [`NO_MEDIUM`] for none.
     medium: u64,
     /// The IORs of the media the ray is in, as [`ior_encode`] codes: the current one in the
@@ -282,8 +282,6 @@ struct Task {
 
 const NO_MEDIUM: u64 = u64::MAX;
 
-const NO_SKIP: u32 = u32::MAX;
-
 /// An all-zero task: the stack is initialized with it (one `memset`).
 const EMPTY: Task = Task {
     origin: Vec3::ZERO,
@@ -291,7 +289,7 @@ const EMPTY: Task = Task {
     weight: Vec3::ZERO,
     refl: 0,
     refr: 0,
-    skip: 0,
+    skip: None,
     medium: 0,
     iors: 0,
     cone: Cone::EXACT,
@@ -343,7 +341,7 @@ struct Lit {
     local_w: f32,
     /// Where its shadow rays start, the leaf they skip and their footprint.
     from: Vec3,
-    id: u32,
+    skip: Skip,
     cone: Cone,
 }
 
@@ -536,7 +534,7 @@ impl<S: Surfaces> Tracer<S> {
             weight: Vec3::ONE,
             refl: 0,
             refr: 0,
-            skip: NO_SKIP,
+            skip: None,
             medium: NO_MEDIUM,
             iors: 0,
             cone,
@@ -558,7 +556,7 @@ impl<S: Surfaces> Tracer<S> {
                     _ => 0.0,
                 },
                 tmax: f32::INFINITY,
-                skip: (task.skip != NO_SKIP).then_some(task.skip),
+                skip: task.skip,
                 medium: (task.medium != NO_MEDIUM).then_some(Medium(task.medium)),
                 max_steps: self.opts.max_steps,
                 cone: task.cone,
@@ -607,7 +605,7 @@ impl<S: Surfaces> Tracer<S> {
                     let Some((l, dist_grid)) = toward(p, n_f, *lp) else {
                         continue;
                     };
-                    let vis = self.shadow(from, *lp, h.id, shadow_cone, &mut sample.stats);
+                    let vis = self.shadow(from, *lp, Skip::of(&h), shadow_cone, &mut sample.stats);
                     if vis > 0.0 {
                         local += self.light_term(light, dist_grid, vis, m.albedo, n_f, l, v);
                     }
@@ -683,7 +681,7 @@ impl<S: Surfaces> Tracer<S> {
                 weight: task.weight * fr,
                 refl: task.refl + 1,
                 refr: task.refr,
-                skip: h.id,
+                skip: Some(Skip::of(h)),
                 // A reflection stays on its side of the boundary.
                 medium: task.medium,
                 iors: task.iors,
@@ -702,7 +700,7 @@ impl<S: Surfaces> Tracer<S> {
                 weight: task.weight * ft * m.albedo,
                 refl: task.refl,
                 refr: task.refr + 1,
-                skip: h.id,
+                skip: Some(Skip::of(h)),
                 // Entering a volumetric medium puts the ray inside it; leaving one
                 // puts it outside.
                 medium: match h.medium {
@@ -753,7 +751,7 @@ impl<S: Surfaces> Tracer<S> {
         &self,
         from: Vec3,
         light: Vec3,
-        skip: u32,
+        skip: Skip,
         cone: Cone,
         stats: &mut SampleStats,
     ) -> f32 {
@@ -835,7 +833,7 @@ impl<S: Surfaces> Tracer<S> {
                 weight: Vec3::ONE,
                 refl: 0,
                 refr: 0,
-                skip: NO_SKIP,
+                skip: None,
                 medium: NO_MEDIUM,
                 iors: 0,
                 cone,
@@ -873,7 +871,7 @@ impl<S: Surfaces> Tracer<S> {
                     _ => 0.0,
                 },
                 tmax: f32::INFINITY,
-                skip: (tasks[l].skip != NO_SKIP).then_some(tasks[l].skip),
+                skip: tasks[l].skip,
                 medium: (tasks[l].medium != NO_MEDIUM).then_some(Medium(tasks[l].medium)),
                 max_steps: self.opts.max_steps,
                 cone: tasks[l].cone,
@@ -934,7 +932,7 @@ impl<S: Surfaces> Tracer<S> {
                         v: -task.dir,
                         local_w,
                         from: p + n_f * (bias * h.side as f32),
-                        id: h.id,
+                        skip: Skip::of(&h),
                         cone: cone_from_hit(&task.cone, h.t * self.scale, 0.0),
                     });
                 }
@@ -960,7 +958,7 @@ impl<S: Surfaces> Tracer<S> {
                     if seen[l].is_some() && mode != ShadowMode::None {
                         out[l].stats.shadow_rays += 1;
                         (shadow_rays[l], tmax[l]) = self.shadow_ray(x.from, *lp);
-                        skip[l] = Some(x.id);
+                        skip[l] = Some(x.skip);
                         cones[l] = x.cone;
                         walking |= 1 << l;
                     }
