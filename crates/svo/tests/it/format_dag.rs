@@ -10,6 +10,16 @@ use svo::io::{
 };
 use svo::{BakeOptions, Mesh, Octree, RootCube, Voxel, bake_mesh};
 
+/// The frame of scene `s` (its camera, lights, sky and shading) on `surfaces`.
+fn frame_on<S: svo::render::Surfaces>(
+    s: &svo::render::RenderScene,
+    surfaces: S,
+    trace: svo::render::TraceOptions,
+) -> svo::render::Frame {
+    let t = svo::render::Tracer::new(surfaces, &s.lights, s.sky.clone(), s.phong, trace);
+    svo::render::render(&t, &s.camera).unwrap()
+}
+
 fn dag_bytes(tree: &Octree) -> Vec<u8> {
     let mut v = Vec::new();
     write_dag_to(tree, &BuildInfo::new(), &mut v).unwrap();
@@ -219,7 +229,7 @@ fn a_dag_file_reads_as_the_graph_rays_walk() {
 fn values_on_a_level_read_back_as_each_leafs_ancestors() {
     use svo::dag::{DagTree, DagValues};
     use svo::octree::{Channel, ChannelKind};
-    use svo::render::{DagSurfaces, OctreeSurfaces, RenderScene, SceneSetup, Tracer, render};
+    use svo::render::{DagSurfaces, OctreeSurfaces, RenderScene, SceneSetup};
     let mut mesh = Mesh::sphere(DVec3::splat(0.5), 0.4, 24);
     // Two materials, so that colours vary.
     mesh.materials = vec![
@@ -321,17 +331,7 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
                 ..Default::default()
             };
             let s = RenderScene::new(read.clone(), &Default::default(), &setup).unwrap();
-            let a = render(
-                &Tracer::new(
-                    OctreeSurfaces::new(&s.tree, trace.mode),
-                    &s.lights,
-                    s.sky.clone(),
-                    s.phong,
-                    trace,
-                ),
-                &s.camera,
-            )
-            .unwrap();
+            let a = frame_on(&s, OctreeSurfaces::new(&s.tree, trace.mode), trace);
             assert!(a.stats.primary_hits > 100);
             // The graph's walks with packets and the prepass, and one ray at a time.
             for fast in [true, false] {
@@ -340,17 +340,7 @@ fn values_on_a_level_read_back_as_each_leafs_ancestors() {
                     prepass: fast,
                     ..trace
                 };
-                let b = render(
-                    &Tracer::new(
-                        DagSurfaces::new(&dag, trace.mode),
-                        &s.lights,
-                        s.sky.clone(),
-                        s.phong,
-                        trace,
-                    ),
-                    &s.camera,
-                )
-                .unwrap();
+                let b = frame_on(&s, DagSurfaces::new(&dag, trace.mode), trace);
                 assert_eq!(a.colour, b.colour, "level {level}, {bits} bits, {fast}");
             }
             let normals = match &dag.attributes().normal {
