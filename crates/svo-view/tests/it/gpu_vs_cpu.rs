@@ -304,13 +304,12 @@ fn scene(tree: Octree) -> RenderScene {
 }
 
 fn cpu_frame(s: &RenderScene, trace: &TraceOptions) -> Frame {
-    let t = Tracer::new(
-        OctreeSurfaces::new(&s.tree, trace.mode),
-        &s.lights,
-        s.sky.clone(),
-        s.phong,
-        *trace,
-    );
+    frame_on(s, OctreeSurfaces::new(&s.tree, trace.mode), trace)
+}
+
+/// The CPU's frame of scene `s` (its camera, lights, sky and shading) on `surfaces`.
+fn frame_on<S: svo::render::Surfaces>(s: &RenderScene, surfaces: S, trace: &TraceOptions) -> Frame {
+    let t = Tracer::new(surfaces, &s.lights, s.sky.clone(), s.phong, *trace);
     render(&t, &s.camera).unwrap()
 }
 
@@ -580,14 +579,7 @@ fn a_graph_renders_the_frames_of_its_tree() {
             assert_eq!(a.stats, b.stats, "{what}");
             if !full {
                 // The CPU's walk of the graph meets the GPU's leaves.
-                let t = Tracer::new(
-                    DagSurfaces::new(&dag, trace.mode),
-                    &s.lights,
-                    s.sky.clone(),
-                    s.phong,
-                    trace,
-                );
-                let c = render(&t, &s.camera).unwrap();
+                let c = frame_on(&s, DagSurfaces::new(&dag, trace.mode), &trace);
                 let differ = c.leaf.iter().zip(&b.leaf).filter(|(x, y)| x != y).count();
                 assert!(
                     differ <= allowed(&ctx, c.leaf.len(), 200),
@@ -643,14 +635,7 @@ fn a_graph_with_values_above_its_leaves_renders_the_same() {
             .unwrap();
         r.render(&ctx, &u).unwrap();
         let g = r.read_frame(&ctx, std::time::Duration::ZERO).unwrap();
-        let t = Tracer::new(
-            DagSurfaces::new(&dag, trace.mode),
-            &s.lights,
-            s.sky.clone(),
-            s.phong,
-            trace,
-        );
-        let c = render(&t, &s.camera).unwrap();
+        let c = frame_on(&s, DagSurfaces::new(&dag, trace.mode), &trace);
         let diff = svo::render::compare(&g, &c).unwrap();
         let what = format!("level {level}, {normal_bits} bits");
         assert_eq!(diff.hit_mismatch, 0.0, "{what}");
@@ -677,14 +662,7 @@ fn a_graph_with_values_above_its_leaves_renders_the_same() {
         let path = dir.path().join("v.svo");
         svo::io::write_dag_file_with(&tree, &svo::io::BuildInfo::new(), &values, &path).unwrap();
         let (read, _) = svo::io::read_file(&path).unwrap();
-        let on_tree = Tracer::new(
-            OctreeSurfaces::new(&read, trace.mode),
-            &s.lights,
-            s.sky.clone(),
-            s.phong,
-            trace,
-        );
-        let on_tree = render(&on_tree, &s.camera).unwrap();
+        let on_tree = frame_on(&s, OctreeSurfaces::new(&read, trace.mode), &trace);
         assert!(
             on_tree.colour == c.colour,
             "{what}: the tree's image differs"
